@@ -1,0 +1,93 @@
+#include "core/base/files.h"
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+
+namespace mvbrdf {
+
+absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::PermissionDeniedError(absl::StrCat(path.string(), ": cannot open for reading"));
+  std::ostringstream out;
+  out << in.rdbuf();
+  if (in.bad()) return absl::DataLossError(absl::StrCat(path.string(), ": read failed"));
+  return std::move(out).str();
+}
+
+absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_view contents) {
+  std::error_code ec;
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
+  if (ec) return absl::InternalError(absl::StrCat(path.parent_path().string(), ": cannot create directory: ", ec.message()));
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) return absl::PermissionDeniedError(absl::StrCat(tmp.string(), ": cannot open for writing"));
+    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
+    out.flush();
+    if (!out) return absl::DataLossError(absl::StrCat(tmp.string(), ": write failed (disk full?)"));
+  }
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) return absl::InternalError(absl::StrCat(path.string(), ": cannot rename temporary file: ", ec.message()));
+  return absl::OkStatus();
+}
+
+namespace {
+
+// Counts integer conversions in a printf pattern; returns -1 on a conversion
+// that is not an integer one.
+int CountIntegerConversions(absl::string_view pattern) {
+  int count = 0;
+  for (size_t i = 0; i < pattern.size(); ++i) {
+    if (pattern[i] != '%') continue;
+    if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+      ++i;
+      continue;
+    }
+    size_t j = i + 1;
+    while (j < pattern.size() && (pattern[j] == '0' || pattern[j] == '-' || pattern[j] == '+' || pattern[j] == ' ')) ++j;
+    while (j < pattern.size() && pattern[j] >= '0' && pattern[j] <= '9') ++j;
+    if (j >= pattern.size() || (pattern[j] != 'd' && pattern[j] != 'i' && pattern[j] != 'u')) return -1;
+    ++count;
+    i = j;
+  }
+  return count;
+}
+
+}  // namespace
+
+bool IsFramePattern(absl::string_view pattern) { return CountIntegerConversions(pattern) == 1; }
+
+absl::Status ValidateFramePattern(absl::string_view pattern, absl::string_view field) {
+  const int n = CountIntegerConversions(pattern);
+  if (n < 0 || n > 1) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": expected at most one integer conversion such as %04d, got \"",
+                                                   pattern, "\""));
+  }
+  return absl::OkStatus();
+}
+
+std::string FormatFramePattern(absl::string_view pattern, int index) {
+  if (!IsFramePattern(pattern)) return std::string(pattern);
+  const std::string p(pattern);
+  const int size = std::snprintf(nullptr, 0, p.c_str(), index);
+  std::string out(static_cast<size_t>(size) + 1, '\0');
+  std::snprintf(out.data(), out.size(), p.c_str(), index);
+  out.resize(static_cast<size_t>(size));
+  return out;
+}
+
+std::filesystem::path ResolvePath(const std::filesystem::path& base_dir, absl::string_view relative) {
+  std::filesystem::path p{std::string(relative)};
+  if (p.is_absolute()) return p;
+  return base_dir / p;
+}
+
+}  // namespace mvbrdf

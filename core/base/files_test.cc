@@ -1,0 +1,50 @@
+#include "core/base/files.h"
+
+#include <gtest/gtest.h>
+
+namespace mvbrdf {
+namespace {
+
+TEST(FramePatternTest, RecognisesIntegerConversions) {
+  EXPECT_TRUE(IsFramePattern("mesh_%04d.obj"));
+  EXPECT_TRUE(IsFramePattern("cam0/%d.png"));
+  EXPECT_FALSE(IsFramePattern("mesh.obj"));
+  EXPECT_FALSE(IsFramePattern("100%%_%s.obj"));
+}
+
+TEST(FramePatternTest, FormatsIndex) {
+  EXPECT_EQ(FormatFramePattern("mesh_%04d.obj", 7), "mesh_0007.obj");
+  EXPECT_EQ(FormatFramePattern("a%%b_%d.png", 12), "a%b_12.png");
+  EXPECT_EQ(FormatFramePattern("static.obj", 3), "static.obj");
+}
+
+TEST(FramePatternTest, RejectsOtherConversionsNamingTheField) {
+  const absl::Status s = ValidateFramePattern("mesh_%s_%d.obj", "scene.mesh.path");
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("scene.mesh.path"), std::string::npos);
+  EXPECT_FALSE(ValidateFramePattern("a_%d_%d.obj", "f").ok());
+  EXPECT_TRUE(ValidateFramePattern("a_%03d.obj", "f").ok());
+}
+
+TEST(FilesTest, WriteThenReadRoundTrips) {
+  const auto dir = std::filesystem::temp_directory_path() / "mvbrdf_files_test";
+  std::filesystem::remove_all(dir);
+  const auto file = dir / "sub" / "x.txt";
+  ASSERT_TRUE(WriteStringToFile(file, "hello\n").ok());
+  auto text = ReadFileToString(file);
+  ASSERT_TRUE(text.ok()) << text.status();
+  EXPECT_EQ(*text, "hello\n");
+  EXPECT_FALSE(std::filesystem::exists(dir / "sub" / "x.txt.tmp"));
+  const auto missing = ReadFileToString(dir / "nope.txt");
+  EXPECT_EQ(missing.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_NE(missing.status().message().find("nope.txt"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FilesTest, ResolvePathKeepsAbsolute) {
+  EXPECT_EQ(ResolvePath("/a/b", "c/d.obj"), std::filesystem::path("/a/b/c/d.obj"));
+  EXPECT_EQ(ResolvePath("/a/b", "/x.obj"), std::filesystem::path("/x.obj"));
+}
+
+}  // namespace
+}  // namespace mvbrdf

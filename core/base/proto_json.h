@@ -1,0 +1,38 @@
+// JSON I/O for any protobuf message through Protobuf's JSON mapping (no
+// hand-written JSON parser anywhere in the project).
+#ifndef MVBRDF_CORE_BASE_PROTO_JSON_H_
+#define MVBRDF_CORE_BASE_PROTO_JSON_H_
+
+#include <filesystem>
+#include <string>
+#include "absl/strings/string_view.h"
+
+#include <google/protobuf/message.h>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+namespace mvbrdf {
+
+// Parses JSON into `message`. Unknown fields are an error (a typo in a field
+// name must not be silently ignored). `origin` names the source in errors.
+absl::Status JsonToMessage(absl::string_view json, absl::string_view origin, google::protobuf::Message* message);
+
+// Pretty-printed JSON with lowerCamelCase names; fields at their default
+// values are left out.
+std::string MessageToJson(const google::protobuf::Message& message);
+
+absl::Status ReadJsonFile(const std::filesystem::path& path, google::protobuf::Message* message);
+absl::Status WriteJsonFile(const std::filesystem::path& path, const google::protobuf::Message& message);
+
+template <typename T>
+absl::StatusOr<T> ReadJsonFileAs(const std::filesystem::path& path) {
+  T message;
+  absl::Status status = ReadJsonFile(path, &message);
+  if (!status.ok()) return status;
+  return message;
+}
+
+}  // namespace mvbrdf
+
+#endif  // MVBRDF_CORE_BASE_PROTO_JSON_H_

@@ -1,0 +1,46 @@
+// The extended Phong model exactly as shared/NOTES.md states it, on the CPU.
+// This is the reference every GPU path and every fitter is checked against.
+//
+//   l_k = normalize(L_k - x)      (point light)   or the light's direction
+//   v   = normalize(C - x)        C = camera centre
+//   g_k = max(0, l_k . n)
+//   R_k = 2 (l_k . n) n - l_k
+//   h_k = max(0, R_k . v)          and h_k = 0 wherever g_k = 0
+//   f   = sum_k I_k V_k a_k [ kd g_k + ks h_k^ke ]     per colour channel
+// with V_k the light's visibility (shadow) and a_k = 1 / |L_k - x|^2 when
+// inverse-square fall-off is on, else 1.
+#ifndef MVBRDF_CORE_RENDER_PHONG_MODEL_H_
+#define MVBRDF_CORE_RENDER_PHONG_MODEL_H_
+
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/scene/light.h"
+
+namespace mvbrdf::render {
+
+struct PhongParams {
+  glm::vec3 kd{0.0f};  // diffuse albedo, linear RGB
+  glm::vec3 ks{0.0f};  // specular coefficient, linear RGB
+  glm::vec3 ke{1.0f};  // mirror-lobe exponent per channel
+};
+
+// Cosines of one light at one surface point seen from one camera.
+struct LightCosines {
+  float g = 0.0f;  // max(0, l.n)
+  float h = 0.0f;  // max(0, R(l).v), 0 where g = 0
+  float attenuation = 1.0f;  // 1/d^2 with fall-off on, else 1
+};
+
+LightCosines ComputeLightCosines(const scene::Light& light, const glm::vec3& point, const glm::vec3& unit_normal,
+                                 const glm::vec3& camera_center, bool inverse_square_falloff);
+
+// `visible[k]` is light k's visibility at the point (empty: all visible).
+glm::vec3 EvaluatePhong(const PhongParams& params, const glm::vec3& point, const glm::vec3& unit_normal,
+                        const glm::vec3& camera_center, const std::vector<scene::Light>& lights,
+                        const std::vector<bool>& visible, bool inverse_square_falloff);
+
+}  // namespace mvbrdf::render
+
+#endif  // MVBRDF_CORE_RENDER_PHONG_MODEL_H_

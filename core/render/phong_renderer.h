@@ -1,0 +1,91 @@
+// Forward renderer of the extended Phong model (core/render/phong_model.h) on
+// the GPU through an EglContext, with shadow maps per light (cube depth maps
+// for point lights, an orthographic depth map for directional lights),
+// smooth per-vertex normals and per-fragment BRDF parameters from either
+// procedural materials (solid textures in rest-pose coordinates, optional kd
+// from a UV texture) or UV-space atlases of kd, ks, ke.
+//
+// Threading: every call must come from the thread on which `context` is
+// current. The renderer does not own the context; the context must outlive it.
+#ifndef MVBRDF_CORE_RENDER_PHONG_RENDERER_H_
+#define MVBRDF_CORE_RENDER_PHONG_RENDERER_H_
+
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "core/gl/egl_context.h"
+#include "core/scene/light.h"
+#include "core/render/solid_texture.h"
+#include "core/scene/camera_model.h"
+
+namespace mvbrdf::render {
+
+// Geometry that does not change from frame to frame, in render vertices.
+struct RenderMesh {
+  std::vector<glm::uvec3> triangles;
+  std::vector<glm::vec2> uvs;               // per render vertex; may be empty unless a UV texture is used
+  std::vector<glm::vec3> rest_positions;    // per render vertex; solid-texture coordinates
+  std::vector<uint32_t> triangle_material;  // per triangle, index into the materials
+};
+
+struct ProceduralMaterial {
+  SolidTextureParams kd;
+  // Take kd from the UV texture given to SetKdTexture instead of `kd`.
+  bool kd_from_texture = false;
+  glm::vec3 ks{0.0f};
+  glm::vec3 ke{1.0f};
+};
+
+struct RendererOptions {
+  int shadow_map_size = 1024;  // texels per cube face / directional map side
+  bool inverse_square_falloff = false;
+  float near_plane = 0.05f;  // world units
+  float far_plane = 100.0f;
+};
+
+// One frame's pose: per render vertex positions and unit normals, world units.
+struct Pose {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;
+};
+
+struct RenderOutput {
+  cv::Mat radiance;  // CV_32FC3, linear RGB, row 0 = top; background 0
+  cv::Mat coverage;  // CV_8UC1, 255 where the mesh covers the pixel centre
+};
+
+class PhongRenderer {
+ public:
+  static absl::StatusOr<std::unique_ptr<PhongRenderer>> Create(gl::EglContext& context, const RenderMesh& mesh,
+                                                               const RendererOptions& options);
+  ~PhongRenderer();
+  PhongRenderer(const PhongRenderer&) = delete;
+  PhongRenderer& operator=(const PhongRenderer&) = delete;
+
+  // Procedural mode. At most 64 materials.
+  absl::Status SetProceduralMaterials(const std::vector<ProceduralMaterial>& materials);
+  // Linear RGB CV_32FC3 texture in UV space, row 0 = v = 1 (image convention).
+  absl::Status SetKdTexture(const cv::Mat& kd_linear);
+  // Atlas mode: kd, ks, ke as CV_32FC3 images in UV space (row 0 = v = 1).
+  absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke);
+
+  absl::Status SetLights(const std::vector<scene::Light>& lights);
+
+  // Renders the pose from the camera as an undistorted pinhole image with the
+  // camera's size and intrinsics (distortion is applied by the caller, e.g.
+  // synth, with a remap).
+  absl::StatusOr<RenderOutput> Render(const Pose& pose, const scene::CameraModel& camera);
+
+ private:
+  struct Impl;
+  explicit PhongRenderer(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mvbrdf::render
+
+#endif  // MVBRDF_CORE_RENDER_PHONG_RENDERER_H_

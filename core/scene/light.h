@@ -1,0 +1,23 @@
+// A light as the renderer and the model evaluate it (shared/NOTES.md).
+#ifndef MVBRDF_CORE_SCENE_LIGHT_H_
+#define MVBRDF_CORE_SCENE_LIGHT_H_
+
+#include <string>
+
+#include <glm/glm.hpp>
+
+namespace mvbrdf::scene {
+
+struct Light {
+  std::string name;
+  bool directional = false;
+  // Point light: position in world units. Directional light: unit direction
+  // from the surface towards the light.
+  glm::vec3 position{0.0f};
+  glm::vec3 direction{0.0f, 1.0f, 0.0f};
+  glm::vec3 intensity{1.0f};  // linear RGB
+};
+
+}  // namespace mvbrdf::scene
+
+#endif  // MVBRDF_CORE_SCENE_LIGHT_H_

@@ -1,0 +1,43 @@
+// Loads mesh files (OBJ, PLY, glTF) with assimp into MeshTopology plus the
+// file-vertex positions of that file.
+//
+// File vertices are found by welding face corners with bit-identical positions
+// in the first file loaded (the rest pose); render vertices by welding corners
+// with identical (position, UV). Triangles keep file order (assimp meshes in
+// scene order, faces in order). A later frame's file must have the same face
+// count and its welded corners must agree, else the topology differs.
+#ifndef MVBRDF_CORE_SCENE_MESH_LOADER_H_
+#define MVBRDF_CORE_SCENE_MESH_LOADER_H_
+
+#include <filesystem>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "core/scene/mesh.h"
+
+namespace mvbrdf::scene {
+
+struct LoadedMesh {
+  MeshTopology topology;
+  FramePositions positions;  // per file vertex
+};
+
+// Loads the rest-pose mesh. `field` names the scene field in errors, e.g.
+// "scene.mesh.path". Errors: missing file (NOT_FOUND), no faces, non-finite
+// vertices, UVs outside [0,1] (INVALID_ARGUMENT naming the file and vertex).
+// Zero-area triangles are listed in topology.zero_area_triangles, not errors.
+absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::string_view field);
+
+// Loads the file-vertex positions of another frame of the same mesh; fails
+// with INVALID_ARGUMENT when its topology differs from `topology`.
+absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& file, const MeshTopology& topology,
+                                                  absl::string_view field);
+
+// Writes a mesh as Wavefront OBJ (v, optional vt, f lines), file vertices as
+// `v` lines in order, so that LoadMesh reads back the same topology.
+absl::Status WriteObj(const std::filesystem::path& file, const MeshTopology& topology,
+                      const FramePositions& positions);
+
+}  // namespace mvbrdf::scene
+
+#endif  // MVBRDF_CORE_SCENE_MESH_LOADER_H_

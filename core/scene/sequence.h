@@ -1,0 +1,62 @@
+// A scene file loaded and validated: the Scene message plus what every later
+// stage needs (mesh topology, camera models, lights), with every error a user
+// can cause reported as a Status naming the field or file and what was
+// expected, e.g. "scene.cameras[3].intrinsics.fx: must be > 0, got -1".
+#ifndef MVBRDF_CORE_SCENE_SEQUENCE_H_
+#define MVBRDF_CORE_SCENE_SEQUENCE_H_
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/scene/light.h"
+#include "core/scene/camera_model.h"
+#include "core/scene/mesh.h"
+#include "mvbrdf/v1/scene.pb.h"
+
+namespace mvbrdf::scene {
+
+struct LoadOptions {
+  // Load every frame's mesh file to check topology and finiteness (a static
+  // mesh has nothing to check). Off: only frame 0 is read now.
+  bool check_all_frames = true;
+  // Open every video to check its frame size and frame count.
+  bool probe_videos = true;
+};
+
+struct Sequence {
+  std::filesystem::path scene_file;
+  std::filesystem::path scene_dir;
+  v1::Scene scene;
+  MeshTopology topology;
+  FramePositions rest_positions;  // frame 0
+  std::vector<CameraModel> cameras;
+  std::vector<Light> lights;
+  int num_frames = 0;
+
+  bool is_static_mesh() const;
+  // File-vertex positions of frame t in [0, num_frames): frame 0's for a
+  // static mesh, else the frame's file (read now, topology checked).
+  absl::StatusOr<FramePositions> LoadFrame(int t) const;
+  // Index of a light by name, or -1.
+  int FindLight(const std::string& name) const;
+};
+
+// Parses only (JSON -> message), no validation and no files touched.
+absl::StatusOr<v1::Scene> ReadScene(const std::filesystem::path& scene_file);
+
+// Checks the message alone (no files): required fields, ranges, names.
+absl::Status ValidateSceneMessage(const v1::Scene& scene);
+
+// Parses, validates the message, loads the mesh and (as `options` say) every
+// frame and video.
+absl::StatusOr<Sequence> LoadSequence(const std::filesystem::path& scene_file, const LoadOptions& options = {});
+
+// Human-readable summary for `mvbrdf validate`: frames, cameras, lights,
+// configurations, triangles, what was excluded and why.
+std::string Summarize(const Sequence& sequence);
+
+}  // namespace mvbrdf::scene
+
+#endif  // MVBRDF_CORE_SCENE_SEQUENCE_H_

@@ -1,0 +1,46 @@
+// Reads one camera's frames: a video file (OpenCV's FFmpeg backend) or an
+// image-sequence pattern, returned as linear RGB float images.
+#ifndef MVBRDF_CORE_SCENE_VIDEO_SOURCE_H_
+#define MVBRDF_CORE_SCENE_VIDEO_SOURCE_H_
+
+#include <filesystem>
+#include <memory>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "mvbrdf/v1/scene.pb.h"
+
+namespace mvbrdf::scene {
+
+struct VideoProbe {
+  int width = 0;
+  int height = 0;
+  int frame_count = 0;  // frames available from the first used frame on
+};
+
+class VideoSource {
+ public:
+  // `scene_dir` resolves the relative path; `first_frame` is the scene's
+  // frames.first; `field` names the camera in errors ("scene.cameras[2]").
+  static absl::StatusOr<std::unique_ptr<VideoSource>> Open(const v1::Camera& camera,
+                                                           const std::filesystem::path& scene_dir,
+                                                           int first_frame, absl::string_view field);
+  virtual ~VideoSource() = default;
+
+  // Width, height and number of readable frames (a video whose container does
+  // not state its frame count is counted by decoding).
+  virtual absl::StatusOr<VideoProbe> Probe() = 0;
+  // Frame t (0-based from frames.first) as CV_32FC3 linear RGB in [0,1],
+  // row 0 = top. Sequential reads are fast; seeking backwards reopens.
+  virtual absl::StatusOr<cv::Mat> ReadFrame(int t) = 0;
+};
+
+// sRGB transfer: code value in [0,1] <-> linear in [0,1].
+float SrgbToLinear(float encoded);
+float LinearToSrgb(float linear);
+
+}  // namespace mvbrdf::scene
+
+#endif  // MVBRDF_CORE_SCENE_VIDEO_SOURCE_H_
