@@ -1,0 +1,35 @@
+// mvbrdf: measure spatially varying BRDFs from multi-view video of a tracked
+// mesh. One binary, one subcommand per task.
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "client/commands.h"
+
+namespace {
+
+constexpr char kUsage[] =
+    "usage: mvbrdf COMMAND [ARGS...]\n"
+    "\n"
+    "commands:\n"
+    "  synth      render a synthetic multi-view sequence with its ground truth\n"
+    "  validate   load a scene, check everything, print a summary or the errors\n"
+    "\n"
+    "'mvbrdf COMMAND --help' describes a command's options.\n"
+    "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files)\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" ||
+      std::string(argv[1]) == "help") {
+    std::fputs(kUsage, argc < 2 ? stderr : stdout);
+    return argc < 2 ? mvbrdf::client::kExitUsage : mvbrdf::client::kExitOk;
+  }
+  const std::string command = argv[1];
+  const std::vector<std::string> args(argv + 2, argv + argc);
+  if (command == "synth") return mvbrdf::client::RunSynth(args);
+  if (command == "validate") return mvbrdf::client::RunValidate(args);
+  std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", command.c_str(), kUsage);
+  return mvbrdf::client::kExitUsage;
+}

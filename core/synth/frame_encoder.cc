@@ -1,0 +1,51 @@
+#include "core/synth/frame_encoder.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "core/scene/video_source.h"
+
+namespace mvbrdf::synth {
+
+cv::Mat ApplyDistortion(const cv::Mat& undistorted, const scene::CameraModel& camera) {
+  if (!camera.has_distortion()) return undistorted;
+  cv::Mat map_x(undistorted.rows, undistorted.cols, CV_32FC1);
+  cv::Mat map_y(undistorted.rows, undistorted.cols, CV_32FC1);
+  for (int y = 0; y < undistorted.rows; ++y) {
+    for (int x = 0; x < undistorted.cols; ++x) {
+      const glm::dvec2 d((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy);
+      const glm::dvec2 u = camera.Undistort(d);
+      map_x.at<float>(y, x) = static_cast<float>(camera.fx * u.x + camera.cx);
+      map_y.at<float>(y, x) = static_cast<float>(camera.fy * u.y + camera.cy);
+    }
+  }
+  cv::Mat out;
+  cv::remap(undistorted, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+  return out;
+}
+
+cv::Mat EncodeSrgb8(const cv::Mat& linear_rgb, const EncodeOptions& options, std::mt19937& rng) {
+  CV_Assert(linear_rgb.type() == CV_32FC3);
+  cv::Mat out(linear_rgb.rows, linear_rgb.cols, CV_8UC3);
+  std::normal_distribution<float> noise(0.0f, static_cast<float>(options.noise_sigma));
+  const bool noisy = options.noise_sigma > 0.0;
+  const float gain = static_cast<float>(options.exposure);
+  for (int y = 0; y < linear_rgb.rows; ++y) {
+    const cv::Vec3f* in = linear_rgb.ptr<cv::Vec3f>(y);
+    cv::Vec3b* o = out.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < linear_rgb.cols; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const float lin = std::clamp(in[x][c] * gain, 0.0f, 1.0f);
+        float code = 255.0f * scene::LinearToSrgb(lin);
+        if (noisy) code += noise(rng);
+        // RGB in, BGR out.
+        o[x][2 - c] = static_cast<uint8_t>(std::clamp(std::lround(code), 0L, 255L));
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace mvbrdf::synth

@@ -1,0 +1,71 @@
+#include "core/synth/frame_encoder.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "core/scene/video_source.h"
+
+namespace mvbrdf::synth {
+namespace {
+
+TEST(FrameEncoderTest, EncodesSrgbAndClipsWithoutNoise) {
+  cv::Mat img(1, 4, CV_32FC3);
+  img.at<cv::Vec3f>(0, 0) = {0.0f, 0.5f, 1.0f};
+  img.at<cv::Vec3f>(0, 1) = {2.0f, -1.0f, 0.0031308f};
+  img.at<cv::Vec3f>(0, 2) = {0.2140f, 0.2140f, 0.2140f};
+  img.at<cv::Vec3f>(0, 3) = {0.25f, 0.25f, 0.25f};
+  std::mt19937 rng(1);
+  const cv::Mat out = EncodeSrgb8(img, {}, rng);
+  ASSERT_EQ(out.type(), CV_8UC3);
+  // BGR order out.
+  EXPECT_EQ(out.at<cv::Vec3b>(0, 0), cv::Vec3b(255, 188, 0));
+  EXPECT_EQ(out.at<cv::Vec3b>(0, 1), cv::Vec3b(10, 0, 255));  // 0.0031308 -> 0.04045*255
+  EXPECT_EQ(out.at<cv::Vec3b>(0, 2), cv::Vec3b(128, 128, 128));
+  // Exposure 2 doubles the linear value before encoding: 0.25 -> 0.5 -> 188.
+  EncodeOptions bright;
+  bright.exposure = 2.0;
+  EXPECT_EQ(EncodeSrgb8(img, bright, rng).at<cv::Vec3b>(0, 3), cv::Vec3b(188, 188, 188));
+}
+
+TEST(FrameEncoderTest, NoiseHasTheRequestedSigma) {
+  cv::Mat img(200, 200, CV_32FC3, cv::Scalar::all(0.2140));  // code value 128
+  EncodeOptions options;
+  options.noise_sigma = 2.0;
+  std::mt19937 rng(3);
+  const cv::Mat out = EncodeSrgb8(img, options, rng);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(out.reshape(1), mean, stddev);
+  EXPECT_NEAR(mean[0], 128.0, 0.05);
+  EXPECT_NEAR(stddev[0], 2.0, 0.1);  // rounding adds 1/12 to the variance
+}
+
+TEST(FrameEncoderTest, DistortionMovesPixelsWhereTheCameraModelSays) {
+  scene::CameraModel cam;
+  cam.width = 160;
+  cam.height = 120;
+  cam.fx = cam.fy = 150.0;
+  cam.cx = 79.5;
+  cam.cy = 59.5;
+  // No distortion: the same image.
+  cv::Mat img(cam.height, cam.width, CV_32FC1, cv::Scalar(0));
+  EXPECT_EQ(ApplyDistortion(img, cam).data, img.data);
+  // A single bright pixel in the pinhole image lands where Project() puts the
+  // same ray with distortion.
+  cam.distortion[0] = -0.2;
+  const glm::dvec3 point(0.35, 0.2, 1.0);  // camera frame == world frame
+  const glm::dvec2 pinhole(cam.fx * point.x + cam.cx, cam.fy * point.y + cam.cy);
+  cv::Mat spot(cam.height, cam.width, CV_32FC1, cv::Scalar(0));
+  cv::circle(spot, cv::Point(static_cast<int>(std::lround(pinhole.x)), static_cast<int>(std::lround(pinhole.y))), 2,
+             cv::Scalar(1.0), -1);
+  const cv::Mat distorted = ApplyDistortion(spot, cam);
+  cv::Point max_loc;
+  cv::minMaxLoc(distorted, nullptr, nullptr, nullptr, &max_loc);
+  const glm::dvec2 expected = cam.Project(point);
+  EXPECT_NEAR(max_loc.x, expected.x, 1.5);
+  EXPECT_NEAR(max_loc.y, expected.y, 1.5);
+  EXPECT_GT(std::abs(expected.x - pinhole.x), 3.0);  // the distortion is not negligible
+}
+
+}  // namespace
+}  // namespace mvbrdf::synth

@@ -1,0 +1,337 @@
+#include "core/synth/synthesizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "core/base/files.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/render/phong_renderer.h"
+#include "core/scene/mesh_loader.h"
+#include "core/scene/video_source.h"
+#include "core/synth/frame_encoder.h"
+#include "core/synth/subject.h"
+#include "core/synth/video_writer.h"
+
+namespace mvbrdf::synth {
+namespace {
+
+absl::Status CheckRange(absl::string_view flag, double value, double lo, double hi) {
+  if (!(value >= lo && value <= hi)) {
+    return absl::InvalidArgumentError(absl::StrCat(flag, ": must be in [", lo, ", ", hi, "], got ", value));
+  }
+  return absl::OkStatus();
+}
+
+std::string StripSpaces(absl::string_view s) {
+  std::string out;
+  for (char c : s) {
+    if (c != ' ') out.push_back(c);
+  }
+  return out;
+}
+
+void SetVec3(const glm::vec3& v, google::protobuf::RepeatedField<double>* out) {
+  out->Clear();
+  for (int i = 0; i < 3; ++i) out->Add(v[i]);
+}
+
+// A rotation by `deg` degrees about a random axis and a translation of
+// `distance` in a random direction, applied to the camera's pose.
+scene::CameraModel PerturbCamera(const scene::CameraModel& camera, double deg, double distance, std::mt19937& rng) {
+  if (deg == 0.0 && distance == 0.0) return camera;
+  std::normal_distribution<double> n(0.0, 1.0);
+  const auto random_unit = [&] {
+    glm::dvec3 v(n(rng), n(rng), n(rng));
+    return glm::normalize(v);
+  };
+  scene::CameraModel out = camera;
+  const glm::dmat3 delta(glm::rotate(glm::dmat4(1.0), deg * 3.14159265358979 / 180.0, random_unit()));
+  out.cam_from_world_rotation = delta * camera.cam_from_world_rotation;
+  // Keep the camera centre, then move it by `distance`.
+  const glm::dvec3 center = camera.CenterInWorld() + distance * random_unit();
+  out.cam_from_world_translation = -(out.cam_from_world_rotation * center);
+  return out;
+}
+
+// Smooth displacement along the normals: geometry the mesh does not model.
+scene::FramePositions DisplaceVertices(const scene::MeshTopology& topology, const scene::FramePositions& rest,
+                                       const scene::FramePositions& posed, double amplitude, uint32_t seed) {
+  if (amplitude == 0.0) return posed;
+  const std::vector<glm::vec3> normals = scene::ComputeFileVertexNormals(topology, posed);
+  const glm::vec3 offset(0.37f * static_cast<float>(seed % 97), 11.3f, 5.7f);
+  scene::FramePositions out(posed.size());
+  for (size_t i = 0; i < posed.size(); ++i) {
+    out[i] = posed[i] + static_cast<float>(amplitude) * render::ValueNoise(rest[i] * 8.0f + offset) * normals[i];
+  }
+  return out;
+}
+
+cv::Mat LinearKdTexture(const cv::Mat& srgb8_bgr) {
+  cv::Mat out(srgb8_bgr.rows, srgb8_bgr.cols, CV_32FC3);
+  for (int y = 0; y < out.rows; ++y) {
+    for (int x = 0; x < out.cols; ++x) {
+      const cv::Vec3b b = srgb8_bgr.at<cv::Vec3b>(y, x);
+      out.at<cv::Vec3f>(y, x) = {scene::SrgbToLinear(b[2] / 255.0f), scene::SrgbToLinear(b[1] / 255.0f),
+                                 scene::SrgbToLinear(b[0] / 255.0f)};
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+absl::StatusOr<Preset> ParsePreset(absl::string_view name) {
+  if (name == "actor") return Preset::kActor;
+  if (name == "spot") return Preset::kSpot;
+  if (name == "samba") return Preset::kSamba;
+  return absl::InvalidArgumentError(absl::StrCat("--preset: expected actor, spot or samba, got \"", name, "\""));
+}
+
+const char* PresetName(Preset preset) {
+  switch (preset) {
+    case Preset::kActor: return "actor";
+    case Preset::kSpot: return "spot";
+    case Preset::kSamba: return "samba";
+  }
+  return "?";
+}
+
+absl::Status SynthOptions::Check() const {
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--cameras", num_cameras, 1, 64));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--frames", num_frames, 1, 100000));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--width", width, 16, 8192));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--height", height, 16, 8192));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--fps", fps, 0.1, 1000));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--noise", noise_sigma, 0, 255));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--camera-rotation-error", camera_rotation_error_deg, 0, 90));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--camera-translation-error", camera_translation_error, 0, 100));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--vertex-noise", vertex_noise, 0, 1));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--exposure", exposure, 0.01, 100));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--distortion", distortion_k1, -1, 1));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--actor-segments", actor_segments, 6, 256));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--shadow-map-size", shadow_map_size, 64, 8192));
+  if (out_dir.empty()) return absl::InvalidArgumentError("--out: required");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglContext& context) {
+  const auto start = std::chrono::steady_clock::now();
+  MVBRDF_RETURN_IF_ERROR(options.Check());
+  Subject subject;
+  switch (options.preset) {
+    case Preset::kActor: subject = MakeActorSubject(options.actor_segments, options.fps); break;
+    case Preset::kSpot: { MVBRDF_ASSIGN_OR_RETURN(subject, MakeSpotSubject(options.data_dir)); break; }
+    case Preset::kSamba: { MVBRDF_ASSIGN_OR_RETURN(subject, MakeSambaSubject(options.data_dir)); break; }
+  }
+  if (subject.max_frames > 0 && options.num_frames > subject.max_frames) {
+    return absl::InvalidArgumentError(absl::StrCat("--frames: the ", subject.preset, " preset has ", subject.max_frames,
+                                                   " frames, got ", options.num_frames));
+  }
+
+  SubjectBounds bounds{subject.rest_positions.front(), subject.rest_positions.front()};
+  for (const glm::vec3& p : subject.rest_positions) {
+    bounds.min = glm::min(bounds.min, p);
+    bounds.max = glm::max(bounds.max, p);
+  }
+  StudioOptions studio_options;
+  studio_options.num_cameras = options.num_cameras;
+  studio_options.width = options.width;
+  studio_options.height = options.height;
+  studio_options.distortion_k1 = options.distortion_k1;
+  const Studio studio = MakeStudio(studio_options, bounds);
+
+  const std::string wanted = StripSpaces(options.configuration);
+  const Studio::Configuration* active = nullptr;
+  for (const auto& c : studio.configurations) {
+    if (c.name == wanted) active = &c;
+  }
+  if (active == nullptr) {
+    std::vector<std::string> names;
+    for (const auto& c : studio.configurations) names.push_back(c.name);
+    return absl::InvalidArgumentError(absl::StrCat("--config: unknown configuration \"", options.configuration,
+                                                   "\"; expected one of: ", absl::StrJoin(names, " | ")));
+  }
+  std::vector<scene::Light> active_lights;
+  for (const std::string& name : active->lights) {
+    for (const scene::Light& l : studio.lights) {
+      if (l.name == name) active_lights.push_back(l);
+    }
+  }
+
+  std::mt19937 rng(options.seed);
+  // Cameras as rendered (truth) and as written to the scene (perturbed).
+  std::vector<scene::CameraModel> scene_cameras;
+  for (const auto& cam : studio.cameras) {
+    scene_cameras.push_back(
+        PerturbCamera(cam, options.camera_rotation_error_deg, options.camera_translation_error, rng));
+  }
+
+  // The renderer draws the true materials.
+  render::RenderMesh render_mesh;
+  render_mesh.triangles = subject.topology.triangles;
+  render_mesh.uvs = subject.topology.uvs;
+  render_mesh.rest_positions = scene::ToRenderVertices(subject.topology, subject.rest_positions);
+  render_mesh.triangle_material = subject.triangle_material;
+  render::RendererOptions renderer_options;
+  renderer_options.shadow_map_size = options.shadow_map_size;
+  MVBRDF_ASSIGN_OR_RETURN(auto renderer, render::PhongRenderer::Create(context, render_mesh, renderer_options));
+  std::vector<render::ProceduralMaterial> materials;
+  for (const StudioMaterial& m : subject.materials) {
+    render::ProceduralMaterial pm;
+    pm.kd = m.kd;
+    pm.kd_from_texture = !subject.kd_texture_srgb8.empty();
+    pm.ks = m.ks;
+    pm.ke = m.ke;
+    materials.push_back(pm);
+  }
+  MVBRDF_RETURN_IF_ERROR(renderer->SetProceduralMaterials(materials));
+  if (!subject.kd_texture_srgb8.empty()) {
+    MVBRDF_RETURN_IF_ERROR(renderer->SetKdTexture(LinearKdTexture(subject.kd_texture_srgb8)));
+  }
+  MVBRDF_RETURN_IF_ERROR(renderer->SetLights(active_lights));
+
+  const std::filesystem::path out = options.out_dir;
+  std::error_code ec;
+  std::filesystem::create_directories(out / "meshes", ec);
+  std::filesystem::create_directories(out / "ground_truth", ec);
+  if (ec) return absl::InternalError(absl::StrCat(out.string(), ": cannot create output directory: ", ec.message()));
+
+  const VideoCodec codec = options.lossy_video ? VideoCodec::kMpeg4Lossy
+                           : options.video_format == VideoFormat::kPng ? VideoCodec::kPngSequence
+                                                                       : VideoCodec::kFfv1;
+  std::vector<std::unique_ptr<FrameSink>> sinks;
+  for (const auto& cam : studio.cameras) {
+    MVBRDF_ASSIGN_OR_RETURN(auto sink, FrameSink::Open(out / "videos" / cam.name, out, codec, options.width,
+                                                       options.height, options.fps, 0));
+    sinks.push_back(std::move(sink));
+  }
+
+  const std::string mesh_pattern = "meshes/mesh_%04d.obj";
+  EncodeOptions encode;
+  encode.exposure = options.exposure;
+  encode.noise_sigma = options.noise_sigma;
+  for (int t = 0; t < options.num_frames; ++t) {
+    MVBRDF_ASSIGN_OR_RETURN(scene::FramePositions posed, subject.pose(t));
+    MVBRDF_RETURN_IF_ERROR(
+        scene::WriteObj(out / FormatFramePattern(mesh_pattern, t), subject.topology, posed));
+    const scene::FramePositions rendered =
+        DisplaceVertices(subject.topology, subject.rest_positions, posed, options.vertex_noise, options.seed);
+    const std::vector<glm::vec3> normals = scene::ComputeFileVertexNormals(subject.topology, rendered);
+    render::Pose pose;
+    pose.positions = scene::ToRenderVertices(subject.topology, rendered);
+    pose.normals = scene::ToRenderVertices(subject.topology, normals);
+    for (size_t c = 0; c < studio.cameras.size(); ++c) {
+      MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer->Render(pose, studio.cameras[c]));
+      const cv::Mat distorted = ApplyDistortion(image.radiance, studio.cameras[c]);
+      MVBRDF_RETURN_IF_ERROR(sinks[c]->Write(EncodeSrgb8(distorted, encode, rng)));
+    }
+  }
+  for (auto& sink : sinks) MVBRDF_RETURN_IF_ERROR(sink->Close());
+
+  // The scene: what a user of real data would have.
+  v1::Scene scene;
+  scene.set_name(absl::StrCat("synthetic ", subject.preset, " (seed ", options.seed, ")"));
+  scene.mutable_mesh()->set_path(mesh_pattern);
+  scene.mutable_frames()->set_first(0);
+  scene.mutable_frames()->set_count(static_cast<uint32_t>(options.num_frames));
+  scene.mutable_frames()->set_fps(options.fps);
+  for (size_t c = 0; c < scene_cameras.size(); ++c) {
+    v1::Camera* cam = scene.add_cameras();
+    scene::CameraModelToProto(scene_cameras[c], cam);
+    cam->mutable_video()->set_path(sinks[c]->scene_path());
+    cam->mutable_video()->set_encoding(v1::SRGB);
+    cam->mutable_video()->set_bit_depth(8);
+  }
+  for (const scene::Light& l : studio.lights) {
+    v1::Light* light = scene.add_lights();
+    light->set_name(l.name);
+    SetVec3(l.position, light->mutable_position());
+    SetVec3(l.intensity, light->mutable_intensity());
+  }
+  for (const auto& c : studio.configurations) {
+    v1::LightConfiguration* config = scene.add_light_configurations();
+    config->set_name(c.name);
+    for (const std::string& l : c.lights) config->add_lights(l);
+  }
+  for (const StudioMaterial& m : subject.materials) {
+    v1::MaterialSeed* seed = scene.add_material_seeds();
+    seed->set_name(m.name);
+    for (int i = 0; i < 3; ++i) seed->add_srgb8(static_cast<uint32_t>(m.seed_srgb8[i]));
+  }
+  if (!subject.segment_names.empty()) {
+    std::string lines;
+    for (uint32_t s : subject.triangle_segment) absl::StrAppend(&lines, subject.segment_names[s], "\n");
+    MVBRDF_RETURN_IF_ERROR(WriteStringToFile(out / "segments.txt", lines));
+    scene.set_segmentation_path("segments.txt");
+    for (size_t s = 0; s < subject.segment_names.size(); ++s) {
+      std::vector<bool> used(subject.materials.size(), false);
+      for (size_t t = 0; t < subject.triangle_segment.size(); ++t) {
+        if (subject.triangle_segment[t] == s) used[subject.triangle_material[t]] = true;
+      }
+      v1::SegmentMaterials* sm = scene.add_segment_materials();
+      sm->set_segment(subject.segment_names[s]);
+      for (size_t m = 0; m < used.size(); ++m) {
+        if (used[m]) sm->add_materials(subject.materials[m].name);
+      }
+    }
+  }
+  const std::filesystem::path scene_file = out / "scene.json";
+  MVBRDF_RETURN_IF_ERROR(WriteJsonFile(scene_file, scene));
+
+  // The truth: what was rendered.
+  SynthResult result;
+  v1::GroundTruth& truth = result.truth;
+  truth.set_preset(subject.preset);
+  truth.set_seed(options.seed);
+  truth.set_active_configuration(active->name);
+  for (const scene::Light& l : active_lights) {
+    v1::Light* light = truth.add_lights();
+    light->set_name(l.name);
+    SetVec3(l.position, light->mutable_position());
+    SetVec3(l.intensity, light->mutable_intensity());
+  }
+  truth.set_inverse_square_falloff(renderer_options.inverse_square_falloff);
+  for (const auto& cam : studio.cameras) scene::CameraModelToProto(cam, truth.add_cameras());
+  for (const StudioMaterial& m : subject.materials) {
+    v1::Material* mat = truth.add_materials();
+    mat->set_name(m.name);
+    SetVec3(m.kd.base, mat->mutable_kd()->mutable_base());
+    mat->mutable_kd()->set_amplitude(m.kd.amplitude);
+    mat->mutable_kd()->set_frequency(m.kd.frequency);
+    SetVec3(m.kd.offset, mat->mutable_kd()->mutable_offset());
+    if (!subject.kd_texture_srgb8.empty()) mat->set_kd_texture_path("kd_texture.png");
+    SetVec3(m.ks, mat->mutable_ks());
+    SetVec3(m.ke, mat->mutable_ke());
+  }
+  if (!subject.kd_texture_srgb8.empty()) {
+    std::filesystem::copy_file(subject.kd_texture_file, out / "ground_truth" / "kd_texture.png",
+                               std::filesystem::copy_options::overwrite_existing, ec);
+    if (ec) return absl::InternalError(absl::StrCat("cannot copy ", subject.kd_texture_file.string(), ": ", ec.message()));
+  }
+  for (uint32_t m : subject.triangle_material) truth.add_triangle_materials(m);
+  v1::Perturbations* p = truth.mutable_perturbations();
+  p->set_sensor_noise_sigma(options.noise_sigma);
+  p->set_camera_rotation_error_deg(options.camera_rotation_error_deg);
+  p->set_camera_translation_error(options.camera_translation_error);
+  p->set_vertex_noise(options.vertex_noise);
+  p->set_lossy_video(options.lossy_video);
+  p->set_exposure(options.exposure);
+  truth.set_shadow_map_size(static_cast<uint32_t>(options.shadow_map_size));
+  MVBRDF_RETURN_IF_ERROR(WriteJsonFile(out / "ground_truth" / "truth.json", truth));
+
+  result.scene_file = scene_file;
+  result.num_triangles = static_cast<int>(subject.topology.triangles.size());
+  result.frames_rendered = options.num_frames * options.num_cameras;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace mvbrdf::synth

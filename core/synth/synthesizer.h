@@ -1,0 +1,76 @@
+// `mvbrdf synth`: renders a complete synthetic scene bundle with its ground
+// truth, so that every later stage can be checked against what was rendered.
+//
+// Output layout under `out_dir`:
+//   scene.json                 the Scene (paths relative to it)
+//   meshes/mesh_%04d.obj       one mesh per frame (fixed connectivity)
+//   videos/camN.mkv            FFV1 lossless video per camera (or
+//   videos/camN/%04d.png       a PNG sequence, or camN.mp4 when lossy)
+//   segments.txt               segment name per triangle (actor only)
+//   ground_truth/truth.json    GroundTruth: active configuration, lights,
+//                              true cameras, materials, per-triangle
+//                              material, perturbations
+//   ground_truth/kd_texture.png  (spot) the true kd in UV space, sRGB
+#ifndef MVBRDF_CORE_SYNTH_SYNTHESIZER_H_
+#define MVBRDF_CORE_SYNTH_SYNTHESIZER_H_
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "core/gl/egl_context.h"
+#include "mvbrdf/v1/ground_truth.pb.h"
+
+namespace mvbrdf::synth {
+
+enum class Preset { kActor, kSpot, kSamba };
+absl::StatusOr<Preset> ParsePreset(absl::string_view name);
+const char* PresetName(Preset preset);
+
+enum class VideoFormat { kFfv1, kPng };
+
+struct SynthOptions {
+  Preset preset = Preset::kActor;
+  int num_cameras = 8;
+  int num_frames = 30;
+  int width = 320;
+  int height = 240;
+  double fps = 15.0;
+  // Active light configuration by name (one of the thesis's eight, e.g.
+  // "NE,NW,SE,SW"; spaces are ignored).
+  std::string configuration = "NE,NW,SE,SW";
+  uint32_t seed = 1;
+  VideoFormat video_format = VideoFormat::kFfv1;
+  // Perturbations (ground_truth.proto: Perturbations).
+  double noise_sigma = 1.0;           // 8-bit code values
+  double camera_rotation_error_deg = 0.0;
+  double camera_translation_error = 0.0;
+  double vertex_noise = 0.0;          // world units
+  bool lossy_video = false;
+  double exposure = 1.0;
+  double distortion_k1 = 0.0;
+  // Actor tessellation (ActorOptions::segments).
+  int actor_segments = 24;
+  int shadow_map_size = 1024;
+  // Where the spot and samba data live (../shared/data from the repository).
+  std::filesystem::path data_dir;
+  std::filesystem::path out_dir;
+
+  // Checks ranges; errors name the option ("--cameras: must be in [1, 64], got 0").
+  absl::Status Check() const;
+};
+
+struct SynthResult {
+  std::filesystem::path scene_file;
+  v1::GroundTruth truth;
+  int num_triangles = 0;
+  int frames_rendered = 0;
+  double seconds = 0.0;
+};
+
+absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglContext& context);
+
+}  // namespace mvbrdf::synth
+
+#endif  // MVBRDF_CORE_SYNTH_SYNTHESIZER_H_
