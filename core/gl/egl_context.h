@@ -33,7 +33,10 @@ class EglContext {
   EglContext(const EglContext&) = delete;
   EglContext& operator=(const EglContext&) = delete;
 
+  // Makes the context current on the calling thread (no surface).
   absl::Status MakeCurrent();
+  // True when this context is current on the calling thread.
+  bool IsCurrent() const;
 
   // The platform actually used (never kAuto).
   EglPlatform platform() const;

@@ -1,0 +1,128 @@
+// Main pass of core/render/phong_renderer.cc: the extended Phong model of
+// core/render/phong_model.h per fragment, with shadow-map visibility per light.
+// The structs and bindings mirror the Gpu* structs in phong_renderer.cc.
+
+#include "phong_model.glsl"
+#include "solid_texture.glsl"
+
+const int kMaxLights = 16;
+
+struct GpuLight {
+  // xyz: position (point light, world units) or unit direction towards the
+  // light (directional); w: 1 for a point light, 0 for a directional one.
+  vec4 position;
+  vec4 intensity;  // rgb, linear
+  // x: layer in the shadow-map array of the light's kind;
+  // y: world length that depth 1 stands for (depth = length / y);
+  // z: shadow texel size, radians (point: texel angle) or world units (directional).
+  vec4 shadow;
+  mat4 shadow_from_world;  // directional: world -> (s, t, depth) in [0, 1]^3
+};
+
+layout(std140, binding = 0) uniform LightBlock {
+  ivec4 u_light_count;  // x: number of lights
+  GpuLight u_lights[kMaxLights];
+};
+
+struct GpuMaterial {
+  vec4 base_amplitude;       // solid-texture base rgb, amplitude
+  vec4 offset_frequency;     // solid-texture offset xyz, frequency
+  vec4 ks_kd_from_texture;   // ks rgb; w > 0.5: kd from u_kd_texture
+  vec4 ke;                   // rgb
+};
+
+layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial u_materials[]; };
+layout(std430, binding = 2) readonly buffer TriangleMaterialBlock { uint u_triangle_material[]; };
+
+layout(location = 1) uniform vec3 u_camera_center;  // world units
+layout(location = 2) uniform int u_atlas_mode;      // 0: procedural materials, 1: kd/ks/ke atlases
+layout(location = 3) uniform int u_inverse_square_falloff;
+
+layout(binding = 0) uniform sampler2D u_kd_texture;
+layout(binding = 1) uniform sampler2D u_atlas_kd;
+layout(binding = 2) uniform sampler2D u_atlas_ks;
+layout(binding = 3) uniform sampler2D u_atlas_ke;
+layout(binding = 4) uniform samplerCubeArray u_point_shadows;      // distance to the light / shadow.y
+layout(binding = 5) uniform sampler2DArray u_directional_shadows;  // orthographic depth
+
+in vec3 v_position;
+in vec3 v_normal;
+in vec3 v_rest_position;
+in vec2 v_uv;
+
+layout(location = 0) out vec4 out_radiance;  // rgb radiance, a = 1 (coverage)
+
+// Slope-scaled bias, world units: a nearest shadow texel of world size
+// `texel_world` covers surface depths up to about half a texel diagonal times
+// tan(angle between light and surface normal) away from its centre sample.
+float ShadowBias(float texel_world, vec3 l, vec3 geometric_normal) {
+  float c = abs(dot(l, geometric_normal));  // the derivative normal's sign is arbitrary
+  float tan_theta = sqrt(max(0.0, 1.0 - c * c)) / max(c, 1e-4);
+  return texel_world * (1.0 + 1.5 * min(tan_theta, 10.0));
+}
+
+bool PointLightVisible(GpuLight light, float distance_to_light, vec3 l, vec3 geometric_normal) {
+  float stored = textureLod(u_point_shadows, vec4(-l, light.shadow.x), 0.0).r * light.shadow.y;
+  float bias = ShadowBias(distance_to_light * light.shadow.z, l, geometric_normal);
+  return distance_to_light - bias <= stored;
+}
+
+bool DirectionalLightVisible(GpuLight light, vec3 l, vec3 geometric_normal) {
+  vec3 s = (light.shadow_from_world * vec4(v_position, 1.0)).xyz;
+  if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return true;
+  float stored = textureLod(u_directional_shadows, vec3(s.xy, light.shadow.x), 0.0).r;
+  float bias = ShadowBias(light.shadow.z, l, geometric_normal) / light.shadow.y;
+  return s.z - bias <= stored;
+}
+
+void main() {
+  vec3 n = normalize(v_normal);
+  // The flat triangle's normal, for the shadow bias only.
+  vec3 face = cross(dFdx(v_position), dFdy(v_position));
+  float face_length = length(face);
+  vec3 geometric_normal = face_length > 0.0 ? face / face_length : n;
+
+  vec3 kd;
+  vec3 ks;
+  vec3 ke;
+  if (u_atlas_mode != 0) {
+    kd = texture(u_atlas_kd, v_uv).rgb;
+    ks = texture(u_atlas_ks, v_uv).rgb;
+    ke = texture(u_atlas_ke, v_uv).rgb;
+  } else {
+    GpuMaterial m = u_materials[u_triangle_material[gl_PrimitiveID]];
+    vec3 kd_texture = texture(u_kd_texture, v_uv).rgb;
+    kd = m.ks_kd_from_texture.w > 0.5
+             ? kd_texture
+             : EvaluateSolidTexture(m.base_amplitude.rgb, m.base_amplitude.w, m.offset_frequency.w,
+                                    m.offset_frequency.xyz, v_rest_position);
+    ks = m.ks_kd_from_texture.rgb;
+    ke = m.ke.rgb;
+  }
+
+  vec3 v = normalize(u_camera_center - v_position);
+  vec3 f = vec3(0.0);
+  for (int k = 0; k < u_light_count.x; ++k) {
+    GpuLight light = u_lights[k];
+    vec3 l;
+    float attenuation = 1.0;
+    float distance_to_light = 0.0;
+    bool point = light.position.w > 0.5;
+    if (point) {
+      vec3 to_light = light.position.xyz - v_position;
+      float distance_squared = dot(to_light, to_light);
+      distance_to_light = sqrt(distance_squared);
+      l = to_light / distance_to_light;
+      if (u_inverse_square_falloff != 0) attenuation = 1.0 / distance_squared;
+    } else {
+      l = light.position.xyz;
+    }
+    vec2 cosines = PhongCosines(l, n, v);
+    if (!(cosines.x > 0.0)) continue;
+    bool visible = point ? PointLightVisible(light, distance_to_light, l, geometric_normal)
+                         : DirectionalLightVisible(light, l, geometric_normal);
+    if (!visible) continue;
+    f += light.intensity.rgb * attenuation * PhongTerm(kd, ks, ke, cosines);
+  }
+  out_radiance = vec4(f, 1.0);
+}

@@ -1,0 +1,24 @@
+// Main pass of core/render/phong_renderer.cc: passes the world-space surface
+// attributes of each render vertex to phong.frag.
+
+layout(location = 0) in vec3 a_position;       // world units, this frame's pose
+layout(location = 1) in vec3 a_normal;         // world frame, unit
+layout(location = 2) in vec3 a_rest_position;  // rest pose, solid-texture coordinates
+layout(location = 3) in vec2 a_uv;             // texture coordinates, v = 0 at the bottom row
+
+// OpenCV pinhole camera as a GL projection (see phong_renderer.cc): image row r
+// lands on window row r, so the read-back is top row first.
+layout(location = 0) uniform mat4 u_clip_from_world;
+
+out vec3 v_position;
+out vec3 v_normal;
+out vec3 v_rest_position;
+out vec2 v_uv;
+
+void main() {
+  v_position = a_position;
+  v_normal = a_normal;
+  v_rest_position = a_rest_position;
+  v_uv = a_uv;
+  gl_Position = u_clip_from_world * vec4(a_position, 1.0);
+}
