@@ -17,6 +17,10 @@
 
 namespace mvbrdf::scene {
 
+// How far outside [0,1]^2 a texture coordinate may lie and still be clamped
+// into it rather than rejected (in UV units, i.e. a fraction of the atlas).
+inline constexpr float kMaxUvExcursion = 0.1f;
+
 struct MeshTopology {
   // Triangles over render vertices, in file order (counter-clockwise seen
   // from outside).
@@ -28,6 +32,10 @@ struct MeshTopology {
   // Per render vertex texture coordinates in [0,1]^2 (v up, OpenGL style);
   // empty when the mesh has no UVs (an atlas is built later).
   std::vector<glm::vec2> uvs;
+  // Render vertices whose UVs lay slightly outside [0,1]^2 in the file (by
+  // more than a rounding error, at most kMaxUvExcursion; e.g. 4 of Spot's) and
+  // were clamped into it. Farther outside is an error (tiled UVs).
+  std::vector<uint32_t> clamped_uv_vertices;
   uint32_t num_file_vertices = 0;
   // Indices of triangles with zero area in the rest pose (frame 0); they are
   // kept in `triangles` (indices stay stable) but excluded from resampling

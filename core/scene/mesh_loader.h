@@ -24,12 +24,21 @@ struct LoadedMesh {
 
 // Loads the rest-pose mesh. `field` names the scene field in errors, e.g.
 // "scene.mesh.path". Errors: missing file (NOT_FOUND), no faces, non-finite
-// vertices, UVs outside [0,1] (INVALID_ARGUMENT naming the file and vertex).
-// Zero-area triangles are listed in topology.zero_area_triangles, not errors.
+// vertices, UVs more than kMaxUvExcursion outside [0,1]^2 (INVALID_ARGUMENT
+// naming the file and vertex). UVs slightly outside are clamped and listed in
+// topology.clamped_uv_vertices; zero-area triangles are listed in
+// topology.zero_area_triangles; neither is an error.
+//
+// File and render vertices are numbered in order of first use by the
+// triangles. WriteObj of a topology numbered that way (any LoadMesh result)
+// reads back identically; other numberings read back renumbered, and file
+// vertices with bit-identical positions read back welded.
 absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::string_view field);
 
 // Loads the file-vertex positions of another frame of the same mesh; fails
-// with INVALID_ARGUMENT when its topology differs from `topology`.
+// with INVALID_ARGUMENT when its topology differs from `topology` or a vertex
+// is not finite, NOT_FOUND when the file is missing. Positions are parsed by
+// the same importer as LoadMesh, so the rest pose's file gives the same floats.
 absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& file, const MeshTopology& topology,
                                                   absl::string_view field);
 

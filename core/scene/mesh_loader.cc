@@ -1,0 +1,290 @@
+#include "core/scene/mesh_loader.h"
+
+#include <algorithm>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <system_error>
+#include <unordered_map>
+#include <vector>
+
+#include <assimp/Importer.hpp>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "core/base/files.h"
+
+namespace mvbrdf::scene {
+namespace {
+
+// UVs may sit a rounding error outside [0,1] after an exporter's arithmetic;
+// such UVs are clamped without being listed.
+constexpr float kUvTolerance = 1e-6f;
+// A triangle whose area is below this fraction of the squared bounding-box
+// diagonal is degenerate: it has no well-defined normal or texel footprint.
+constexpr double kZeroAreaRelative = 1e-12;
+
+// Bit pattern of a float, so that welding compares exactly (no epsilon, and
+// +0 / -0 stay distinct, as they are distinct file values).
+uint32_t Bits(float f) {
+  uint32_t u;
+  std::memcpy(&u, &f, sizeof(u));
+  return u;
+}
+
+struct Key3 {
+  uint32_t x, y, z;
+  bool operator==(const Key3& o) const { return x == o.x && y == o.y && z == o.z; }
+};
+struct Key3Hash {
+  size_t operator()(const Key3& k) const {
+    uint64_t h = k.x * 0x9E3779B97F4A7C15ull;
+    h ^= (h >> 29) ^ (k.y * 0xBF58476D1CE4E5B9ull);
+    h ^= (h >> 31) ^ (k.z * 0x94D049BB133111EBull);
+    return static_cast<size_t>(h ^ (h >> 32));
+  }
+};
+
+std::string Prefix(absl::string_view field, const std::filesystem::path& file) {
+  return absl::StrCat(field, ": ", file.string());
+}
+
+// A face corner as assimp gives it, in file order.
+struct Corner {
+  aiVector3D position;
+  aiVector3D uv;  // (0,0,0) when the mesh has no UVs
+};
+
+// All triangle corners of a file (3 per triangle, file order) and whether they
+// carry UVs. Points and lines (faces with fewer than 3 indices) are skipped:
+// they are not surface.
+struct ImportedCorners {
+  std::vector<Corner> corners;
+  bool has_uvs = false;
+};
+
+absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file, absl::string_view field) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) {
+    return absl::NotFoundError(absl::StrCat(field, ": mesh file not found: ", file.string()));
+  }
+  Assimp::Importer importer;
+  // Triangulate only: no welding (we weld bit-exactly ourselves, keeping file
+  // order) and no sorting by primitive type (which would reorder faces).
+  const aiScene* scene = importer.ReadFile(file.string(), aiProcess_Triangulate);
+  if (scene == nullptr || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(Prefix(field, file), ": cannot read mesh: ", importer.GetErrorString()));
+  }
+  ImportedCorners out;
+  size_t meshes_with_uvs = 0, meshes_with_faces = 0;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    size_t triangles = 0;
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) triangles += mesh->mFaces[f].mNumIndices == 3 ? 1 : 0;
+    if (triangles == 0) continue;
+    ++meshes_with_faces;
+    if (mesh->HasTextureCoords(0)) ++meshes_with_uvs;
+  }
+  if (meshes_with_uvs != 0 && meshes_with_uvs != meshes_with_faces) {
+    return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": ", meshes_with_uvs, " of ",
+                                                   meshes_with_faces,
+                                                   " meshes have texture coordinates; expected all or none"));
+  }
+  out.has_uvs = meshes_with_uvs != 0;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    const aiMesh* mesh = scene->mMeshes[m];
+    const aiVector3D* uvs = mesh->mTextureCoords[0];
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices != 3) continue;
+      for (int k = 0; k < 3; ++k) {
+        const unsigned i = face.mIndices[k];
+        Corner c;
+        c.position = mesh->mVertices[i];
+        if (uvs != nullptr) c.uv = uvs[i];
+        out.corners.push_back(c);
+      }
+    }
+  }
+  if (out.corners.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": mesh has no triangles"));
+  }
+  return out;
+}
+
+// Distance of a UV outside [0,1]^2 along either axis (0 inside; NaN stays NaN).
+float UvExcursion(const aiVector3D& uv) {
+  if (!std::isfinite(uv.x) || !std::isfinite(uv.y)) return std::numeric_limits<float>::quiet_NaN();
+  return std::max({0.0f, -uv.x, uv.x - 1.0f, -uv.y, uv.y - 1.0f});
+}
+
+bool IsFinite(const aiVector3D& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+std::string FormatVec(const aiVector3D& v) { return absl::StrFormat("(%g, %g, %g)", v.x, v.y, v.z); }
+
+// Checks a later frame's corners against the rest-pose topology and returns
+// one position per file vertex.
+absl::StatusOr<FramePositions> PositionsFromCorners(const std::vector<Corner>& corners, const MeshTopology& topology,
+                                                    const std::filesystem::path& file, absl::string_view field) {
+  const size_t num_triangles = corners.size() / 3;
+  if (num_triangles != topology.file_triangles.size()) {
+    return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": topology differs from frame 0 (",
+                                                   num_triangles, " triangles, expected ",
+                                                   topology.file_triangles.size(), ")"));
+  }
+  FramePositions positions(topology.num_file_vertices);
+  std::vector<uint8_t> seen(topology.num_file_vertices, 0);
+  for (size_t c = 0; c < corners.size(); ++c) {
+    const uint32_t v = topology.file_triangles[c / 3][static_cast<int>(c % 3)];
+    const aiVector3D& p = corners[c].position;
+    if (!seen[v]) {
+      if (!IsFinite(p)) {
+        return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": vertex ", v,
+                                                       " has a non-finite position ", FormatVec(p)));
+      }
+      positions[v] = glm::vec3(p.x, p.y, p.z);
+      seen[v] = 1;
+    } else if (Bits(p.x) != Bits(positions[v].x) || Bits(p.y) != Bits(positions[v].y) ||
+               Bits(p.z) != Bits(positions[v].z)) {
+      // The corners that share vertex v in frame 0 no longer coincide: the
+      // file's connectivity is not frame 0's.
+      return absl::InvalidArgumentError(absl::StrCat(
+          Prefix(field, file), ": topology differs from frame 0 (triangle ", c / 3, " corner ", c % 3,
+          " should be vertex ", v, " at ", FormatVec(aiVector3D(positions[v].x, positions[v].y, positions[v].z)),
+          ", got ", FormatVec(p), ")"));
+    }
+  }
+  return positions;
+}
+
+}  // namespace
+
+absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::string_view field) {
+  auto imported = ImportCorners(file, field);
+  if (!imported.ok()) return imported.status();
+  const std::vector<Corner>& corners = imported->corners;
+  const bool has_uvs = imported->has_uvs;
+
+  LoadedMesh out;
+  MeshTopology& topo = out.topology;
+  const size_t num_triangles = corners.size() / 3;
+  topo.triangles.resize(num_triangles);
+  topo.file_triangles.resize(num_triangles);
+
+  std::unordered_map<Key3, uint32_t, Key3Hash> file_vertex_of;
+  // Render vertex key: file vertex and UV bits.
+  std::unordered_map<Key3, uint32_t, Key3Hash> render_vertex_of;
+  file_vertex_of.reserve(corners.size());
+  render_vertex_of.reserve(corners.size());
+
+  for (size_t c = 0; c < corners.size(); ++c) {
+    const aiVector3D& p = corners[c].position;
+    const auto [it, inserted] =
+        file_vertex_of.try_emplace(Key3{Bits(p.x), Bits(p.y), Bits(p.z)}, static_cast<uint32_t>(out.positions.size()));
+    if (inserted) {
+      if (!IsFinite(p)) {
+        return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": vertex ", out.positions.size(),
+                                                       " (in order of first use by a face) has a non-finite position ",
+                                                       FormatVec(p)));
+      }
+      out.positions.emplace_back(p.x, p.y, p.z);
+    }
+    const uint32_t fv = it->second;
+    uint32_t rv = fv;
+    if (has_uvs) {
+      const aiVector3D& uv = corners[c].uv;
+      const auto [rit, rinserted] = render_vertex_of.try_emplace(Key3{fv, Bits(uv.x), Bits(uv.y)},
+                                                                 static_cast<uint32_t>(topo.render_to_file_vertex.size()));
+      if (rinserted) {
+        const float excursion = UvExcursion(uv);
+        if (!(excursion <= kMaxUvExcursion)) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              Prefix(field, file), ": texture coordinate (", uv.x, ", ", uv.y, ") of vertex ", fv,
+              " is outside [0,1]^2 by more than ", kMaxUvExcursion, " (tiled or unnormalised UVs are not supported)"));
+        }
+        if (excursion > kUvTolerance) topo.clamped_uv_vertices.push_back(static_cast<uint32_t>(topo.uvs.size()));
+        topo.render_to_file_vertex.push_back(fv);
+        topo.uvs.emplace_back(std::clamp(uv.x, 0.0f, 1.0f), std::clamp(uv.y, 0.0f, 1.0f));
+      }
+      rv = rit->second;
+    }
+    topo.file_triangles[c / 3][static_cast<int>(c % 3)] = fv;
+    topo.triangles[c / 3][static_cast<int>(c % 3)] = rv;
+  }
+  topo.num_file_vertices = static_cast<uint32_t>(out.positions.size());
+  if (!has_uvs) {
+    topo.render_to_file_vertex.resize(topo.num_file_vertices);
+    for (uint32_t i = 0; i < topo.num_file_vertices; ++i) topo.render_to_file_vertex[i] = i;
+  }
+
+  // Zero-area triangles, relative to the mesh's size so units do not matter.
+  glm::dvec3 lo(out.positions[0]), hi(out.positions[0]);
+  for (const glm::vec3& p : out.positions) {
+    lo = glm::min(lo, glm::dvec3(p));
+    hi = glm::max(hi, glm::dvec3(p));
+  }
+  const double diagonal2 = glm::dot(hi - lo, hi - lo);
+  for (size_t t = 0; t < num_triangles; ++t) {
+    const glm::uvec3& f = topo.file_triangles[t];
+    const glm::dvec3 a(out.positions[f.x]), b(out.positions[f.y]), c(out.positions[f.z]);
+    const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
+    if (!(area >= kZeroAreaRelative * diagonal2) || diagonal2 == 0.0) {
+      topo.zero_area_triangles.push_back(static_cast<uint32_t>(t));
+    }
+  }
+  return out;
+}
+
+absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& file, const MeshTopology& topology,
+                                                  absl::string_view field) {
+  // Through assimp like the rest pose, so that the same text gives the same
+  // floats bit for bit (samba: about 6 ms per 10k-vertex frame).
+  auto imported = ImportCorners(file, field);
+  if (!imported.ok()) return imported.status();
+  return PositionsFromCorners(imported->corners, topology, file, field);
+}
+
+absl::Status WriteObj(const std::filesystem::path& file, const MeshTopology& topology,
+                      const FramePositions& positions) {
+  if (positions.size() != topology.num_file_vertices) {
+    return absl::InvalidArgumentError(absl::StrCat(file.string(), ": ", positions.size(),
+                                                   " positions for a mesh with ", topology.num_file_vertices,
+                                                   " file vertices"));
+  }
+  std::string out;
+  out.reserve(positions.size() * 40 + topology.triangles.size() * 30);
+  out += "# written by mvbrdf\n";
+  char line[128];
+  for (const glm::vec3& p : positions) {
+    // %.9g round-trips a float exactly.
+    std::snprintf(line, sizeof(line), "v %.9g %.9g %.9g\n", p.x, p.y, p.z);
+    out += line;
+  }
+  const bool uvs = topology.has_uvs();
+  if (uvs) {
+    for (const glm::vec2& uv : topology.uvs) {
+      std::snprintf(line, sizeof(line), "vt %.9g %.9g\n", uv.x, uv.y);
+      out += line;
+    }
+  }
+  for (size_t t = 0; t < topology.file_triangles.size(); ++t) {
+    const glm::uvec3& f = topology.file_triangles[t];
+    if (uvs) {
+      const glm::uvec3& r = topology.triangles[t];
+      std::snprintf(line, sizeof(line), "f %u/%u %u/%u %u/%u\n", f.x + 1, r.x + 1, f.y + 1, r.y + 1, f.z + 1,
+                    r.z + 1);
+    } else {
+      std::snprintf(line, sizeof(line), "f %u %u %u\n", f.x + 1, f.y + 1, f.z + 1);
+    }
+    out += line;
+  }
+  return WriteStringToFile(file, out);
+}
+
+}  // namespace mvbrdf::scene

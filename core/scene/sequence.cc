@@ -1,0 +1,456 @@
+#include "core/scene/sequence.h"
+
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "core/base/files.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/scene/mesh_loader.h"
+#include "core/scene/video_source.h"
+
+namespace mvbrdf::scene {
+namespace {
+
+// Rotations are typed in by hand or computed in double: 1e-6 separates a
+// rounding error from a matrix that is not a rotation.
+constexpr double kRotationTolerance = 1e-6;
+constexpr double kUnitLengthTolerance = 1e-6;
+
+absl::Status Invalid(absl::string_view field, absl::string_view message) {
+  return absl::InvalidArgumentError(absl::StrCat(field, ": ", message));
+}
+
+std::string Num(double v) { return absl::StrFormat("%g", v); }
+
+absl::Status CheckPositive(const std::string& field, double v) {
+  if (std::isfinite(v) && v > 0.0) return absl::OkStatus();
+  return Invalid(field, absl::StrCat("must be > 0, got ", Num(v)));
+}
+
+absl::Status CheckFinite(const std::string& field, double v) {
+  if (std::isfinite(v)) return absl::OkStatus();
+  return Invalid(field, absl::StrCat("must be a finite number, got ", Num(v)));
+}
+
+absl::Status CheckFiniteValues(const std::string& field, const google::protobuf::RepeatedField<double>& values) {
+  for (int i = 0; i < values.size(); ++i) {
+    MVBRDF_RETURN_IF_ERROR(CheckFinite(absl::StrCat(field, "[", i, "]"), values.Get(i)));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckCount(const std::string& field, int got, int expected, absl::string_view what) {
+  if (got == expected) return absl::OkStatus();
+  return Invalid(field, absl::StrCat("expected ", expected, " values (", what, "), got ", got));
+}
+
+// Tracks names of one repeated field: non-empty and unique. `list` is the
+// repeated field's path ("scene.cameras"); `key` the name field ("name").
+class NameRegistry {
+ public:
+  NameRegistry(std::string list, std::string key) : list_(std::move(list)), key_(std::move(key)) {}
+
+  absl::Status Add(int index, const std::string& name) {
+    const std::string field = absl::StrCat(list_, "[", index, "].", key_);
+    if (name.empty()) return Invalid(field, "must not be empty");
+    const auto [it, inserted] = index_of_.emplace(name, index);
+    if (!inserted) {
+      return Invalid(field, absl::StrCat("duplicate \"", name, "\", also ", list_, "[", it->second, "].", key_));
+    }
+    return absl::OkStatus();
+  }
+  bool Has(const std::string& name) const { return index_of_.count(name) != 0; }
+
+ private:
+  std::string list_, key_;
+  std::map<std::string, int> index_of_;
+};
+
+// A list of references into a registry: each known and listed once.
+absl::Status CheckReferences(const std::string& field, const google::protobuf::RepeatedPtrField<std::string>& names,
+                             const NameRegistry& known, absl::string_view kind, absl::string_view owner) {
+  std::map<std::string, int> seen;
+  for (int i = 0; i < names.size(); ++i) {
+    const std::string item = absl::StrCat(field, "[", i, "]");
+    const std::string& name = names.Get(i);
+    if (!known.Has(name)) return Invalid(item, absl::StrCat("unknown ", kind, " \"", name, "\"", owner));
+    const auto [it, inserted] = seen.emplace(name, i);
+    if (!inserted) {
+      return Invalid(item, absl::StrCat("duplicate ", kind, " \"", name, "\", also ", field, "[", it->second, "]",
+                                        owner));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateRotation(const std::string& field, const google::protobuf::RepeatedField<double>& r) {
+  MVBRDF_RETURN_IF_ERROR(CheckCount(field, r.size(), 9, "row-major 3x3"));
+  MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(field, r));
+  double max_error = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      double dot = 0.0;
+      for (int k = 0; k < 3; ++k) dot += r.Get(i * 3 + k) * r.Get(j * 3 + k);
+      max_error = std::max(max_error, std::abs(dot - (i == j ? 1.0 : 0.0)));
+    }
+  }
+  if (max_error > kRotationTolerance) {
+    return Invalid(field, absl::StrCat("must be orthonormal, but max |R*R^T - I| is ", Num(max_error),
+                                       " (tolerance ", Num(kRotationTolerance), ")"));
+  }
+  const double det = r.Get(0) * (r.Get(4) * r.Get(8) - r.Get(5) * r.Get(7)) -
+                     r.Get(1) * (r.Get(3) * r.Get(8) - r.Get(5) * r.Get(6)) +
+                     r.Get(2) * (r.Get(3) * r.Get(7) - r.Get(4) * r.Get(6));
+  if (std::abs(det - 1.0) > kRotationTolerance) {
+    return Invalid(field, absl::StrCat("determinant must be +1, got ", Num(det), " (a reflection, not a rotation)"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
+  if (camera.width() == 0) return Invalid(f + ".width", "must be > 0, got 0");
+  if (camera.height() == 0) return Invalid(f + ".height", "must be > 0, got 0");
+  const v1::Intrinsics& in = camera.intrinsics();
+  MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fx", in.fx()));
+  MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fy", in.fy()));
+  MVBRDF_RETURN_IF_ERROR(CheckFinite(f + ".intrinsics.cx", in.cx()));
+  MVBRDF_RETURN_IF_ERROR(CheckFinite(f + ".intrinsics.cy", in.cy()));
+  const int nd = in.distortion_size();
+  if (nd != 0 && nd != 4 && nd != 5 && nd != 8) {
+    return Invalid(f + ".intrinsics.distortion",
+                   absl::StrCat("expected 0, 4, 5 or 8 values (k1, k2, p1, p2[, k3[, k4, k5, k6]]), got ", nd));
+  }
+  MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(f + ".intrinsics.distortion", in.distortion()));
+  MVBRDF_RETURN_IF_ERROR(ValidateRotation(f + ".cam_from_world.rotation", camera.cam_from_world().rotation()));
+  const std::string t = f + ".cam_from_world.translation";
+  MVBRDF_RETURN_IF_ERROR(CheckCount(t, camera.cam_from_world().translation_size(), 3, "x, y, z"));
+  MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(t, camera.cam_from_world().translation()));
+  const v1::Video& video = camera.video();
+  if (video.path().empty()) {
+    return Invalid(f + ".video.path", "required (a video file or an image pattern such as \"cam0/%04d.png\")");
+  }
+  MVBRDF_RETURN_IF_ERROR(ValidateFramePattern(video.path(), f + ".video.path"));
+  if (!v1::ColorEncoding_IsValid(video.encoding())) {
+    return Invalid(f + ".video.encoding", absl::StrCat("unknown value ", video.encoding()));
+  }
+  if (video.bit_depth() != 0 && video.bit_depth() != 8 && video.bit_depth() != 16) {
+    return Invalid(f + ".video.bit_depth", absl::StrCat("must be 0, 8 or 16, got ", video.bit_depth()));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ValidateLight(const v1::Light& light, const std::string& f) {
+  const bool point = light.position_size() != 0;
+  const bool directional = light.direction_size() != 0;
+  if (point == directional) {
+    return Invalid(f, absl::StrCat("exactly one of position (point light) and direction (directional light) is "
+                                   "required, got ",
+                                   point ? "both" : "neither"));
+  }
+  if (point) {
+    MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".position", light.position_size(), 3, "x, y, z"));
+    MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(f + ".position", light.position()));
+  } else {
+    MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".direction", light.direction_size(), 3, "x, y, z"));
+    MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(f + ".direction", light.direction()));
+    const auto& d = light.direction();
+    const double length = std::sqrt(d.Get(0) * d.Get(0) + d.Get(1) * d.Get(1) + d.Get(2) * d.Get(2));
+    if (std::abs(length - 1.0) > kUnitLengthTolerance) {
+      return Invalid(f + ".direction", absl::StrCat("must have unit length (within ", Num(kUnitLengthTolerance),
+                                                    "), got length ", Num(length)));
+    }
+  }
+  if (light.intensity_size() != 0) {
+    MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".intensity", light.intensity_size(), 3, "linear R, G, B; or none for 1"));
+    for (int i = 0; i < 3; ++i) {
+      const double v = light.intensity(i);
+      if (!std::isfinite(v) || v < 0.0) {
+        return Invalid(absl::StrCat(f, ".intensity[", i, "]"), absl::StrCat("must be finite and >= 0, got ", Num(v)));
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
+std::string MeshFramePath(const v1::Scene& scene, int absolute_frame) {
+  return FormatFramePattern(scene.mesh().path(), absolute_frame);
+}
+
+}  // namespace
+
+absl::StatusOr<v1::Scene> ReadScene(const std::filesystem::path& scene_file) {
+  return ReadJsonFileAs<v1::Scene>(scene_file);
+}
+
+absl::Status ValidateSceneMessage(const v1::Scene& scene) {
+  // Mesh and frames.
+  if (scene.mesh().path().empty()) {
+    return Invalid("scene.mesh.path", "required (a mesh file or a per-frame pattern such as \"mesh_%04d.obj\")");
+  }
+  MVBRDF_RETURN_IF_ERROR(ValidateFramePattern(scene.mesh().path(), "scene.mesh.path"));
+  const v1::Frames& frames = scene.frames();
+  if (frames.count() == 0) return Invalid("scene.frames.count", "must be > 0, got 0");
+  if (static_cast<uint64_t>(frames.first()) + frames.count() > static_cast<uint64_t>(INT32_MAX)) {
+    return Invalid("scene.frames", absl::StrCat("first + count must be < 2^31, got ", frames.first(), " + ",
+                                                frames.count()));
+  }
+  MVBRDF_RETURN_IF_ERROR(CheckPositive("scene.frames.fps", frames.fps()));
+
+  // Cameras.
+  if (scene.cameras_size() == 0) return Invalid("scene.cameras", "at least one camera is required");
+  NameRegistry cameras("scene.cameras", "name");
+  for (int i = 0; i < scene.cameras_size(); ++i) {
+    MVBRDF_RETURN_IF_ERROR(cameras.Add(i, scene.cameras(i).name()));
+    MVBRDF_RETURN_IF_ERROR(ValidateCamera(scene.cameras(i), absl::StrCat("scene.cameras[", i, "]")));
+  }
+
+  // Lights and which of them are on.
+  NameRegistry lights("scene.lights", "name");
+  for (int i = 0; i < scene.lights_size(); ++i) {
+    MVBRDF_RETURN_IF_ERROR(lights.Add(i, scene.lights(i).name()));
+    MVBRDF_RETURN_IF_ERROR(ValidateLight(scene.lights(i), absl::StrCat("scene.lights[", i, "]")));
+  }
+  NameRegistry configurations("scene.light_configurations", "name");
+  for (int i = 0; i < scene.light_configurations_size(); ++i) {
+    const v1::LightConfiguration& c = scene.light_configurations(i);
+    const std::string f = absl::StrCat("scene.light_configurations[", i, "]");
+    MVBRDF_RETURN_IF_ERROR(configurations.Add(i, c.name()));
+    if (c.lights_size() == 0) return Invalid(f + ".lights", "at least one light is required");
+    MVBRDF_RETURN_IF_ERROR(
+        CheckReferences(f + ".lights", c.lights(), lights, "light", absl::StrCat(" in configuration \"", c.name(), "\"")));
+  }
+  std::map<uint32_t, int> frame_entry;
+  for (int i = 0; i < scene.frame_lighting_size(); ++i) {
+    const v1::FrameLighting& fl = scene.frame_lighting(i);
+    const std::string f = absl::StrCat("scene.frame_lighting[", i, "]");
+    const uint64_t end = static_cast<uint64_t>(frames.first()) + frames.count();
+    if (fl.frame() < frames.first() || fl.frame() >= end) {
+      return Invalid(f + ".frame", absl::StrCat("must be in [", frames.first(), ", ", end,
+                                                ") (scene.frames: first, first + count), got ", fl.frame()));
+    }
+    const auto [it, inserted] = frame_entry.emplace(fl.frame(), i);
+    if (!inserted) {
+      return Invalid(f + ".frame", absl::StrCat("duplicate frame ", fl.frame(), ", also scene.frame_lighting[",
+                                                it->second, "].frame"));
+    }
+    MVBRDF_RETURN_IF_ERROR(
+        CheckReferences(f + ".lights", fl.lights(), lights, "light", absl::StrCat(" in frame ", fl.frame())));
+  }
+
+  // Materials.
+  NameRegistry seeds("scene.material_seeds", "name");
+  for (int i = 0; i < scene.material_seeds_size(); ++i) {
+    const v1::MaterialSeed& s = scene.material_seeds(i);
+    const std::string f = absl::StrCat("scene.material_seeds[", i, "]");
+    MVBRDF_RETURN_IF_ERROR(seeds.Add(i, s.name()));
+    MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".srgb8", s.srgb8_size(), 3, "8-bit sRGB R, G, B"));
+    for (int k = 0; k < 3; ++k) {
+      if (s.srgb8(k) > 255) {
+        return Invalid(absl::StrCat(f, ".srgb8[", k, "]"), absl::StrCat("must be <= 255, got ", s.srgb8(k)));
+      }
+    }
+  }
+  NameRegistry segments("scene.segment_materials", "segment");
+  for (int i = 0; i < scene.segment_materials_size(); ++i) {
+    const v1::SegmentMaterials& s = scene.segment_materials(i);
+    const std::string f = absl::StrCat("scene.segment_materials[", i, "]");
+    MVBRDF_RETURN_IF_ERROR(segments.Add(i, s.segment()));
+    if (s.materials_size() == 0) return Invalid(f + ".materials", "at least one material seed is required");
+    MVBRDF_RETURN_IF_ERROR(CheckReferences(f + ".materials", s.materials(), seeds, "material seed",
+                                           absl::StrCat(" in segment \"", s.segment(), "\"")));
+  }
+  if (scene.segment_materials_size() != 0 && scene.segmentation_path().empty()) {
+    return Invalid("scene.segment_materials",
+                   "given, but scene.segmentation_path is empty (segments need a segmentation file)");
+  }
+  return absl::OkStatus();
+}
+
+namespace {
+
+// One segment name per triangle; every segment of segment_materials must occur.
+absl::Status CheckSegmentation(const Sequence& seq) {
+  const v1::Scene& scene = seq.scene;
+  const std::filesystem::path file = ResolvePath(seq.scene_dir, scene.segmentation_path());
+  auto text = ReadFileToString(file);
+  if (!text.ok()) {
+    if (absl::IsNotFound(text.status())) {
+      return absl::NotFoundError(absl::StrCat("scene.segmentation_path: file not found: ", file.string()));
+    }
+    return text.status();
+  }
+  std::istringstream in(*text);
+  std::string line;
+  std::set<std::string> names;
+  size_t lines = 0;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    names.insert(line);
+    ++lines;
+  }
+  if (lines != seq.topology.triangles.size()) {
+    return Invalid("scene.segmentation_path", absl::StrCat(file.string(), " has ", lines,
+                                                           " lines, expected one per triangle (",
+                                                           seq.topology.triangles.size(), ")"));
+  }
+  for (int i = 0; i < scene.segment_materials_size(); ++i) {
+    const std::string& segment = scene.segment_materials(i).segment();
+    if (names.count(segment) == 0) {
+      return Invalid(absl::StrCat("scene.segment_materials[", i, "].segment"),
+                     absl::StrCat("segment \"", segment, "\" does not occur in ", file.string()));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ProbeVideo(const Sequence& seq, int i) {
+  const v1::Camera& camera = seq.scene.cameras(i);
+  const std::string field = absl::StrCat("scene.cameras[", i, "]");
+  const int first = static_cast<int>(seq.scene.frames().first());
+  MVBRDF_ASSIGN_OR_RETURN(auto source, VideoSource::Open(camera, seq.scene_dir, first, field));
+  MVBRDF_ASSIGN_OR_RETURN(const VideoProbe probe, source->Probe());
+  if (probe.width != static_cast<int>(camera.width()) || probe.height != static_cast<int>(camera.height())) {
+    return Invalid(field + ".video", absl::StrCat("frames are ", probe.width, "x", probe.height, ", expected ",
+                                                  camera.width(), "x", camera.height(), " (camera width x height)"));
+  }
+  if (probe.frame_count < seq.num_frames) {
+    return Invalid(field + ".video", absl::StrCat("has ", probe.frame_count, " frames from frame ", first,
+                                                  ", the scene needs ", seq.num_frames));
+  }
+  return absl::OkStatus();
+}
+
+Light LightFromProto(const v1::Light& l) {
+  Light light;
+  light.name = l.name();
+  light.directional = l.direction_size() == 3;
+  if (l.position_size() == 3) light.position = glm::vec3(l.position(0), l.position(1), l.position(2));
+  if (light.directional) light.direction = glm::vec3(l.direction(0), l.direction(1), l.direction(2));
+  if (l.intensity_size() == 3) light.intensity = glm::vec3(l.intensity(0), l.intensity(1), l.intensity(2));
+  return light;
+}
+
+}  // namespace
+
+bool Sequence::is_static_mesh() const { return !IsFramePattern(scene.mesh().path()); }
+
+absl::StatusOr<FramePositions> Sequence::LoadFrame(int t) const {
+  if (t < 0 || t >= num_frames) {
+    return absl::OutOfRangeError(absl::StrCat("frame ", t, " is outside [0, ", num_frames, ")"));
+  }
+  if (is_static_mesh()) return rest_positions;
+  const int absolute = static_cast<int>(scene.frames().first()) + t;
+  return LoadFramePositions(ResolvePath(scene_dir, MeshFramePath(scene, absolute)), topology,
+                            absl::StrCat("scene.mesh.path (frame ", absolute, ")"));
+}
+
+int Sequence::FindLight(const std::string& name) const {
+  for (size_t i = 0; i < lights.size(); ++i) {
+    if (lights[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+absl::StatusOr<Sequence> LoadSequence(const std::filesystem::path& scene_file, const LoadOptions& options) {
+  Sequence seq;
+  seq.scene_file = scene_file;
+  seq.scene_dir = scene_file.has_parent_path() ? scene_file.parent_path() : std::filesystem::path(".");
+  MVBRDF_ASSIGN_OR_RETURN(seq.scene, ReadScene(scene_file));
+  MVBRDF_RETURN_IF_ERROR(ValidateSceneMessage(seq.scene));
+  const v1::Scene& scene = seq.scene;
+  const int first = static_cast<int>(scene.frames().first());
+  seq.num_frames = static_cast<int>(scene.frames().count());
+
+  const std::string mesh_field =
+      seq.is_static_mesh() ? std::string("scene.mesh.path") : absl::StrCat("scene.mesh.path (frame ", first, ")");
+  MVBRDF_ASSIGN_OR_RETURN(LoadedMesh mesh, LoadMesh(ResolvePath(seq.scene_dir, MeshFramePath(scene, first)), mesh_field));
+  seq.topology = std::move(mesh.topology);
+  seq.rest_positions = std::move(mesh.positions);
+  if (options.check_all_frames && !seq.is_static_mesh()) {
+    for (int t = 1; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(seq.LoadFrame(t).status());
+  }
+  if (!scene.segmentation_path().empty()) MVBRDF_RETURN_IF_ERROR(CheckSegmentation(seq));
+  if (options.probe_videos) {
+    for (int i = 0; i < scene.cameras_size(); ++i) MVBRDF_RETURN_IF_ERROR(ProbeVideo(seq, i));
+  }
+  for (const v1::Camera& camera : scene.cameras()) seq.cameras.push_back(CameraModelFromProto(camera));
+  for (const v1::Light& light : scene.lights()) seq.lights.push_back(LightFromProto(light));
+  return seq;
+}
+
+std::string Summarize(const Sequence& seq) {
+  const v1::Scene& scene = seq.scene;
+  const MeshTopology& topo = seq.topology;
+  std::string s;
+  absl::StrAppend(&s, "Scene: ", scene.name().empty() ? "(unnamed)" : scene.name(), "\n");
+  absl::StrAppend(&s, "  file: ", seq.scene_file.string(), "\n");
+  absl::StrAppend(&s, "Frames: ", seq.num_frames, " from frame ", scene.frames().first(), " at ",
+                  Num(scene.frames().fps()), " fps (", Num(seq.num_frames / scene.frames().fps()), " s)\n");
+  absl::StrAppend(&s, "Mesh: ", scene.mesh().path(), seq.is_static_mesh() ? " (static)" : " (one file per frame)",
+                  "\n");
+  absl::StrAppend(&s, "  ", topo.num_file_vertices, " file vertices, ", topo.num_render_vertices(),
+                  " render vertices, ", topo.triangles.size(), " triangles\n");
+  absl::StrAppend(&s, "  UVs: ", topo.has_uvs() ? "yes (from the mesh file)" : "no (an atlas will be built)", "\n");
+  if (!topo.clamped_uv_vertices.empty()) {
+    absl::StrAppend(&s, "  clamped UVs: ", topo.clamped_uv_vertices.size(), " render vertices had UVs up to ",
+                    Num(kMaxUvExcursion), " outside [0,1]^2\n");
+  }
+  if (topo.zero_area_triangles.empty()) {
+    absl::StrAppend(&s, "  zero-area triangles: none\n");
+  } else {
+    std::vector<uint32_t> head(topo.zero_area_triangles.begin(),
+                               topo.zero_area_triangles.begin() + std::min<size_t>(10, topo.zero_area_triangles.size()));
+    absl::StrAppend(&s, "  zero-area triangles: ", topo.zero_area_triangles.size(),
+                    " excluded from resampling and fitting (", absl::StrJoin(head, ", "),
+                    topo.zero_area_triangles.size() > head.size() ? ", ..." : "", ")\n");
+  }
+  absl::StrAppend(&s, "Cameras: ", seq.cameras.size(), "\n");
+  for (int i = 0; i < scene.cameras_size(); ++i) {
+    const v1::Camera& c = scene.cameras(i);
+    const CameraModel& m = seq.cameras[static_cast<size_t>(i)];
+    const glm::dvec3 centre = m.CenterInWorld();
+    absl::StrAppend(&s, "  ", c.name(), ": ", c.width(), "x", c.height(), ", f = (", Num(m.fx), ", ", Num(m.fy),
+                    ") px, centre (", Num(centre.x), ", ", Num(centre.y), ", ", Num(centre.z), ")",
+                    m.has_distortion() ? ", distorted" : "", ", video ", c.video().path(), " (",
+                    c.video().encoding() == v1::LINEAR ? "linear" : "sRGB", ", ",
+                    c.video().bit_depth() == 0 ? 8u : c.video().bit_depth(), "-bit)\n");
+  }
+  absl::StrAppend(&s, "Lights: ", seq.lights.size(),
+                  scene.lighting().inverse_square_falloff() ? " (inverse-square fall-off)" : "", "\n");
+  for (const Light& l : seq.lights) {
+    const glm::vec3 v = l.directional ? l.direction : l.position;
+    absl::StrAppend(&s, "  ", l.name, ": ", l.directional ? "directional towards (" : "point at (", Num(v.x), ", ",
+                    Num(v.y), ", ", Num(v.z), "), intensity (", Num(l.intensity.x), ", ", Num(l.intensity.y), ", ",
+                    Num(l.intensity.z), ")\n");
+  }
+  absl::StrAppend(&s, "Light configurations: ", scene.light_configurations_size(), "\n");
+  for (const v1::LightConfiguration& c : scene.light_configurations()) {
+    absl::StrAppend(&s, "  ", c.name(), ": ", absl::StrJoin(c.lights(), ", "), "\n");
+  }
+  if (scene.frame_lighting_size() != 0) {
+    absl::StrAppend(&s, "Frame lighting: ", scene.frame_lighting_size(),
+                    " frames with their own lights (the others: all lights of the configuration)\n");
+  }
+  absl::StrAppend(&s, "Material seeds: ", scene.material_seeds_size(), "\n");
+  for (const v1::MaterialSeed& m : scene.material_seeds()) {
+    absl::StrAppend(&s, "  ", m.name(), ": sRGB (", absl::StrJoin(m.srgb8(), ", "), ")\n");
+  }
+  if (!scene.segmentation_path().empty()) {
+    absl::StrAppend(&s, "Segmentation: ", scene.segmentation_path(), "\n");
+    for (const v1::SegmentMaterials& m : scene.segment_materials()) {
+      absl::StrAppend(&s, "  ", m.segment(), ": ", absl::StrJoin(m.materials(), ", "), "\n");
+    }
+  }
+  return s;
+}
+
+}  // namespace mvbrdf::scene

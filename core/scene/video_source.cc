@@ -1,0 +1,273 @@
+#include "core/scene/video_source.h"
+
+#include <cmath>
+#include <string>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/files.h"
+
+namespace mvbrdf::scene {
+
+float SrgbToLinear(float encoded) {
+  // IEC 61966-2-1, the exact piecewise curve (not a 2.2 gamma).
+  if (encoded <= 0.04045f) return encoded / 12.92f;
+  return static_cast<float>(std::pow((static_cast<double>(encoded) + 0.055) / 1.055, 2.4));
+}
+
+float LinearToSrgb(float linear) {
+  if (linear <= 0.0031308f) return linear * 12.92f;
+  return static_cast<float>(1.055 * std::pow(static_cast<double>(linear), 1.0 / 2.4) - 0.055);
+}
+
+namespace {
+
+// Per-code-value lookup table: code / max_code, then the transfer curve.
+// 256 or 65536 entries, built once per source.
+std::vector<float> MakeDecodeTable(int bit_depth, bool srgb) {
+  const int max_code = bit_depth == 16 ? 65535 : 255;
+  std::vector<float> table(static_cast<size_t>(max_code) + 1);
+  for (int i = 0; i <= max_code; ++i) {
+    const float v = static_cast<float>(static_cast<double>(i) / max_code);
+    table[static_cast<size_t>(i)] = srgb ? SrgbToLinear(v) : v;
+  }
+  return table;
+}
+
+// Stored frame (8/16-bit, 1/3/4 channels in OpenCV's BGR order) -> CV_32FC3
+// linear RGB.
+template <typename T>
+cv::Mat DecodeTyped(const cv::Mat& stored, const std::vector<float>& table) {
+  cv::Mat out(stored.rows, stored.cols, CV_32FC3);
+  const int channels = stored.channels();
+  for (int y = 0; y < stored.rows; ++y) {
+    const T* in = stored.ptr<T>(y);
+    cv::Vec3f* o = out.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < stored.cols; ++x) {
+      const T* px = in + static_cast<ptrdiff_t>(x) * channels;
+      if (channels == 1) {
+        const float g = table[px[0]];
+        o[x] = cv::Vec3f(g, g, g);
+      } else {
+        o[x] = cv::Vec3f(table[px[2]], table[px[1]], table[px[0]]);  // BGR(A) -> RGB
+      }
+    }
+  }
+  return out;
+}
+
+absl::StatusOr<cv::Mat> Decode(const cv::Mat& stored, int bit_depth, const std::vector<float>& table,
+                               const std::string& what) {
+  const int channels = stored.channels();
+  if (channels != 1 && channels != 3 && channels != 4) {
+    return absl::InvalidArgumentError(absl::StrCat(what, ": has ", channels, " channels, expected 1, 3 or 4"));
+  }
+  const int depth = stored.depth();
+  if (depth == CV_8U && bit_depth == 8) return DecodeTyped<uint8_t>(stored, table);
+  if (depth == CV_16U && bit_depth == 16) return DecodeTyped<uint16_t>(stored, table);
+  const char* stored_bits = depth == CV_8U ? "8-bit" : depth == CV_16U ? "16-bit" : "neither 8- nor 16-bit";
+  return absl::InvalidArgumentError(absl::StrCat(what, ": is ", stored_bits, ", expected ", bit_depth,
+                                                 "-bit (video.bit_depth)"));
+}
+
+absl::Status CheckSize(const cv::Mat& frame, int width, int height, const std::string& what) {
+  if (frame.cols == width && frame.rows == height) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat(what, ": is ", frame.cols, "x", frame.rows, ", expected ", width, "x", height));
+}
+
+// "cam0/%04d.png" numbered by absolute frame index.
+class ImageSequenceSource : public VideoSource {
+ public:
+  ImageSequenceSource(std::filesystem::path dir, std::string pattern, int first_frame, int width, int height,
+                      int bit_depth, bool srgb, std::string field)
+      : dir_(std::move(dir)),
+        pattern_(std::move(pattern)),
+        first_frame_(first_frame),
+        width_(width),
+        height_(height),
+        bit_depth_(bit_depth),
+        table_(MakeDecodeTable(bit_depth, srgb)),
+        field_(std::move(field)) {}
+
+  // Frame `index` (absolute). The pattern is expanded before it is joined to
+  // the directory, so a '%' in the directory is not taken for a conversion.
+  std::string PathOf(int index) const { return ResolvePath(dir_, FormatFramePattern(pattern_, index)).string(); }
+
+  absl::StatusOr<VideoProbe> Probe() override {
+    const std::string first = PathOf(first_frame_);
+    const cv::Mat image = cv::imread(first, cv::IMREAD_UNCHANGED);
+    if (image.empty()) {
+      return absl::InvalidArgumentError(absl::StrCat(field_, ".video: cannot decode image ", first));
+    }
+    const int stored_bits = image.depth() == CV_8U ? 8 : image.depth() == CV_16U ? 16 : 0;
+    if (stored_bits != bit_depth_) {
+      return absl::InvalidArgumentError(absl::StrCat(field_, ".video: frame 0 (", first, ") is ",
+                                                     stored_bits == 0 ? "neither 8- nor 16-bit" : absl::StrCat(stored_bits, "-bit"),
+                                                     ", expected ", bit_depth_, "-bit (video.bit_depth)"));
+    }
+    VideoProbe probe;
+    probe.width = image.cols;
+    probe.height = image.rows;
+    std::error_code ec;
+    while (std::filesystem::is_regular_file(PathOf(first_frame_ + probe.frame_count), ec)) {
+      ++probe.frame_count;
+    }
+    return probe;
+  }
+
+  absl::StatusOr<cv::Mat> ReadFrame(int t) override {
+    if (t < 0) return absl::OutOfRangeError(absl::StrCat(field_, ".video: frame ", t, " is negative"));
+    const std::string path = PathOf(first_frame_ + t);
+    const std::string what = absl::StrCat(field_, ".video: frame ", t, " (", path, ")");
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) return absl::NotFoundError(absl::StrCat(what, ": not found"));
+    const cv::Mat stored = cv::imread(path, cv::IMREAD_UNCHANGED);
+    if (stored.empty()) return absl::InvalidArgumentError(absl::StrCat(what, ": cannot decode image"));
+    const absl::Status size = CheckSize(stored, width_, height_, what);
+    if (!size.ok()) return size;
+    return Decode(stored, bit_depth_, table_, what);
+  }
+
+ private:
+  std::filesystem::path dir_;
+  std::string pattern_;
+  int first_frame_;
+  int width_, height_;
+  int bit_depth_;
+  std::vector<float> table_;
+  std::string field_;
+};
+
+// A video file decoded by OpenCV's FFmpeg backend (8-bit BGR frames).
+class VideoFileSource : public VideoSource {
+ public:
+  VideoFileSource(std::string path, int first_frame, int width, int height, bool srgb, std::string field)
+      : path_(std::move(path)),
+        first_frame_(first_frame),
+        width_(width),
+        height_(height),
+        table_(MakeDecodeTable(8, srgb)),
+        field_(std::move(field)) {}
+
+  absl::Status Reopen() {
+    capture_.release();
+    if (!capture_.open(path_, cv::CAP_FFMPEG)) {
+      return absl::InvalidArgumentError(absl::StrCat(field_, ".video.path: cannot open video ", path_,
+                                                     " (not a video FFmpeg can decode?)"));
+    }
+    next_ = 0;
+    return absl::OkStatus();
+  }
+
+  absl::StatusOr<VideoProbe> Probe() override {
+    cv::VideoCapture capture;
+    if (!capture.open(path_, cv::CAP_FFMPEG)) {
+      return absl::InvalidArgumentError(absl::StrCat(field_, ".video.path: cannot open video ", path_));
+    }
+    VideoProbe probe;
+    probe.width = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
+    probe.height = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT));
+    const double stated = capture.get(cv::CAP_PROP_FRAME_COUNT);
+    int total = 0;
+    if (stated > 0) {
+      total = static_cast<int>(std::lround(stated));
+    } else {
+      // The container does not say: count by demuxing (grab does not decode
+      // into a Mat, so this is cheap next to reading).
+      while (capture.grab()) ++total;
+    }
+    probe.frame_count = std::max(0, total - first_frame_);
+    return probe;
+  }
+
+  absl::StatusOr<cv::Mat> ReadFrame(int t) override {
+    if (t < 0) return absl::OutOfRangeError(absl::StrCat(field_, ".video: frame ", t, " is negative"));
+    const int index = first_frame_ + t;  // absolute index in the file
+    if (!capture_.isOpened() || index < next_) {
+      const absl::Status status = Reopen();
+      if (!status.ok()) return status;
+    }
+    // Skip forward frame by frame: seeking by timestamp is not frame-exact in
+    // every container.
+    while (next_ < index) {
+      if (!capture_.grab()) return EndOfVideo(t);
+      ++next_;
+    }
+    cv::Mat stored;
+    if (!capture_.read(stored) || stored.empty()) return EndOfVideo(t);
+    ++next_;
+    const std::string what = absl::StrCat(field_, ".video: frame ", t, " of ", path_);
+    const absl::Status size = CheckSize(stored, width_, height_, what);
+    if (!size.ok()) return size;
+    return Decode(stored, 8, table_, what);
+  }
+
+ private:
+  absl::Status EndOfVideo(int t) {
+    capture_.release();
+    return absl::OutOfRangeError(absl::StrCat(field_, ".video: frame ", t, " (file frame ", first_frame_ + t,
+                                              ") is past the end of ", path_));
+  }
+
+  std::string path_;
+  int first_frame_;
+  int width_, height_;
+  std::vector<float> table_;
+  std::string field_;
+  cv::VideoCapture capture_;
+  int next_ = 0;  // absolute index of the frame the next read() returns
+};
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera& camera,
+                                                               const std::filesystem::path& scene_dir,
+                                                               int first_frame, absl::string_view field) {
+  const v1::Video& video = camera.video();
+  const std::string path_field = absl::StrCat(field, ".video.path");
+  if (video.path().empty()) return absl::InvalidArgumentError(absl::StrCat(path_field, ": required"));
+  const absl::Status pattern_ok = ValidateFramePattern(video.path(), path_field);
+  if (!pattern_ok.ok()) return pattern_ok;
+  const int bit_depth = video.bit_depth() == 0 ? 8 : static_cast<int>(video.bit_depth());
+  if (bit_depth != 8 && bit_depth != 16) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ".video.bit_depth: must be 0, 8 or 16, got ", video.bit_depth()));
+  }
+  if (first_frame < 0) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": first frame must be >= 0, got ", first_frame));
+  }
+  const bool srgb = video.encoding() != v1::LINEAR;
+  std::error_code ec;
+  if (IsFramePattern(video.path())) {
+    const std::string first = ResolvePath(scene_dir, FormatFramePattern(video.path(), first_frame)).string();
+    if (!std::filesystem::is_regular_file(first, ec)) {
+      return absl::NotFoundError(absl::StrCat(path_field, ": first frame not found: ", first));
+    }
+    return std::unique_ptr<VideoSource>(new ImageSequenceSource(scene_dir, video.path(), first_frame, static_cast<int>(camera.width()),
+                                                                static_cast<int>(camera.height()), bit_depth, srgb,
+                                                                std::string(field)));
+  }
+  const std::string path = ResolvePath(scene_dir, video.path()).string();
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return absl::NotFoundError(absl::StrCat(path_field, ": video file not found: ", path));
+  }
+  if (bit_depth != 8) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        field, ".video.bit_depth: video files are decoded as 8-bit; store 16-bit frames as an image sequence "
+               "(e.g. \"cam0/%04d.png\")"));
+  }
+  auto source = std::make_unique<VideoFileSource>(path, first_frame, static_cast<int>(camera.width()),
+                                                  static_cast<int>(camera.height()), srgb, std::string(field));
+  const absl::Status opened = source->Reopen();
+  if (!opened.ok()) return opened;
+  return std::unique_ptr<VideoSource>(std::move(source));
+}
+
+}  // namespace mvbrdf::scene
