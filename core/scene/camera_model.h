@@ -36,7 +36,7 @@ struct CameraModel {
 };
 
 // Converts a camera message. Assumes the message has been validated
-// (core/scene/scene_validation.h); the rotation is used as given.
+// (ValidateSceneMessage in core/scene/sequence.h); the rotation is used as given.
 CameraModel CameraModelFromProto(const v1::Camera& camera);
 // The inverse, keeping name, size, intrinsics and extrinsics (not the video).
 void CameraModelToProto(const CameraModel& model, v1::Camera* camera);

@@ -315,5 +315,27 @@ TEST(MeshLoaderTest, LoadsSambaFrames) {
   EXPECT_LT(ms, 200.0);  // typically ~6 ms in Release; generous for Debug and sanitizers
 }
 
+// Loads all 175 samba frames against frame 0 (what LoadSequence does with
+// check_all_frames). Run with --gtest_also_run_disabled_tests.
+TEST(MeshLoaderTest, DISABLED_BenchmarkSambaAllFrames) {
+  const std::filesystem::path first = kDataDir / "samba/mesh_0000.obj";
+  if (!std::filesystem::exists(first)) GTEST_SKIP() << "shared test data not found: " << first;
+  auto start = std::chrono::steady_clock::now();
+  auto mesh = LoadMesh(first, "scene.mesh.path");
+  ASSERT_TRUE(mesh.ok()) << mesh.status();
+  const double rest_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  start = std::chrono::steady_clock::now();
+  int frames = 0;
+  for (int t = 1; t < 175; ++t, ++frames) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "samba/mesh_%04d.obj", t);
+    auto frame = LoadFramePositions(kDataDir / name, mesh->topology, "scene.mesh.path");
+    ASSERT_TRUE(frame.ok()) << frame.status();
+  }
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  std::printf("samba: LoadMesh %.1f ms; LoadFramePositions %.2f ms/frame over %d frames (%.0f ms total)\n", rest_ms,
+              ms / frames, frames, ms);
+}
+
 }  // namespace
 }  // namespace mvbrdf::scene

@@ -167,6 +167,18 @@ TEST(VideoSourceTest, ErrorsNameTheField) {
   EXPECT_EQ(missing_frames.status().code(), absl::StatusCode::kNotFound);
   EXPECT_NE(missing_frames.status().message().find("0005.png"), std::string::npos) << missing_frames.status();
 
+  // 16-bit frames must come as images: the FFmpeg backend decodes to 8 bits.
+  testing::WriteText(dir / "v.mkv", "not really a video");
+  auto deep_video = VideoSource::Open(MakeCamera("v.mkv", 4, 4, v1::SRGB, 16), dir.path(), 0, "scene.cameras[0]");
+  EXPECT_EQ(deep_video.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(deep_video.status().message().find("scene.cameras[0].video.bit_depth"), std::string::npos)
+      << deep_video.status();
+  // A file FFmpeg cannot read.
+  auto garbage = VideoSource::Open(MakeCamera("v.mkv", 4, 4, v1::SRGB, 8), dir.path(), 0, "scene.cameras[0]");
+  EXPECT_EQ(garbage.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(garbage.status().message().find("scene.cameras[0].video.path: cannot open video"), std::string::npos)
+      << garbage.status();
+
   // Wrong frame size from ReadFrame.
   ASSERT_TRUE(cv::imwrite((dir / "s0.png").string(), Pattern(0, 8, 6)));
   auto source = VideoSource::Open(MakeCamera("s%d.png", 16, 12, v1::SRGB, 0), dir.path(), 0, "scene.cameras[3]");
