@@ -1,6 +1,10 @@
 #include "core/scene/mesh_loader.h"
 
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+
 #include <algorithm>
+#include <assimp/Importer.hpp>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -10,10 +14,6 @@
 #include <system_error>
 #include <unordered_map>
 #include <vector>
-
-#include <assimp/Importer.hpp>
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -145,8 +145,8 @@ absl::StatusOr<FramePositions> PositionsFromCorners(const std::vector<Corner>& c
     const aiVector3D& p = corners[c].position;
     if (!seen[v]) {
       if (!IsFinite(p)) {
-        return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": vertex ", v,
-                                                       " has a non-finite position ", FormatVec(p)));
+        return absl::InvalidArgumentError(
+            absl::StrCat(Prefix(field, file), ": vertex ", v, " has a non-finite position ", FormatVec(p)));
       }
       positions[v] = glm::vec3(p.x, p.y, p.z);
       seen[v] = 1;
@@ -199,8 +199,8 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::str
     uint32_t rv = fv;
     if (has_uvs) {
       const aiVector3D& uv = corners[c].uv;
-      const auto [rit, rinserted] = render_vertex_of.try_emplace(Key3{fv, Bits(uv.x), Bits(uv.y)},
-                                                                 static_cast<uint32_t>(topo.render_to_file_vertex.size()));
+      const auto [rit, rinserted] = render_vertex_of.try_emplace(
+          Key3{fv, Bits(uv.x), Bits(uv.y)}, static_cast<uint32_t>(topo.render_to_file_vertex.size()));
       if (rinserted) {
         const float excursion = UvExcursion(uv);
         if (!(excursion <= kMaxUvExcursion)) {
@@ -253,9 +253,8 @@ absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& f
 absl::Status WriteObj(const std::filesystem::path& file, const MeshTopology& topology,
                       const FramePositions& positions) {
   if (positions.size() != topology.num_file_vertices) {
-    return absl::InvalidArgumentError(absl::StrCat(file.string(), ": ", positions.size(),
-                                                   " positions for a mesh with ", topology.num_file_vertices,
-                                                   " file vertices"));
+    return absl::InvalidArgumentError(absl::StrCat(file.string(), ": ", positions.size(), " positions for a mesh with ",
+                                                   topology.num_file_vertices, " file vertices"));
   }
   std::string out;
   out.reserve(positions.size() * 40 + topology.triangles.size() * 30);
@@ -277,8 +276,7 @@ absl::Status WriteObj(const std::filesystem::path& file, const MeshTopology& top
     const glm::uvec3& f = topology.file_triangles[t];
     if (uvs) {
       const glm::uvec3& r = topology.triangles[t];
-      std::snprintf(line, sizeof(line), "f %u/%u %u/%u %u/%u\n", f.x + 1, r.x + 1, f.y + 1, r.y + 1, f.z + 1,
-                    r.z + 1);
+      std::snprintf(line, sizeof(line), "f %u/%u %u/%u %u/%u\n", f.x + 1, r.x + 1, f.y + 1, r.y + 1, f.z + 1, r.z + 1);
     } else {
       std::snprintf(line, sizeof(line), "f %u %u %u\n", f.x + 1, f.y + 1, f.z + 1);
     }

@@ -44,8 +44,7 @@ absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& f
 
 // Writes a mesh as Wavefront OBJ (v, optional vt, f lines), file vertices as
 // `v` lines in order, so that LoadMesh reads back the same topology.
-absl::Status WriteObj(const std::filesystem::path& file, const MeshTopology& topology,
-                      const FramePositions& positions);
+absl::Status WriteObj(const std::filesystem::path& file, const MeshTopology& topology, const FramePositions& positions);
 
 }  // namespace mvbrdf::scene
 

@@ -1,12 +1,12 @@
 #include "core/scene/mesh_loader.h"
 
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <set>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "absl/strings/str_cat.h"
 #include "core/scene/scene_test_util.h"
@@ -34,16 +34,16 @@ std::string CubeObj(double scale = 1.0, double dx = 0.0) {
   obj += "vt 0 0\nvt 0 0.25\nvt 0.25 0.25\nvt 0.25 0\nvt 0.5 0.25\nvt 0.5 0\n";
   for (int f = 0; f < 4; ++f) {
     const double u0 = 0.25 * f, v0 = 0.5;
-    absl::StrAppend(&obj, "vt ", u0, " ", v0, "\nvt ", u0 + 0.25, " ", v0, "\nvt ", u0 + 0.25, " ", v0 + 0.25,
-                    "\nvt ", u0, " ", v0 + 0.25, "\n");
+    absl::StrAppend(&obj, "vt ", u0, " ", v0, "\nvt ", u0 + 0.25, " ", v0, "\nvt ", u0 + 0.25, " ", v0 + 0.25, "\nvt ",
+                    u0, " ", v0 + 0.25, "\n");
   }
   obj +=
-      "f 1/1 4/2 3/3 2/4\n"        // front, z=0
-      "f 2/4 3/3 7/5 6/6\n"        // right, x=1 (shares 2/4 and 3/3)
-      "f 5/7 6/8 7/9 8/10\n"       // back, z=1
-      "f 1/11 2/12 6/13 5/14\n"    // bottom, y=0
-      "f 4/15 8/16 7/17 3/18\n"    // top, y=1
-      "f 1/19 5/20 8/21 4/22\n";   // left, x=0
+      "f 1/1 4/2 3/3 2/4\n"       // front, z=0
+      "f 2/4 3/3 7/5 6/6\n"       // right, x=1 (shares 2/4 and 3/3)
+      "f 5/7 6/8 7/9 8/10\n"      // back, z=1
+      "f 1/11 2/12 6/13 5/14\n"   // bottom, y=0
+      "f 4/15 8/16 7/17 3/18\n"   // top, y=1
+      "f 1/19 5/20 8/21 4/22\n";  // left, x=0
   return obj;
 }
 

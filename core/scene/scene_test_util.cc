@@ -1,12 +1,11 @@
 #include "core/scene/scene_test_util.h"
 
+#include <gtest/gtest.h>
 #include <stdlib.h>
 
 #include <cstdio>
-#include <system_error>
-
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <system_error>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"

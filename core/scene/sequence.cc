@@ -85,8 +85,8 @@ absl::Status CheckReferences(const std::string& field, const google::protobuf::R
     if (!known.Has(name)) return Invalid(item, absl::StrCat("unknown ", kind, " \"", name, "\"", owner));
     const auto [it, inserted] = seen.emplace(name, i);
     if (!inserted) {
-      return Invalid(item, absl::StrCat("duplicate ", kind, " \"", name, "\", also ", field, "[", it->second, "]",
-                                        owner));
+      return Invalid(item,
+                     absl::StrCat("duplicate ", kind, " \"", name, "\", also ", field, "[", it->second, "]", owner));
     }
   }
   return absl::OkStatus();
@@ -104,8 +104,8 @@ absl::Status ValidateRotation(const std::string& field, const google::protobuf::
     }
   }
   if (max_error > kRotationTolerance) {
-    return Invalid(field, absl::StrCat("must be orthonormal, but max |R*R^T - I| is ", Num(max_error),
-                                       " (tolerance ", Num(kRotationTolerance), ")"));
+    return Invalid(field, absl::StrCat("must be orthonormal, but max |R*R^T - I| is ", Num(max_error), " (tolerance ",
+                                       Num(kRotationTolerance), ")"));
   }
   const double det = r.Get(0) * (r.Get(4) * r.Get(8) - r.Get(5) * r.Get(7)) -
                      r.Get(1) * (r.Get(3) * r.Get(8) - r.Get(5) * r.Get(6)) +
@@ -200,8 +200,8 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
   const v1::Frames& frames = scene.frames();
   if (frames.count() == 0) return Invalid("scene.frames.count", "must be > 0, got 0");
   if (static_cast<uint64_t>(frames.first()) + frames.count() > static_cast<uint64_t>(INT32_MAX)) {
-    return Invalid("scene.frames", absl::StrCat("first + count must be < 2^31, got ", frames.first(), " + ",
-                                                frames.count()));
+    return Invalid("scene.frames",
+                   absl::StrCat("first + count must be < 2^31, got ", frames.first(), " + ", frames.count()));
   }
   MVBRDF_RETURN_IF_ERROR(CheckPositive("scene.frames.fps", frames.fps()));
 
@@ -225,8 +225,8 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
     const std::string f = absl::StrCat("scene.light_configurations[", i, "]");
     MVBRDF_RETURN_IF_ERROR(configurations.Add(i, c.name()));
     if (c.lights_size() == 0) return Invalid(f + ".lights", "at least one light is required");
-    MVBRDF_RETURN_IF_ERROR(
-        CheckReferences(f + ".lights", c.lights(), lights, "light", absl::StrCat(" in configuration \"", c.name(), "\"")));
+    MVBRDF_RETURN_IF_ERROR(CheckReferences(f + ".lights", c.lights(), lights, "light",
+                                           absl::StrCat(" in configuration \"", c.name(), "\"")));
   }
   std::map<uint32_t, int> frame_entry;
   for (int i = 0; i < scene.frame_lighting_size(); ++i) {
@@ -298,9 +298,9 @@ absl::Status CheckSegmentation(const Sequence& seq) {
     ++lines;
   }
   if (lines != seq.topology.triangles.size()) {
-    return Invalid("scene.segmentation_path", absl::StrCat(file.string(), " has ", lines,
-                                                           " lines, expected one per triangle (",
-                                                           seq.topology.triangles.size(), ")"));
+    return Invalid("scene.segmentation_path",
+                   absl::StrCat(file.string(), " has ", lines, " lines, expected one per triangle (",
+                                seq.topology.triangles.size(), ")"));
   }
   for (int i = 0; i < scene.segment_materials_size(); ++i) {
     const std::string& segment = scene.segment_materials(i).segment();
@@ -372,7 +372,8 @@ absl::StatusOr<Sequence> LoadSequence(const std::filesystem::path& scene_file, c
 
   const std::string mesh_field =
       seq.is_static_mesh() ? std::string("scene.mesh.path") : absl::StrCat("scene.mesh.path (frame ", first, ")");
-  MVBRDF_ASSIGN_OR_RETURN(LoadedMesh mesh, LoadMesh(ResolvePath(seq.scene_dir, MeshFramePath(scene, first)), mesh_field));
+  MVBRDF_ASSIGN_OR_RETURN(LoadedMesh mesh,
+                          LoadMesh(ResolvePath(seq.scene_dir, MeshFramePath(scene, first)), mesh_field));
   seq.topology = std::move(mesh.topology);
   seq.rest_positions = std::move(mesh.positions);
   if (options.check_all_frames && !seq.is_static_mesh()) {
@@ -407,8 +408,9 @@ std::string Summarize(const Sequence& seq) {
   if (topo.zero_area_triangles.empty()) {
     absl::StrAppend(&s, "  zero-area triangles: none\n");
   } else {
-    std::vector<uint32_t> head(topo.zero_area_triangles.begin(),
-                               topo.zero_area_triangles.begin() + std::min<size_t>(10, topo.zero_area_triangles.size()));
+    std::vector<uint32_t> head(
+        topo.zero_area_triangles.begin(),
+        topo.zero_area_triangles.begin() + std::min<size_t>(10, topo.zero_area_triangles.size()));
     absl::StrAppend(&s, "  zero-area triangles: ", topo.zero_area_triangles.size(),
                     " excluded from resampling and fitting (", absl::StrJoin(head, ", "),
                     topo.zero_area_triangles.size() > head.size() ? ", ..." : "", ")\n");

@@ -1,13 +1,13 @@
 #include "core/scene/sequence.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_format.h"
 #include "core/base/proto_json.h"
@@ -118,7 +118,8 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
        "scene.frames.count: must be > 0, got 0"},
       {"FramesOverflow", [](v1::Scene* s) { s->mutable_frames()->set_first(4000000000u); }, "scene.frames:"},
       {"FpsZero", [](v1::Scene* s) { s->mutable_frames()->set_fps(0); }, "scene.frames.fps: must be > 0, got 0"},
-      {"FpsNegative", [](v1::Scene* s) { s->mutable_frames()->set_fps(-25); }, "scene.frames.fps: must be > 0, got -25"},
+      {"FpsNegative", [](v1::Scene* s) { s->mutable_frames()->set_fps(-25); },
+       "scene.frames.fps: must be > 0, got -25"},
       {"FpsNan", [](v1::Scene* s) { s->mutable_frames()->set_fps(kNan); }, "scene.frames.fps: must be > 0, got nan"},
       {"NoCameras", [](v1::Scene* s) { s->clear_cameras(); }, "scene.cameras: at least one camera"},
       {"CameraNameEmpty", [](v1::Scene* s) { s->mutable_cameras(1)->clear_name(); },
@@ -142,15 +143,30 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
        "scene.cameras[1].intrinsics.distortion: expected 0, 4, 5 or 8 values"},
       {"DistortionNan", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_intrinsics()->set_distortion(2, kNan); },
        "scene.cameras[1].intrinsics.distortion[2]: must be a finite number"},
-      {"RotationSize", [](v1::Scene* s) { SetRotation(s, 0, {1, 0, 0, 1}); },
+      {"RotationSize",
+       [](v1::Scene* s) {
+         SetRotation(s, 0, {1, 0, 0, 1});
+       },
        "scene.cameras[0].cam_from_world.rotation: expected 9 values (row-major 3x3), got 4"},
-      {"RotationNan", [](v1::Scene* s) { SetRotation(s, 0, {1, 0, 0, 0, 1, 0, 0, 0, kNan}); },
+      {"RotationNan",
+       [](v1::Scene* s) {
+         SetRotation(s, 0, {1, 0, 0, 0, 1, 0, 0, 0, kNan});
+       },
        "scene.cameras[0].cam_from_world.rotation[8]: must be a finite number"},
-      {"RotationNotOrthonormal", [](v1::Scene* s) { SetRotation(s, 1, {1.1, 0, 0, 0, 1, 0, 0, 0, 1}); },
+      {"RotationNotOrthonormal",
+       [](v1::Scene* s) {
+         SetRotation(s, 1, {1.1, 0, 0, 0, 1, 0, 0, 0, 1});
+       },
        "scene.cameras[1].cam_from_world.rotation: must be orthonormal, but max |R*R^T - I| is 0.21"},
-      {"RotationSlightlyOff", [](v1::Scene* s) { SetRotation(s, 1, {1, 1e-5, 0, 0, 1, 0, 0, 0, 1}); },
+      {"RotationSlightlyOff",
+       [](v1::Scene* s) {
+         SetRotation(s, 1, {1, 1e-5, 0, 0, 1, 0, 0, 0, 1});
+       },
        "scene.cameras[1].cam_from_world.rotation: must be orthonormal"},
-      {"RotationReflection", [](v1::Scene* s) { SetRotation(s, 0, {1, 0, 0, 0, 1, 0, 0, 0, -1}); },
+      {"RotationReflection",
+       [](v1::Scene* s) {
+         SetRotation(s, 0, {1, 0, 0, 0, 1, 0, 0, 0, -1});
+       },
        "scene.cameras[0].cam_from_world.rotation: determinant must be +1, got -1"},
       {"TranslationSize",
        [](v1::Scene* s) { s->mutable_cameras(0)->mutable_cam_from_world()->mutable_translation()->RemoveLast(); },
@@ -283,7 +299,9 @@ const std::vector<FileErrorCase>& FileErrorCases() {
        },
        absl::StatusCode::kInvalidArgument, "topology differs from frame 0"},
       {"NanVertexInLaterFrame", nullptr,
-       [](const std::filesystem::path& dir) { WriteText(dir / "mesh_0001.obj", "v 0 0 nan\n" + testing::PyramidObj(1)); },
+       [](const std::filesystem::path& dir) {
+         WriteText(dir / "mesh_0001.obj", "v 0 0 nan\n" + testing::PyramidObj(1));
+       },
        absl::StatusCode::kInvalidArgument, "scene.mesh.path (frame 1)"},
       {"MissingVideo", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_path("cam1.mkv"); }, nullptr,
        absl::StatusCode::kNotFound, "scene.cameras[1].video.path: video file not found"},

@@ -1,14 +1,13 @@
 #include "core/scene/video_source.h"
 
 #include <cmath>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
 #include <string>
 #include <system_error>
 #include <utility>
 #include <vector>
-
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
@@ -72,8 +71,8 @@ absl::StatusOr<cv::Mat> Decode(const cv::Mat& stored, int bit_depth, const std::
   if (depth == CV_8U && bit_depth == 8) return DecodeTyped<uint8_t>(stored, table);
   if (depth == CV_16U && bit_depth == 16) return DecodeTyped<uint16_t>(stored, table);
   const char* stored_bits = depth == CV_8U ? "8-bit" : depth == CV_16U ? "16-bit" : "neither 8- nor 16-bit";
-  return absl::InvalidArgumentError(absl::StrCat(what, ": is ", stored_bits, ", expected ", bit_depth,
-                                                 "-bit (video.bit_depth)"));
+  return absl::InvalidArgumentError(
+      absl::StrCat(what, ": is ", stored_bits, ", expected ", bit_depth, "-bit (video.bit_depth)"));
 }
 
 absl::Status CheckSize(const cv::Mat& frame, int width, int height, const std::string& what) {
@@ -108,9 +107,10 @@ class ImageSequenceSource : public VideoSource {
     }
     const int stored_bits = image.depth() == CV_8U ? 8 : image.depth() == CV_16U ? 16 : 0;
     if (stored_bits != bit_depth_) {
-      return absl::InvalidArgumentError(absl::StrCat(field_, ".video: frame 0 (", first, ") is ",
-                                                     stored_bits == 0 ? "neither 8- nor 16-bit" : absl::StrCat(stored_bits, "-bit"),
-                                                     ", expected ", bit_depth_, "-bit (video.bit_depth)"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(field_, ".video: frame 0 (", first, ") is ",
+                       stored_bits == 0 ? "neither 8- nor 16-bit" : absl::StrCat(stored_bits, "-bit"), ", expected ",
+                       bit_depth_, "-bit (video.bit_depth)"));
     }
     VideoProbe probe;
     probe.width = image.cols;
@@ -159,8 +159,8 @@ class VideoFileSource : public VideoSource {
   absl::Status Reopen() {
     capture_.release();
     if (!capture_.open(path_, cv::CAP_FFMPEG)) {
-      return absl::InvalidArgumentError(absl::StrCat(field_, ".video.path: cannot open video ", path_,
-                                                     " (not a video FFmpeg can decode?)"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(field_, ".video.path: cannot open video ", path_, " (not a video FFmpeg can decode?)"));
     }
     next_ = 0;
     return absl::OkStatus();
@@ -212,8 +212,8 @@ class VideoFileSource : public VideoSource {
  private:
   absl::Status EndOfVideo(int t) {
     capture_.release();
-    return absl::OutOfRangeError(absl::StrCat(field_, ".video: frame ", t, " (file frame ", first_frame_ + t,
-                                              ") is past the end of ", path_));
+    return absl::OutOfRangeError(
+        absl::StrCat(field_, ".video: frame ", t, " (file frame ", first_frame_ + t, ") is past the end of ", path_));
   }
 
   std::string path_;
@@ -228,8 +228,8 @@ class VideoFileSource : public VideoSource {
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera& camera,
-                                                               const std::filesystem::path& scene_dir,
-                                                               int first_frame, absl::string_view field) {
+                                                               const std::filesystem::path& scene_dir, int first_frame,
+                                                               absl::string_view field) {
   const v1::Video& video = camera.video();
   const std::string path_field = absl::StrCat(field, ".video.path");
   if (video.path().empty()) return absl::InvalidArgumentError(absl::StrCat(path_field, ": required"));
@@ -250,18 +250,19 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
     if (!std::filesystem::is_regular_file(first, ec)) {
       return absl::NotFoundError(absl::StrCat(path_field, ": first frame not found: ", first));
     }
-    return std::unique_ptr<VideoSource>(new ImageSequenceSource(scene_dir, video.path(), first_frame, static_cast<int>(camera.width()),
-                                                                static_cast<int>(camera.height()), bit_depth, srgb,
-                                                                std::string(field)));
+    return std::unique_ptr<VideoSource>(
+        new ImageSequenceSource(scene_dir, video.path(), first_frame, static_cast<int>(camera.width()),
+                                static_cast<int>(camera.height()), bit_depth, srgb, std::string(field)));
   }
   const std::string path = ResolvePath(scene_dir, video.path()).string();
   if (!std::filesystem::is_regular_file(path, ec)) {
     return absl::NotFoundError(absl::StrCat(path_field, ": video file not found: ", path));
   }
   if (bit_depth != 8) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        field, ".video.bit_depth: video files are decoded as 8-bit; store 16-bit frames as an image sequence "
-               "(e.g. \"cam0/%04d.png\")"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(field,
+                     ".video.bit_depth: video files are decoded as 8-bit; store 16-bit frames as an image sequence "
+                     "(e.g. \"cam0/%04d.png\")"));
   }
   auto source = std::make_unique<VideoFileSource>(path, first_frame, static_cast<int>(camera.width()),
                                                   static_cast<int>(camera.height()), srgb, std::string(field));

@@ -1,12 +1,12 @@
 #include "core/scene/video_source.h"
 
-#include <cmath>
-#include <string>
-#include <vector>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
+#include <string>
+#include <vector>
 
 #include "absl/strings/str_format.h"
 #include "core/scene/scene_test_util.h"
@@ -34,9 +34,9 @@ cv::Mat Pattern(int t, int width, int height) {
   cv::Mat image(height, width, CV_8UC3);
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
-      image.at<cv::Vec3b>(y, x) = cv::Vec3b(static_cast<uchar>((x * 7 + t * 31) & 255),
-                                            static_cast<uchar>((y * 11 + t * 5) & 255),
-                                            static_cast<uchar>((x * y + t * 17) & 255));
+      image.at<cv::Vec3b>(y, x) =
+          cv::Vec3b(static_cast<uchar>((x * 7 + t * 31) & 255), static_cast<uchar>((y * 11 + t * 5) & 255),
+                    static_cast<uchar>((x * y + t * 17) & 255));
     }
   }
   return image;
@@ -81,8 +81,8 @@ TEST(VideoSourceTest, Ffv1RoundTripIsBitExact) {
     for (int t = 0; t < kFrames; ++t) writer.write(Pattern(t, kWidth, kHeight));
   }
   constexpr int kFirst = 2;
-  auto source = VideoSource::Open(MakeCamera("cam0.mkv", kWidth, kHeight, v1::LINEAR, 0), dir.path(), kFirst,
-                                  "scene.cameras[0]");
+  auto source =
+      VideoSource::Open(MakeCamera("cam0.mkv", kWidth, kHeight, v1::LINEAR, 0), dir.path(), kFirst, "scene.cameras[0]");
   ASSERT_TRUE(source.ok()) << source.status();
   auto probe = (*source)->Probe();
   ASSERT_TRUE(probe.ok()) << probe.status();
@@ -163,7 +163,8 @@ TEST(VideoSourceTest, ErrorsNameTheField) {
   EXPECT_EQ(missing_video.status().code(), absl::StatusCode::kNotFound);
   EXPECT_NE(missing_video.status().message().find("scene.cameras[2].video.path"), std::string::npos)
       << missing_video.status();
-  auto missing_frames = VideoSource::Open(MakeCamera("c/%04d.png", 4, 4, v1::SRGB, 0), dir.path(), 5, "scene.cameras[1]");
+  auto missing_frames =
+      VideoSource::Open(MakeCamera("c/%04d.png", 4, 4, v1::SRGB, 0), dir.path(), 5, "scene.cameras[1]");
   EXPECT_EQ(missing_frames.status().code(), absl::StatusCode::kNotFound);
   EXPECT_NE(missing_frames.status().message().find("0005.png"), std::string::npos) << missing_frames.status();
 
