@@ -54,8 +54,11 @@ struct Pose {
 };
 
 struct RenderOutput {
-  cv::Mat radiance;  // CV_32FC3, linear RGB, row 0 = top; background 0
-  cv::Mat coverage;  // CV_8UC1, 255 where the mesh covers the pixel centre
+  // CV_32FC3, linear radiance, row 0 = top, pixel (x, y) = image pixel (x, y)
+  // of camera_model.Project(); background 0. Channel order is R, G, B (not
+  // OpenCV's usual B, G, R): convert before cv::imwrite.
+  cv::Mat radiance;
+  cv::Mat coverage;  // CV_8UC1, 255 where the mesh covers the pixel centre, else 0
 };
 
 class PhongRenderer {
@@ -66,18 +69,24 @@ class PhongRenderer {
   PhongRenderer(const PhongRenderer&) = delete;
   PhongRenderer& operator=(const PhongRenderer&) = delete;
 
-  // Procedural mode. At most 64 materials.
+  // The last of SetProceduralMaterials / SetAtlasMaterials chooses the mode.
+  // Procedural mode. 1 to 64 materials, covering every id in
+  // mesh.triangle_material (empty: all triangles use material 0).
   absl::Status SetProceduralMaterials(const std::vector<ProceduralMaterial>& materials);
   // Linear RGB CV_32FC3 texture in UV space, row 0 = v = 1 (image convention).
   absl::Status SetKdTexture(const cv::Mat& kd_linear);
   // Atlas mode: kd, ks, ke as CV_32FC3 images in UV space (row 0 = v = 1).
   absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke);
 
+  // At most 16 lights; each gets a shadow map (re-rendered every Render,
+  // since it depends on the pose).
   absl::Status SetLights(const std::vector<scene::Light>& lights);
 
   // Renders the pose from the camera as an undistorted pinhole image with the
   // camera's size and intrinsics (distortion is applied by the caller, e.g.
-  // synth, with a remap).
+  // synth, with a remap). Changes the context's bindings (framebuffer,
+  // program, textures, buffers); it leaves none of its objects bound that a
+  // caller could rely on.
   absl::StatusOr<RenderOutput> Render(const Pose& pose, const scene::CameraModel& camera);
 
  private:

@@ -1,0 +1,606 @@
+#include "core/render/phong_renderer.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <opencv2/core.hpp>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "core/gl/gl_api.h"
+#include "core/gl/gl_objects.h"
+#include "core/gl/shader_program.h"
+
+namespace mvbrdf::render {
+namespace {
+
+constexpr int kMaxLights = 16;     // shaders/phong.frag kMaxLights
+constexpr int kMaxMaterials = 64;
+
+// std140 mirror of GpuLight in shaders/phong.frag.
+struct GpuLight {
+  glm::vec4 position;
+  glm::vec4 intensity;
+  glm::vec4 shadow;
+  glm::mat4 shadow_from_world;
+};
+static_assert(sizeof(GpuLight) == 112, "std140 layout of GpuLight");
+
+struct GpuLightBlock {
+  glm::ivec4 count;
+  GpuLight lights[kMaxLights];
+};
+
+// std430 mirror of GpuMaterial in shaders/phong.frag.
+struct GpuMaterial {
+  glm::vec4 base_amplitude;
+  glm::vec4 offset_frequency;
+  glm::vec4 ks_kd_from_texture;
+  glm::vec4 ke;
+};
+static_assert(sizeof(GpuMaterial) == 64, "std430 layout of GpuMaterial");
+
+// Texture units and buffer bindings, as declared in shaders/phong.frag.
+enum TextureUnit : GLuint {
+  kKdTextureUnit = 0,
+  kAtlasKdUnit = 1,
+  kAtlasKsUnit = 2,
+  kAtlasKeUnit = 3,
+  kPointShadowUnit = 4,
+  kDirectionalShadowUnit = 5,
+};
+constexpr GLuint kLightBlockBinding = 0;
+constexpr GLuint kMaterialBlockBinding = 1;
+constexpr GLuint kTriangleMaterialBlockBinding = 2;
+
+// Uniform locations (layout(location = ...) in the shaders).
+constexpr GLint kClipFromWorldLocation = 0;
+constexpr GLint kCameraCenterLocation = 1;
+constexpr GLint kAtlasModeLocation = 2;
+constexpr GLint kFalloffLocation = 3;
+constexpr GLint kLightPositionLocation = 1;
+constexpr GLint kInverseRangeLocation = 2;
+
+// Cube-map faces in GL layer order (+X, -X, +Y, -Y, +Z, -Z): view direction
+// and the up vector that makes glm::lookAt match the cube-map (s, t) axes.
+constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
+    {glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)},
+    {glm::vec3(-1, 0, 0), glm::vec3(0, -1, 0)},
+    {glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)},
+    {glm::vec3(0, -1, 0), glm::vec3(0, 0, -1)},
+    {glm::vec3(0, 0, 1), glm::vec3(0, -1, 0)},
+    {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
+}};
+
+struct BoundingSphere {
+  glm::vec3 center{0.0f};
+  float radius = 0.0f;
+};
+
+BoundingSphere ComputeBoundingSphere(const std::vector<glm::vec3>& points) {
+  BoundingSphere sphere;
+  if (points.empty()) return sphere;
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+  for (const glm::vec3& p : points) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  sphere.center = 0.5f * (lo + hi);
+  float r2 = 0.0f;
+  for (const glm::vec3& p : points) {
+    const glm::vec3 d = p - sphere.center;
+    r2 = std::max(r2, glm::dot(d, d));
+  }
+  sphere.radius = std::sqrt(r2);
+  return sphere;
+}
+
+// OpenCV pinhole (x right, y down, z forward; pixel (0,0) the centre of the
+// top-left pixel) as GL clip coordinates from camera coordinates. Pixel (u, v)
+// maps to window (u + 0.5, v + 0.5): image row v is window row v, so
+// glReadPixels returns the top image row first and no flip is needed. (The
+// image is upside down in GL's own y-up sense; no face culling is used, so the
+// mirrored winding is harmless.) Depth: near -> -1, far -> +1.
+glm::dmat4 ClipFromCamera(const scene::CameraModel& camera, double near_plane, double far_plane) {
+  glm::dmat4 p(0.0);  // p[column][row]
+  p[0][0] = 2.0 * camera.fx / camera.width;
+  p[2][0] = 2.0 * (camera.cx + 0.5) / camera.width - 1.0;
+  p[1][1] = 2.0 * camera.fy / camera.height;
+  p[2][1] = 2.0 * (camera.cy + 0.5) / camera.height - 1.0;
+  p[2][2] = (far_plane + near_plane) / (far_plane - near_plane);
+  p[3][2] = -2.0 * far_plane * near_plane / (far_plane - near_plane);
+  p[2][3] = 1.0;
+  return p;
+}
+
+glm::dmat4 CamFromWorld(const scene::CameraModel& camera) {
+  glm::dmat4 m(camera.cam_from_world_rotation);
+  m[3] = glm::dvec4(camera.cam_from_world_translation, 1.0);
+  return m;
+}
+
+// Uploads an image with row 0 = v = 1 into a 2D RGB32F texture with row 0 at
+// t = 0 (GL's convention), i.e. flipped.
+absl::StatusOr<gl::Texture> UploadUvImage(const cv::Mat& image, absl::string_view what) {
+  if (image.empty() || image.type() != CV_32FC3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, ": expected a non-empty CV_32FC3 image, got type ", image.type(), " of size ",
+                     image.cols, "x", image.rows));
+  }
+  cv::Mat flipped;
+  cv::flip(image, flipped, 0);  // continuous output
+  gl::Texture texture = gl::CreateTexture(GL_TEXTURE_2D);
+  glTextureStorage2D(texture.id(), 1, GL_RGB32F, image.cols, image.rows);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  glTextureSubImage2D(texture.id(), 0, 0, 0, image.cols, image.rows, GL_RGB, GL_FLOAT, flipped.data);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError(absl::StrCat("uploading ", what)));
+  return texture;
+}
+
+// Depth texture array for shadow maps: `target` GL_TEXTURE_CUBE_MAP_ARRAY
+// (layers = 6 per light) or GL_TEXTURE_2D_ARRAY. Nearest lookups, no compare
+// mode: the shader compares against distances itself.
+gl::Texture CreateShadowArray(GLenum target, int size, int layers) {
+  gl::Texture texture = gl::CreateTexture(target);
+  glTextureStorage3D(texture.id(), 1, GL_DEPTH_COMPONENT32F, size, size, layers);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
+  return texture;
+}
+
+}  // namespace
+
+struct PhongRenderer::Impl {
+  gl::EglContext* context = nullptr;
+  RendererOptions options;
+  size_t num_vertices = 0;
+  GLsizei num_indices = 0;
+  uint32_t max_material_id = 0;
+  bool has_uvs = false;
+
+  gl::VertexArray vertex_array;
+  gl::Buffer position_buffer;  // per frame
+  gl::Buffer normal_buffer;    // per frame
+  gl::Buffer rest_position_buffer;
+  gl::Buffer uv_buffer;
+  gl::Buffer index_buffer;
+  gl::Buffer triangle_material_buffer;
+  gl::Buffer material_buffer;
+  gl::Buffer light_buffer;
+
+  gl::Program phong_program;
+  gl::Program point_shadow_program;
+  gl::Program directional_shadow_program;
+
+  // 1x1 stand-ins so that every sampler of phong.frag always has a texture.
+  gl::Texture placeholder_texture;
+  gl::Texture kd_texture;
+  gl::Texture atlas_kd, atlas_ks, atlas_ke;
+
+  enum class Mode { kNone, kProcedural, kAtlas };
+  Mode mode = Mode::kNone;
+  bool needs_kd_texture = false;
+
+  std::vector<scene::Light> lights;
+  int num_point_lights = 0;
+  int num_directional_lights = 0;
+  gl::Texture point_shadows;        // cube-map array, 6 layers per point light (at least one cube)
+  gl::Texture directional_shadows;  // 2D array, one layer per directional light (at least one)
+  gl::Framebuffer shadow_framebuffer;
+
+  int target_width = 0, target_height = 0;
+  gl::Framebuffer target_framebuffer;
+  gl::Renderbuffer target_color;  // RGBA32F
+  gl::Renderbuffer target_depth;  // DEPTH_COMPONENT32F
+  std::vector<float> readback;
+
+  absl::Status EnsureTarget(int width, int height);
+  absl::Status EnsureShadowMaps();
+  // Fills `block` and renders every shadow map for the pose's bounds.
+  absl::Status RenderShadowMaps(const BoundingSphere& bounds, GpuLightBlock* block);
+  void Draw() const {
+    glBindVertexArray(vertex_array.id());
+    glDrawElements(GL_TRIANGLES, num_indices, GL_UNSIGNED_INT, nullptr);
+  }
+};
+
+absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglContext& context,
+                                                                     const RenderMesh& mesh,
+                                                                     const RendererOptions& options) {
+  if (!context.IsCurrent()) {
+    return absl::FailedPreconditionError("PhongRenderer::Create: the EGL context is not current on this thread");
+  }
+  if (options.shadow_map_size < 1 || options.shadow_map_size > 8192) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("options.shadow_map_size: must be in [1, 8192], got ", options.shadow_map_size));
+  }
+  if (!(options.near_plane > 0.0f) || !(options.far_plane > options.near_plane)) {
+    return absl::InvalidArgumentError(absl::StrCat("options.near_plane, far_plane: need 0 < near < far, got ",
+                                                   options.near_plane, ", ", options.far_plane));
+  }
+  const size_t n = mesh.rest_positions.size();
+  if (n == 0) return absl::InvalidArgumentError("mesh.rest_positions: empty; it defines the render vertices");
+  if (n > static_cast<size_t>(std::numeric_limits<GLint>::max())) {
+    return absl::InvalidArgumentError(absl::StrCat("mesh.rest_positions: too many vertices (", n, ")"));
+  }
+  if (!mesh.uvs.empty() && mesh.uvs.size() != n) {
+    return absl::InvalidArgumentError(absl::StrCat("mesh.uvs: expected empty or ", n, " entries (one per render vertex), got ",
+                                                   mesh.uvs.size()));
+  }
+  if (!mesh.triangle_material.empty() && mesh.triangle_material.size() != mesh.triangles.size()) {
+    return absl::InvalidArgumentError(absl::StrCat("mesh.triangle_material: expected empty or ",
+                                                   mesh.triangles.size(), " entries (one per triangle), got ",
+                                                   mesh.triangle_material.size()));
+  }
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const glm::uvec3& tri = mesh.triangles[t];
+    if (tri.x >= n || tri.y >= n || tri.z >= n) {
+      return absl::InvalidArgumentError(absl::StrCat("mesh.triangles[", t, "]: vertex index out of range (",
+                                                     tri.x, ", ", tri.y, ", ", tri.z, "), ", n, " vertices"));
+    }
+  }
+
+  auto impl = std::make_unique<Impl>();
+  impl->context = &context;
+  impl->options = options;
+  impl->num_vertices = n;
+  impl->num_indices = static_cast<GLsizei>(mesh.triangles.size() * 3);
+  impl->has_uvs = !mesh.uvs.empty();
+  for (uint32_t id : mesh.triangle_material) impl->max_material_id = std::max(impl->max_material_id, id);
+
+  MVBRDF_ASSIGN_OR_RETURN(impl->phong_program, gl::BuildProgram({{GL_VERTEX_SHADER, "phong.vert", {}},
+                                                                 {GL_FRAGMENT_SHADER, "phong.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(impl->point_shadow_program,
+                          gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
+                                            {GL_FRAGMENT_SHADER, "shadow_point.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(impl->directional_shadow_program,
+                          gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
+                                            {GL_FRAGMENT_SHADER, "shadow_directional.frag", {}}}));
+
+  const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(n * sizeof(glm::vec3));
+  impl->position_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl->position_buffer.id(), vec3_bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
+  impl->normal_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl->normal_buffer.id(), vec3_bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
+  impl->rest_position_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl->rest_position_buffer.id(), vec3_bytes, mesh.rest_positions.data(), 0);
+  impl->uv_buffer = gl::CreateBuffer();
+  if (impl->has_uvs) {
+    glNamedBufferStorage(impl->uv_buffer.id(), static_cast<GLsizeiptr>(n * sizeof(glm::vec2)), mesh.uvs.data(), 0);
+  }
+  impl->index_buffer = gl::CreateBuffer();
+  // Zero-sized storage is legal; keep one element so the buffer always exists.
+  std::vector<glm::uvec3> triangles = mesh.triangles;
+  if (triangles.empty()) triangles.emplace_back(0u);
+  glNamedBufferStorage(impl->index_buffer.id(), static_cast<GLsizeiptr>(triangles.size() * sizeof(glm::uvec3)),
+                       triangles.data(), 0);
+  std::vector<uint32_t> triangle_material = mesh.triangle_material;
+  if (triangle_material.empty()) triangle_material.assign(std::max<size_t>(mesh.triangles.size(), 1), 0u);
+  impl->triangle_material_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl->triangle_material_buffer.id(),
+                       static_cast<GLsizeiptr>(triangle_material.size() * sizeof(uint32_t)),
+                       triangle_material.data(), 0);
+  impl->material_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl->material_buffer.id(), kMaxMaterials * sizeof(GpuMaterial), nullptr,
+                       GL_DYNAMIC_STORAGE_BIT);
+  impl->light_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl->light_buffer.id(), sizeof(GpuLightBlock), nullptr, GL_DYNAMIC_STORAGE_BIT);
+
+  impl->vertex_array = gl::CreateVertexArray();
+  const GLuint vao = impl->vertex_array.id();
+  const std::array<std::pair<GLuint, GLint>, 4> attributes = {{{impl->position_buffer.id(), 3},
+                                                               {impl->normal_buffer.id(), 3},
+                                                               {impl->rest_position_buffer.id(), 3},
+                                                               {impl->uv_buffer.id(), 2}}};
+  for (GLuint i = 0; i < attributes.size(); ++i) {
+    if (i == 3 && !impl->has_uvs) continue;  // disabled attribute reads as (0, 0)
+    glVertexArrayVertexBuffer(vao, i, attributes[i].first, 0,
+                              static_cast<GLsizei>(attributes[i].second * sizeof(float)));
+    glVertexArrayAttribFormat(vao, i, attributes[i].second, GL_FLOAT, GL_FALSE, 0);
+    glVertexArrayAttribBinding(vao, i, i);
+    glEnableVertexArrayAttrib(vao, i);
+  }
+  glVertexArrayElementBuffer(vao, impl->index_buffer.id());
+
+  const cv::Mat zero(1, 1, CV_32FC3, cv::Scalar(0, 0, 0));
+  MVBRDF_ASSIGN_OR_RETURN(impl->placeholder_texture, UploadUvImage(zero, "placeholder texture"));
+  impl->shadow_framebuffer = gl::CreateFramebuffer();
+  glNamedFramebufferDrawBuffer(impl->shadow_framebuffer.id(), GL_NONE);
+  glNamedFramebufferReadBuffer(impl->shadow_framebuffer.id(), GL_NONE);
+  MVBRDF_RETURN_IF_ERROR(impl->EnsureShadowMaps());
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("PhongRenderer::Create"));
+  return std::unique_ptr<PhongRenderer>(new PhongRenderer(std::move(impl)));
+}
+
+PhongRenderer::PhongRenderer(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+PhongRenderer::~PhongRenderer() = default;
+
+absl::Status PhongRenderer::SetProceduralMaterials(const std::vector<ProceduralMaterial>& materials) {
+  if (materials.empty() || materials.size() > kMaxMaterials) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("materials: expected 1 to ", kMaxMaterials, " materials, got ", materials.size()));
+  }
+  if (impl_->max_material_id >= materials.size()) {
+    return absl::InvalidArgumentError(absl::StrCat("materials: the mesh uses material ", impl_->max_material_id,
+                                                   " but only ", materials.size(), " are given"));
+  }
+  std::vector<GpuMaterial> gpu(materials.size());
+  bool needs_kd_texture = false;
+  for (size_t i = 0; i < materials.size(); ++i) {
+    const ProceduralMaterial& m = materials[i];
+    if (m.kd_from_texture && !impl_->has_uvs) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("materials[", i, "].kd_from_texture: the mesh has no uvs to look the texture up with"));
+    }
+    needs_kd_texture |= m.kd_from_texture;
+    gpu[i].base_amplitude = glm::vec4(m.kd.base, m.kd.amplitude);
+    gpu[i].offset_frequency = glm::vec4(m.kd.offset, m.kd.frequency);
+    gpu[i].ks_kd_from_texture = glm::vec4(m.ks, m.kd_from_texture ? 1.0f : 0.0f);
+    gpu[i].ke = glm::vec4(m.ke, 0.0f);
+  }
+  glNamedBufferSubData(impl_->material_buffer.id(), 0, static_cast<GLsizeiptr>(gpu.size() * sizeof(GpuMaterial)),
+                       gpu.data());
+  impl_->needs_kd_texture = needs_kd_texture;
+  impl_->mode = Impl::Mode::kProcedural;
+  return gl::CheckGlError("SetProceduralMaterials");
+}
+
+absl::Status PhongRenderer::SetKdTexture(const cv::Mat& kd_linear) {
+  MVBRDF_ASSIGN_OR_RETURN(impl_->kd_texture, UploadUvImage(kd_linear, "kd texture"));
+  return absl::OkStatus();
+}
+
+absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke) {
+  if (!impl_->has_uvs) return absl::FailedPreconditionError("atlas materials: the mesh has no uvs");
+  MVBRDF_ASSIGN_OR_RETURN(gl::Texture kd_texture, UploadUvImage(kd, "kd atlas"));
+  MVBRDF_ASSIGN_OR_RETURN(gl::Texture ks_texture, UploadUvImage(ks, "ks atlas"));
+  MVBRDF_ASSIGN_OR_RETURN(gl::Texture ke_texture, UploadUvImage(ke, "ke atlas"));
+  impl_->atlas_kd = std::move(kd_texture);
+  impl_->atlas_ks = std::move(ks_texture);
+  impl_->atlas_ke = std::move(ke_texture);
+  impl_->mode = Impl::Mode::kAtlas;
+  return absl::OkStatus();
+}
+
+absl::Status PhongRenderer::SetLights(const std::vector<scene::Light>& lights) {
+  if (lights.size() > kMaxLights) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("lights: at most ", kMaxLights, " lights are supported, got ", lights.size()));
+  }
+  int num_point = 0, num_directional = 0;
+  for (size_t k = 0; k < lights.size(); ++k) {
+    const scene::Light& light = lights[k];
+    if (light.directional) {
+      if (!(glm::length(light.direction) > 0.0f)) {
+        return absl::InvalidArgumentError(absl::StrCat("lights[", k, "].direction: must be non-zero"));
+      }
+      ++num_directional;
+    } else {
+      ++num_point;
+    }
+  }
+  impl_->lights = lights;
+  impl_->num_point_lights = num_point;
+  impl_->num_directional_lights = num_directional;
+  return impl_->EnsureShadowMaps();
+}
+
+absl::Status PhongRenderer::Impl::EnsureShadowMaps() {
+  const int size = options.shadow_map_size;
+  const int cubes = std::max(num_point_lights, 1);
+  GLint current = 0;
+  if (point_shadows) glGetTextureLevelParameteriv(point_shadows.id(), 0, GL_TEXTURE_DEPTH, &current);
+  if (!point_shadows || current != 6 * cubes) {
+    point_shadows = CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, size, 6 * cubes);
+  }
+  const int maps = std::max(num_directional_lights, 1);
+  current = 0;
+  if (directional_shadows) glGetTextureLevelParameteriv(directional_shadows.id(), 0, GL_TEXTURE_DEPTH, &current);
+  if (!directional_shadows || current != maps) {
+    directional_shadows = CreateShadowArray(GL_TEXTURE_2D_ARRAY, size, maps);
+  }
+  return gl::CheckGlError("allocating shadow maps");
+}
+
+absl::Status PhongRenderer::Impl::EnsureTarget(int width, int height) {
+  if (target_framebuffer && width == target_width && height == target_height) return absl::OkStatus();
+  target_framebuffer = gl::CreateFramebuffer();
+  target_color = gl::CreateRenderbuffer();
+  glNamedRenderbufferStorage(target_color.id(), GL_RGBA32F, width, height);
+  target_depth = gl::CreateRenderbuffer();
+  glNamedRenderbufferStorage(target_depth.id(), GL_DEPTH_COMPONENT32F, width, height);
+  glNamedFramebufferRenderbuffer(target_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, target_color.id());
+  glNamedFramebufferRenderbuffer(target_framebuffer.id(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, target_depth.id());
+  glNamedFramebufferDrawBuffer(target_framebuffer.id(), GL_COLOR_ATTACHMENT0);
+  glNamedFramebufferReadBuffer(target_framebuffer.id(), GL_COLOR_ATTACHMENT0);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("allocating the render target"));
+  MVBRDF_RETURN_IF_ERROR(gl::CheckFramebufferComplete(target_framebuffer, "render target"));
+  target_width = width;
+  target_height = height;
+  return absl::OkStatus();
+}
+
+absl::Status PhongRenderer::Impl::RenderShadowMaps(const BoundingSphere& bounds, GpuLightBlock* block) {
+  const int size = options.shadow_map_size;
+  // Shadow maps cover the bounding sphere with a little room, so that nothing
+  // of the mesh is clipped by the light's far plane or the map's border.
+  const float radius = bounds.radius * 1.01f + 1e-4f;
+  glBindFramebuffer(GL_FRAMEBUFFER, shadow_framebuffer.id());
+  glViewport(0, 0, size, size);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_CULL_FACE);  // both sides of every triangle cast shadows
+  glDisable(GL_BLEND);
+
+  int point_layer = 0, directional_layer = 0;
+  block->count = glm::ivec4(static_cast<int>(lights.size()), 0, 0, 0);
+  for (size_t k = 0; k < lights.size(); ++k) {
+    const scene::Light& light = lights[k];
+    GpuLight& gpu = block->lights[k];
+    gpu.intensity = glm::vec4(light.intensity, 0.0f);
+    gpu.shadow_from_world = glm::mat4(1.0f);
+    if (!light.directional) {
+      gpu.position = glm::vec4(light.position, 1.0f);
+      const float range = glm::length(light.position - bounds.center) + radius;
+      // The perspective near plane only clips; depth is the distance written
+      // by shadow_point.frag.
+      const float near_plane = range * 1e-4f;
+      // Angle of one texel at the face centre (the largest on the face).
+      gpu.shadow = glm::vec4(static_cast<float>(point_layer), range, 2.0f / size, 0.0f);
+      glProgramUniform3fv(point_shadow_program.id(), kLightPositionLocation, 1, glm::value_ptr(light.position));
+      glProgramUniform1f(point_shadow_program.id(), kInverseRangeLocation, 1.0f / range);
+      glUseProgram(point_shadow_program.id());
+      const glm::mat4 projection = glm::perspective(glm::radians(90.0f), 1.0f, near_plane, range);
+      for (int face = 0; face < 6; ++face) {
+        const glm::mat4 view =
+            glm::lookAt(light.position, light.position + kCubeFaces[face][0], kCubeFaces[face][1]);
+        const glm::mat4 clip_from_world = projection * view;
+        glProgramUniformMatrix4fv(point_shadow_program.id(), kClipFromWorldLocation, 1, GL_FALSE,
+                                  glm::value_ptr(clip_from_world));
+        glNamedFramebufferTextureLayer(shadow_framebuffer.id(), GL_DEPTH_ATTACHMENT, point_shadows.id(), 0,
+                                       6 * point_layer + face);
+        glClear(GL_DEPTH_BUFFER_BIT);
+        Draw();
+      }
+      ++point_layer;
+    } else {
+      const glm::vec3 l = glm::normalize(light.direction);
+      gpu.position = glm::vec4(l, 0.0f);
+      // Orthographic view along -l, fitted to the bounding sphere: depth 0 at
+      // the sphere's near side, 1 at its far side (2 * radius further).
+      const glm::vec3 eye = bounds.center + l * radius;
+      const glm::vec3 up = std::abs(l.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+      const glm::mat4 view = glm::lookAt(eye, bounds.center, up);
+      const glm::mat4 projection = glm::ortho(-radius, radius, -radius, radius, 0.0f, 2.0f * radius);
+      const glm::mat4 clip_from_world = projection * view;
+      // Clip space [-1, 1]^3 -> texture coordinates and window depth [0, 1]^3.
+      const glm::mat4 unit_from_clip =
+          glm::translate(glm::mat4(1.0f), glm::vec3(0.5f)) * glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
+      gpu.shadow_from_world = unit_from_clip * clip_from_world;
+      gpu.shadow = glm::vec4(static_cast<float>(directional_layer), 2.0f * radius, 2.0f * radius / size, 0.0f);
+      glProgramUniformMatrix4fv(directional_shadow_program.id(), kClipFromWorldLocation, 1, GL_FALSE,
+                                glm::value_ptr(clip_from_world));
+      glUseProgram(directional_shadow_program.id());
+      glNamedFramebufferTextureLayer(shadow_framebuffer.id(), GL_DEPTH_ATTACHMENT, directional_shadows.id(), 0,
+                                     directional_layer);
+      glClear(GL_DEPTH_BUFFER_BIT);
+      Draw();
+      ++directional_layer;
+    }
+  }
+  return gl::CheckGlError("rendering shadow maps");
+}
+
+absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene::CameraModel& camera) {
+  Impl& r = *impl_;
+  if (!r.context->IsCurrent()) {
+    return absl::FailedPreconditionError("PhongRenderer::Render: the EGL context is not current on this thread");
+  }
+  if (r.mode == Impl::Mode::kNone) {
+    return absl::FailedPreconditionError(
+        "PhongRenderer::Render: no materials; call SetProceduralMaterials or SetAtlasMaterials first");
+  }
+  if (r.mode == Impl::Mode::kProcedural && r.needs_kd_texture && !r.kd_texture) {
+    return absl::FailedPreconditionError(
+        "PhongRenderer::Render: a material takes kd from the texture but SetKdTexture was not called");
+  }
+  if (pose.positions.size() != r.num_vertices || pose.normals.size() != r.num_vertices) {
+    return absl::InvalidArgumentError(absl::StrCat("pose: expected ", r.num_vertices,
+                                                   " positions and normals (one per render vertex), got ",
+                                                   pose.positions.size(), " and ", pose.normals.size()));
+  }
+  if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0.0) || !(camera.fy > 0.0)) {
+    return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name, "\": need positive size and focal lengths, got ",
+                                                   camera.width, "x", camera.height, ", fx ", camera.fx, ", fy ",
+                                                   camera.fy));
+  }
+
+  const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(r.num_vertices * sizeof(glm::vec3));
+  glNamedBufferSubData(r.position_buffer.id(), 0, vec3_bytes, pose.positions.data());
+  glNamedBufferSubData(r.normal_buffer.id(), 0, vec3_bytes, pose.normals.data());
+
+  GpuLightBlock block{};
+  MVBRDF_RETURN_IF_ERROR(r.RenderShadowMaps(ComputeBoundingSphere(pose.positions), &block));
+  glNamedBufferSubData(r.light_buffer.id(), 0, sizeof(GpuLightBlock), &block);
+
+  // Main pass.
+  MVBRDF_RETURN_IF_ERROR(r.EnsureTarget(camera.width, camera.height));
+  const glm::dmat4 clip_from_world =
+      ClipFromCamera(camera, r.options.near_plane, r.options.far_plane) * CamFromWorld(camera);
+  const glm::mat4 clip_from_world_f(clip_from_world);
+  const glm::vec3 camera_center(camera.CenterInWorld());
+  const GLuint program = r.phong_program.id();
+  glProgramUniformMatrix4fv(program, kClipFromWorldLocation, 1, GL_FALSE, glm::value_ptr(clip_from_world_f));
+  glProgramUniform3fv(program, kCameraCenterLocation, 1, glm::value_ptr(camera_center));
+  glProgramUniform1i(program, kAtlasModeLocation, r.mode == Impl::Mode::kAtlas ? 1 : 0);
+  glProgramUniform1i(program, kFalloffLocation, r.options.inverse_square_falloff ? 1 : 0);
+
+  const GLuint placeholder = r.placeholder_texture.id();
+  const bool atlas = r.mode == Impl::Mode::kAtlas;
+  glBindTextureUnit(kKdTextureUnit, r.kd_texture ? r.kd_texture.id() : placeholder);
+  glBindTextureUnit(kAtlasKdUnit, atlas ? r.atlas_kd.id() : placeholder);
+  glBindTextureUnit(kAtlasKsUnit, atlas ? r.atlas_ks.id() : placeholder);
+  glBindTextureUnit(kAtlasKeUnit, atlas ? r.atlas_ke.id() : placeholder);
+  glBindTextureUnit(kPointShadowUnit, r.point_shadows.id());
+  glBindTextureUnit(kDirectionalShadowUnit, r.directional_shadows.id());
+  glBindBufferBase(GL_UNIFORM_BUFFER, kLightBlockBinding, r.light_buffer.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMaterialBlockBinding, r.material_buffer.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTriangleMaterialBlockBinding, r.triangle_material_buffer.id());
+
+  glBindFramebuffer(GL_FRAMEBUFFER, r.target_framebuffer.id());
+  glViewport(0, 0, camera.width, camera.height);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  const float clear_color[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  const float clear_depth = 1.0f;
+  glClearNamedFramebufferfv(r.target_framebuffer.id(), GL_COLOR, 0, clear_color);
+  glClearNamedFramebufferfv(r.target_framebuffer.id(), GL_DEPTH, 0, &clear_depth);
+  glUseProgram(program);
+  r.Draw();
+
+  // Read back in the target's own format (PERF.md: the fast path). Window row
+  // 0 is image row 0 (see ClipFromCamera).
+  r.readback.resize(static_cast<size_t>(camera.width) * camera.height * 4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+  glReadPixels(0, 0, camera.width, camera.height, GL_RGBA, GL_FLOAT, r.readback.data());
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("PhongRenderer::Render"));
+
+  RenderOutput output;
+  output.radiance.create(camera.height, camera.width, CV_32FC3);
+  output.coverage.create(camera.height, camera.width, CV_8UC1);
+  const float* src = r.readback.data();
+  for (int y = 0; y < camera.height; ++y) {
+    float* radiance = output.radiance.ptr<float>(y);
+    uint8_t* coverage = output.coverage.ptr<uint8_t>(y);
+    for (int x = 0; x < camera.width; ++x, src += 4) {
+      radiance[3 * x + 0] = src[0];
+      radiance[3 * x + 1] = src[1];
+      radiance[3 * x + 2] = src[2];
+      coverage[x] = src[3] > 0.5f ? 255 : 0;
+    }
+  }
+  return output;
+}
+
+}  // namespace mvbrdf::render
