@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "core/render/phong_model.h"
@@ -189,12 +190,138 @@ TEST_F(PhongRendererTest, PixelsMatchTheCpuModelAtRayCastPoints) {
   RecordProperty("max_relative_error", std::to_string(max_error / scale));
 }
 
+// A coarse UV sphere: rest pose = pose, smooth vertex normals, three materials
+// in bands of rings (exercises the per-triangle material lookup).
+void MakeSphere(int rings, int segments, float radius, RenderMesh* mesh, Pose* pose) {
+  for (int i = 0; i <= rings; ++i) {
+    const float theta = static_cast<float>(M_PI) * i / rings;
+    for (int j = 0; j <= segments; ++j) {
+      const float phi = 2.0f * static_cast<float>(M_PI) * j / segments;
+      const glm::vec3 n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+      mesh->rest_positions.push_back(radius * n);
+      mesh->uvs.emplace_back(static_cast<float>(j) / segments, 1.0f - static_cast<float>(i) / rings);
+      pose->positions.push_back(radius * n);
+      pose->normals.push_back(n);
+    }
+  }
+  for (int i = 0; i < rings; ++i) {
+    for (int j = 0; j < segments; ++j) {
+      const uint32_t a = i * (segments + 1) + j, b = a + 1, c = a + segments + 1, d = c + 1;
+      mesh->triangles.emplace_back(a, c, b);
+      mesh->triangles.emplace_back(b, c, d);
+      mesh->triangle_material.push_back(static_cast<uint32_t>(i / 4 % 3));
+      mesh->triangle_material.push_back(static_cast<uint32_t>(i / 4 % 3));
+    }
+  }
+}
+
+// Möller-Trumbore: distance along the ray and barycentrics (of b and c).
+std::optional<glm::dvec3> IntersectTriangle(const glm::dvec3& origin, const glm::dvec3& direction,
+                                            const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const glm::dvec3 e1 = b - a, e2 = c - a;
+  const glm::dvec3 p = glm::cross(direction, e2);
+  const double det = glm::dot(e1, p);
+  if (std::abs(det) < 1e-15) return std::nullopt;
+  const glm::dvec3 s = origin - a;
+  const double beta = glm::dot(s, p) / det;
+  const glm::dvec3 q = glm::cross(s, e1);
+  const double gamma = glm::dot(direction, q) / det;
+  const double t = glm::dot(e2, q) / det;
+  if (beta < 0.0 || gamma < 0.0 || beta + gamma > 1.0 || t <= 0.0) return std::nullopt;
+  return glm::dvec3(t, beta, gamma);
+}
+
+TEST_F(PhongRendererTest, SphereMatchesTheCpuModelWithInterpolatedNormals) {
+  RenderMesh mesh;
+  Pose pose;
+  MakeSphere(24, 24, 0.8f, &mesh, &pose);
+  RendererOptions options;
+  options.shadow_map_size = 512;
+  auto renderer = MakeRenderer(mesh, options);
+  ASSERT_NE(renderer, nullptr);
+  std::vector<ProceduralMaterial> materials(3);
+  for (int m = 0; m < 3; ++m) {
+    materials[m].kd.base = glm::vec3(0.3f + 0.2f * m, 0.5f, 0.7f - 0.2f * m);
+    materials[m].kd.amplitude = 0.4f;
+    materials[m].kd.frequency = 4.0f;
+    materials[m].ks = glm::vec3(0.1f + 0.2f * m);
+    materials[m].ke = glm::vec3(4.0f + 10.0f * m);
+  }
+  ASSERT_TRUE(renderer->SetProceduralMaterials(materials).ok());
+  scene::Light sun;
+  sun.directional = true;
+  sun.direction = glm::normalize(glm::vec3(-0.5f, -0.8f, 0.6f));
+  sun.intensity = glm::vec3(0.5f);
+  const std::vector<scene::Light> lights = {PointLight({1.5f, -1.5f, 1.5f}, {1.0f, 0.9f, 0.8f}), sun};
+  ASSERT_TRUE(renderer->SetLights(lights).ok());
+  const scene::CameraModel camera = LookAtCamera({0.5, -3.0, 1.0}, {0, 0, 0}, 128, 96, 110.0);
+  absl::StatusOr<RenderOutput> output = renderer->Render(pose, camera);
+  ASSERT_TRUE(output.ok()) << output.status();
+  const float scale = MaxValue(output->radiance);
+  ASSERT_GT(scale, 0.0f);
+
+  const glm::dvec3 center = camera.CenterInWorld();
+  int compared = 0;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const glm::dvec3 ray = PixelRay(camera, u, v);
+      double nearest = std::numeric_limits<double>::max();
+      glm::dvec3 barycentric(0.0);
+      size_t triangle = 0;
+      for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+        const glm::uvec3& tri = mesh.triangles[t];
+        const auto hit = IntersectTriangle(center, ray, pose.positions[tri.x], pose.positions[tri.y],
+                                           pose.positions[tri.z]);
+        if (hit && hit->x < nearest) {
+          nearest = hit->x;
+          barycentric = glm::dvec3(1.0 - hit->y - hit->z, hit->y, hit->z);
+          triangle = t;
+        }
+      }
+      if (nearest == std::numeric_limits<double>::max()) {
+        // Outside the silhouette (away from it by more than the pixel test can resolve).
+        continue;
+      }
+      // Skip pixels near a triangle edge (which triangle wins is the
+      // rasteriser's call) and near the silhouette.
+      if (std::min({barycentric.x, barycentric.y, barycentric.z}) < 0.02) continue;
+      ASSERT_EQ(output->coverage.at<uint8_t>(v, u), 255) << "pixel " << u << ", " << v;
+      const glm::uvec3& tri = mesh.triangles[triangle];
+      const glm::dvec3 a = pose.positions[tri.x], b = pose.positions[tri.y], c = pose.positions[tri.z];
+      const glm::vec3 point(center + nearest * ray);
+      const glm::vec3 normal = glm::normalize(glm::vec3(barycentric.x * glm::dvec3(pose.normals[tri.x]) +
+                                                        barycentric.y * glm::dvec3(pose.normals[tri.y]) +
+                                                        barycentric.z * glm::dvec3(pose.normals[tri.z])));
+      // Near the terminator the flat faces shadow themselves where smooth
+      // normals still see the light; compare only where every face is clearly
+      // lit or clearly turned away.
+      const glm::vec3 face = glm::normalize(glm::vec3(glm::cross(b - a, c - a)));
+      bool ambiguous = false;
+      for (const scene::Light& light : lights) {
+        const glm::vec3 l = light.directional ? light.direction : glm::normalize(light.position - point);
+        ambiguous |= std::abs(glm::dot(l, face)) < 0.3f || std::abs(glm::dot(l, normal)) < 0.3f;
+      }
+      if (ambiguous) continue;
+      const ProceduralMaterial& m = materials[mesh.triangle_material[triangle]];
+      PhongParams params;
+      params.kd = EvaluateSolidTexture(m.kd, point);
+      params.ks = m.ks;
+      params.ke = m.ke;
+      const glm::vec3 expected = EvaluatePhong(params, point, normal, glm::vec3(center), lights, {}, false);
+      EXPECT_LE(MaxChannelError(output->radiance.at<cv::Vec3f>(v, u), expected), kRelativeTolerance * scale)
+          << "pixel " << u << ", " << v << " triangle " << triangle;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 1000);
+}
+
 // A ground square with a small square floating above it, both lit by light 0
 // (the occluder's) and light 1 (off to the side). Every pixel of the ground is
 // compared with the CPU model given the analytic visibility of each light.
 void CheckShadowsOnGround(PhongRenderer& renderer, const std::vector<scene::Light>& lights, const Pose& pose,
                           double ground_half, double occluder_half, double occluder_height,
-                          int* umbra_pixels, int* lit_pixels) {
+                          int* umbra_pixels, int* lit_pixels, int* occluder_pixels) {
   const scene::CameraModel camera = LookAtCamera({0.4, -3.0, 3.2}, {0, 0, 0}, 160, 120, 120.0);
   absl::StatusOr<RenderOutput> output = renderer.Render(pose, camera);
   ASSERT_TRUE(output.ok()) << output.status();
@@ -206,13 +333,24 @@ void CheckShadowsOnGround(PhongRenderer& renderer, const std::vector<scene::Ligh
   params.ks = glm::vec3(0.2f);
   params.ke = glm::vec3(6.0f);
   *umbra_pixels = 0;
+  *occluder_pixels = 0;
   *lit_pixels = 0;
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
       const glm::dvec3 ray = PixelRay(camera, u, v);
-      // Skip pixels that see the occluder (or come near its outline).
+      // The occluder's top is lit by every light (all are above it); skip
+      // pixels near its outline.
       const std::optional<glm::dvec3> occluder_hit = HitPlaneZ(center, ray, occluder_height);
-      if (occluder_hit && InsideSquare(*occluder_hit, occluder_half) > -kEdgeMargin) continue;
+      const double on_occluder = occluder_hit ? InsideSquare(*occluder_hit, occluder_half) : -1.0;
+      if (on_occluder > -kEdgeMargin) {
+        if (on_occluder < kEdgeMargin) continue;
+        const glm::vec3 expected =
+            EvaluatePhong(params, glm::vec3(*occluder_hit), {0, 0, 1}, glm::vec3(center), lights, {}, false);
+        EXPECT_LE(MaxChannelError(output->radiance.at<cv::Vec3f>(v, u), expected), kRelativeTolerance * scale)
+            << "occluder pixel " << u << ", " << v;
+        ++*occluder_pixels;
+        continue;
+      }
       const std::optional<glm::dvec3> hit = HitPlaneZ(center, ray, 0.0);
       if (!hit || InsideSquare(*hit, ground_half) < kEdgeMargin) continue;
       std::vector<bool> visible(lights.size(), true);
@@ -269,10 +407,12 @@ TEST_F(ShadowTest, PointLightUmbraUnderAnOccluder) {
   const std::vector<scene::Light> lights = {PointLight({0.15f, 0.1f, 2.0f}, glm::vec3(1.0f)),
                                             PointLight({-2.5f, 1.5f, 1.2f}, {0.4f, 0.5f, 0.6f})};
   ASSERT_TRUE(renderer_->SetLights(lights).ok());
-  int umbra = 0, lit = 0;
-  CheckShadowsOnGround(*renderer_, lights, pose_, kGroundHalf, kOccluderHalf, kOccluderHeight, &umbra, &lit);
+  int umbra = 0, lit = 0, occluder = 0;
+  CheckShadowsOnGround(*renderer_, lights, pose_, kGroundHalf, kOccluderHalf, kOccluderHeight, &umbra, &lit,
+                       &occluder);
   EXPECT_GT(umbra, 100);
   EXPECT_GT(lit, 3000);
+  EXPECT_GT(occluder, 50);
 }
 
 TEST_F(ShadowTest, DirectionalLightUmbraUnderAnOccluder) {
@@ -282,10 +422,12 @@ TEST_F(ShadowTest, DirectionalLightUmbraUnderAnOccluder) {
   sun.intensity = glm::vec3(0.9f);
   const std::vector<scene::Light> lights = {sun, PointLight({2.5f, 1.0f, 1.5f}, {0.5f, 0.4f, 0.3f})};
   ASSERT_TRUE(renderer_->SetLights(lights).ok());
-  int umbra = 0, lit = 0;
-  CheckShadowsOnGround(*renderer_, lights, pose_, kGroundHalf, kOccluderHalf, kOccluderHeight, &umbra, &lit);
+  int umbra = 0, lit = 0, occluder = 0;
+  CheckShadowsOnGround(*renderer_, lights, pose_, kGroundHalf, kOccluderHalf, kOccluderHeight, &umbra, &lit,
+                       &occluder);
   EXPECT_GT(umbra, 100);
   EXPECT_GT(lit, 3000);
+  EXPECT_GT(occluder, 50);
 }
 
 class AtlasTest : public PhongRendererTest {
@@ -412,25 +554,7 @@ TEST_F(PhongRendererTest, InvalidInputsAreStatuses) {
 TEST_F(PhongRendererTest, TimingSphere20kTriangles4PointLights) {
   RenderMesh mesh;
   Pose pose;
-  constexpr int kRings = 100, kSegments = 100;
-  for (int i = 0; i <= kRings; ++i) {
-    const float theta = static_cast<float>(M_PI) * i / kRings;
-    for (int j = 0; j <= kSegments; ++j) {
-      const float phi = 2.0f * static_cast<float>(M_PI) * j / kSegments;
-      const glm::vec3 n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
-      mesh.rest_positions.push_back(0.5f * n);
-      mesh.uvs.emplace_back(static_cast<float>(j) / kSegments, 1.0f - static_cast<float>(i) / kRings);
-      pose.positions.push_back(0.5f * n);
-      pose.normals.push_back(n);
-    }
-  }
-  for (int i = 0; i < kRings; ++i) {
-    for (int j = 0; j < kSegments; ++j) {
-      const uint32_t a = i * (kSegments + 1) + j, b = a + 1, c = a + kSegments + 1, d = c + 1;
-      mesh.triangles.emplace_back(a, c, b);
-      mesh.triangles.emplace_back(b, c, d);
-    }
-  }
+  MakeSphere(100, 100, 0.5f, &mesh, &pose);
   ASSERT_EQ(mesh.triangles.size(), 20000u);
   auto renderer = MakeRenderer(mesh, RendererOptions{1024, true, 0.05f, 100.0f});
   ASSERT_NE(renderer, nullptr);
@@ -439,7 +563,7 @@ TEST_F(PhongRendererTest, TimingSphere20kTriangles4PointLights) {
   material.kd.frequency = 5.0f;
   material.ks = glm::vec3(0.3f);
   material.ke = glm::vec3(20.0f);
-  ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material, material, material}).ok());
   ASSERT_TRUE(renderer
                   ->SetLights({PointLight({2, 2, 2}, glm::vec3(8.0f)), PointLight({-2, 2, 2}, glm::vec3(8.0f)),
                                PointLight({2, -2, 2}, glm::vec3(8.0f)), PointLight({-2, -2, 2}, glm::vec3(8.0f))})
