@@ -19,23 +19,40 @@ namespace {
 
 const char* EglErrorName(EGLint error) {
   switch (error) {
-    case EGL_SUCCESS: return "EGL_SUCCESS";
-    case EGL_NOT_INITIALIZED: return "EGL_NOT_INITIALIZED";
-    case EGL_BAD_ACCESS: return "EGL_BAD_ACCESS";
-    case EGL_BAD_ALLOC: return "EGL_BAD_ALLOC";
-    case EGL_BAD_ATTRIBUTE: return "EGL_BAD_ATTRIBUTE";
-    case EGL_BAD_CONFIG: return "EGL_BAD_CONFIG";
-    case EGL_BAD_CONTEXT: return "EGL_BAD_CONTEXT";
-    case EGL_BAD_CURRENT_SURFACE: return "EGL_BAD_CURRENT_SURFACE";
-    case EGL_BAD_DISPLAY: return "EGL_BAD_DISPLAY";
-    case EGL_BAD_MATCH: return "EGL_BAD_MATCH";
-    case EGL_BAD_NATIVE_PIXMAP: return "EGL_BAD_NATIVE_PIXMAP";
-    case EGL_BAD_NATIVE_WINDOW: return "EGL_BAD_NATIVE_WINDOW";
-    case EGL_BAD_PARAMETER: return "EGL_BAD_PARAMETER";
-    case EGL_BAD_SURFACE: return "EGL_BAD_SURFACE";
-    case EGL_CONTEXT_LOST: return "EGL_CONTEXT_LOST";
-    case EGL_BAD_DEVICE_EXT: return "EGL_BAD_DEVICE_EXT";
-    default: return "unknown EGL error";
+    case EGL_SUCCESS:
+      return "EGL_SUCCESS";
+    case EGL_NOT_INITIALIZED:
+      return "EGL_NOT_INITIALIZED";
+    case EGL_BAD_ACCESS:
+      return "EGL_BAD_ACCESS";
+    case EGL_BAD_ALLOC:
+      return "EGL_BAD_ALLOC";
+    case EGL_BAD_ATTRIBUTE:
+      return "EGL_BAD_ATTRIBUTE";
+    case EGL_BAD_CONFIG:
+      return "EGL_BAD_CONFIG";
+    case EGL_BAD_CONTEXT:
+      return "EGL_BAD_CONTEXT";
+    case EGL_BAD_CURRENT_SURFACE:
+      return "EGL_BAD_CURRENT_SURFACE";
+    case EGL_BAD_DISPLAY:
+      return "EGL_BAD_DISPLAY";
+    case EGL_BAD_MATCH:
+      return "EGL_BAD_MATCH";
+    case EGL_BAD_NATIVE_PIXMAP:
+      return "EGL_BAD_NATIVE_PIXMAP";
+    case EGL_BAD_NATIVE_WINDOW:
+      return "EGL_BAD_NATIVE_WINDOW";
+    case EGL_BAD_PARAMETER:
+      return "EGL_BAD_PARAMETER";
+    case EGL_BAD_SURFACE:
+      return "EGL_BAD_SURFACE";
+    case EGL_CONTEXT_LOST:
+      return "EGL_CONTEXT_LOST";
+    case EGL_BAD_DEVICE_EXT:
+      return "EGL_BAD_DEVICE_EXT";
+    default:
+      return "unknown EGL error";
   }
 }
 
@@ -159,9 +176,12 @@ absl::StatusOr<EglPlatform> ParseEglPlatform(absl::string_view name) {
 
 const char* EglPlatformName(EglPlatform platform) {
   switch (platform) {
-    case EglPlatform::kAuto: return "auto";
-    case EglPlatform::kSurfaceless: return "surfaceless";
-    case EglPlatform::kDevice: return "device";
+    case EglPlatform::kAuto:
+      return "auto";
+    case EglPlatform::kSurfaceless:
+      return "surfaceless";
+    case EglPlatform::kDevice:
+      return "device";
   }
   return "unknown";
 }
@@ -232,13 +252,9 @@ absl::StatusOr<std::unique_ptr<EglContext>> EglContext::Create(EglPlatform platf
     }
     if (num_configs == 0) return absl::UnavailableError("eglChooseConfig: no OpenGL-renderable config");
   }
-  const EGLint context_attributes[] = {EGL_CONTEXT_MAJOR_VERSION,
-                                       4,
-                                       EGL_CONTEXT_MINOR_VERSION,
-                                       5,
-                                       EGL_CONTEXT_OPENGL_PROFILE_MASK,
-                                       EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
-                                       EGL_NONE};
+  const EGLint context_attributes[] = {
+      EGL_CONTEXT_MAJOR_VERSION,           4,       EGL_CONTEXT_MINOR_VERSION, 5, EGL_CONTEXT_OPENGL_PROFILE_MASK,
+      EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
   impl->context = eglCreateContext(impl->display, config, EGL_NO_CONTEXT, context_attributes);
   if (impl->context == EGL_NO_CONTEXT) return EglError("eglCreateContext(OpenGL 4.5 core)");
 

@@ -102,8 +102,7 @@ TEST(GlObjectsTest, IncompleteFramebufferIsAStatus) {
   Framebuffer framebuffer = CreateFramebuffer();
   const absl::Status status = CheckFramebufferComplete(framebuffer, "empty framebuffer");
   EXPECT_FALSE(status.ok());
-  EXPECT_NE(status.message().find("GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT"), absl::string_view::npos)
-      << status;
+  EXPECT_NE(status.message().find("GL_FRAMEBUFFER_INCOMPLETE_MISSING_ATTACHMENT"), absl::string_view::npos) << status;
 }
 
 TEST(GlObjectsTest, CheckGlErrorNamesTheError) {

@@ -46,13 +46,27 @@ class GlHandle {
 };
 
 namespace internal {
-struct TextureDeleter { static void Delete(GLuint id) { glDeleteTextures(1, &id); } };
-struct FramebufferDeleter { static void Delete(GLuint id) { glDeleteFramebuffers(1, &id); } };
-struct RenderbufferDeleter { static void Delete(GLuint id) { glDeleteRenderbuffers(1, &id); } };
-struct BufferDeleter { static void Delete(GLuint id) { glDeleteBuffers(1, &id); } };
-struct VertexArrayDeleter { static void Delete(GLuint id) { glDeleteVertexArrays(1, &id); } };
-struct ShaderDeleter { static void Delete(GLuint id) { glDeleteShader(id); } };
-struct ProgramDeleter { static void Delete(GLuint id) { glDeleteProgram(id); } };
+struct TextureDeleter {
+  static void Delete(GLuint id) { glDeleteTextures(1, &id); }
+};
+struct FramebufferDeleter {
+  static void Delete(GLuint id) { glDeleteFramebuffers(1, &id); }
+};
+struct RenderbufferDeleter {
+  static void Delete(GLuint id) { glDeleteRenderbuffers(1, &id); }
+};
+struct BufferDeleter {
+  static void Delete(GLuint id) { glDeleteBuffers(1, &id); }
+};
+struct VertexArrayDeleter {
+  static void Delete(GLuint id) { glDeleteVertexArrays(1, &id); }
+};
+struct ShaderDeleter {
+  static void Delete(GLuint id) { glDeleteShader(id); }
+};
+struct ProgramDeleter {
+  static void Delete(GLuint id) { glDeleteProgram(id); }
+};
 }  // namespace internal
 
 using Texture = GlHandle<internal::TextureDeleter>;

@@ -65,13 +65,20 @@ struct Preprocessor {
 
 const char* StageName(GLenum type) {
   switch (type) {
-    case GL_VERTEX_SHADER: return "vertex";
-    case GL_FRAGMENT_SHADER: return "fragment";
-    case GL_GEOMETRY_SHADER: return "geometry";
-    case GL_COMPUTE_SHADER: return "compute";
-    case GL_TESS_CONTROL_SHADER: return "tessellation control";
-    case GL_TESS_EVALUATION_SHADER: return "tessellation evaluation";
-    default: return "unknown-stage";
+    case GL_VERTEX_SHADER:
+      return "vertex";
+    case GL_FRAGMENT_SHADER:
+      return "fragment";
+    case GL_GEOMETRY_SHADER:
+      return "geometry";
+    case GL_COMPUTE_SHADER:
+      return "compute";
+    case GL_TESS_CONTROL_SHADER:
+      return "tessellation control";
+    case GL_TESS_EVALUATION_SHADER:
+      return "tessellation evaluation";
+    default:
+      return "unknown-stage";
   }
 }
 

@@ -63,9 +63,9 @@ TEST_F(ShaderProgramTest, CompileErrorNamesTheShaderAndCarriesTheLog) {
 }
 
 TEST_F(ShaderProgramTest, LinkErrorNamesTheShaders) {
-  const absl::StatusOr<Program> program = BuildProgram(
-      {{GL_VERTEX_SHADER, "a.vert", std::string("void Missing();\nvoid main() { Missing(); }\n")},
-       {GL_FRAGMENT_SHADER, "b.frag", std::string("out vec4 c;\nvoid main() { c = vec4(1.0); }\n")}});
+  const absl::StatusOr<Program> program =
+      BuildProgram({{GL_VERTEX_SHADER, "a.vert", std::string("void Missing();\nvoid main() { Missing(); }\n")},
+                    {GL_FRAGMENT_SHADER, "b.frag", std::string("out vec4 c;\nvoid main() { c = vec4(1.0); }\n")}});
   ASSERT_FALSE(program.ok());
   const std::string message(program.status().message());
   EXPECT_NE(message.find("linking"), std::string::npos) << message;

@@ -34,8 +34,7 @@ glm::vec3 EvaluatePhong(const PhongParams& params, const glm::vec3& point, const
   glm::vec3 f(0.0f);
   for (size_t k = 0; k < lights.size(); ++k) {
     if (!visible.empty() && !visible[k]) continue;
-    const LightCosines c =
-        ComputeLightCosines(lights[k], point, unit_normal, camera_center, inverse_square_falloff);
+    const LightCosines c = ComputeLightCosines(lights[k], point, unit_normal, camera_center, inverse_square_falloff);
     if (!(c.g > 0.0f)) continue;  // the specular term is zero wherever the diffuse term is
     // std::pow: 0^0 = 1 and 0^ke = 0 for ke > 0; shaders/phong_model.glsl matches.
     const glm::vec3 lobe(std::pow(c.h, params.ke.x), std::pow(c.h, params.ke.y), std::pow(c.h, params.ke.z));

@@ -3,10 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
-
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
+#include <limits>
 #include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
@@ -19,7 +18,7 @@
 namespace mvbrdf::render {
 namespace {
 
-constexpr int kMaxLights = 16;     // shaders/phong.frag kMaxLights
+constexpr int kMaxLights = 16;  // shaders/phong.frag kMaxLights
 constexpr int kMaxMaterials = 64;
 
 // std140 mirror of GpuLight in shaders/phong.frag.
@@ -128,9 +127,8 @@ glm::dmat4 CamFromWorld(const scene::CameraModel& camera) {
 // t = 0 (GL's convention), i.e. flipped.
 absl::StatusOr<gl::Texture> UploadUvImage(const cv::Mat& image, absl::string_view what) {
   if (image.empty() || image.type() != CV_32FC3) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(what, ": expected a non-empty CV_32FC3 image, got type ", image.type(), " of size ",
-                     image.cols, "x", image.rows));
+    return absl::InvalidArgumentError(absl::StrCat(what, ": expected a non-empty CV_32FC3 image, got type ",
+                                                   image.type(), " of size ", image.cols, "x", image.rows));
   }
   cv::Mat flipped;
   cv::flip(image, flipped, 0);  // continuous output
@@ -217,8 +215,7 @@ struct PhongRenderer::Impl {
   }
 };
 
-absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglContext& context,
-                                                                     const RenderMesh& mesh,
+absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglContext& context, const RenderMesh& mesh,
                                                                      const RendererOptions& options) {
   if (!context.IsCurrent()) {
     return absl::FailedPreconditionError("PhongRenderer::Create: the EGL context is not current on this thread");
@@ -237,19 +234,18 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
     return absl::InvalidArgumentError(absl::StrCat("mesh.rest_positions: too many vertices (", n, ")"));
   }
   if (!mesh.uvs.empty() && mesh.uvs.size() != n) {
-    return absl::InvalidArgumentError(absl::StrCat("mesh.uvs: expected empty or ", n, " entries (one per render vertex), got ",
-                                                   mesh.uvs.size()));
+    return absl::InvalidArgumentError(
+        absl::StrCat("mesh.uvs: expected empty or ", n, " entries (one per render vertex), got ", mesh.uvs.size()));
   }
   if (!mesh.triangle_material.empty() && mesh.triangle_material.size() != mesh.triangles.size()) {
-    return absl::InvalidArgumentError(absl::StrCat("mesh.triangle_material: expected empty or ",
-                                                   mesh.triangles.size(), " entries (one per triangle), got ",
-                                                   mesh.triangle_material.size()));
+    return absl::InvalidArgumentError(absl::StrCat("mesh.triangle_material: expected empty or ", mesh.triangles.size(),
+                                                   " entries (one per triangle), got ", mesh.triangle_material.size()));
   }
   for (size_t t = 0; t < mesh.triangles.size(); ++t) {
     const glm::uvec3& tri = mesh.triangles[t];
     if (tri.x >= n || tri.y >= n || tri.z >= n) {
-      return absl::InvalidArgumentError(absl::StrCat("mesh.triangles[", t, "]: vertex index out of range (",
-                                                     tri.x, ", ", tri.y, ", ", tri.z, "), ", n, " vertices"));
+      return absl::InvalidArgumentError(absl::StrCat("mesh.triangles[", t, "]: vertex index out of range (", tri.x,
+                                                     ", ", tri.y, ", ", tri.z, "), ", n, " vertices"));
     }
   }
 
@@ -263,12 +259,12 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
 
   MVBRDF_ASSIGN_OR_RETURN(impl->phong_program, gl::BuildProgram({{GL_VERTEX_SHADER, "phong.vert", {}},
                                                                  {GL_FRAGMENT_SHADER, "phong.frag", {}}}));
-  MVBRDF_ASSIGN_OR_RETURN(impl->point_shadow_program,
-                          gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
-                                            {GL_FRAGMENT_SHADER, "shadow_point.frag", {}}}));
-  MVBRDF_ASSIGN_OR_RETURN(impl->directional_shadow_program,
-                          gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
-                                            {GL_FRAGMENT_SHADER, "shadow_directional.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(
+      impl->point_shadow_program,
+      gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}}, {GL_FRAGMENT_SHADER, "shadow_point.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(
+      impl->directional_shadow_program,
+      gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}}, {GL_FRAGMENT_SHADER, "shadow_directional.frag", {}}}));
 
   const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(n * sizeof(glm::vec3));
   impl->position_buffer = gl::CreateBuffer();
@@ -291,8 +287,8 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
   if (triangle_material.empty()) triangle_material.assign(std::max<size_t>(mesh.triangles.size(), 1), 0u);
   impl->triangle_material_buffer = gl::CreateBuffer();
   glNamedBufferStorage(impl->triangle_material_buffer.id(),
-                       static_cast<GLsizeiptr>(triangle_material.size() * sizeof(uint32_t)),
-                       triangle_material.data(), 0);
+                       static_cast<GLsizeiptr>(triangle_material.size() * sizeof(uint32_t)), triangle_material.data(),
+                       0);
   impl->material_buffer = gl::CreateBuffer();
   glNamedBufferStorage(impl->material_buffer.id(), kMaxMaterials * sizeof(GpuMaterial), nullptr,
                        GL_DYNAMIC_STORAGE_BIT);
@@ -466,8 +462,7 @@ absl::Status PhongRenderer::Impl::RenderShadowMaps(const BoundingSphere& bounds,
       glUseProgram(point_shadow_program.id());
       const glm::mat4 projection = glm::perspective(glm::radians(90.0f), 1.0f, near_plane, range);
       for (int face = 0; face < 6; ++face) {
-        const glm::mat4 view =
-            glm::lookAt(light.position, light.position + kCubeFaces[face][0], kCubeFaces[face][1]);
+        const glm::mat4 view = glm::lookAt(light.position, light.position + kCubeFaces[face][0], kCubeFaces[face][1]);
         const glm::mat4 clip_from_world = projection * view;
         glProgramUniformMatrix4fv(point_shadow_program.id(), kClipFromWorldLocation, 1, GL_FALSE,
                                   glm::value_ptr(clip_from_world));
@@ -524,9 +519,9 @@ absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene
                                                    pose.positions.size(), " and ", pose.normals.size()));
   }
   if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0.0) || !(camera.fy > 0.0)) {
-    return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name, "\": need positive size and focal lengths, got ",
-                                                   camera.width, "x", camera.height, ", fx ", camera.fx, ", fy ",
-                                                   camera.fy));
+    return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name,
+                                                   "\": need positive size and focal lengths, got ", camera.width, "x",
+                                                   camera.height, ", fx ", camera.fx, ", fy ", camera.fy));
   }
 
   const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(r.num_vertices * sizeof(glm::vec3));

@@ -10,17 +10,16 @@
 #ifndef MVBRDF_CORE_RENDER_PHONG_RENDERER_H_
 #define MVBRDF_CORE_RENDER_PHONG_RENDERER_H_
 
-#include <memory>
-#include <vector>
-
 #include <glm/glm.hpp>
+#include <memory>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/gl/egl_context.h"
-#include "core/scene/light.h"
 #include "core/render/solid_texture.h"
 #include "core/scene/camera_model.h"
+#include "core/scene/light.h"
 
 namespace mvbrdf::render {
 

@@ -24,11 +24,10 @@ constexpr float kSamePathTolerance = 1e-5f;
 // shadow map and the rasteriser place edges only to within a texel or pixel.
 constexpr double kEdgeMargin = 0.03;
 
-scene::CameraModel LookAtCamera(const glm::dvec3& eye, const glm::dvec3& target, int width, int height,
-                                double focal) {
-  const glm::dvec3 z = glm::normalize(target - eye);  // forward
+scene::CameraModel LookAtCamera(const glm::dvec3& eye, const glm::dvec3& target, int width, int height, double focal) {
+  const glm::dvec3 z = glm::normalize(target - eye);                        // forward
   const glm::dvec3 x = glm::normalize(glm::cross(z, glm::dvec3(0, 0, 1)));  // right (world z is up)
-  const glm::dvec3 y = glm::cross(z, x);  // down
+  const glm::dvec3 y = glm::cross(z, x);                                    // down
   scene::CameraModel camera;
   camera.name = "test";
   camera.width = width;
@@ -60,9 +59,7 @@ std::optional<glm::dvec3> HitPlaneZ(const glm::dvec3& origin, const glm::dvec3& 
 }
 
 // Signed distance of (x, y) inside the square |x|, |y| <= half (positive inside).
-double InsideSquare(const glm::dvec3& p, double half) {
-  return half - std::max(std::abs(p.x), std::abs(p.y));
-}
+double InsideSquare(const glm::dvec3& p, double half) { return half - std::max(std::abs(p.x), std::abs(p.y)); }
 
 // Appends an n x n grid of quads over the square |x|, |y| <= half at height z,
 // normal +z, uv = (x, y) mapped from [-half, half] to [0, 1].
@@ -121,8 +118,8 @@ float MaxValue(const cv::Mat& image) {
 }
 
 float MaxChannelError(const cv::Vec3f& actual, const glm::vec3& expected) {
-  return std::max({std::abs(actual[0] - expected.x), std::abs(actual[1] - expected.y),
-                   std::abs(actual[2] - expected.z)});
+  return std::max(
+      {std::abs(actual[0] - expected.x), std::abs(actual[1] - expected.y), std::abs(actual[2] - expected.z)});
 }
 
 TEST_F(PhongRendererTest, PixelsMatchTheCpuModelAtRayCastPoints) {
@@ -216,8 +213,8 @@ void MakeSphere(int rings, int segments, float radius, RenderMesh* mesh, Pose* p
 }
 
 // Möller-Trumbore: distance along the ray and barycentrics (of b and c).
-std::optional<glm::dvec3> IntersectTriangle(const glm::dvec3& origin, const glm::dvec3& direction,
-                                            const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+std::optional<glm::dvec3> IntersectTriangle(const glm::dvec3& origin, const glm::dvec3& direction, const glm::dvec3& a,
+                                            const glm::dvec3& b, const glm::dvec3& c) {
   const glm::dvec3 e1 = b - a, e2 = c - a;
   const glm::dvec3 p = glm::cross(direction, e2);
   const double det = glm::dot(e1, p);
@@ -270,8 +267,8 @@ TEST_F(PhongRendererTest, SphereMatchesTheCpuModelWithInterpolatedNormals) {
       size_t triangle = 0;
       for (size_t t = 0; t < mesh.triangles.size(); ++t) {
         const glm::uvec3& tri = mesh.triangles[t];
-        const auto hit = IntersectTriangle(center, ray, pose.positions[tri.x], pose.positions[tri.y],
-                                           pose.positions[tri.z]);
+        const auto hit =
+            IntersectTriangle(center, ray, pose.positions[tri.x], pose.positions[tri.y], pose.positions[tri.z]);
         if (hit && hit->x < nearest) {
           nearest = hit->x;
           barycentric = glm::dvec3(1.0 - hit->y - hit->z, hit->y, hit->z);
@@ -320,8 +317,8 @@ TEST_F(PhongRendererTest, SphereMatchesTheCpuModelWithInterpolatedNormals) {
 // (the occluder's) and light 1 (off to the side). Every pixel of the ground is
 // compared with the CPU model given the analytic visibility of each light.
 void CheckShadowsOnGround(PhongRenderer& renderer, const std::vector<scene::Light>& lights, const Pose& pose,
-                          double ground_half, double occluder_half, double occluder_height,
-                          int* umbra_pixels, int* lit_pixels, int* occluder_pixels) {
+                          double ground_half, double occluder_half, double occluder_height, int* umbra_pixels,
+                          int* lit_pixels, int* occluder_pixels) {
   const scene::CameraModel camera = LookAtCamera({0.4, -3.0, 3.2}, {0, 0, 0}, 160, 120, 120.0);
   absl::StatusOr<RenderOutput> output = renderer.Render(pose, camera);
   ASSERT_TRUE(output.ok()) << output.status();
@@ -408,8 +405,7 @@ TEST_F(ShadowTest, PointLightUmbraUnderAnOccluder) {
                                             PointLight({-2.5f, 1.5f, 1.2f}, {0.4f, 0.5f, 0.6f})};
   ASSERT_TRUE(renderer_->SetLights(lights).ok());
   int umbra = 0, lit = 0, occluder = 0;
-  CheckShadowsOnGround(*renderer_, lights, pose_, kGroundHalf, kOccluderHalf, kOccluderHeight, &umbra, &lit,
-                       &occluder);
+  CheckShadowsOnGround(*renderer_, lights, pose_, kGroundHalf, kOccluderHalf, kOccluderHeight, &umbra, &lit, &occluder);
   EXPECT_GT(umbra, 100);
   EXPECT_GT(lit, 3000);
   EXPECT_GT(occluder, 50);
@@ -423,8 +419,7 @@ TEST_F(ShadowTest, DirectionalLightUmbraUnderAnOccluder) {
   const std::vector<scene::Light> lights = {sun, PointLight({2.5f, 1.0f, 1.5f}, {0.5f, 0.4f, 0.3f})};
   ASSERT_TRUE(renderer_->SetLights(lights).ok());
   int umbra = 0, lit = 0, occluder = 0;
-  CheckShadowsOnGround(*renderer_, lights, pose_, kGroundHalf, kOccluderHalf, kOccluderHeight, &umbra, &lit,
-                       &occluder);
+  CheckShadowsOnGround(*renderer_, lights, pose_, kGroundHalf, kOccluderHalf, kOccluderHeight, &umbra, &lit, &occluder);
   EXPECT_GT(umbra, 100);
   EXPECT_GT(lit, 3000);
   EXPECT_GT(occluder, 50);
@@ -579,9 +574,10 @@ TEST_F(PhongRendererTest, TimingSphere20kTriangles4PointLights) {
     EXPECT_GT(cv::countNonZero(output->coverage), 10000);
   }
   std::sort(ms.begin(), ms.end());
-  std::printf("[ timing   ] 320x240, 20000 triangles, 4 point lights, 1024^2 cube shadow maps: median %.1f ms "
-              "(min %.1f, max %.1f) per Render\n",
-              ms[2], ms[0], ms[4]);
+  std::printf(
+      "[ timing   ] 320x240, 20000 triangles, 4 point lights, 1024^2 cube shadow maps: median %.1f ms "
+      "(min %.1f, max %.1f) per Render\n",
+      ms[2], ms[0], ms[4]);
   RecordProperty("median_ms", std::to_string(ms[2]));
 }
 

@@ -106,8 +106,8 @@ TEST(SolidTextureTest, GpuMatchesCpu) {
       "  vec3 p = points[pixel.y * u_width + pixel.x].xyz;\n"
       "  color = vec4(ValueNoise(p), EvaluateSolidTexture(u_base, u_amplitude, u_frequency, u_offset, p));\n"
       "}\n";
-  absl::StatusOr<gl::Program> program = gl::BuildProgram(
-      {{GL_VERTEX_SHADER, "solid_texture_probe.vert", vertex}, {GL_FRAGMENT_SHADER, "solid_texture_probe.frag", fragment}});
+  absl::StatusOr<gl::Program> program = gl::BuildProgram({{GL_VERTEX_SHADER, "solid_texture_probe.vert", vertex},
+                                                          {GL_FRAGMENT_SHADER, "solid_texture_probe.frag", fragment}});
   ASSERT_TRUE(program.ok()) << program.status();
   glProgramUniform1i(program->id(), 0, kWidth);
   glProgramUniform3f(program->id(), 1, params.base.x, params.base.y, params.base.z);
@@ -142,8 +142,8 @@ TEST(SolidTextureTest, GpuMatchesCpu) {
     max_noise_error = std::max(max_noise_error, noise_error);
     if (i % 8 == 0) max_lattice_error = std::max(max_lattice_error, noise_error);
     const glm::vec3 kd = EvaluateSolidTexture(params, p);
-    max_kd_error = std::max({max_kd_error, std::abs(result[i].y - kd.x), std::abs(result[i].z - kd.y),
-                             std::abs(result[i].w - kd.z)});
+    max_kd_error = std::max(
+        {max_kd_error, std::abs(result[i].y - kd.x), std::abs(result[i].z - kd.y), std::abs(result[i].w - kd.z)});
   }
   EXPECT_LT(max_noise_error, kCpuGpuTolerance);
   EXPECT_LT(max_kd_error, kCpuGpuTolerance);
