@@ -275,6 +275,13 @@ absl::Status EglContext::MakeCurrent() {
   return absl::OkStatus();
 }
 
+absl::Status EglContext::ReleaseCurrent() {
+  if (!eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT)) {
+    return EglError("eglMakeCurrent(EGL_NO_CONTEXT)");
+  }
+  return absl::OkStatus();
+}
+
 bool EglContext::IsCurrent() const { return eglGetCurrentContext() == impl_->context; }
 
 EglPlatform EglContext::platform() const { return impl_->platform; }

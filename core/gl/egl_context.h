@@ -6,7 +6,7 @@
 // back to surfaceless.
 //
 // Ownership and threading: the context is created current on the calling
-// thread; MakeCurrent() moves it to another thread. It is passed explicitly to
+// thread; ReleaseCurrent() there and MakeCurrent() on another thread move it. It is passed explicitly to
 // whatever renders; there is no global GL state. Destroying it releases the
 // context and terminates the display.
 #ifndef MVBRDF_CORE_GL_EGL_CONTEXT_H_
@@ -33,8 +33,12 @@ class EglContext {
   EglContext(const EglContext&) = delete;
   EglContext& operator=(const EglContext&) = delete;
 
-  // Makes the context current on the calling thread (no surface).
+  // Makes the context current on the calling thread (no surface). A context
+  // is current on at most one thread: to move it, call ReleaseCurrent() on the
+  // old thread first (else EGL_BAD_ACCESS).
   absl::Status MakeCurrent();
+  // Makes no context current on the calling thread.
+  absl::Status ReleaseCurrent();
   // True when this context is current on the calling thread.
   bool IsCurrent() const;
 

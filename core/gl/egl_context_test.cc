@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <thread>
+
 #include "core/gl/gl_api.h"
 #include "core/gl/gl_objects.h"
 
@@ -80,6 +82,27 @@ TEST(EglContextTest, TwoContextsShareTheDisplaySafely) {
   Texture texture = CreateTexture(GL_TEXTURE_2D);
   EXPECT_TRUE(texture);
   EXPECT_TRUE(CheckGlError("create texture after the second context went").ok());
+}
+
+TEST(EglContextTest, MovesToAnotherThreadAndBack) {
+  auto context = EglContext::Create(EglPlatform::kSurfaceless);
+  ASSERT_TRUE(context.ok()) << context.status();
+  ASSERT_TRUE((*context)->ReleaseCurrent().ok());
+  EXPECT_FALSE((*context)->IsCurrent());
+  absl::Status on_worker;
+  bool was_current = false;
+  std::string renderer;
+  std::thread worker([&] {
+    on_worker = (*context)->MakeCurrent();
+    was_current = (*context)->IsCurrent();
+    renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+    if (on_worker.ok()) on_worker = (*context)->ReleaseCurrent();
+  });
+  worker.join();
+  EXPECT_TRUE(on_worker.ok()) << on_worker;
+  EXPECT_TRUE(was_current);
+  EXPECT_EQ(renderer, (*context)->gl_renderer());
+  EXPECT_TRUE((*context)->MakeCurrent().ok());
 }
 
 TEST(GlObjectsTest, HandlesAreMoveOnlyAndFreeTheirName) {
