@@ -205,6 +205,11 @@ struct PhongRenderer::Impl {
   gl::Renderbuffer target_depth;  // DEPTH_COMPONENT32F
   std::vector<float> readback;
 
+  // Shadow maps depend on the positions and the lights only, not on the
+  // camera: rendering one pose from several cameras renders them once.
+  bool shadows_valid = false;
+  std::vector<glm::vec3> shadow_positions;  // the positions the shadow maps were rendered for
+
   absl::Status EnsureTarget(int width, int height);
   absl::Status EnsureShadowMaps();
   // Fills `block` and renders every shadow map for the pose's bounds.
@@ -391,6 +396,7 @@ absl::Status PhongRenderer::SetLights(const std::vector<scene::Light>& lights) {
   impl_->lights = lights;
   impl_->num_point_lights = num_point;
   impl_->num_directional_lights = num_directional;
+  impl_->shadows_valid = false;
   return impl_->EnsureShadowMaps();
 }
 
@@ -528,9 +534,14 @@ absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene
   glNamedBufferSubData(r.position_buffer.id(), 0, vec3_bytes, pose.positions.data());
   glNamedBufferSubData(r.normal_buffer.id(), 0, vec3_bytes, pose.normals.data());
 
-  GpuLightBlock block{};
-  MVBRDF_RETURN_IF_ERROR(r.RenderShadowMaps(ComputeBoundingSphere(pose.positions), &block));
-  glNamedBufferSubData(r.light_buffer.id(), 0, sizeof(GpuLightBlock), &block);
+  if (!r.shadows_valid || r.shadow_positions != pose.positions) {
+    r.shadows_valid = false;
+    GpuLightBlock block{};
+    MVBRDF_RETURN_IF_ERROR(r.RenderShadowMaps(ComputeBoundingSphere(pose.positions), &block));
+    glNamedBufferSubData(r.light_buffer.id(), 0, sizeof(GpuLightBlock), &block);
+    r.shadow_positions = pose.positions;
+    r.shadows_valid = true;
+  }
 
   // Main pass.
   MVBRDF_RETURN_IF_ERROR(r.EnsureTarget(camera.width, camera.height));

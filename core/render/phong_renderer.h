@@ -77,8 +77,9 @@ class PhongRenderer {
   // Atlas mode: kd, ks, ke as CV_32FC3 images in UV space (row 0 = v = 1).
   absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke);
 
-  // At most 16 lights; each gets a shadow map (re-rendered every Render,
-  // since it depends on the pose).
+  // At most 16 lights; each gets a shadow map, rendered by Render whenever
+  // the lights or the pose's positions changed since the last Render (so one
+  // pose seen from several cameras costs the shadow passes once).
   absl::Status SetLights(const std::vector<scene::Light>& lights);
 
   // Renders the pose from the camera as an undistorted pinhole image with the
