@@ -13,7 +13,7 @@ TEST(FrameEncoderTest, EncodesSrgbAndClipsWithoutNoise) {
   cv::Mat img(1, 4, CV_32FC3);
   img.at<cv::Vec3f>(0, 0) = {0.0f, 0.5f, 1.0f};
   img.at<cv::Vec3f>(0, 1) = {2.0f, -1.0f, 0.0031308f};
-  img.at<cv::Vec3f>(0, 2) = {0.2140f, 0.2140f, 0.2140f};
+  img.at<cv::Vec3f>(0, 2) = {0.21586f, 0.21586f, 0.21586f};
   img.at<cv::Vec3f>(0, 3) = {0.25f, 0.25f, 0.25f};
   std::mt19937 rng(1);
   const cv::Mat out = EncodeSrgb8(img, {}, rng);
@@ -29,7 +29,7 @@ TEST(FrameEncoderTest, EncodesSrgbAndClipsWithoutNoise) {
 }
 
 TEST(FrameEncoderTest, NoiseHasTheRequestedSigma) {
-  cv::Mat img(200, 200, CV_32FC3, cv::Scalar::all(0.2140));  // code value 128
+  cv::Mat img(200, 200, CV_32FC3, cv::Scalar::all(0.21586));  // code value 128
   EncodeOptions options;
   options.noise_sigma = 2.0;
   std::mt19937 rng(3);
@@ -53,7 +53,7 @@ TEST(FrameEncoderTest, DistortionMovesPixelsWhereTheCameraModelSays) {
   // A single bright pixel in the pinhole image lands where Project() puts the
   // same ray with distortion.
   cam.distortion[0] = -0.2;
-  const glm::dvec3 point(0.35, 0.2, 1.0);  // camera frame == world frame
+  const glm::dvec3 point(0.45, 0.3, 1.0);  // camera frame == world frame
   const glm::dvec2 pinhole(cam.fx * point.x + cam.cx, cam.fy * point.y + cam.cy);
   cv::Mat spot(cam.height, cam.width, CV_32FC1, cv::Scalar(0));
   cv::circle(spot, cv::Point(static_cast<int>(std::lround(pinhole.x)), static_cast<int>(std::lround(pinhole.y))), 2,

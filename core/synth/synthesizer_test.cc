@@ -1,7 +1,11 @@
 #include "core/synth/synthesizer.h"
 
-#include <gtest/gtest.h>
+#include <set>
 
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/render/phong_renderer.h"
 #include "core/scene/sequence.h"
@@ -167,6 +171,118 @@ TEST_F(SynthesizerTest, BadOptionsNameTheFlag) {
   o = SmallOptions("bad2");
   o.num_cameras = 0;
   EXPECT_NE(Synthesize(o, *context_).status().message().find("--cameras"), std::string::npos);
+}
+
+std::filesystem::path SharedData() { return MVBRDF_SHARED_DATA_DIR; }
+
+TEST_F(SynthesizerTest, SpotPresetUsesItsTextureAsKd) {
+  if (!std::filesystem::exists(SharedData() / "spot")) GTEST_SKIP() << "no ../shared/data/spot in this checkout";
+  SynthOptions o = SmallOptions("spot");
+  o.preset = Preset::kSpot;
+  o.data_dir = SharedData();
+  o.num_frames = 2;
+  auto result = Synthesize(o, *context_);
+  ASSERT_TRUE(result.ok()) << result.status();
+  EXPECT_EQ(result->num_triangles, 5856);
+  EXPECT_EQ(result->truth.materials(0).kd_texture_path(), "kd_texture.png");
+  EXPECT_TRUE(std::filesystem::exists(o.out_dir / "ground_truth" / "kd_texture.png"));
+  auto sequence = scene::LoadSequence(result->scene_file);
+  ASSERT_TRUE(sequence.ok()) << sequence.status();
+  EXPECT_TRUE(sequence->topology.has_uvs());
+}
+
+TEST_F(SynthesizerTest, SambaPresetReadsTheRealPerformance) {
+  if (!std::filesystem::exists(SharedData() / "samba")) GTEST_SKIP() << "no ../shared/data/samba in this checkout";
+  SynthOptions o = SmallOptions("samba");
+  o.preset = Preset::kSamba;
+  o.data_dir = SharedData();
+  o.num_cameras = 1;
+  o.num_frames = 2;
+  auto result = Synthesize(o, *context_);
+  ASSERT_TRUE(result.ok()) << result.status();
+  EXPECT_EQ(result->num_triangles, 19938);
+  auto sequence = scene::LoadSequence(result->scene_file);
+  ASSERT_TRUE(sequence.ok()) << sequence.status();
+  EXPECT_FALSE(sequence->topology.has_uvs());
+  // All three materials occur (hair on top, skin on the face, cloth below).
+  std::set<uint32_t> materials(result->truth.triangle_materials().begin(), result->truth.triangle_materials().end());
+  EXPECT_EQ(materials.size(), 3u);
+  o.num_frames = 176;
+  EXPECT_NE(Synthesize(o, *context_).status().message().find("--frames"), std::string::npos);
+}
+
+// Mean absolute 8-bit difference between camera 0's frame 0 of two bundles.
+double MeanFrameDifference(const std::filesystem::path& a, const std::filesystem::path& b) {
+  auto sa = scene::LoadSequence(a / "scene.json");
+  auto sb = scene::LoadSequence(b / "scene.json");
+  EXPECT_TRUE(sa.ok() && sb.ok());
+  auto va = scene::VideoSource::Open(sa->scene.cameras(0), sa->scene_dir, 0, "a");
+  auto vb = scene::VideoSource::Open(sb->scene.cameras(0), sb->scene_dir, 0, "b");
+  EXPECT_TRUE(va.ok() && vb.ok());
+  auto fa = (*va)->ReadFrame(0);
+  auto fb = (*vb)->ReadFrame(0);
+  EXPECT_TRUE(fa.ok() && fb.ok());
+  cv::Mat diff;
+  cv::absdiff(*fa, *fb, diff);
+  return cv::mean(diff.reshape(1))[0];
+}
+
+double ClippedFraction(const std::filesystem::path& bundle) {
+  auto s = scene::LoadSequence(bundle / "scene.json");
+  auto v = scene::VideoSource::Open(s->scene.cameras(0), s->scene_dir, 0, "a");
+  auto f = (*v)->ReadFrame(0);
+  // Of the channels the subject lights (not background), the share at full scale.
+  const cv::Mat channels = f->reshape(1);
+  const int lit = cv::countNonZero(channels > 0.0f);
+  return cv::countNonZero(channels >= 0.999f) / static_cast<double>(std::max(lit, 1));
+}
+
+TEST_F(SynthesizerTest, PerturbationsChangeTheImagesAndAreRecorded) {
+  SynthOptions base = SmallOptions("clean");
+  base.num_frames = 1;
+  ASSERT_TRUE(Synthesize(base, *context_).ok());
+
+  SynthOptions lossy = SmallOptions("lossy");
+  lossy.num_frames = 1;
+  lossy.lossy_video = true;
+  auto lossy_result = Synthesize(lossy, *context_);
+  ASSERT_TRUE(lossy_result.ok()) << lossy_result.status();
+  EXPECT_TRUE(lossy_result->truth.perturbations().lossy_video());
+  EXPECT_GT(MeanFrameDifference(base.out_dir, lossy.out_dir), 1e-4);
+
+  SynthOptions bumpy = SmallOptions("bumpy");
+  bumpy.num_frames = 1;
+  bumpy.vertex_noise = 0.02;
+  auto bumpy_result = Synthesize(bumpy, *context_);
+  ASSERT_TRUE(bumpy_result.ok()) << bumpy_result.status();
+  EXPECT_DOUBLE_EQ(bumpy_result->truth.perturbations().vertex_noise(), 0.02);
+  EXPECT_GT(MeanFrameDifference(base.out_dir, bumpy.out_dir), 1e-4);
+  // The scene's mesh stays clean: the same file as without the noise.
+  EXPECT_EQ(*ReadFileToString(base.out_dir / "meshes" / "mesh_0000.obj"),
+            *ReadFileToString(bumpy.out_dir / "meshes" / "mesh_0000.obj"));
+
+  SynthOptions bright = SmallOptions("bright");
+  bright.num_frames = 1;
+  bright.exposure = 8.0;
+  ASSERT_TRUE(Synthesize(bright, *context_).ok());
+  EXPECT_LT(ClippedFraction(base.out_dir), 0.01);
+  EXPECT_GT(ClippedFraction(bright.out_dir), 0.1);
+
+  SynthOptions noisy = SmallOptions("noisy");
+  noisy.num_frames = 1;
+  noisy.noise_sigma = 3.0;
+  ASSERT_TRUE(Synthesize(noisy, *context_).ok());
+  EXPECT_GT(MeanFrameDifference(base.out_dir, noisy.out_dir), 1e-4);
+
+  SynthOptions distorted = SmallOptions("distorted");
+  distorted.num_frames = 1;
+  distorted.distortion_k1 = -0.1;
+  auto distorted_result = Synthesize(distorted, *context_);
+  ASSERT_TRUE(distorted_result.ok()) << distorted_result.status();
+  auto s = scene::LoadSequence(distorted_result->scene_file);
+  ASSERT_TRUE(s.ok()) << s.status();
+  EXPECT_DOUBLE_EQ(s->cameras[0].distortion[0], -0.1);
+  EXPECT_GT(MeanFrameDifference(base.out_dir, distorted.out_dir), 1e-4);
 }
 
 }  // namespace
