@@ -274,6 +274,32 @@ TEST(MeshLoaderTest, LoadsPly) {
   ExpectConsistent(mesh->topology);
 }
 
+TEST(MeshLoaderTest, LoadsGltf) {
+  // A glTF 2.0 quad (4 vertices, 2 triangles) with its buffer embedded as a
+  // data URI: positions as 12 floats, then 6 uint16 indices.
+  TempDir dir;
+  WriteText(dir / "quad.gltf", R"({
+    "asset": {"version": "2.0"},
+    "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+    "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+    "buffers": [{"byteLength": 60, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAAAACAPwAAgD8AAAAAAAABAAIAAgABAAMA"}],
+    "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 12}],
+    "accessors": [
+      {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+      {"bufferView": 1, "componentType": 5123, "count": 6, "type": "SCALAR"}]
+  })");
+  auto mesh = LoadMesh(dir / "quad.gltf", "m");
+  ASSERT_TRUE(mesh.ok()) << mesh.status();
+  EXPECT_EQ(mesh->topology.num_file_vertices, 4u);
+  EXPECT_EQ(mesh->topology.triangles.size(), 2u);
+  EXPECT_FALSE(mesh->topology.has_uvs());
+  ExpectConsistent(mesh->topology);
+  // Positions come through unchanged.
+  std::set<std::pair<float, float>> xy;
+  for (const glm::vec3& p : mesh->positions) xy.insert({p.x, p.y});
+  EXPECT_EQ(xy, (std::set<std::pair<float, float>>{{0, 0}, {1, 0}, {0, 1}, {1, 1}}));
+}
+
 TEST(MeshLoaderTest, LoadsSpot) {
   const std::filesystem::path file = kDataDir / "spot/spot_triangulated.obj";
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "shared test data not found: " << file;

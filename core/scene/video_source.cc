@@ -227,6 +227,13 @@ class VideoFileSource : public VideoSource {
 
 }  // namespace
 
+absl::StatusOr<cv::Mat> ReadLinearRgbImage(const std::filesystem::path& file, bool srgb) {
+  const cv::Mat stored = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+  if (stored.empty()) return absl::NotFoundError(absl::StrCat(file.string(), ": cannot read image"));
+  const int bit_depth = stored.depth() == CV_16U ? 16 : 8;
+  return Decode(stored, bit_depth, MakeDecodeTable(bit_depth, srgb), file.string());
+}
+
 absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera& camera,
                                                                const std::filesystem::path& scene_dir, int first_frame,
                                                                absl::string_view field) {

@@ -37,6 +37,10 @@ class VideoSource {
   virtual absl::StatusOr<cv::Mat> ReadFrame(int t) = 0;
 };
 
+// Reads one 8- or 16-bit image file (any format cv::imread knows) as CV_32FC3
+// linear RGB in [0,1], row 0 = top; sRGB-decoded when `srgb`.
+absl::StatusOr<cv::Mat> ReadLinearRgbImage(const std::filesystem::path& file, bool srgb);
+
 // sRGB transfer: code value in [0,1] <-> linear in [0,1].
 float SrgbToLinear(float encoded);
 float LinearToSrgb(float linear);

@@ -3,12 +3,12 @@
 #include <cmath>
 
 #include <glm/gtc/matrix_transform.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
 #include "core/base/status_macros.h"
 #include "core/scene/mesh_loader.h"
+#include "core/scene/video_source.h"
 #include "core/synth/actor.h"
 
 namespace mvbrdf::synth {
@@ -47,10 +47,7 @@ absl::StatusOr<Subject> MakeSpotSubject(const std::filesystem::path& data_dir) {
   MVBRDF_ASSIGN_OR_RETURN(scene::LoadedMesh mesh, scene::LoadMesh(mesh_file, "spot mesh"));
   Subject s;
   s.preset = "spot";
-  s.kd_texture_srgb8 = cv::imread(texture_file.string(), cv::IMREAD_COLOR);
-  if (s.kd_texture_srgb8.empty()) {
-    return absl::NotFoundError(absl::StrCat(texture_file.string(), ": cannot read the spot texture"));
-  }
+  MVBRDF_ASSIGN_OR_RETURN(s.kd_texture, scene::ReadLinearRgbImage(texture_file, /*srgb=*/true));
   s.kd_texture_file = texture_file;
   s.topology = std::move(mesh.topology);
   s.rest_positions = std::move(mesh.positions);

@@ -25,9 +25,9 @@ struct Subject {
   int max_frames = 0;  // 0 = unlimited
   std::vector<StudioMaterial> materials;
   std::vector<uint32_t> triangle_material;  // per triangle
-  // Spot: the true kd in UV space, sRGB 8-bit as read (BGR, OpenCV order),
+  // Spot: the true kd in UV space as linear RGB CV_32FC3 (row 0 = v = 1),
   // used by material 0 instead of its solid texture.
-  cv::Mat kd_texture_srgb8;
+  cv::Mat kd_texture;
   std::filesystem::path kd_texture_file;
   // Optional per-triangle segment names (the actor's body parts).
   std::vector<std::string> segment_names;

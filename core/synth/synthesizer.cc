@@ -74,18 +74,6 @@ scene::FramePositions DisplaceVertices(const scene::MeshTopology& topology, cons
   return out;
 }
 
-cv::Mat LinearKdTexture(const cv::Mat& srgb8_bgr) {
-  cv::Mat out(srgb8_bgr.rows, srgb8_bgr.cols, CV_32FC3);
-  for (int y = 0; y < out.rows; ++y) {
-    for (int x = 0; x < out.cols; ++x) {
-      const cv::Vec3b b = srgb8_bgr.at<cv::Vec3b>(y, x);
-      out.at<cv::Vec3f>(y, x) = {scene::SrgbToLinear(b[2] / 255.0f), scene::SrgbToLinear(b[1] / 255.0f),
-                                 scene::SrgbToLinear(b[0] / 255.0f)};
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 absl::StatusOr<Preset> ParsePreset(absl::string_view name) {
@@ -187,14 +175,14 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   for (const StudioMaterial& m : subject.materials) {
     render::ProceduralMaterial pm;
     pm.kd = m.kd;
-    pm.kd_from_texture = !subject.kd_texture_srgb8.empty();
+    pm.kd_from_texture = !subject.kd_texture.empty();
     pm.ks = m.ks;
     pm.ke = m.ke;
     materials.push_back(pm);
   }
   MVBRDF_RETURN_IF_ERROR(renderer->SetProceduralMaterials(materials));
-  if (!subject.kd_texture_srgb8.empty()) {
-    MVBRDF_RETURN_IF_ERROR(renderer->SetKdTexture(LinearKdTexture(subject.kd_texture_srgb8)));
+  if (!subject.kd_texture.empty()) {
+    MVBRDF_RETURN_IF_ERROR(renderer->SetKdTexture(subject.kd_texture));
   }
   MVBRDF_RETURN_IF_ERROR(renderer->SetLights(active_lights));
 
@@ -307,11 +295,11 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     mat->mutable_kd()->set_amplitude(m.kd.amplitude);
     mat->mutable_kd()->set_frequency(m.kd.frequency);
     SetVec3(m.kd.offset, mat->mutable_kd()->mutable_offset());
-    if (!subject.kd_texture_srgb8.empty()) mat->set_kd_texture_path("kd_texture.png");
+    if (!subject.kd_texture.empty()) mat->set_kd_texture_path("kd_texture.png");
     SetVec3(m.ks, mat->mutable_ks());
     SetVec3(m.ke, mat->mutable_ke());
   }
-  if (!subject.kd_texture_srgb8.empty()) {
+  if (!subject.kd_texture.empty()) {
     std::filesystem::copy_file(subject.kd_texture_file, out / "ground_truth" / "kd_texture.png",
                                std::filesystem::copy_options::overwrite_existing, ec);
     if (ec) return absl::InternalError(absl::StrCat("cannot copy ", subject.kd_texture_file.string(), ": ", ec.message()));

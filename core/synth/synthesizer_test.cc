@@ -11,6 +11,7 @@
 #include "core/scene/sequence.h"
 #include "core/scene/video_source.h"
 #include "core/synth/frame_encoder.h"
+#include "core/synth/ground_truth.h"
 #include "core/synth/subject.h"
 
 namespace mvbrdf::synth {
@@ -83,42 +84,26 @@ TEST_F(SynthesizerTest, VideoFramesMatchARenderOfTheTruth) {
   ASSERT_TRUE(result.ok()) << result.status();
   auto sequence = scene::LoadSequence(result->scene_file);
   ASSERT_TRUE(sequence.ok()) << sequence.status();
-  const v1::GroundTruth& truth = result->truth;
+  auto truth = GroundTruth::Load(o.out_dir / "ground_truth" / "truth.json");
+  ASSERT_TRUE(truth.ok()) << truth.status();
 
   render::RenderMesh mesh;
   mesh.triangles = sequence->topology.triangles;
   mesh.rest_positions = scene::ToRenderVertices(sequence->topology, sequence->rest_positions);
-  mesh.triangle_material.assign(truth.triangle_materials().begin(), truth.triangle_materials().end());
+  mesh.triangle_material.assign(truth->message().triangle_materials().begin(),
+                                truth->message().triangle_materials().end());
   render::RendererOptions ro;
-  ro.shadow_map_size = static_cast<int>(truth.shadow_map_size());
+  ro.shadow_map_size = static_cast<int>(truth->message().shadow_map_size());
   auto renderer = render::PhongRenderer::Create(*context_, mesh, ro);
   ASSERT_TRUE(renderer.ok()) << renderer.status();
-  std::vector<render::ProceduralMaterial> materials;
-  for (const v1::Material& m : truth.materials()) {
-    render::ProceduralMaterial pm;
-    pm.kd.base = {m.kd().base(0), m.kd().base(1), m.kd().base(2)};
-    pm.kd.amplitude = static_cast<float>(m.kd().amplitude());
-    pm.kd.frequency = static_cast<float>(m.kd().frequency());
-    pm.kd.offset = {m.kd().offset(0), m.kd().offset(1), m.kd().offset(2)};
-    pm.ks = {m.ks(0), m.ks(1), m.ks(2)};
-    pm.ke = {m.ke(0), m.ke(1), m.ke(2)};
-    materials.push_back(pm);
-  }
-  ASSERT_TRUE((*renderer)->SetProceduralMaterials(materials).ok());
-  std::vector<scene::Light> lights;
-  for (const v1::Light& l : truth.lights()) {
-    scene::Light light;
-    light.name = l.name();
-    light.position = {l.position(0), l.position(1), l.position(2)};
-    light.intensity = {l.intensity(0), l.intensity(1), l.intensity(2)};
-    lights.push_back(light);
-  }
-  ASSERT_TRUE((*renderer)->SetLights(lights).ok());
+  ASSERT_TRUE((*renderer)->SetProceduralMaterials(truth->RendererMaterials()).ok());
+  ASSERT_TRUE((*renderer)->SetLights(truth->ActiveLights()).ok());
+  const std::vector<scene::CameraModel> true_cameras = truth->Cameras();
 
   for (int c = 0; c < 2; ++c) {
     auto video = scene::VideoSource::Open(sequence->scene.cameras(c), sequence->scene_dir, 0, "camera");
     ASSERT_TRUE(video.ok()) << video.status();
-    const scene::CameraModel true_camera = scene::CameraModelFromProto(truth.cameras(c));
+    const scene::CameraModel& true_camera = true_cameras[c];
     for (int t = 0; t < 3; ++t) {
       auto positions = sequence->LoadFrame(t);
       ASSERT_TRUE(positions.ok());

@@ -1,0 +1,51 @@
+// Reads what `mvbrdf synth` recorded (ground_truth/truth.json) and evaluates
+// it: the true Phong parameters at any surface point, the active lights and
+// the cameras as rendered. Later stages check their outputs against this,
+// never against their own.
+#ifndef MVBRDF_CORE_SYNTH_GROUND_TRUTH_H_
+#define MVBRDF_CORE_SYNTH_GROUND_TRUTH_H_
+
+#include <filesystem>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "core/render/phong_model.h"
+#include "core/render/phong_renderer.h"
+#include "core/scene/camera_model.h"
+#include "core/scene/light.h"
+#include "mvbrdf/v1/ground_truth.pb.h"
+
+namespace mvbrdf::synth {
+
+class GroundTruth {
+ public:
+  // `truth_file` is a bundle's ground_truth/truth.json; a kd texture it names
+  // is read from beside it.
+  static absl::StatusOr<GroundTruth> Load(const std::filesystem::path& truth_file);
+
+  const v1::GroundTruth& message() const { return truth_; }
+
+  // True parameters at a surface point of triangle `triangle` (file order):
+  // `rest_position` is the point in the rest pose (frame 0, world units),
+  // `uv` its texture coordinate (used only by materials with a kd texture).
+  render::PhongParams At(uint32_t triangle, const glm::vec3& rest_position, const glm::vec2& uv) const;
+
+  // The lights that lit every frame, with their true positions and intensities.
+  std::vector<scene::Light> ActiveLights() const;
+  // The cameras as rendered (before any calibration error).
+  std::vector<scene::CameraModel> Cameras() const;
+  // The materials in the renderer's form (kd texture: see KdTexture()).
+  std::vector<render::ProceduralMaterial> RendererMaterials() const;
+  // Linear RGB CV_32FC3 kd texture (row 0 = v = 1), empty when none.
+  const cv::Mat& KdTexture() const { return kd_texture_; }
+
+ private:
+  v1::GroundTruth truth_;
+  cv::Mat kd_texture_;
+};
+
+}  // namespace mvbrdf::synth
+
+#endif  // MVBRDF_CORE_SYNTH_GROUND_TRUTH_H_
