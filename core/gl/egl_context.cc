@@ -207,6 +207,13 @@ struct EglContext::Impl {
 };
 
 absl::StatusOr<std::unique_ptr<EglContext>> EglContext::Create(EglPlatform platform) {
+  if (platform == EglPlatform::kAuto) {
+    // Prefer a hardware device, but fall back to surfaceless whenever any step
+    // on the device fails (no device, eglInitialize, no GL 4.5 core context).
+    auto on_device = Create(EglPlatform::kDevice);
+    if (on_device.ok()) return on_device;
+    return Create(EglPlatform::kSurfaceless);
+  }
   auto impl = std::make_unique<Impl>();
   absl::StatusOr<EGLDisplay> display;
   switch (platform) {
@@ -218,14 +225,8 @@ absl::StatusOr<std::unique_ptr<EglContext>> EglContext::Create(EglPlatform platf
       display = HardwareDeviceDisplay();
       impl->platform = EglPlatform::kDevice;
       break;
-    case EglPlatform::kAuto:
-      display = HardwareDeviceDisplay();
-      impl->platform = EglPlatform::kDevice;
-      if (!display.ok()) {
-        display = SurfacelessDisplay();
-        impl->platform = EglPlatform::kSurfaceless;
-      }
-      break;
+    case EglPlatform::kAuto:  // handled above
+      return absl::InternalError("EglContext::Create: unresolved platform auto");
   }
   if (!display.ok()) return display.status();
   impl->display = *display;
