@@ -1,0 +1,89 @@
+// Resampling on the GPU (thesis chapter 5, §6.1.1): every video frame of every
+// camera into the one texture atlas of the mesh, with visibility by shadow
+// mapping from the camera, plus per-frame geometry and light-visibility
+// (shadow) atlases.
+//
+// Per frame: SetFrame() renders the posed position and normal of every texel
+// once (the mesh drawn in atlas space), the depth map of every camera and,
+// on demand, one cube depth map per light. Each camera is then resampled by a
+// full-screen pass over the atlas that reads the position map, projects the
+// point with the camera's intrinsics and distortion, tests facing and depth
+// and samples the frame (see ../shared/PERF.md for why: ~3x faster than
+// drawing the mesh per camera).
+//
+// All atlas images follow the convention of core/atlas/atlas.h (row 0 at
+// the top, v = 1). Threading: all calls on the thread where the context is
+// current; the context must outlive the resampler.
+#ifndef MVBRDF_CORE_RESAMPLE_RESAMPLER_H_
+#define MVBRDF_CORE_RESAMPLE_RESAMPLER_H_
+
+#include <memory>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "core/atlas/atlas.h"
+#include "core/gl/egl_context.h"
+#include "core/scene/camera_model.h"
+#include "core/scene/light.h"
+#include "core/scene/mesh.h"
+
+namespace mvbrdf::resample {
+
+struct ResamplerOptions {
+  // Texels whose normal is within this angle of perpendicular to the view
+  // direction are invalid (grazing views smear the image); 0 keeps every
+  // front-facing texel.
+  double grazing_margin_deg = 5.0;
+  // Depth test against the camera's depth map: a texel is occluded when it
+  // lies further than this (relative to its depth) behind the map.
+  double relative_depth_tolerance = 0.01;
+  // Resolution of the per-light cube depth maps (texels per face).
+  int shadow_map_size = 1024;
+};
+
+// One frame's surface in atlas space.
+struct GeometryAtlas {
+  cv::Mat position;  // CV_32FC4: posed world position (xyz), w = 1 where covered, 0 elsewhere
+  cv::Mat normal;    // CV_32FC4: unit normal (interpolated vertex normals), w as above
+};
+
+class Resampler {
+ public:
+  // `atlas` fixes the layout (its topology's render vertices and UVs);
+  // `cameras` and `lights` are the scene's (all candidate lights, at most 16).
+  static absl::StatusOr<std::unique_ptr<Resampler>> Create(gl::EglContext& context, const atlas::Atlas& atlas,
+                                                           const std::vector<scene::CameraModel>& cameras,
+                                                           const std::vector<scene::Light>& lights,
+                                                           const ResamplerOptions& options);
+  ~Resampler();
+  Resampler(const Resampler&) = delete;
+  Resampler& operator=(const Resampler&) = delete;
+
+  // Starts a frame: file-vertex positions of the pose (normals are computed
+  // here, area-weighted per file vertex).
+  absl::Status SetFrame(const scene::FramePositions& file_positions);
+
+  // Camera `camera`'s frame (CV_32FC3 linear RGB at the camera's size, row 0
+  // top) resampled into the atlas: CV_32FC4, rgb = radiance, a = 1 where
+  // valid, a = 0 where not (uncovered, back-facing or grazing, outside the
+  // image, or occluded), so that invalid is distinguishable from black.
+  absl::StatusOr<cv::Mat> ResampleCamera(int camera, const cv::Mat& frame);
+
+  // The current frame's geometry atlas.
+  absl::StatusOr<GeometryAtlas> Geometry();
+
+  // CV_16UC1: bit k set where light k is visible from the texel's surface
+  // point (shadow test only; the cosine is computed by later stages).
+  absl::StatusOr<cv::Mat> ShadowAtlas();
+
+ private:
+  struct Impl;
+  explicit Resampler(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mvbrdf::resample
+
+#endif  // MVBRDF_CORE_RESAMPLE_RESAMPLER_H_
