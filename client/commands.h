@@ -24,6 +24,7 @@ int ReportFailure(const absl::Status& status);
 
 int RunSynth(const std::vector<std::string>& args);
 int RunValidate(const std::vector<std::string>& args);
+int RunResample(const std::vector<std::string>& args);
 
 }  // namespace mvbrdf::client
 

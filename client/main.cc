@@ -14,6 +14,7 @@ constexpr char kUsage[] =
     "commands:\n"
     "  synth      render a synthetic multi-view sequence with its ground truth\n"
     "  validate   load a scene, check everything, print a summary or the errors\n"
+    "  resample   resample every frame into the texture atlas; coverage, timing and error vs truth\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files)\n";
@@ -30,6 +31,7 @@ int main(int argc, char** argv) {
   const std::vector<std::string> args(argv + 2, argv + argc);
   if (command == "synth") return mvbrdf::client::RunSynth(args);
   if (command == "validate") return mvbrdf::client::RunValidate(args);
+  if (command == "resample") return mvbrdf::client::RunResample(args);
   std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", command.c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 namespace mvbrdf {
 namespace {
 
@@ -44,6 +46,23 @@ TEST(FilesTest, WriteThenReadRoundTrips) {
 TEST(FilesTest, ResolvePathKeepsAbsolute) {
   EXPECT_EQ(ResolvePath("/a/b", "c/d.obj"), std::filesystem::path("/a/b/c/d.obj"));
   EXPECT_EQ(ResolvePath("/a/b", "/x.obj"), std::filesystem::path("/x.obj"));
+}
+
+}  // namespace
+}  // namespace mvbrdf
+
+#include "core/base/process_stats.h"
+
+namespace mvbrdf {
+namespace {
+
+TEST(ProcessStatsTest, PeakRssGrowsWithTouchedMemory) {
+  const uint64_t before = PeakRssBytes();
+  ASSERT_GT(before, 0u);
+  constexpr size_t kBytes = 64u << 20;
+  std::vector<char> block(kBytes, 1);  // touched: counts as resident
+  EXPECT_GE(PeakRssBytes(), before + kBytes / 2);
+  EXPECT_EQ(block[kBytes - 1], 1);
 }
 
 }  // namespace

@@ -1,0 +1,93 @@
+// `mvbrdf resample SCENE --out DIR`: every video frame into the texture atlas.
+#include <cstdio>
+
+#include "client/commands.h"
+#include "client/flags.h"
+#include "core/gl/egl_context.h"
+#include "core/pipeline/resample_stage.h"
+#include "core/scene/sequence.h"
+
+namespace mvbrdf::client {
+
+int RunResample(const std::vector<std::string>& args) {
+  std::string scene_file, out, save = "first", egl = "auto";
+  pipeline::ResampleStageOptions o;
+  bool no_evaluate = false;
+  FlagParser flags("resample",
+                   "Resamples every frame of every camera into one texture atlas of the mesh (projective texturing\n"
+                   "on the GPU, visibility by shadow mapping from the camera), builds per-frame geometry and shadow\n"
+                   "atlases, grows and averages them, and writes DIR/resample.json with coverage, timing and - for\n"
+                   "synthetic scenes with ground_truth/ - the error against the truth per camera.");
+  flags.AddPositional("SCENE", &scene_file, true, "the scene JSON file");
+  flags.AddString("--out", &out, "output directory (required)");
+  flags.AddInt("--atlas", &o.atlas.size, "atlas resolution in texels per side");
+  flags.AddInt("--gutter", &o.atlas.gutter, "empty texels between charts");
+  flags.AddDouble("--chart-angle", &o.atlas.max_normal_deviation_deg,
+                  "chart growth: max angle between a triangle's normal and its chart's, degrees");
+  flags.AddInt("--grow", &o.grow_iterations, "dilation iterations of the grown atlases");
+  flags.AddDouble("--grazing-margin", &o.resampler.grazing_margin_deg,
+                  "texels seen within this angle of edge-on are invalid, degrees");
+  flags.AddInt("--shadow-map-size", &o.resampler.shadow_map_size, "cube shadow map resolution per face");
+  flags.AddString("--save", &save, "which frames' atlases to write: first, all or none (figures cover all)");
+  flags.AddBool("--no-evaluate", &no_evaluate, "skip the comparison with ground_truth/ even when present");
+  flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  if (absl::Status s = flags.Parse(args); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf resample: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
+  if (flags.help_requested()) {
+    std::fputs(flags.Usage().c_str(), stdout);
+    return kExitOk;
+  }
+  auto platform = gl::ParseEglPlatform(egl);
+  absl::Status usage = platform.status();
+  if (usage.ok()) usage = o.atlas.Check();
+  if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");
+  if (usage.ok() && o.grow_iterations < 0) usage = absl::InvalidArgumentError("--grow: must be >= 0");
+  if (usage.ok() && save != "first" && save != "all" && save != "none") {
+    usage = absl::InvalidArgumentError("--save: expected first, all or none, got \"" + save + "\"");
+  }
+  if (!usage.ok()) {
+    std::fprintf(stderr, "mvbrdf resample: %s\n", std::string(usage.message()).c_str());
+    return kExitUsage;
+  }
+  o.save = save == "all" ? pipeline::SaveFrames::kAll : save == "none" ? pipeline::SaveFrames::kNone
+                                                                       : pipeline::SaveFrames::kFirst;
+  o.evaluate = !no_evaluate;
+  o.out_dir = out;
+
+  // Frames are read as they are resampled; the videos are probed up front so
+  // that a short or mis-sized video fails before any work.
+  scene::LoadOptions load;
+  load.check_all_frames = false;
+  auto sequence = scene::LoadSequence(scene_file, load);
+  if (!sequence.ok()) return ReportFailure(sequence.status());
+  auto context = gl::EglContext::Create(*platform);
+  if (!context.ok()) {
+    std::fprintf(stderr, "mvbrdf resample: error: %s\n", std::string(context.status().message()).c_str());
+    return kExitEnvironment;
+  }
+  auto report = pipeline::RunResampleStage(*sequence, **context, o);
+  if (!report.ok()) return ReportFailure(report.status());
+
+  const auto& a = report->atlas();
+  std::printf("atlas %ux%u: %u charts, coverage %.1f%%, overlap %.4f%%, area ratio %.2f..%.2f (%s)\n", a.size(),
+              a.size(), a.charts(), 100.0 * a.coverage(), 100.0 * a.overlap_fraction(), a.min_area_ratio(),
+              a.max_area_ratio(), a.built() ? "built" : "mesh UVs kept");
+  std::printf("%-10s %9s %9s %9s %9s\n", "camera", "valid", "recall", "false", "rmse");
+  for (const v1::CameraFigures& f : report->cameras()) {
+    if (report->has_ground_truth()) {
+      std::printf("%-10s %8.1f%% %8.1f%% %8.2f%% %9.5f\n", f.name().c_str(), 100.0 * f.valid_fraction(),
+                  100.0 * f.recall(), 100.0 * f.false_valid_fraction(), f.rmse());
+    } else {
+      std::printf("%-10s %8.1f%%\n", f.name().c_str(), 100.0 * f.valid_fraction());
+    }
+  }
+  std::printf("%u frames x %d cameras in %.1f s (%.1f atlases/s on the GPU), peak memory %.0f MiB\n",
+              report->frames(), report->cameras_size(), report->seconds(), report->atlases_per_second(),
+              report->peak_rss_bytes() / 1048576.0);
+  std::printf("wrote %s/resample.json\n", out.c_str());
+  return kExitOk;
+}
+
+}  // namespace mvbrdf::client

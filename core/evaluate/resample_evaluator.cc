@@ -1,0 +1,164 @@
+#include "core/evaluate/resample_evaluator.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+
+namespace mvbrdf::evaluate {
+
+void ResampleTally::Add(const ResampleTally& o) {
+  covered += o.covered;
+  valid += o.valid;
+  truly_visible += o.truly_visible;
+  valid_and_visible += o.valid_and_visible;
+  sum_sq_valid += o.sum_sq_valid;
+  sum_abs_valid += o.sum_abs_valid;
+  sum_sq_valid_and_visible += o.sum_sq_valid_and_visible;
+}
+
+void ResampleTally::ToFigures(bool with_truth, v1::CameraFigures* f) const {
+  f->set_covered_texels(covered);
+  f->set_valid_texels(valid);
+  f->set_valid_fraction(covered > 0 ? static_cast<double>(valid) / static_cast<double>(covered) : 0.0);
+  if (!with_truth) return;
+  f->set_truly_visible_texels(truly_visible);
+  f->set_recall(truly_visible > 0 ? static_cast<double>(valid_and_visible) / static_cast<double>(truly_visible) : 0.0);
+  f->set_false_valid_fraction(valid > 0 ? static_cast<double>(valid - valid_and_visible) / static_cast<double>(valid)
+                                        : 0.0);
+  // Averaged over the three channels, as the thesis's errors are.
+  f->set_rmse(valid > 0 ? std::sqrt(sum_sq_valid / (3.0 * static_cast<double>(valid))) : 0.0);
+  f->set_mean_abs_error(valid > 0 ? sum_abs_valid / (3.0 * static_cast<double>(valid)) : 0.0);
+  f->set_rmse_truly_visible(valid_and_visible > 0
+                                ? std::sqrt(sum_sq_valid_and_visible / (3.0 * static_cast<double>(valid_and_visible)))
+                                : 0.0);
+}
+
+ResampleTally CountValid(const cv::Mat& resampled, const atlas::Atlas& atlas) {
+  ResampleTally tally;
+  for (int y = 0; y < atlas.size; ++y) {
+    const int32_t* ids = atlas.triangle_id.ptr<int32_t>(y);
+    const cv::Vec4f* px = resampled.ptr<cv::Vec4f>(y);
+    for (int x = 0; x < atlas.size; ++x) {
+      if (ids[x] < 0) continue;
+      ++tally.covered;
+      if (px[x][3] > 0.5f) ++tally.valid;
+    }
+  }
+  return tally;
+}
+
+absl::StatusOr<std::unique_ptr<ResampleEvaluator>> ResampleEvaluator::Create(
+    gl::EglContext& context, const synth::GroundTruth& truth, const atlas::Atlas& atlas,
+    const scene::FramePositions& rest_positions, const resample::ResamplerOptions& options) {
+  const v1::GroundTruth& message = truth.message();
+  if (message.triangle_materials_size() != static_cast<int>(atlas.topology.triangles.size())) {
+    return absl::FailedPreconditionError(absl::StrCat("ground truth: triangle_materials has ",
+                                                      message.triangle_materials_size(), " entries, the mesh has ",
+                                                      atlas.topology.triangles.size(), " triangles"));
+  }
+  if (message.cameras_size() == 0) return absl::FailedPreconditionError("ground truth: no cameras");
+  std::unique_ptr<ResampleEvaluator> e(new ResampleEvaluator());
+  e->atlas_ = &atlas;
+  e->true_cameras_ = truth.Cameras();
+  e->options_ = options;
+
+  render::RenderMesh mesh;
+  mesh.triangles = atlas.topology.triangles;
+  mesh.uvs = atlas.topology.uvs;
+  mesh.rest_positions = scene::ToRenderVertices(atlas.topology, rest_positions);
+  mesh.triangle_material.assign(message.triangle_materials().begin(), message.triangle_materials().end());
+  render::RendererOptions renderer_options;
+  renderer_options.shadow_map_size = message.shadow_map_size() > 0 ? static_cast<int>(message.shadow_map_size()) : 1024;
+  renderer_options.inverse_square_falloff = message.inverse_square_falloff();
+  MVBRDF_ASSIGN_OR_RETURN(e->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
+  MVBRDF_RETURN_IF_ERROR(e->renderer_->SetProceduralMaterials(truth.RendererMaterials()));
+  if (!truth.KdTexture().empty()) MVBRDF_RETURN_IF_ERROR(e->renderer_->SetKdTexture(truth.KdTexture()));
+  MVBRDF_RETURN_IF_ERROR(e->renderer_->SetLights(truth.ActiveLights()));
+
+  // Triangles around each file vertex, then each triangle's neighbourhood.
+  const auto& tris = atlas.topology.file_triangles;
+  std::vector<std::vector<uint32_t>> around(atlas.topology.num_file_vertices);
+  for (uint32_t t = 0; t < tris.size(); ++t) {
+    for (int k = 0; k < 3; ++k) around[tris[t][k]].push_back(t);
+  }
+  e->neighbours_.resize(tris.size());
+  for (uint32_t t = 0; t < tris.size(); ++t) {
+    std::vector<uint32_t>& n = e->neighbours_[t];
+    for (int k = 0; k < 3; ++k) n.insert(n.end(), around[tris[t][k]].begin(), around[tris[t][k]].end());
+    std::sort(n.begin(), n.end());
+    n.erase(std::unique(n.begin(), n.end()), n.end());
+  }
+  return e;
+}
+
+absl::Status ResampleEvaluator::SetFrame(const scene::FramePositions& file_positions) {
+  const scene::MeshTopology& topo = atlas_->topology;
+  pose_.positions = scene::ToRenderVertices(topo, file_positions);
+  pose_.normals = scene::ToRenderVertices(topo, scene::ComputeFileVertexNormals(topo, file_positions));
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ResampleTally> ResampleEvaluator::Evaluate(int camera, const cv::Mat& resampled,
+                                                          const resample::GeometryAtlas& geometry) {
+  if (camera < 0 || camera >= static_cast<int>(true_cameras_.size())) {
+    return absl::OutOfRangeError(absl::StrCat("ground truth has no camera ", camera));
+  }
+  const scene::CameraModel& cam = true_cameras_[camera];
+  const glm::dvec3 center = cam.CenterInWorld();
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat truth, renderer_->RenderAtlas(pose_, glm::vec3(center), atlas_->size));
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ids, renderer_->RenderTriangleIds(pose_, cam, kIdSupersample));
+  const double min_cos = std::sin(options_.grazing_margin_deg * 3.14159265358979 / 180.0);
+  const double s = kIdSupersample;
+
+  ResampleTally tally;
+  for (int y = 0; y < atlas_->size; ++y) {
+    const int32_t* tri = atlas_->triangle_id.ptr<int32_t>(y);
+    const cv::Vec4f* res = resampled.ptr<cv::Vec4f>(y);
+    const cv::Vec4f* tru = truth.ptr<cv::Vec4f>(y);
+    const cv::Vec4f* pos = geometry.position.ptr<cv::Vec4f>(y);
+    const cv::Vec4f* nor = geometry.normal.ptr<cv::Vec4f>(y);
+    for (int x = 0; x < atlas_->size; ++x) {
+      if (tri[x] < 0) continue;
+      ++tally.covered;
+      const bool valid = res[x][3] > 0.5f;
+      bool visible = false;
+      if (pos[x][3] > 0.0f) {
+        const glm::dvec3 p(pos[x][0], pos[x][1], pos[x][2]);
+        const glm::dvec3 n(nor[x][0], nor[x][1], nor[x][2]);
+        const glm::dvec3 in_cam = cam.CamFromWorld(p);
+        const glm::dvec2 pixel = cam.Project(p);
+        const bool facing = glm::dot(n, glm::normalize(center - p)) > min_cos;
+        const bool inside = in_cam.z > 0.0 && pixel.x >= 0.0 && pixel.y >= 0.0 && pixel.x <= cam.width - 1.0 &&
+                            pixel.y <= cam.height - 1.0;
+        if (facing && inside) {
+          // Pinhole position in the supersampled id buffer.
+          const double px = (cam.fx * in_cam.x / in_cam.z + cam.cx + 0.5) * s - 0.5;
+          const double py = (cam.fy * in_cam.y / in_cam.z + cam.cy + 0.5) * s - 0.5;
+          const int ix = std::clamp(static_cast<int>(std::lround(px)), 0, ids.cols - 1);
+          const int iy = std::clamp(static_cast<int>(std::lround(py)), 0, ids.rows - 1);
+          const int32_t seen = ids.at<int32_t>(iy, ix);
+          const auto& n_list = neighbours_[static_cast<size_t>(tri[x])];
+          visible = seen >= 0 && std::binary_search(n_list.begin(), n_list.end(), static_cast<uint32_t>(seen));
+        }
+      }
+      if (visible) ++tally.truly_visible;
+      if (!valid) continue;
+      ++tally.valid;
+      if (visible) ++tally.valid_and_visible;
+      double sq = 0.0, abs_sum = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        const double d = static_cast<double>(res[x][c]) - static_cast<double>(tru[x][c]);
+        sq += d * d;
+        abs_sum += std::abs(d);
+      }
+      tally.sum_sq_valid += sq;
+      tally.sum_abs_valid += abs_sum;
+      if (visible) tally.sum_sq_valid_and_visible += sq;
+    }
+  }
+  return tally;
+}
+
+}  // namespace mvbrdf::evaluate

@@ -1,0 +1,205 @@
+#include "core/pipeline/resample_stage.h"
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <random>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/process_stats.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/evaluate/resample_evaluator.h"
+#include "core/image/exr.h"
+#include "core/pipeline/stage_timer.h"
+#include "core/resample/atlas_ops.h"
+#include "core/scene/mesh_loader.h"
+#include "core/scene/video_source.h"
+#include "core/synth/ground_truth.h"
+
+namespace mvbrdf::pipeline {
+namespace {
+
+// One random colour per chart, for people to see the layout.
+cv::Mat ChartPreview(const atlas::Atlas& atlas) {
+  std::vector<cv::Vec3f> colours;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(0.15f, 1.0f);
+  cv::Mat out(atlas.size, atlas.size, CV_32FC4, cv::Scalar::all(0));
+  for (int y = 0; y < atlas.size; ++y) {
+    for (int x = 0; x < atlas.size; ++x) {
+      const int32_t t = atlas.triangle_id.at<int32_t>(y, x);
+      if (t < 0) continue;
+      const uint32_t chart = atlas.triangle_chart.empty() ? 0 : atlas.triangle_chart[static_cast<size_t>(t)];
+      while (colours.size() <= chart) colours.emplace_back(u(rng), u(rng), u(rng));
+      const cv::Vec3f c = colours[chart];
+      out.at<cv::Vec4f>(y, x) = {c[0], c[1], c[2], 1.0f};
+    }
+  }
+  return out;
+}
+
+void SetAtlasFigures(const atlas::Atlas& atlas, double seconds, v1::AtlasFigures* f) {
+  f->set_size(static_cast<uint32_t>(atlas.size));
+  f->set_built(atlas.stats.built);
+  f->set_charts(static_cast<uint32_t>(atlas.stats.num_charts));
+  f->set_coverage(atlas.stats.coverage);
+  f->set_overlap_fraction(atlas.stats.overlap_fraction);
+  f->set_min_area_ratio(atlas.stats.min_area_ratio);
+  f->set_max_area_ratio(atlas.stats.max_area_ratio);
+  f->set_triangles_without_interior_texels(static_cast<uint32_t>(atlas.stats.triangles_without_interior_texels));
+  f->set_seconds(seconds);
+}
+
+absl::Status WriteAtlas(const std::filesystem::path& stem, const cv::Mat& rgba) {
+  image::ExrOptions half;
+  half.half = true;
+  MVBRDF_RETURN_IF_ERROR(image::WriteExr(stem.string() + ".exr", rgba, half));
+  return image::WritePngPreview(stem.string() + ".png", rgba);
+}
+
+}  // namespace
+
+absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& sequence, gl::EglContext& context,
+                                                    const ResampleStageOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  StageTimer timer;
+  v1::ResampleReport report;
+  report.set_scene(sequence.scene_file.string());
+  report.set_frames(static_cast<uint32_t>(sequence.num_frames));
+  report.set_gl_renderer(context.Describe());
+  report.set_grow_iterations(static_cast<uint32_t>(options.grow_iterations));
+  report.set_min_valid_fraction(options.min_valid_fraction);
+  for (const scene::Light& l : sequence.lights) report.add_shadow_lights(l.name);
+  const std::filesystem::path& out = options.out_dir;
+
+  // The atlas, once, from the rest pose.
+  atlas::Atlas atlas;
+  {
+    const auto t0 = std::chrono::steady_clock::now();
+    MVBRDF_ASSIGN_OR_RETURN(atlas, atlas::BuildAtlas(sequence.topology, sequence.rest_positions, options.atlas));
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    timer.Add("atlas", seconds);
+    SetAtlasFigures(atlas, seconds, report.mutable_atlas());
+  }
+  if (options.save != SaveFrames::kNone) {
+    StageTimer::Scope t(&timer, "write");
+    MVBRDF_RETURN_IF_ERROR(scene::WriteObj(out / "atlas" / "mesh.obj", atlas.topology, sequence.rest_positions));
+    MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "triangle_id.exr", atlas.triangle_id));
+    MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(out / "atlas" / "charts.png", ChartPreview(atlas)));
+  }
+
+  MVBRDF_ASSIGN_OR_RETURN(auto resampler, resample::Resampler::Create(context, atlas, sequence.cameras,
+                                                                      sequence.lights, options.resampler));
+  std::vector<std::unique_ptr<scene::VideoSource>> videos;
+  for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
+    MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
+                                                                 static_cast<int>(sequence.scene.frames().first()),
+                                                                 absl::StrCat("scene.cameras[", c, "]")));
+    videos.push_back(std::move(video));
+  }
+
+  // Ground truth, when the scene is a synthetic bundle.
+  std::unique_ptr<evaluate::ResampleEvaluator> evaluator;
+  const std::filesystem::path truth_file = sequence.scene_dir / "ground_truth" / "truth.json";
+  if (options.evaluate && std::filesystem::exists(truth_file)) {
+    MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth truth, synth::GroundTruth::Load(truth_file));
+    MVBRDF_ASSIGN_OR_RETURN(evaluator, evaluate::ResampleEvaluator::Create(context, truth, atlas,
+                                                                           sequence.rest_positions, options.resampler));
+  }
+  report.set_has_ground_truth(evaluator != nullptr);
+
+  std::vector<evaluate::ResampleTally> tallies(sequence.cameras.size());
+  for (int t = 0; t < sequence.num_frames; ++t) {
+    const bool save = options.save == SaveFrames::kAll || (options.save == SaveFrames::kFirst && t == 0);
+    char frame_name[32];
+    std::snprintf(frame_name, sizeof(frame_name), "%04d", static_cast<int>(sequence.scene.frames().first()) + t);
+    const std::filesystem::path frame_dir = out / "frames" / frame_name;
+    if (save) report.add_saved_frames(frame_name);
+
+    scene::FramePositions positions;
+    {
+      StageTimer::Scope s(&timer, "mesh");
+      MVBRDF_ASSIGN_OR_RETURN(positions, sequence.LoadFrame(t));
+    }
+    {
+      StageTimer::Scope s(&timer, "geometry");
+      MVBRDF_RETURN_IF_ERROR(resampler->SetFrame(positions));
+    }
+    {
+      StageTimer::Scope s(&timer, "shadows");
+      MVBRDF_ASSIGN_OR_RETURN(const cv::Mat shadows, resampler->ShadowAtlas());
+      if (save) MVBRDF_RETURN_IF_ERROR(image::WriteExr(frame_dir / "shadows.exr", shadows));
+    }
+    resample::GeometryAtlas geometry;
+    if (evaluator != nullptr || save) {
+      StageTimer::Scope s(&timer, "geometry_readback");
+      MVBRDF_ASSIGN_OR_RETURN(geometry, resampler->Geometry());
+    }
+    if (save) {
+      StageTimer::Scope s(&timer, "write");
+      MVBRDF_RETURN_IF_ERROR(image::WriteExr(frame_dir / "position.exr", geometry.position));
+      MVBRDF_RETURN_IF_ERROR(image::WriteExr(frame_dir / "normal.exr", geometry.normal));
+    }
+    if (evaluator != nullptr) MVBRDF_RETURN_IF_ERROR(evaluator->SetFrame(positions));
+
+    for (size_t c = 0; c < sequence.cameras.size(); ++c) {
+      cv::Mat frame;
+      {
+        StageTimer::Scope s(&timer, "decode");
+        MVBRDF_ASSIGN_OR_RETURN(frame, videos[c]->ReadFrame(t));
+      }
+      cv::Mat resampled;
+      {
+        StageTimer::Scope s(&timer, "resample");
+        MVBRDF_ASSIGN_OR_RETURN(resampled, resampler->ResampleCamera(static_cast<int>(c), frame));
+      }
+      if (evaluator != nullptr) {
+        StageTimer::Scope s(&timer, "evaluate");
+        MVBRDF_ASSIGN_OR_RETURN(const evaluate::ResampleTally tally,
+                                evaluator->Evaluate(static_cast<int>(c), resampled, geometry));
+        tallies[c].Add(tally);
+      } else {
+        tallies[c].Add(evaluate::CountValid(resampled, atlas));
+      }
+      std::vector<resample::TriangleMean> means;
+      {
+        StageTimer::Scope s(&timer, "average");
+        means = resample::AverageTriangles(resampled, atlas, options.min_valid_fraction);
+      }
+      if (save) {
+        const std::string& name = sequence.cameras[c].name;
+        cv::Mat averaged, grown;
+        {
+          StageTimer::Scope s(&timer, "grow");
+          averaged = resample::AveragedAtlas(means, atlas);
+          grown = resample::GrowAtlas(resampled, options.grow_iterations);
+        }
+        StageTimer::Scope s(&timer, "write");
+        MVBRDF_RETURN_IF_ERROR(WriteAtlas(frame_dir / name, resampled));
+        MVBRDF_RETURN_IF_ERROR(WriteAtlas(frame_dir / (name + "_averaged"), averaged));
+        MVBRDF_RETURN_IF_ERROR(WriteAtlas(frame_dir / (name + "_grown"), grown));
+      }
+    }
+  }
+
+  evaluate::ResampleTally overall;
+  for (size_t c = 0; c < tallies.size(); ++c) {
+    v1::CameraFigures* f = report.add_cameras();
+    f->set_name(sequence.cameras[c].name);
+    tallies[c].ToFigures(evaluator != nullptr, f);
+    overall.Add(tallies[c]);
+  }
+  report.mutable_overall()->set_name("overall");
+  overall.ToFigures(evaluator != nullptr, report.mutable_overall());
+  timer.ToProto(report.mutable_stages());
+  const double gpu_seconds = timer.Seconds("geometry") + timer.Seconds("shadows") + timer.Seconds("resample");
+  const double atlases = static_cast<double>(sequence.num_frames) * static_cast<double>(sequence.cameras.size());
+  report.set_atlases_per_second(gpu_seconds > 0.0 ? atlases / gpu_seconds : 0.0);
+  report.set_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  report.set_peak_rss_bytes(PeakRssBytes());
+  MVBRDF_RETURN_IF_ERROR(WriteJsonFile(out / "resample.json", report));
+  return report;
+}
+
+}  // namespace mvbrdf::pipeline
