@@ -1,9 +1,9 @@
-// Shadow-map passes of core/render/phong_renderer.cc (one cube face or one
-// directional map per draw).
+// Position-only passes of core/render/phong_renderer.cc: the shadow maps (one
+// cube face or one directional map per draw) and the triangle-id pass.
 
 layout(location = 0) in vec3 a_position;  // world units
 
-layout(location = 0) uniform mat4 u_clip_from_world;  // the light's face or orthographic view
+layout(location = 0) uniform mat4 u_clip_from_world;  // a light's face or orthographic view, or a camera
 
 out vec3 v_position;
 

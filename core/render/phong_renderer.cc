@@ -62,6 +62,7 @@ constexpr GLint kClipFromWorldLocation = 0;
 constexpr GLint kCameraCenterLocation = 1;
 constexpr GLint kAtlasModeLocation = 2;
 constexpr GLint kFalloffLocation = 3;
+constexpr GLint kUvSpaceLocation = 4;
 constexpr GLint kLightPositionLocation = 1;
 constexpr GLint kInverseRangeLocation = 2;
 
@@ -159,6 +160,46 @@ gl::Texture CreateShadowArray(GLenum target, int size, int layers) {
   return texture;
 }
 
+// A framebuffer with one colour and one depth renderbuffer, reallocated when
+// the requested size changes. Render, RenderAtlas and RenderTriangleIds each
+// keep their own, so that alternating between them reallocates nothing.
+struct RenderTarget {
+  explicit RenderTarget(GLenum format) : color_format(format) {}
+
+  GLenum color_format;  // sized internal format of the colour renderbuffer
+  int width = 0, height = 0;
+  gl::Framebuffer framebuffer;
+  gl::Renderbuffer color;
+  gl::Renderbuffer depth;  // DEPTH_COMPONENT32F
+
+  absl::Status Ensure(int new_width, int new_height, absl::string_view what) {
+    if (framebuffer && new_width == width && new_height == height) return absl::OkStatus();
+    framebuffer = gl::CreateFramebuffer();
+    color = gl::CreateRenderbuffer();
+    glNamedRenderbufferStorage(color.id(), color_format, new_width, new_height);
+    depth = gl::CreateRenderbuffer();
+    glNamedRenderbufferStorage(depth.id(), GL_DEPTH_COMPONENT32F, new_width, new_height);
+    glNamedFramebufferRenderbuffer(framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color.id());
+    glNamedFramebufferRenderbuffer(framebuffer.id(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth.id());
+    glNamedFramebufferDrawBuffer(framebuffer.id(), GL_COLOR_ATTACHMENT0);
+    glNamedFramebufferReadBuffer(framebuffer.id(), GL_COLOR_ATTACHMENT0);
+    MVBRDF_RETURN_IF_ERROR(gl::CheckGlError(absl::StrCat("allocating the ", what)));
+    MVBRDF_RETURN_IF_ERROR(gl::CheckFramebufferComplete(framebuffer, what));
+    width = new_width;
+    height = new_height;
+    return absl::OkStatus();
+  }
+};
+
+// The largest side a render target may have: the renderbuffer and viewport limits.
+int MaxTargetSide() {
+  GLint renderbuffer = 0;
+  GLint viewport[2] = {0, 0};
+  glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &renderbuffer);
+  glGetIntegerv(GL_MAX_VIEWPORT_DIMS, viewport);
+  return std::min({renderbuffer, viewport[0], viewport[1]});
+}
+
 }  // namespace
 
 struct PhongRenderer::Impl {
@@ -182,6 +223,7 @@ struct PhongRenderer::Impl {
   gl::Program phong_program;
   gl::Program point_shadow_program;
   gl::Program directional_shadow_program;
+  gl::Program triangle_id_program;
 
   // 1x1 stand-ins so that every sampler of phong.frag always has a texture.
   gl::Texture placeholder_texture;
@@ -199,10 +241,9 @@ struct PhongRenderer::Impl {
   gl::Texture directional_shadows;  // 2D array, one layer per directional light (at least one)
   gl::Framebuffer shadow_framebuffer;
 
-  int target_width = 0, target_height = 0;
-  gl::Framebuffer target_framebuffer;
-  gl::Renderbuffer target_color;  // RGBA32F
-  gl::Renderbuffer target_depth;  // DEPTH_COMPONENT32F
+  RenderTarget camera_target{GL_RGBA32F};    // Render
+  RenderTarget atlas_target{GL_RGBA32F};     // RenderAtlas
+  RenderTarget triangle_id_target{GL_R32I};  // RenderTriangleIds
   std::vector<float> readback;
 
   // Shadow maps depend on the positions and the lights only, not on the
@@ -210,8 +251,21 @@ struct PhongRenderer::Impl {
   bool shadows_valid = false;
   std::vector<glm::vec3> shadow_positions;  // the positions the shadow maps were rendered for
 
-  absl::Status EnsureTarget(int width, int height);
   absl::Status EnsureShadowMaps();
+  // FAILED_PRECONDITION unless the context is current here; INVALID_ARGUMENT
+  // unless the pose has one position and normal per render vertex.
+  absl::Status CheckContextAndPose(absl::string_view caller, const Pose& pose) const;
+  // FAILED_PRECONDITION unless the materials are complete.
+  absl::Status CheckMaterials(absl::string_view caller) const;
+  // Uploads the pose's positions and normals and, unless still valid, renders
+  // the shadow maps for it.
+  absl::Status PreparePose(const Pose& pose);
+  // The main pass of phong.vert/phong.frag into `target` (cleared to 0):
+  // placed by `clip_from_world` (depth-tested) or, with `uv_space`, at the
+  // UVs (no depth test), shaded as seen from `camera_center`. Leaves the
+  // RGBA floats of the target, bottom window row first, in `readback`.
+  absl::Status DrawShaded(const glm::mat4& clip_from_world, const glm::vec3& camera_center, bool uv_space,
+                          RenderTarget& target);
   // Fills `block` and renders every shadow map for the pose's bounds.
   absl::Status RenderShadowMaps(const BoundingSphere& bounds, GpuLightBlock* block);
   void Draw() const {
@@ -270,6 +324,8 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
   MVBRDF_ASSIGN_OR_RETURN(
       impl->directional_shadow_program,
       gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}}, {GL_FRAGMENT_SHADER, "shadow_directional.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(impl->triangle_id_program, gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
+                                                                       {GL_FRAGMENT_SHADER, "triangle_id.frag", {}}}));
 
   const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(n * sizeof(glm::vec3));
   impl->position_buffer = gl::CreateBuffer();
@@ -417,24 +473,6 @@ absl::Status PhongRenderer::Impl::EnsureShadowMaps() {
   return gl::CheckGlError("allocating shadow maps");
 }
 
-absl::Status PhongRenderer::Impl::EnsureTarget(int width, int height) {
-  if (target_framebuffer && width == target_width && height == target_height) return absl::OkStatus();
-  target_framebuffer = gl::CreateFramebuffer();
-  target_color = gl::CreateRenderbuffer();
-  glNamedRenderbufferStorage(target_color.id(), GL_RGBA32F, width, height);
-  target_depth = gl::CreateRenderbuffer();
-  glNamedRenderbufferStorage(target_depth.id(), GL_DEPTH_COMPONENT32F, width, height);
-  glNamedFramebufferRenderbuffer(target_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, target_color.id());
-  glNamedFramebufferRenderbuffer(target_framebuffer.id(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, target_depth.id());
-  glNamedFramebufferDrawBuffer(target_framebuffer.id(), GL_COLOR_ATTACHMENT0);
-  glNamedFramebufferReadBuffer(target_framebuffer.id(), GL_COLOR_ATTACHMENT0);
-  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("allocating the render target"));
-  MVBRDF_RETURN_IF_ERROR(gl::CheckFramebufferComplete(target_framebuffer, "render target"));
-  target_width = width;
-  target_height = height;
-  return absl::OkStatus();
-}
-
 absl::Status PhongRenderer::Impl::RenderShadowMaps(const BoundingSphere& bounds, GpuLightBlock* block) {
   const int size = options.shadow_map_size;
   // Shadow maps cover the bounding sphere with a little room, so that nothing
@@ -506,91 +544,113 @@ absl::Status PhongRenderer::Impl::RenderShadowMaps(const BoundingSphere& bounds,
   return gl::CheckGlError("rendering shadow maps");
 }
 
-absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene::CameraModel& camera) {
-  Impl& r = *impl_;
-  if (!r.context->IsCurrent()) {
-    return absl::FailedPreconditionError("PhongRenderer::Render: the EGL context is not current on this thread");
-  }
-  if (r.mode == Impl::Mode::kNone) {
+absl::Status PhongRenderer::Impl::CheckContextAndPose(absl::string_view caller, const Pose& pose) const {
+  if (!context->IsCurrent()) {
     return absl::FailedPreconditionError(
-        "PhongRenderer::Render: no materials; call SetProceduralMaterials or SetAtlasMaterials first");
+        absl::StrCat("PhongRenderer::", caller, ": the EGL context is not current on this thread"));
   }
-  if (r.mode == Impl::Mode::kProcedural && r.needs_kd_texture && !r.kd_texture) {
-    return absl::FailedPreconditionError(
-        "PhongRenderer::Render: a material takes kd from the texture but SetKdTexture was not called");
-  }
-  if (pose.positions.size() != r.num_vertices || pose.normals.size() != r.num_vertices) {
-    return absl::InvalidArgumentError(absl::StrCat("pose: expected ", r.num_vertices,
+  if (pose.positions.size() != num_vertices || pose.normals.size() != num_vertices) {
+    return absl::InvalidArgumentError(absl::StrCat("pose: expected ", num_vertices,
                                                    " positions and normals (one per render vertex), got ",
                                                    pose.positions.size(), " and ", pose.normals.size()));
   }
+  return absl::OkStatus();
+}
+
+absl::Status PhongRenderer::Impl::CheckMaterials(absl::string_view caller) const {
+  if (mode == Mode::kNone) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "PhongRenderer::", caller, ": no materials; call SetProceduralMaterials or SetAtlasMaterials first"));
+  }
+  if (mode == Mode::kProcedural && needs_kd_texture && !kd_texture) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "PhongRenderer::", caller, ": a material takes kd from the texture but SetKdTexture was not called"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status PhongRenderer::Impl::PreparePose(const Pose& pose) {
+  const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(num_vertices * sizeof(glm::vec3));
+  glNamedBufferSubData(position_buffer.id(), 0, vec3_bytes, pose.positions.data());
+  glNamedBufferSubData(normal_buffer.id(), 0, vec3_bytes, pose.normals.data());
+  if (!shadows_valid || shadow_positions != pose.positions) {
+    shadows_valid = false;
+    GpuLightBlock block{};
+    MVBRDF_RETURN_IF_ERROR(RenderShadowMaps(ComputeBoundingSphere(pose.positions), &block));
+    glNamedBufferSubData(light_buffer.id(), 0, sizeof(GpuLightBlock), &block);
+    shadow_positions = pose.positions;
+    shadows_valid = true;
+  }
+  return absl::OkStatus();
+}
+
+absl::Status PhongRenderer::Impl::DrawShaded(const glm::mat4& clip_from_world, const glm::vec3& camera_center,
+                                             bool uv_space, RenderTarget& target) {
+  const GLuint program = phong_program.id();
+  glProgramUniformMatrix4fv(program, kClipFromWorldLocation, 1, GL_FALSE, glm::value_ptr(clip_from_world));
+  glProgramUniform3fv(program, kCameraCenterLocation, 1, glm::value_ptr(camera_center));
+  glProgramUniform1i(program, kAtlasModeLocation, mode == Mode::kAtlas ? 1 : 0);
+  glProgramUniform1i(program, kFalloffLocation, options.inverse_square_falloff ? 1 : 0);
+  glProgramUniform1i(program, kUvSpaceLocation, uv_space ? 1 : 0);
+
+  const GLuint placeholder = placeholder_texture.id();
+  const bool atlas = mode == Mode::kAtlas;
+  glBindTextureUnit(kKdTextureUnit, kd_texture ? kd_texture.id() : placeholder);
+  glBindTextureUnit(kAtlasKdUnit, atlas ? atlas_kd.id() : placeholder);
+  glBindTextureUnit(kAtlasKsUnit, atlas ? atlas_ks.id() : placeholder);
+  glBindTextureUnit(kAtlasKeUnit, atlas ? atlas_ke.id() : placeholder);
+  glBindTextureUnit(kPointShadowUnit, point_shadows.id());
+  glBindTextureUnit(kDirectionalShadowUnit, directional_shadows.id());
+  glBindBufferBase(GL_UNIFORM_BUFFER, kLightBlockBinding, light_buffer.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMaterialBlockBinding, material_buffer.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTriangleMaterialBlockBinding, triangle_material_buffer.id());
+
+  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer.id());
+  glViewport(0, 0, target.width, target.height);
+  // In UV space every triangle lies at depth 0; there is nothing to resolve.
+  if (uv_space) {
+    glDisable(GL_DEPTH_TEST);
+  } else {
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDepthMask(GL_TRUE);
+  }
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  const float clear_color[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  const float clear_depth = 1.0f;
+  glClearNamedFramebufferfv(target.framebuffer.id(), GL_COLOR, 0, clear_color);
+  glClearNamedFramebufferfv(target.framebuffer.id(), GL_DEPTH, 0, &clear_depth);
+  glUseProgram(program);
+  Draw();
+
+  // Read back in the target's own format (PERF.md: the fast path).
+  readback.resize(static_cast<size_t>(target.width) * target.height * 4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+  glReadPixels(0, 0, target.width, target.height, GL_RGBA, GL_FLOAT, readback.data());
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  return gl::CheckGlError("PhongRenderer: shading pass");
+}
+
+absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene::CameraModel& camera) {
+  Impl& r = *impl_;
+  MVBRDF_RETURN_IF_ERROR(r.CheckContextAndPose("Render", pose));
+  MVBRDF_RETURN_IF_ERROR(r.CheckMaterials("Render"));
   if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0.0) || !(camera.fy > 0.0)) {
     return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name,
                                                    "\": need positive size and focal lengths, got ", camera.width, "x",
                                                    camera.height, ", fx ", camera.fx, ", fy ", camera.fy));
   }
-
-  const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(r.num_vertices * sizeof(glm::vec3));
-  glNamedBufferSubData(r.position_buffer.id(), 0, vec3_bytes, pose.positions.data());
-  glNamedBufferSubData(r.normal_buffer.id(), 0, vec3_bytes, pose.normals.data());
-
-  if (!r.shadows_valid || r.shadow_positions != pose.positions) {
-    r.shadows_valid = false;
-    GpuLightBlock block{};
-    MVBRDF_RETURN_IF_ERROR(r.RenderShadowMaps(ComputeBoundingSphere(pose.positions), &block));
-    glNamedBufferSubData(r.light_buffer.id(), 0, sizeof(GpuLightBlock), &block);
-    r.shadow_positions = pose.positions;
-    r.shadows_valid = true;
-  }
-
-  // Main pass.
-  MVBRDF_RETURN_IF_ERROR(r.EnsureTarget(camera.width, camera.height));
+  MVBRDF_RETURN_IF_ERROR(r.PreparePose(pose));
+  MVBRDF_RETURN_IF_ERROR(r.camera_target.Ensure(camera.width, camera.height, "render target"));
   const glm::dmat4 clip_from_world =
       ClipFromCamera(camera, r.options.near_plane, r.options.far_plane) * CamFromWorld(camera);
-  const glm::mat4 clip_from_world_f(clip_from_world);
-  const glm::vec3 camera_center(camera.CenterInWorld());
-  const GLuint program = r.phong_program.id();
-  glProgramUniformMatrix4fv(program, kClipFromWorldLocation, 1, GL_FALSE, glm::value_ptr(clip_from_world_f));
-  glProgramUniform3fv(program, kCameraCenterLocation, 1, glm::value_ptr(camera_center));
-  glProgramUniform1i(program, kAtlasModeLocation, r.mode == Impl::Mode::kAtlas ? 1 : 0);
-  glProgramUniform1i(program, kFalloffLocation, r.options.inverse_square_falloff ? 1 : 0);
-
-  const GLuint placeholder = r.placeholder_texture.id();
-  const bool atlas = r.mode == Impl::Mode::kAtlas;
-  glBindTextureUnit(kKdTextureUnit, r.kd_texture ? r.kd_texture.id() : placeholder);
-  glBindTextureUnit(kAtlasKdUnit, atlas ? r.atlas_kd.id() : placeholder);
-  glBindTextureUnit(kAtlasKsUnit, atlas ? r.atlas_ks.id() : placeholder);
-  glBindTextureUnit(kAtlasKeUnit, atlas ? r.atlas_ke.id() : placeholder);
-  glBindTextureUnit(kPointShadowUnit, r.point_shadows.id());
-  glBindTextureUnit(kDirectionalShadowUnit, r.directional_shadows.id());
-  glBindBufferBase(GL_UNIFORM_BUFFER, kLightBlockBinding, r.light_buffer.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMaterialBlockBinding, r.material_buffer.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTriangleMaterialBlockBinding, r.triangle_material_buffer.id());
-
-  glBindFramebuffer(GL_FRAMEBUFFER, r.target_framebuffer.id());
-  glViewport(0, 0, camera.width, camera.height);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glDepthMask(GL_TRUE);
-  glDisable(GL_CULL_FACE);
-  glDisable(GL_BLEND);
-  const float clear_color[4] = {0.0f, 0.0f, 0.0f, 0.0f};
-  const float clear_depth = 1.0f;
-  glClearNamedFramebufferfv(r.target_framebuffer.id(), GL_COLOR, 0, clear_color);
-  glClearNamedFramebufferfv(r.target_framebuffer.id(), GL_DEPTH, 0, &clear_depth);
-  glUseProgram(program);
-  r.Draw();
-
-  // Read back in the target's own format (PERF.md: the fast path). Window row
-  // 0 is image row 0 (see ClipFromCamera).
-  r.readback.resize(static_cast<size_t>(camera.width) * camera.height * 4);
-  glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  glPixelStorei(GL_PACK_ROW_LENGTH, 0);
-  glReadPixels(0, 0, camera.width, camera.height, GL_RGBA, GL_FLOAT, r.readback.data());
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  glUseProgram(0);
-  glBindVertexArray(0);
-  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("PhongRenderer::Render"));
+  // Window row 0 is image row 0 (see ClipFromCamera): no flip.
+  MVBRDF_RETURN_IF_ERROR(
+      r.DrawShaded(glm::mat4(clip_from_world), glm::vec3(camera.CenterInWorld()), /*uv_space=*/false, r.camera_target));
 
   RenderOutput output;
   output.radiance.create(camera.height, camera.width, CV_32FC3);
@@ -607,6 +667,96 @@ absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene
     }
   }
   return output;
+}
+
+absl::StatusOr<cv::Mat> PhongRenderer::RenderAtlas(const Pose& pose, const glm::vec3& camera_center, int size) {
+  Impl& r = *impl_;
+  MVBRDF_RETURN_IF_ERROR(r.CheckContextAndPose("RenderAtlas", pose));
+  if (!r.has_uvs) {
+    return absl::FailedPreconditionError(
+        "PhongRenderer::RenderAtlas: the mesh has no uvs; RenderMesh::uvs must hold the atlas layout");
+  }
+  MVBRDF_RETURN_IF_ERROR(r.CheckMaterials("RenderAtlas"));
+  const int max_side = MaxTargetSide();
+  if (size < 1 || size > max_side) {
+    return absl::InvalidArgumentError(absl::StrCat("size: must be in [1, ", max_side, "], got ", size));
+  }
+  if (!std::isfinite(camera_center.x) || !std::isfinite(camera_center.y) || !std::isfinite(camera_center.z)) {
+    return absl::InvalidArgumentError("camera_center: must be finite");
+  }
+  MVBRDF_RETURN_IF_ERROR(r.PreparePose(pose));
+  MVBRDF_RETURN_IF_ERROR(r.atlas_target.Ensure(size, size, "atlas target"));
+  MVBRDF_RETURN_IF_ERROR(r.DrawShaded(glm::mat4(1.0f), camera_center, /*uv_space=*/true, r.atlas_target));
+
+  // Window row 0 is v = 0, the atlas's bottom row: flip.
+  cv::Mat atlas(size, size, CV_32FC4);
+  const size_t row_floats = static_cast<size_t>(size) * 4;
+  for (int j = 0; j < size; ++j) {
+    const float* src = r.readback.data() + static_cast<size_t>(size - 1 - j) * row_floats;
+    std::copy(src, src + row_floats, atlas.ptr<float>(j));
+  }
+  return atlas;
+}
+
+absl::StatusOr<cv::Mat> PhongRenderer::RenderTriangleIds(const Pose& pose, const scene::CameraModel& camera,
+                                                         int supersample) {
+  Impl& r = *impl_;
+  MVBRDF_RETURN_IF_ERROR(r.CheckContextAndPose("RenderTriangleIds", pose));
+  if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0.0) || !(camera.fy > 0.0)) {
+    return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name,
+                                                   "\": need positive size and focal lengths, got ", camera.width, "x",
+                                                   camera.height, ", fx ", camera.fx, ", fy ", camera.fy));
+  }
+  const int max_side = MaxTargetSide();
+  if (supersample < 1 || static_cast<int64_t>(camera.width) * supersample > max_side ||
+      static_cast<int64_t>(camera.height) * supersample > max_side) {
+    return absl::InvalidArgumentError(absl::StrCat("supersample: must be >= 1 with the scaled image at most ", max_side,
+                                                   " pixels a side; got ", supersample, " for camera \"", camera.name,
+                                                   "\" of ", camera.width, "x", camera.height));
+  }
+  // Pixel centre x of the camera image sits at x' = (x + 0.5) s - 0.5 of the
+  // scaled one, so the pinhole u = f X/Z + c becomes u' = (f s) X/Z + (c + 0.5) s - 0.5.
+  scene::CameraModel scaled = camera;
+  const double s = supersample;
+  scaled.width = camera.width * supersample;
+  scaled.height = camera.height * supersample;
+  scaled.fx = camera.fx * s;
+  scaled.fy = camera.fy * s;
+  scaled.cx = (camera.cx + 0.5) * s - 0.5;
+  scaled.cy = (camera.cy + 0.5) * s - 0.5;
+
+  glNamedBufferSubData(r.position_buffer.id(), 0, static_cast<GLsizeiptr>(r.num_vertices * sizeof(glm::vec3)),
+                       pose.positions.data());
+  RenderTarget& target = r.triangle_id_target;
+  MVBRDF_RETURN_IF_ERROR(target.Ensure(scaled.width, scaled.height, "triangle-id target"));
+  const glm::mat4 clip_from_world(ClipFromCamera(scaled, r.options.near_plane, r.options.far_plane) *
+                                  CamFromWorld(scaled));
+  const GLuint program = r.triangle_id_program.id();
+  glProgramUniformMatrix4fv(program, kClipFromWorldLocation, 1, GL_FALSE, glm::value_ptr(clip_from_world));
+  glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer.id());
+  glViewport(0, 0, scaled.width, scaled.height);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  const GLint no_triangle[4] = {-1, -1, -1, -1};
+  const float clear_depth = 1.0f;
+  glClearNamedFramebufferiv(target.framebuffer.id(), GL_COLOR, 0, no_triangle);
+  glClearNamedFramebufferfv(target.framebuffer.id(), GL_DEPTH, 0, &clear_depth);
+  glUseProgram(program);
+  r.Draw();
+
+  // Window row 0 is image row 0 (see ClipFromCamera): no flip.
+  cv::Mat ids(scaled.height, scaled.width, CV_32SC1);  // continuous
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+  glReadPixels(0, 0, scaled.width, scaled.height, GL_RED_INTEGER, GL_INT, ids.data);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("PhongRenderer::RenderTriangleIds"));
+  return ids;
 }
 
 }  // namespace mvbrdf::render

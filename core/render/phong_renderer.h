@@ -89,6 +89,33 @@ class PhongRenderer {
   // caller could rely on.
   absl::StatusOr<RenderOutput> Render(const Pose& pose, const scene::CameraModel& camera);
 
+  // The true radiance at each atlas texel's surface point: the mesh drawn at
+  // its UVs (which must be the atlas layout; FAILED_PRECONDITION if the mesh
+  // has no uvs) into a size x size target, every texel shaded exactly as
+  // Render shades a fragment (same materials, the pose's shadow maps, the
+  // same model) with v = normalize(camera_center - surface point), world
+  // units. The surface point of a texel is its centre mapped affinely through
+  // the covering triangle's UVs.
+  //
+  // Returns CV_32FC4 in the atlas image convention (core/atlas/atlas.h: row 0
+  // at the top = v 1; texel (i, j) centred at u = (i + 0.5) / size,
+  // v = 1 - (j + 0.5) / size): R, G, B = linear radiance, A = 1 where a
+  // triangle covers the texel centre, else 0 (and R, G, B = 0). Where UVs
+  // overlap, the triangle later in RenderMesh::triangles wins. size in
+  // [1, the GL renderbuffer limit]. Shares the shadow-map cache with Render;
+  // the same binding caveats apply.
+  absl::StatusOr<cv::Mat> RenderAtlas(const Pose& pose, const glm::vec3& camera_center, int size);
+
+  // Visibility truth: the index into RenderMesh::triangles of the triangle
+  // visible at every pixel centre of the camera's undistorted pinhole image
+  // rendered at `supersample` times its resolution (width * s by height * s,
+  // intrinsics f * s and (c + 0.5) * s - 0.5, so that pixel block
+  // [s x, s x + s) x [s y, s y + s) covers camera pixel (x, y)); depth-tested
+  // with the renderer's near and far planes. CV_32SC1, row 0 at the top,
+  // -1 where no triangle is. Needs no materials or lights. supersample >= 1
+  // and the scaled size within the GL renderbuffer limit.
+  absl::StatusOr<cv::Mat> RenderTriangleIds(const Pose& pose, const scene::CameraModel& camera, int supersample);
+
  private:
   struct Impl;
   explicit PhongRenderer(std::unique_ptr<Impl> impl);
