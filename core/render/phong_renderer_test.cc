@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
 
+#include "absl/strings/str_cat.h"
 #include "core/render/phong_model.h"
 #include "core/render/solid_texture.h"
 
@@ -62,8 +64,10 @@ std::optional<glm::dvec3> HitPlaneZ(const glm::dvec3& origin, const glm::dvec3& 
 double InsideSquare(const glm::dvec3& p, double half) { return half - std::max(std::abs(p.x), std::abs(p.y)); }
 
 // Appends an n x n grid of quads over the square |x|, |y| <= half at height z,
-// normal +z, uv = (x, y) mapped from [-half, half] to [0, 1].
-void AppendGrid(int n, double half, double z, uint32_t material, RenderMesh* mesh, Pose* pose) {
+// normal +z, uv = (x, y) mapped from [-half, half] to [uv_min, uv_max]. Quad
+// (i, j) is triangles 2 (j n + i) (the half with x > y) and 2 (j n + i) + 1.
+void AppendGridWithUvs(int n, double half, double z, uint32_t material, const glm::vec2& uv_min,
+                       const glm::vec2& uv_max, RenderMesh* mesh, Pose* pose) {
   const uint32_t first = static_cast<uint32_t>(mesh->rest_positions.size());
   for (int j = 0; j <= n; ++j) {
     for (int i = 0; i <= n; ++i) {
@@ -71,7 +75,7 @@ void AppendGrid(int n, double half, double z, uint32_t material, RenderMesh* mes
       const glm::vec3 p(static_cast<float>(-half + 2.0 * half * s), static_cast<float>(-half + 2.0 * half * t),
                         static_cast<float>(z));
       mesh->rest_positions.push_back(p);
-      mesh->uvs.emplace_back(s, t);
+      mesh->uvs.push_back(uv_min + glm::vec2(s, t) * (uv_max - uv_min));
       pose->positions.push_back(p);
       pose->normals.emplace_back(0.0f, 0.0f, 1.0f);
     }
@@ -85,6 +89,10 @@ void AppendGrid(int n, double half, double z, uint32_t material, RenderMesh* mes
       mesh->triangle_material.push_back(material);
     }
   }
+}
+
+void AppendGrid(int n, double half, double z, uint32_t material, RenderMesh* mesh, Pose* pose) {
+  AppendGridWithUvs(n, half, z, material, glm::vec2(0.0f), glm::vec2(1.0f), mesh, pose);
 }
 
 scene::Light PointLight(const glm::vec3& position, const glm::vec3& intensity) {
@@ -624,6 +632,461 @@ TEST_F(PhongRendererTest, TimingSphere20kTriangles4PointLights) {
   std::sort(same_frame_ms.begin(), same_frame_ms.end());
   std::printf("[ timing   ] the same frame from another camera (shadow maps reused): median %.1f ms\n",
               same_frame_ms[2]);
+}
+
+// ---------------------------------------------------------------------------
+// RenderAtlas: the radiance at each texel's surface point.
+
+// Texel vs CPU model at the texel centre's analytic surface point, relative to
+// the atlas maximum. Attributes interpolate affinely in UV space (w = 1), so
+// only float interpolation and GPU pow/exp rounding remain (measured ~2e-6).
+constexpr float kAtlasRelativeTolerance = 1e-4f;
+// Texel centres closer than this to a triangle's outline (in texels) are not
+// classified: the rasteriser's tie-breaking decides them.
+constexpr double kCoverageMargin = 0.01;
+
+// Centre of atlas texel (column i, row j) in the atlas convention (row 0 = v 1).
+glm::dvec2 TexelCenterUv(int i, int j, int size) { return {(i + 0.5) / size, 1.0 - (j + 0.5) / size}; }
+
+// Where `uv` lies relative to the triangle with those UVs: barycentrics and
+// the signed distance to the outline, in texels (positive inside).
+struct UvLocation {
+  glm::dvec3 barycentric{0.0};
+  double inside_texels = -std::numeric_limits<double>::max();
+};
+
+UvLocation LocateInUvTriangle(const glm::dvec2& uv, const glm::dvec2& a, const glm::dvec2& b, const glm::dvec2& c,
+                              int size) {
+  auto cross = [](const glm::dvec2& p, const glm::dvec2& q) { return p.x * q.y - p.y * q.x; };
+  const double area2 = cross(b - a, c - a);
+  UvLocation location;
+  if (std::abs(area2) < 1e-15) return location;
+  location.barycentric = glm::dvec3(cross(b - uv, c - uv), cross(c - uv, a - uv), cross(a - uv, b - uv)) / area2;
+  // Distance to edge k = barycentric k * (height over edge k).
+  const std::array<double, 3> edge = {glm::length(c - b), glm::length(a - c), glm::length(b - a)};
+  location.inside_texels = std::numeric_limits<double>::max();
+  for (int k = 0; k < 3; ++k) {
+    location.inside_texels =
+        std::min(location.inside_texels, location.barycentric[k] * std::abs(area2) / edge[k] * size);
+  }
+  return location;
+}
+
+// The covering triangle of each texel centre, found on the CPU.
+struct TexelTruth {
+  bool covered = false;
+  bool ambiguous = false;  // within kCoverageMargin of an outline
+  glm::dvec3 point{0.0};   // world, the pose's surface point
+  glm::dvec3 normal{0.0};  // unit, interpolated
+  glm::dvec3 rest_point{0.0};
+};
+
+TexelTruth LocateTexel(const RenderMesh& mesh, const Pose& pose, int i, int j, int size) {
+  const glm::dvec2 uv = TexelCenterUv(i, j, size);
+  TexelTruth truth;
+  double best = -std::numeric_limits<double>::max();
+  for (const glm::uvec3& tri : mesh.triangles) {
+    const UvLocation location = LocateInUvTriangle(uv, mesh.uvs[tri.x], mesh.uvs[tri.y], mesh.uvs[tri.z], size);
+    if (location.inside_texels <= best) continue;
+    best = location.inside_texels;
+    const glm::dvec3& w = location.barycentric;
+    truth.point = w.x * glm::dvec3(pose.positions[tri.x]) + w.y * glm::dvec3(pose.positions[tri.y]) +
+                  w.z * glm::dvec3(pose.positions[tri.z]);
+    truth.normal = glm::normalize(w.x * glm::dvec3(pose.normals[tri.x]) + w.y * glm::dvec3(pose.normals[tri.y]) +
+                                  w.z * glm::dvec3(pose.normals[tri.z]));
+    truth.rest_point = w.x * glm::dvec3(mesh.rest_positions[tri.x]) + w.y * glm::dvec3(mesh.rest_positions[tri.y]) +
+                       w.z * glm::dvec3(mesh.rest_positions[tri.z]);
+  }
+  truth.covered = best > 0.0;
+  truth.ambiguous = std::abs(best) < kCoverageMargin;
+  return truth;
+}
+
+float MaxChannelError(const cv::Vec4f& actual, const glm::vec3& expected) {
+  return MaxChannelError(cv::Vec3f(actual[0], actual[1], actual[2]), expected);
+}
+
+TEST_F(PhongRendererTest, AtlasTexelsMatchTheCpuModelAtTheirSurfacePoints) {
+  // A grid on part of the atlas and a lone triangle elsewhere; the rest of
+  // the atlas is empty.
+  RenderMesh mesh;
+  Pose pose;
+  AppendGridWithUvs(8, 1.0, 0.0, 0, {0.1f, 0.2f}, {0.6f, 0.85f}, &mesh, &pose);
+  const std::array<glm::vec3, 3> lone = {glm::vec3(1.5f, -1.0f, 0.0f), glm::vec3(2.5f, -1.0f, 0.0f),
+                                         glm::vec3(1.5f, 0.5f, 0.0f)};
+  const std::array<glm::vec2, 3> lone_uvs = {glm::vec2(0.7f, 0.1f), glm::vec2(0.95f, 0.15f), glm::vec2(0.72f, 0.6f)};
+  const uint32_t first = static_cast<uint32_t>(mesh.rest_positions.size());
+  for (int k = 0; k < 3; ++k) {
+    mesh.rest_positions.push_back(lone[k]);
+    mesh.uvs.push_back(lone_uvs[k]);
+    pose.positions.push_back(lone[k]);
+    pose.normals.emplace_back(0.0f, 0.0f, 1.0f);
+  }
+  mesh.triangles.emplace_back(first, first + 1, first + 2);
+  mesh.triangle_material.push_back(0);
+  RendererOptions options;
+  options.shadow_map_size = 512;
+  options.inverse_square_falloff = true;
+  auto renderer = MakeRenderer(mesh, options);
+  ASSERT_NE(renderer, nullptr);
+
+  ProceduralMaterial material;
+  material.kd.base = {0.6f, 0.4f, 0.3f};
+  material.kd.amplitude = 0.5f;
+  material.kd.frequency = 3.0f;
+  material.kd.offset = {0.1f, 0.2f, 0.3f};
+  material.ks = {0.3f, 0.35f, 0.4f};
+  material.ke = {8.0f, 12.0f, 20.0f};
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+  const std::vector<scene::Light> lights = {PointLight({0.6f, 0.3f, 1.5f}, {1.0f, 0.9f, 0.8f})};
+  ASSERT_TRUE(renderer->SetLights(lights).ok());
+
+  constexpr int kSize = 96;
+  const glm::vec3 camera_center(0.5f, -2.0f, 2.0f);
+  absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(pose, camera_center, kSize);
+  ASSERT_TRUE(atlas.ok()) << atlas.status();
+  ASSERT_EQ(atlas->type(), CV_32FC4);
+  ASSERT_EQ(atlas->size(), cv::Size(kSize, kSize));
+  const float scale = MaxValue(*atlas);
+  ASSERT_GT(scale, 0.0f);
+
+  PhongParams params;
+  params.ks = material.ks;
+  params.ke = material.ke;
+  int covered = 0, empty = 0;
+  float max_error = 0.0f;
+  for (int j = 0; j < kSize; ++j) {
+    for (int i = 0; i < kSize; ++i) {
+      const TexelTruth truth = LocateTexel(mesh, pose, i, j, kSize);
+      if (truth.ambiguous) continue;
+      const cv::Vec4f texel = atlas->at<cv::Vec4f>(j, i);
+      if (!truth.covered) {
+        EXPECT_EQ(texel, cv::Vec4f(0, 0, 0, 0)) << "texel " << i << ", " << j;
+        ++empty;
+        continue;
+      }
+      ASSERT_EQ(texel[3], 1.0f) << "texel " << i << ", " << j;
+      params.kd = EvaluateSolidTexture(material.kd, glm::vec3(truth.rest_point));
+      const glm::vec3 expected = EvaluatePhong(params, glm::vec3(truth.point), glm::vec3(truth.normal), camera_center,
+                                               lights, {}, options.inverse_square_falloff);
+      const float error = MaxChannelError(texel, expected);
+      max_error = std::max(max_error, error);
+      EXPECT_LE(error, kAtlasRelativeTolerance * scale) << "texel " << i << ", " << j;
+      ++covered;
+    }
+  }
+  // Grid 0.5 x 0.65 and lone triangle ~0.06 of the unit square.
+  EXPECT_GT(covered, static_cast<int>(0.37 * kSize * kSize));
+  EXPECT_GT(empty, static_cast<int>(0.55 * kSize * kSize));
+  RecordProperty("max_relative_error", std::to_string(max_error / scale));
+
+  // The alpha channel is exactly the layout's coverage, and the same atlas
+  // comes back from a second call (shadow maps reused).
+  absl::StatusOr<cv::Mat> again = renderer->RenderAtlas(pose, camera_center, kSize);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(cv::norm(*atlas, *again, cv::NORM_INF), 0.0);
+}
+
+// Flat ground (UVs on the left of the atlas) under a small square occluder
+// (UVs on the right), one light at a time: every ground texel equals the CPU
+// model with the light's analytic visibility; the umbra is black.
+TEST_F(PhongRendererTest, AtlasShowsShadowsInAtlasSpace) {
+  constexpr double kGroundHalf = 2.0, kOccluderHalf = 0.3, kOccluderHeight = 0.6;
+  constexpr float kGroundUvWidth = 0.75f;
+  RenderMesh mesh;
+  Pose pose;
+  AppendGridWithUvs(30, kGroundHalf, 0.0, 0, {0.0f, 0.0f}, {kGroundUvWidth, 1.0f}, &mesh, &pose);
+  AppendGridWithUvs(1, kOccluderHalf, kOccluderHeight, 0, {0.8f, 0.4f}, {0.95f, 0.55f}, &mesh, &pose);
+  RendererOptions options;
+  options.shadow_map_size = 512;
+  auto renderer = MakeRenderer(mesh, options);
+  ASSERT_NE(renderer, nullptr);
+  ProceduralMaterial material;
+  material.kd.base = {0.7f, 0.6f, 0.5f};
+  material.ks = glm::vec3(0.2f);
+  material.ke = glm::vec3(6.0f);
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+  PhongParams params;
+  params.kd = material.kd.base;
+  params.ks = material.ks;
+  params.ke = material.ke;
+
+  scene::Light sun;
+  sun.directional = true;
+  sun.direction = glm::normalize(glm::vec3(0.3f, -0.2f, 1.0f));
+  sun.intensity = glm::vec3(0.9f);
+  constexpr int kSize = 256;
+  const glm::vec3 camera_center(0.4f, -3.0f, 3.2f);
+  for (const scene::Light& light : {PointLight({0.15f, 0.1f, 2.0f}, glm::vec3(1.0f)), sun}) {
+    SCOPED_TRACE(light.directional ? "directional light" : "point light");
+    const std::vector<scene::Light> lights = {light};
+    ASSERT_TRUE(renderer->SetLights(lights).ok());
+    absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(pose, camera_center, kSize);
+    ASSERT_TRUE(atlas.ok()) << atlas.status();
+    const float scale = MaxValue(*atlas);
+    ASSERT_GT(scale, 0.0f);
+    int umbra = 0, lit = 0;
+    for (int j = 0; j < kSize; ++j) {
+      for (int i = 0; i < kSize; ++i) {
+        const glm::dvec2 uv = TexelCenterUv(i, j, kSize);
+        if (uv.x > kGroundUvWidth) continue;
+        const glm::dvec3 point(-kGroundHalf + 2.0 * kGroundHalf * uv.x / kGroundUvWidth,
+                               -kGroundHalf + 2.0 * kGroundHalf * uv.y, 0.0);
+        if (InsideSquare(point, kGroundHalf) < kEdgeMargin) continue;
+        const glm::dvec3 to_light =
+            light.directional ? glm::dvec3(glm::normalize(light.direction)) : glm::dvec3(light.position) - point;
+        const std::optional<glm::dvec3> crossing = HitPlaneZ(point, to_light, kOccluderHeight);
+        ASSERT_TRUE(crossing.has_value());  // every light is above the occluder
+        const double inside = InsideSquare(*crossing, kOccluderHalf);
+        if (std::abs(inside) < kEdgeMargin) continue;
+        const bool visible = inside < 0.0;
+        const cv::Vec4f texel = atlas->at<cv::Vec4f>(j, i);
+        ASSERT_EQ(texel[3], 1.0f) << "texel " << i << ", " << j;
+        if (!visible) {
+          EXPECT_EQ(texel, cv::Vec4f(0, 0, 0, 1)) << "umbra texel " << i << ", " << j;
+          ++umbra;
+          continue;
+        }
+        const glm::vec3 expected = EvaluatePhong(params, glm::vec3(point), {0, 0, 1}, camera_center, lights, {},
+                                                 options.inverse_square_falloff);
+        EXPECT_LE(MaxChannelError(texel, expected), kAtlasRelativeTolerance * scale) << "texel " << i << ", " << j;
+        ++lit;
+      }
+    }
+    EXPECT_GT(umbra, 600);  // directional: ~0.36 world units^2 at ~3000 texels per unit^2, less the margins
+    EXPECT_GT(lit, 30000);
+  }
+}
+
+TEST_F(PhongRendererTest, AtlasInvalidInputsAreStatuses) {
+  RenderMesh mesh;
+  Pose pose;
+  AppendGrid(2, 1.0, 0.0, 0, &mesh, &pose);
+  auto renderer = MakeRenderer(mesh, RendererOptions{64, false, 0.05f, 100.0f});
+  ASSERT_NE(renderer, nullptr);
+  const glm::vec3 camera_center(0.0f, -2.0f, 2.0f);
+  EXPECT_TRUE(absl::IsFailedPrecondition(renderer->RenderAtlas(pose, camera_center, 16).status()));  // no materials
+  ASSERT_TRUE(renderer->SetProceduralMaterials({ProceduralMaterial{}}).ok());
+  EXPECT_TRUE(absl::IsInvalidArgument(renderer->RenderAtlas(pose, camera_center, 0).status()));
+  EXPECT_TRUE(absl::IsInvalidArgument(renderer->RenderAtlas(pose, camera_center, 1 << 20).status()));
+  Pose short_pose = pose;
+  short_pose.positions.pop_back();
+  EXPECT_TRUE(absl::IsInvalidArgument(renderer->RenderAtlas(short_pose, camera_center, 16).status()));
+  // No lights: black, but covered everywhere (the grid's UVs fill the atlas).
+  absl::StatusOr<cv::Mat> dark = renderer->RenderAtlas(pose, camera_center, 16);
+  ASSERT_TRUE(dark.ok()) << dark.status();
+  std::vector<cv::Mat> channels;
+  cv::split(*dark, channels);
+  EXPECT_EQ(cv::countNonZero(channels[0]) + cv::countNonZero(channels[1]) + cv::countNonZero(channels[2]), 0);
+  EXPECT_EQ(cv::countNonZero(channels[3]), 16 * 16);
+
+  // A mesh without UVs has no atlas layout.
+  RenderMesh no_uvs = mesh;
+  no_uvs.uvs.clear();
+  auto plain = MakeRenderer(no_uvs, RendererOptions{64, false, 0.05f, 100.0f});
+  ASSERT_NE(plain, nullptr);
+  ASSERT_TRUE(plain->SetProceduralMaterials({ProceduralMaterial{}}).ok());
+  const absl::StatusOr<cv::Mat> failed = plain->RenderAtlas(pose, camera_center, 16);
+  EXPECT_TRUE(absl::IsFailedPrecondition(failed.status())) << failed.status();
+  EXPECT_TRUE(plain->Render(pose, LookAtCamera({0, -2, 2}, {0, 0, 0}, 32, 24, 30.0)).ok());  // still usable
+}
+
+// ---------------------------------------------------------------------------
+// RenderTriangleIds: the visible triangle at every pixel.
+
+// Pixels whose analytic id changes within this many pixels (along either
+// diagonal) of their centre are not compared: the rasteriser's sub-pixel
+// precision (1/256 px on llvmpipe) and tie-breaking decide them. Much less
+// than half a pixel, so that a misplaced pixel grid shows along every edge.
+constexpr double kIdPixelMargin = 0.05;
+
+class TriangleIdTest : public PhongRendererTest {
+ protected:
+  static constexpr double kBackHalf = 1.0;
+  static constexpr double kFrontHalf = 0.4;
+  static constexpr double kFrontHeight = 0.5;
+  const glm::dvec3 front_offset_{0.3, -0.2, 0.0};
+
+  void SetUp() override {
+    PhongRendererTest::SetUp();
+    AppendGrid(1, kBackHalf, 0.0, 0, &mesh_, &pose_);  // triangles 0, 1
+    const size_t first = pose_.positions.size();
+    AppendGrid(1, kFrontHalf, kFrontHeight, 0, &mesh_, &pose_);  // triangles 2, 3
+    for (size_t i = first; i < pose_.positions.size(); ++i) pose_.positions[i] += glm::vec3(front_offset_);
+    // No materials and no lights: ids need neither.
+    renderer_ = MakeRenderer(mesh_, RendererOptions{64, false, 0.05f, 100.0f});
+    ASSERT_NE(renderer_, nullptr);
+  }
+
+  // The analytic id of the ray's first hit. `overlap` is set where the ray
+  // also hits the back quad behind the front one.
+  int ExpectedId(const glm::dvec3& origin, const glm::dvec3& ray, bool* overlap) const {
+    // Triangle 2 q of quad q holds the points with local x > y, 2 q + 1 those with x < y.
+    auto hit_quad = [&](double height, const glm::dvec3& offset, double half, int quad) -> std::optional<int> {
+      const std::optional<glm::dvec3> hit = HitPlaneZ(origin, ray, height);
+      if (!hit) return std::nullopt;
+      const glm::dvec3 local = *hit - offset;
+      if (InsideSquare(local, half) < 0.0) return std::nullopt;
+      return 2 * quad + (local.x > local.y ? 0 : 1);
+    };
+    const std::optional<int> back = hit_quad(0.0, glm::dvec3(0.0), kBackHalf, 0);
+    const std::optional<int> front = hit_quad(kFrontHeight, front_offset_, kFrontHalf, 1);
+    *overlap = front.has_value() && back.has_value();
+    return front ? *front : back ? *back : -1;
+  }
+
+  // Compares every pixel of `ids` (rendered from `camera`) with ExpectedId at
+  // its centre, except where ExpectedId changes within kIdPixelMargin of the
+  // centre (the rasteriser's call).
+  void CheckIds(const cv::Mat& ids, const scene::CameraModel& camera, int* front_over_back, int* background) const {
+    ASSERT_EQ(ids.type(), CV_32SC1);
+    ASSERT_EQ(ids.size(), cv::Size(camera.width, camera.height));
+    const glm::dvec3 center = camera.CenterInWorld();
+    *front_over_back = 0;
+    *background = 0;
+    int skipped = 0;
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        bool overlap = false, unused = false;
+        const int expected = ExpectedId(center, PixelRay(camera, u, v), &overlap);
+        bool near_edge = false;
+        for (const glm::dvec2& d : {glm::dvec2(-1, -1), glm::dvec2(-1, 1), glm::dvec2(1, -1), glm::dvec2(1, 1)}) {
+          const glm::dvec2 pixel = glm::dvec2(u, v) + kIdPixelMargin * d;
+          near_edge |= ExpectedId(center, PixelRay(camera, pixel.x, pixel.y), &unused) != expected;
+        }
+        if (near_edge) {
+          ++skipped;
+          continue;
+        }
+        EXPECT_EQ(ids.at<int32_t>(v, u), expected) << "pixel " << u << ", " << v;
+        if (overlap) ++*front_over_back;
+        if (expected == -1) ++*background;
+      }
+    }
+    EXPECT_LT(skipped, camera.width * camera.height / 50);
+  }
+
+  RenderMesh mesh_;
+  Pose pose_;
+  std::unique_ptr<PhongRenderer> renderer_;
+  const scene::CameraModel camera_ = LookAtCamera({0.4, -2.5, 3.0}, {0, 0, 0}, 160, 120, 140.0);
+};
+
+TEST_F(TriangleIdTest, FrontQuadWinsAndBackgroundIsMinusOne) {
+  absl::StatusOr<cv::Mat> ids = renderer_->RenderTriangleIds(pose_, camera_, 1);
+  ASSERT_TRUE(ids.ok()) << ids.status();
+  int front_over_back = 0, background = 0;
+  CheckIds(*ids, camera_, &front_over_back, &background);
+  EXPECT_GT(front_over_back, 300);
+  EXPECT_GT(background, 300);
+  for (int id = 0; id < 4; ++id) EXPECT_GT(cv::countNonZero(*ids == id), 100) << "triangle " << id;
+}
+
+TEST_F(TriangleIdTest, SupersamplingScalesTheIntrinsics) {
+  absl::StatusOr<cv::Mat> ids1 = renderer_->RenderTriangleIds(pose_, camera_, 1);
+  absl::StatusOr<cv::Mat> ids2 = renderer_->RenderTriangleIds(pose_, camera_, 2);
+  ASSERT_TRUE(ids1.ok()) << ids1.status();
+  ASSERT_TRUE(ids2.ok()) << ids2.status();
+  ASSERT_EQ(ids2->size(), cv::Size(2 * camera_.width, 2 * camera_.height));
+
+  // Against the analytic ids of the camera scaled by hand.
+  scene::CameraModel scaled = camera_;
+  scaled.width *= 2;
+  scaled.height *= 2;
+  scaled.fx *= 2.0;
+  scaled.fy *= 2.0;
+  scaled.cx = (camera_.cx + 0.5) * 2.0 - 0.5;
+  scaled.cy = (camera_.cy + 0.5) * 2.0 - 0.5;
+  int front_over_back = 0, background = 0;
+  CheckIds(*ids2, scaled, &front_over_back, &background);
+  EXPECT_GT(front_over_back, 4 * 300);
+  EXPECT_GT(background, 4 * 300);
+
+  // Against supersample 1: the 2 x 2 block of each pixel away from edges
+  // (its 3 x 3 neighbourhood holds one id) carries that pixel's id.
+  int compared = 0;
+  for (int v = 1; v + 1 < camera_.height; ++v) {
+    for (int u = 1; u + 1 < camera_.width; ++u) {
+      const int32_t id = ids1->at<int32_t>(v, u);
+      bool uniform = true;
+      for (int dv = -1; dv <= 1; ++dv) {
+        for (int du = -1; du <= 1; ++du) uniform &= ids1->at<int32_t>(v + dv, u + du) == id;
+      }
+      if (!uniform) continue;
+      for (int dv = 0; dv < 2; ++dv) {
+        for (int du = 0; du < 2; ++du) {
+          EXPECT_EQ(ids2->at<int32_t>(2 * v + dv, 2 * u + du), id) << "pixel " << u << ", " << v;
+        }
+      }
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, camera_.width * camera_.height / 2);
+}
+
+TEST_F(TriangleIdTest, InvalidInputsAreStatuses) {
+  EXPECT_TRUE(absl::IsInvalidArgument(renderer_->RenderTriangleIds(pose_, camera_, 0).status()));
+  EXPECT_TRUE(absl::IsInvalidArgument(renderer_->RenderTriangleIds(pose_, camera_, 1 << 16).status()));
+  scene::CameraModel bad = camera_;
+  bad.fx = -1.0;
+  EXPECT_TRUE(absl::IsInvalidArgument(renderer_->RenderTriangleIds(pose_, bad, 1).status()));
+  Pose short_pose = pose_;
+  short_pose.normals.pop_back();
+  EXPECT_TRUE(absl::IsInvalidArgument(renderer_->RenderTriangleIds(short_pose, camera_, 1).status()));
+}
+
+// The 20k-triangle sphere of TimingSphere20kTriangles4PointLights in atlas
+// space (its UVs are a valid layout): the figures quoted in the report.
+// Timing is printed, not asserted.
+TEST_F(PhongRendererTest, TimingAtlasSphere20kTriangles4PointLights) {
+  RenderMesh mesh;
+  Pose pose;
+  MakeSphere(100, 100, 0.5f, &mesh, &pose);
+  ASSERT_EQ(mesh.triangles.size(), 20000u);
+  auto renderer = MakeRenderer(mesh, RendererOptions{1024, true, 0.05f, 100.0f});
+  ASSERT_NE(renderer, nullptr);
+  ProceduralMaterial material;
+  material.kd.amplitude = 0.4f;
+  material.kd.frequency = 5.0f;
+  material.ks = glm::vec3(0.3f);
+  material.ke = glm::vec3(20.0f);
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material, material, material}).ok());
+  ASSERT_TRUE(renderer
+                  ->SetLights({PointLight({2, 2, 2}, glm::vec3(8.0f)), PointLight({-2, 2, 2}, glm::vec3(8.0f)),
+                               PointLight({2, -2, 2}, glm::vec3(8.0f)), PointLight({-2, -2, 2}, glm::vec3(8.0f))})
+                  .ok());
+  const glm::vec3 camera_center(0.0f, -2.5f, 1.0f);
+  Pose other = pose;
+  for (glm::vec3& p : other.positions) p *= 1.01f;
+  for (int size : {512, 1024}) {
+    ASSERT_TRUE(renderer->RenderAtlas(pose, camera_center, size).ok());  // warm-up: JIT, target allocation
+    std::vector<double> new_frame_ms, same_frame_ms;
+    for (int i = 0; i < 10; ++i) {
+      // Even i: a new pose (shadow passes included); odd i: the same pose again.
+      const auto start = std::chrono::steady_clock::now();
+      absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(i % 4 < 2 ? other : pose, camera_center, size);
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      ASSERT_TRUE(atlas.ok()) << atlas.status();
+      (i % 2 == 0 ? new_frame_ms : same_frame_ms).push_back(ms);
+    }
+    std::sort(new_frame_ms.begin(), new_frame_ms.end());
+    std::sort(same_frame_ms.begin(), same_frame_ms.end());
+    std::printf(
+        "[ timing   ] RenderAtlas %d^2, 20000 triangles, 4 point lights, 1024^2 cube shadow maps: median %.1f ms "
+        "with the shadow passes, %.1f ms with the shadow maps reused\n",
+        size, new_frame_ms[2], same_frame_ms[2]);
+    RecordProperty(absl::StrCat("atlas_", size, "_median_ms").c_str(), std::to_string(new_frame_ms[2]));
+  }
+  const scene::CameraModel camera = LookAtCamera({0.0, -2.5, 1.0}, {0, 0, 0}, 320, 240, 300.0);
+  ASSERT_TRUE(renderer->RenderTriangleIds(pose, camera, 4).ok());  // warm-up
+  std::vector<double> ids_ms;
+  for (int i = 0; i < 5; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    ASSERT_TRUE(renderer->RenderTriangleIds(i % 2 == 0 ? other : pose, camera, 4).ok());
+    ids_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  }
+  std::sort(ids_ms.begin(), ids_ms.end());
+  std::printf("[ timing   ] RenderTriangleIds 320x240 at supersample 4 (1280x960): median %.1f ms\n", ids_ms[2]);
 }
 
 }  // namespace
