@@ -1,0 +1,52 @@
+// Per-texel resampling of one camera's frame into the atlas
+// (core/resample/resampler.cc): reads the frame's geometry atlas, tests
+// facing, the image bounds and the camera's depth map, and samples the frame
+// bilinearly at the distorted pixel. Output a = 1 valid, a = 0 invalid.
+
+#include "resample_distortion.glsl"
+
+layout(binding = 0) uniform sampler2D u_position_map;  // RGBA32F: world xyz, w = 1 covered
+layout(binding = 1) uniform sampler2D u_normal_map;    // RGBA32F: unit world normal
+layout(binding = 2) uniform sampler2D u_depth_map;     // R32F: eye z of the nearest surface, pinhole, row r = image row
+layout(binding = 3) uniform sampler2D u_frame;         // RGB32F linear, row 0 = image top, bilinear
+
+layout(location = 0) uniform mat4 u_cam_from_world;
+layout(location = 1) uniform vec3 u_camera_center;    // world units
+layout(location = 2) uniform vec4 u_intrinsics;       // fx, fy, cx, cy (pixels; (0,0) = centre of top-left pixel)
+layout(location = 3) uniform vec2 u_depth_principal;  // cx, cy of the depth map (same focal lengths)
+layout(location = 4) uniform vec4 u_distortion_a;     // k1, k2, p1, p2
+layout(location = 5) uniform vec4 u_distortion_b;     // k3, k4, k5, k6
+layout(location = 6) uniform float u_min_cos_view;    // sin(grazing margin): dot(n, v) must exceed it
+layout(location = 7) uniform float u_depth_scale;     // 1 + relative depth tolerance
+
+layout(location = 0) out vec4 out_radiance;
+
+void main() {
+  out_radiance = vec4(0.0);
+  ivec2 texel = ivec2(gl_FragCoord.xy);
+  vec4 position = texelFetch(u_position_map, texel, 0);
+  if (position.w < 0.5) return;  // uncovered
+  vec3 n = texelFetch(u_normal_map, texel, 0).xyz;
+  vec3 v = normalize(u_camera_center - position.xyz);
+  if (!(dot(n, v) > u_min_cos_view)) return;  // back-facing or grazing
+
+  vec3 q = (u_cam_from_world * vec4(position.xyz, 1.0)).xyz;
+  if (!(q.z > 0.0)) return;  // behind the camera
+  vec2 undistorted = q.xy / q.z;
+
+  // Visibility: nearest depth-map pixel of the pinhole projection.
+  vec2 pinhole = u_intrinsics.xy * undistorted + u_depth_principal;
+  ivec2 depth_texel = ivec2(floor(pinhole + 0.5));
+  if (any(lessThan(depth_texel, ivec2(0))) || any(greaterThanEqual(depth_texel, textureSize(u_depth_map, 0)))) {
+    return;  // outside the undistorted field of view (also rejects distortion fold-over)
+  }
+  float nearest = texelFetch(u_depth_map, depth_texel, 0).r;
+  if (q.z > nearest * u_depth_scale) return;  // occluded
+
+  // Sampling: the distorted pixel, inside [0, w-1] x [0, h-1] so that the
+  // bilinear footprint stays inside the image.
+  vec2 pixel = u_intrinsics.xy * DistortNormalized(undistorted, u_distortion_a, u_distortion_b) + u_intrinsics.zw;
+  vec2 size = vec2(textureSize(u_frame, 0));
+  if (any(lessThan(pixel, vec2(0.0))) || any(greaterThan(pixel, size - 1.0))) return;
+  out_radiance = vec4(textureLod(u_frame, (pixel + 0.5) / size, 0.0).rgb, 1.0);
+}
