@@ -10,9 +10,8 @@
 #define MVBRDF_CORE_ATLAS_ATLAS_H_
 
 #include <cstdint>
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/scene/mesh.h"
@@ -35,7 +34,7 @@ struct AtlasOptions {
 };
 
 struct AtlasStats {
-  bool built = false;          // false: the mesh's own UVs were kept
+  bool built = false;  // false: the mesh's own UVs were kept
   int num_charts = 0;
   // Fraction of covered texels claimed by more than one triangle (texel
   // centres inside two triangles of different charts, or the same chart
@@ -46,11 +45,24 @@ struct AtlasStats {
   // Texel-area distortion: for each triangle, (UV area / surface area)
   // divided by the same ratio over the whole mesh; min and max over triangles
   // with non-zero area (1 = uniform sampling density).
+  //
+  // Bound for built atlases: every chart is an orthographic projection at one
+  // global scale s, so a triangle at angle theta to its chart's plane normal
+  // has UV area = s^2 cos(theta) x surface area, with theta <= d =
+  // max_normal_deviation_deg. Dividing by the mesh's area-weighted mean of
+  // cos(theta) (in [cos d, 1]) gives
+  //   min_area_ratio >= cos d,  max_area_ratio <= 1 / cos d,
+  //   max_area_ratio / min_area_ratio <= 1 / cos d,
+  // up to the float rounding of UVs on the tiniest triangles (measured on
+  // samba: see atlas_test.cc).
   double min_area_ratio = 0.0;
   double max_area_ratio = 0.0;
   // Triangles (non-zero area) with no texel centre inside; each is given the
   // texel under its UV centroid instead (see Atlas::triangle_texels).
   int triangles_without_interior_texels = 0;
+  // Built atlases: the global scale, atlas texels per world unit of length on
+  // the chart planes (sampling density); 0 when the mesh's UVs were kept.
+  double texels_per_world_unit = 0.0;
 };
 
 struct Atlas {
@@ -70,9 +82,16 @@ struct Atlas {
 };
 
 // Builds the atlas from the rest pose (frame 0). Meshes with UVs keep them
-// (checked: in range, overlap fraction reported); meshes without get charts
-// grown from seed triangles by normal deviation, each projected orthogonally
-// onto the plane of its average normal and packed with a gutter.
+// (checked: in range, overlap fraction reported; charts are the components
+// connected over render-vertex edges); meshes without (or with
+// keep_existing_uvs false) get charts grown from seed triangles by normal
+// deviation, each projected orthogonally onto the plane of its average normal,
+// split where the projection would overlap itself, turned to its minimal
+// bounding rectangle and packed with a gutter at the largest scale that fits.
+// Built atlases keep triangle order and file_triangles; a file vertex used by k
+// charts becomes k render vertices. Errors: options.Check(), inconsistent
+// topology or positions (INVALID_ARGUMENT naming the field), too many charts
+// for the atlas size (RESOURCE_EXHAUSTED). Pure function; any thread.
 absl::StatusOr<Atlas> BuildAtlas(const scene::MeshTopology& topology, const scene::FramePositions& rest_positions,
                                  const AtlasOptions& options);
 
