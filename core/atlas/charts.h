@@ -66,10 +66,13 @@ struct Chart {
 // edge adjacency, adding a neighbour while its normal stays within
 // `max_normal_deviation_deg` (< 90) of the chart's running area-weighted
 // average normal; triangles that end up outside that cone of the final average
-// are released to later charts. Each chart is then re-grown inside its own
-// projection so that no two of its triangles overlap (a band around a
-// cylinder, or a spiral, would otherwise land on itself) and that the result is
-// edge-connected; what does not fit starts further charts on the same plane.
+// are released to later charts. Charts of fewer than 8 triangles then hand
+// their triangles to an edge-adjacent larger chart whose final normal accepts
+// them (that normal is kept, so the bound holds). Each chart is then re-grown
+// inside its own projection so that no two of its triangles overlap (a band
+// around a cylinder, or a spiral, would otherwise land on itself) and that the
+// result is edge-connected; what does not fit starts further charts on the
+// same plane.
 // Degenerate triangles join an edge-adjacent chart (or get one of their own).
 // Deterministic for a given input.
 std::vector<Chart> BuildCharts(const scene::MeshTopology& topology, const scene::FramePositions& rest_positions,
