@@ -4,23 +4,37 @@
 // (shadow) atlases.
 //
 // Per frame: SetFrame() renders the posed position and normal of every texel
-// once (the mesh drawn in atlas space), the depth map of every camera and,
-// on demand, one cube depth map per light. Each camera is then resampled by a
-// full-screen pass over the atlas that reads the position map, projects the
-// point with the camera's intrinsics and distortion, tests facing and depth
-// and samples the frame (see ../shared/PERF.md for why: ~3x faster than
-// drawing the mesh per camera).
+// once (the mesh drawn in atlas space). Each camera's depth map is rendered by
+// the first ResampleCamera() of that camera in the frame (so cameras a caller
+// skips cost nothing), the per-light shadow maps by the first ShadowAtlas().
+// Each camera is resampled by a full-screen pass over the atlas that reads
+// the position map, projects the point with the camera's intrinsics and
+// distortion, tests facing and depth and samples the frame (see
+// ../shared/PERF.md for why: ~3x faster than drawing the mesh per camera).
+//
+// Visibility from a camera: its depth map is an undistorted pinhole with the
+// camera's focal lengths, widened (principal point shifted) to hold the
+// pinhole projection of every point whose distorted pixel lies in the image;
+// it stores linear eye depth (camera-space z, world units, R32F). A texel is
+// occluded when its eye depth exceeds the map's value at the nearest map
+// pixel of its pinhole projection times (1 + relative_depth_tolerance); the
+// frame is sampled bilinearly at its distorted pixel (CameraModel::Project).
+// Occlusion boundaries are therefore placed to within about one camera pixel.
+//
+// Triangles listed in topology.zero_area_triangles are neither resampled nor
+// cast shadows (core/scene/mesh.h).
 //
 // All atlas images follow the convention of core/atlas/atlas.h (row 0 at
 // the top, v = 1). Threading: all calls on the thread where the context is
-// current; the context must outlive the resampler.
+// current; the context must outlive the resampler. Calls change the
+// context's bindings (framebuffer, program, textures, vertex array) and leave
+// none of the resampler's objects bound.
 #ifndef MVBRDF_CORE_RESAMPLE_RESAMPLER_H_
 #define MVBRDF_CORE_RESAMPLE_RESAMPLER_H_
 
 #include <memory>
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/atlas/atlas.h"
@@ -34,12 +48,14 @@ namespace mvbrdf::resample {
 struct ResamplerOptions {
   // Texels whose normal is within this angle of perpendicular to the view
   // direction are invalid (grazing views smear the image); 0 keeps every
-  // front-facing texel.
+  // front-facing texel. Valid iff dot(n, v) > sin(margin). In [0, 90).
   double grazing_margin_deg = 5.0;
   // Depth test against the camera's depth map: a texel is occluded when it
-  // lies further than this (relative to its depth) behind the map.
+  // lies further than this (relative to its depth) behind the map. >= 0.
   double relative_depth_tolerance = 0.01;
-  // Resolution of the per-light cube depth maps (texels per face).
+  // Resolution of the per-light cube depth maps (texels per face; also the
+  // side of a directional light's orthographic map). In [1, 8192]; GPU memory
+  // is 24 * size^2 bytes per point light (24 MB at 1024).
   int shadow_map_size = 1024;
 };
 
@@ -71,11 +87,15 @@ class Resampler {
   // image, or occluded), so that invalid is distinguishable from black.
   absl::StatusOr<cv::Mat> ResampleCamera(int camera, const cv::Mat& frame);
 
-  // The current frame's geometry atlas.
+  // The current frame's geometry atlas (read back from the GPU on each call).
   absl::StatusOr<GeometryAtlas> Geometry();
 
   // CV_16UC1: bit k set where light k is visible from the texel's surface
-  // point (shadow test only; the cosine is computed by later stages).
+  // point (shadow test only; the cosine is computed by later stages); 0 at
+  // uncovered texels. Computed once per frame (later calls return a copy).
+  // Shadow maps as core/render's renderer (cube maps of the distance for
+  // point lights, an orthographic map for directional lights, slope-scaled
+  // bias from the interpolated normal).
   absl::StatusOr<cv::Mat> ShadowAtlas();
 
  private:

@@ -1,0 +1,803 @@
+#include "core/resample/resampler.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <limits>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "core/gl/gl_api.h"
+#include "core/gl/gl_objects.h"
+#include "core/gl/shader_program.h"
+
+namespace mvbrdf::resample {
+namespace {
+
+constexpr int kMaxLights = 16;  // shaders/resample_shadow.frag kMaxLights; the shadow atlas is 16 bits
+
+// Vertex attributes (shaders/resample_geometry.vert, resample_depth.vert and
+// the reused shadow.vert all read the position at location 0).
+constexpr GLuint kPositionAttribute = 0;
+constexpr GLuint kNormalAttribute = 1;
+constexpr GLuint kUvAttribute = 2;
+
+// Uniform locations (layout(location = ...) in the shaders).
+constexpr GLint kDepthClipFromWorld = 0;  // resample_depth.vert
+constexpr GLint kDepthCamFromWorld = 1;
+constexpr GLint kCamFromWorld = 0;  // resample_camera.frag
+constexpr GLint kCameraCenter = 1;
+constexpr GLint kIntrinsics = 2;
+constexpr GLint kDepthPrincipal = 3;
+constexpr GLint kDistortionA = 4;
+constexpr GLint kDistortionB = 5;
+constexpr GLint kMinCosView = 6;
+constexpr GLint kDepthScale = 7;
+constexpr GLint kShadowClipFromWorld = 0;  // shadow.vert
+constexpr GLint kShadowLightPosition = 1;  // shadow_point.frag
+constexpr GLint kShadowInverseRange = 2;
+
+// Texture units of the full-screen passes.
+constexpr GLuint kPositionMapUnit = 0;
+constexpr GLuint kNormalMapUnit = 1;
+constexpr GLuint kDepthMapUnit = 2;  // resample_camera.frag
+constexpr GLuint kFrameUnit = 3;
+constexpr GLuint kPointShadowUnit = 2;  // resample_shadow.frag
+constexpr GLuint kDirectionalShadowUnit = 3;
+constexpr GLuint kShadowLightBlockBinding = 0;
+
+// Colour the camera depth maps are cleared to: "no surface", larger than any
+// eye depth times (1 + tolerance) yet finite.
+constexpr float kNoSurfaceDepth = 1e30f;
+
+// std140 mirror of GpuShadowLight in shaders/resample_shadow.frag.
+struct GpuShadowLight {
+  glm::vec4 position;
+  glm::vec4 shadow;
+  glm::mat4 shadow_from_world;
+};
+static_assert(sizeof(GpuShadowLight) == 96, "std140 layout of GpuShadowLight");
+
+struct GpuShadowLightBlock {
+  glm::ivec4 count;
+  GpuShadowLight lights[kMaxLights];
+};
+
+// Cube-map faces in GL layer order (+X, -X, +Y, -Y, +Z, -Z): view direction
+// and the up vector that makes glm::lookAt match the cube-map (s, t) axes
+// (as core/render/phong_renderer.cc, whose shadow shaders are reused).
+constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
+    {glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)},
+    {glm::vec3(-1, 0, 0), glm::vec3(0, -1, 0)},
+    {glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)},
+    {glm::vec3(0, -1, 0), glm::vec3(0, 0, -1)},
+    {glm::vec3(0, 0, 1), glm::vec3(0, -1, 0)},
+    {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
+}};
+
+struct BoundingSphere {
+  glm::vec3 center{0.0f};
+  float radius = 0.0f;
+};
+
+BoundingSphere ComputeBoundingSphere(const std::vector<glm::vec3>& points) {
+  BoundingSphere sphere;
+  if (points.empty()) return sphere;
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+  for (const glm::vec3& p : points) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  sphere.center = 0.5f * (lo + hi);
+  float r2 = 0.0f;
+  for (const glm::vec3& p : points) {
+    const glm::vec3 d = p - sphere.center;
+    r2 = std::max(r2, glm::dot(d, d));
+  }
+  sphere.radius = std::sqrt(r2);
+  return sphere;
+}
+
+// The camera's depth map: an undistorted pinhole with the camera's focal
+// lengths whose pixel grid is the camera's shifted by an integer offset, large
+// enough to hold the pinhole projection of every point whose distorted pixel
+// lies in the image (barrel distortion pushes the undistorted image corners
+// outwards). Without distortion it is the camera's own grid.
+struct DepthMapLayout {
+  int width = 0;
+  int height = 0;
+  double cx = 0.0, cy = 0.0;  // principal point in depth-map pixels
+};
+
+DepthMapLayout ComputeDepthMapLayout(const scene::CameraModel& camera, int max_size) {
+  if (!camera.has_distortion()) return {camera.width, camera.height, camera.cx, camera.cy};
+  // Undistort points along the image border (pixel edges) and take the
+  // bounding box of their pinhole pixels.
+  constexpr int kSamplesPerSide = 256;
+  double lo_x = std::numeric_limits<double>::max(), lo_y = lo_x;
+  double hi_x = std::numeric_limits<double>::lowest(), hi_y = hi_x;
+  auto add = [&](double px, double py) {
+    const glm::dvec2 u = camera.Undistort({(px - camera.cx) / camera.fx, (py - camera.cy) / camera.fy});
+    const double x = camera.fx * u.x + camera.cx, y = camera.fy * u.y + camera.cy;
+    if (!std::isfinite(x) || !std::isfinite(y)) return;
+    lo_x = std::min(lo_x, x);
+    hi_x = std::max(hi_x, x);
+    lo_y = std::min(lo_y, y);
+    hi_y = std::max(hi_y, y);
+  };
+  const double x0 = -0.5, x1 = camera.width - 0.5, y0 = -0.5, y1 = camera.height - 0.5;
+  for (int i = 0; i <= kSamplesPerSide; ++i) {
+    const double s = static_cast<double>(i) / kSamplesPerSide;
+    add(x0 + s * (x1 - x0), y0);
+    add(x0 + s * (x1 - x0), y1);
+    add(x0, y0 + s * (y1 - y0));
+    add(x1, y0 + s * (y1 - y0));
+  }
+  if (!(lo_x <= hi_x) || !(lo_y <= hi_y)) return {camera.width, camera.height, camera.cx, camera.cy};
+  // One pixel of margin; crop (pathological distortion) to at most twice the
+  // image around it, and to the GL limit. Points projecting outside the map
+  // are treated as invalid by the resampling pass.
+  int ox = static_cast<int>(std::floor(lo_x)) - 1, oy = static_cast<int>(std::floor(lo_y)) - 1;
+  int ex = static_cast<int>(std::ceil(hi_x)) + 2, ey = static_cast<int>(std::ceil(hi_y)) + 2;
+  ox = std::max(ox, -camera.width / 2);
+  oy = std::max(oy, -camera.height / 2);
+  ex = std::min({ex, camera.width + camera.width / 2, ox + max_size});
+  ey = std::min({ey, camera.height + camera.height / 2, oy + max_size});
+  return {ex - ox, ey - oy, camera.cx - ox, camera.cy - oy};
+}
+
+// OpenCV pinhole (x right, y down, z forward; pixel (0,0) the centre of the
+// top-left pixel) of a `width` x `height` grid with principal point (cx, cy) as
+// GL clip coordinates from camera coordinates: pixel (u, v) maps to window
+// (u + 0.5, v + 0.5), so image row v is window row v (as in
+// core/render/phong_renderer.cc). Depth: near -> -1, far -> +1.
+glm::dmat4 ClipFromCamera(double fx, double fy, double cx, double cy, int width, int height, double near_plane,
+                          double far_plane) {
+  glm::dmat4 p(0.0);  // p[column][row]
+  p[0][0] = 2.0 * fx / width;
+  p[2][0] = 2.0 * (cx + 0.5) / width - 1.0;
+  p[1][1] = 2.0 * fy / height;
+  p[2][1] = 2.0 * (cy + 0.5) / height - 1.0;
+  p[2][2] = (far_plane + near_plane) / (far_plane - near_plane);
+  p[3][2] = -2.0 * far_plane * near_plane / (far_plane - near_plane);
+  p[2][3] = 1.0;
+  return p;
+}
+
+glm::dmat4 CamFromWorld(const scene::CameraModel& camera) {
+  glm::dmat4 m(camera.cam_from_world_rotation);
+  m[3] = glm::dvec4(camera.cam_from_world_translation, 1.0);
+  return m;
+}
+
+// A 2D texture for texelFetch/bilinear lookups, clamped at the border.
+gl::Texture CreateTexture2D(GLenum internal_format, int width, int height, GLint filter) {
+  gl::Texture texture = gl::CreateTexture(GL_TEXTURE_2D);
+  glTextureStorage2D(texture.id(), 1, internal_format, width, height);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, filter);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, filter);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  return texture;
+}
+
+// Depth texture array for shadow maps (as core/render/phong_renderer.cc):
+// `target` GL_TEXTURE_CUBE_MAP_ARRAY (6 layers per light) or
+// GL_TEXTURE_2D_ARRAY; nearest lookups, no compare mode.
+gl::Texture CreateShadowArray(GLenum target, int size, int layers) {
+  gl::Texture texture = gl::CreateTexture(target);
+  glTextureStorage3D(texture.id(), 1, GL_DEPTH_COMPONENT32F, size, size, layers);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
+  return texture;
+}
+
+absl::Status CheckCamera(const scene::CameraModel& camera, size_t index) {
+  const std::string field = absl::StrCat("cameras[", index, "] (\"", camera.name, "\")");
+  if (camera.width <= 0 || camera.height <= 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ".width, height: must be > 0, got ", camera.width, "x", camera.height));
+  }
+  if (!(camera.fx > 0.0) || !(camera.fy > 0.0) || !std::isfinite(camera.fx) || !std::isfinite(camera.fy)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ".fx, fy: must be finite and > 0, got ", camera.fx, ", ", camera.fy));
+  }
+  if (!std::isfinite(camera.cx) || !std::isfinite(camera.cy)) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ".cx, cy: must be finite"));
+  }
+  if (camera.distortion.size() > 8) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ".distortion: at most 8 coefficients, got ", camera.distortion.size()));
+  }
+  for (double d : camera.distortion) {
+    if (!std::isfinite(d)) return absl::InvalidArgumentError(absl::StrCat(field, ".distortion: must be finite"));
+  }
+  return absl::OkStatus();
+}
+
+// Per camera: its depth map for the current frame (rendered lazily by the
+// first ResampleCamera of the frame) and the texture its frames are uploaded to.
+struct CameraState {
+  scene::CameraModel model;  // distortion padded to 8 coefficients
+  DepthMapLayout layout;
+  gl::Texture depth_map;          // R32F, layout size: eye z of the nearest surface, world units
+  gl::Renderbuffer depth_buffer;  // DEPTH_COMPONENT32F, for the nearest-surface test only
+  gl::Framebuffer depth_framebuffer;
+  gl::Texture frame_texture;  // RGB32F at the camera size, bilinear
+  uint64_t depth_frame = 0;   // the frame number the depth map belongs to (0: none)
+};
+
+}  // namespace
+
+struct Resampler::Impl {
+  gl::EglContext* context = nullptr;
+  ResamplerOptions options;
+  int size = 0;  // atlas texels per side
+  scene::MeshTopology topology;
+  std::vector<scene::Light> lights;
+  int num_point_lights = 0;
+  int num_directional_lights = 0;
+  GLsizei num_indices = 0;  // of the triangles with non-zero rest-pose area
+  GLint max_texture_size = 0;
+
+  gl::VertexArray mesh_vertex_array;
+  gl::VertexArray empty_vertex_array;  // for the full-screen passes (core profile needs one bound)
+  gl::Buffer position_buffer;          // per render vertex, per frame
+  gl::Buffer normal_buffer;            // per render vertex, per frame
+  gl::Buffer uv_buffer;
+  gl::Buffer index_buffer;
+  gl::Buffer light_buffer;  // GpuShadowLightBlock
+
+  gl::Program geometry_program;
+  gl::Program depth_program;
+  gl::Program camera_program;
+  gl::Program point_shadow_program;
+  gl::Program directional_shadow_program;
+  gl::Program shadow_atlas_program;
+
+  // Geometry atlas: RGBA32F textures, GL row r = atlas image row r.
+  gl::Texture position_map;
+  gl::Texture normal_map;
+  gl::Framebuffer geometry_framebuffer;
+
+  gl::Renderbuffer resample_target;  // RGBA32F
+  gl::Framebuffer resample_framebuffer;
+  gl::Renderbuffer shadow_target;  // R16UI
+  gl::Framebuffer shadow_atlas_framebuffer;
+
+  gl::Texture point_shadows;        // cube-map array, 6 layers per point light (at least one cube)
+  gl::Texture directional_shadows;  // 2D array, one layer per directional light (at least one)
+  gl::Framebuffer shadow_map_framebuffer;
+
+  std::vector<CameraState> cameras;
+
+  // Frames are numbered from 1 by SetFrame; 0 means none yet.
+  uint64_t frame = 0;
+  BoundingSphere bounds;  // of the current pose
+  uint64_t shadow_frame = 0;
+  cv::Mat shadow_atlas;  // CV_16UC1 of shadow_frame
+
+  absl::Status CheckReady(absl::string_view what) const {
+    if (!context->IsCurrent()) {
+      return absl::FailedPreconditionError(absl::StrCat(what, ": the EGL context is not current on this thread"));
+    }
+    if (frame == 0) return absl::FailedPreconditionError(absl::StrCat(what, ": call SetFrame first"));
+    return absl::OkStatus();
+  }
+  void DrawMesh() const {
+    glBindVertexArray(mesh_vertex_array.id());
+    if (num_indices > 0) glDrawElements(GL_TRIANGLES, num_indices, GL_UNSIGNED_INT, nullptr);
+  }
+  void DrawFullScreen() const {
+    glBindVertexArray(empty_vertex_array.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+  }
+  absl::Status RenderGeometry();
+  absl::Status EnsureDepthMap(CameraState& camera);
+  absl::Status UploadFrame(CameraState& camera, const cv::Mat& frame_rgb);
+  absl::Status RenderShadowMaps(GpuShadowLightBlock* block);
+  // Reads the bound read framebuffer's `attachment` (size x size) into `out`.
+  void ReadAtlas(GLuint framebuffer, GLenum attachment, GLenum format, GLenum type, cv::Mat* out) const;
+};
+
+Resampler::Resampler(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Resampler::~Resampler() = default;
+
+absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& context, const atlas::Atlas& atlas,
+                                                             const std::vector<scene::CameraModel>& cameras,
+                                                             const std::vector<scene::Light>& lights,
+                                                             const ResamplerOptions& options) {
+  if (!context.IsCurrent()) {
+    return absl::FailedPreconditionError("Resampler::Create: the EGL context is not current on this thread");
+  }
+  if (!(options.grazing_margin_deg >= 0.0) || !(options.grazing_margin_deg < 90.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("options.grazing_margin_deg: must be in [0, 90), got ", options.grazing_margin_deg));
+  }
+  if (!(options.relative_depth_tolerance >= 0.0) || !std::isfinite(options.relative_depth_tolerance)) {
+    return absl::InvalidArgumentError(absl::StrCat("options.relative_depth_tolerance: must be finite and >= 0, got ",
+                                                   options.relative_depth_tolerance));
+  }
+  if (options.shadow_map_size < 1 || options.shadow_map_size > 8192) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("options.shadow_map_size: must be in [1, 8192], got ", options.shadow_map_size));
+  }
+  const scene::MeshTopology& topo = atlas.topology;
+  const size_t n = topo.num_render_vertices();
+  if (!topo.has_uvs() || topo.uvs.size() != n) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("atlas.topology.uvs: expected one per render vertex (", n, "), got ", topo.uvs.size()));
+  }
+  if (n == 0 || topo.triangles.empty()) return absl::InvalidArgumentError("atlas.topology: no triangles");
+  if (topo.file_triangles.size() != topo.triangles.size()) {
+    return absl::InvalidArgumentError(absl::StrCat("atlas.topology.file_triangles: expected ", topo.triangles.size(),
+                                                   " (one per triangle), got ", topo.file_triangles.size()));
+  }
+  for (size_t v = 0; v < n; ++v) {
+    if (topo.render_to_file_vertex[v] >= topo.num_file_vertices) {
+      return absl::InvalidArgumentError(absl::StrCat("atlas.topology.render_to_file_vertex[", v,
+                                                     "]: ", topo.render_to_file_vertex[v], " >= num_file_vertices ",
+                                                     topo.num_file_vertices));
+    }
+  }
+  for (size_t t = 0; t < topo.triangles.size(); ++t) {
+    const glm::uvec3& tri = topo.triangles[t];
+    const glm::uvec3& ftri = topo.file_triangles[t];
+    if (tri.x >= n || tri.y >= n || tri.z >= n) {
+      return absl::InvalidArgumentError(absl::StrCat("atlas.topology.triangles[", t, "]: vertex index out of range (",
+                                                     tri.x, ", ", tri.y, ", ", tri.z, "), ", n, " render vertices"));
+    }
+    const uint32_t nf = topo.num_file_vertices;
+    if (ftri.x >= nf || ftri.y >= nf || ftri.z >= nf) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("atlas.topology.file_triangles[", t, "]: vertex index out of range, ", nf, " file vertices"));
+    }
+  }
+  if (lights.size() > kMaxLights) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("lights: at most ", kMaxLights, " lights (bits of the shadow atlas), got ", lights.size()));
+  }
+  for (size_t k = 0; k < lights.size(); ++k) {
+    if (lights[k].directional && !(glm::length(lights[k].direction) > 0.0f)) {
+      return absl::InvalidArgumentError(absl::StrCat("lights[", k, "] (\"", lights[k].name,
+                                                     "\").direction: must be non-zero for a directional light"));
+    }
+  }
+  for (size_t c = 0; c < cameras.size(); ++c) MVBRDF_RETURN_IF_ERROR(CheckCamera(cameras[c], c));
+
+  auto impl = std::make_unique<Impl>();
+  Impl& r = *impl;
+  r.context = &context;
+  r.options = options;
+  r.size = atlas.size;
+  r.topology = topo;
+  r.lights = lights;
+  for (const scene::Light& light : lights) (light.directional ? r.num_directional_lights : r.num_point_lights)++;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &r.max_texture_size);
+  if (atlas.size < 1 || atlas.size > r.max_texture_size) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("atlas.size: must be in [1, ", r.max_texture_size, "] (GL_MAX_TEXTURE_SIZE), got ", atlas.size));
+  }
+
+  // Triangles with zero rest-pose area are excluded from resampling
+  // (core/scene/mesh.h): they are neither drawn into the atlas nor cast shadows.
+  std::vector<uint8_t> skip(topo.triangles.size(), 0);
+  for (uint32_t t : topo.zero_area_triangles) {
+    if (t < skip.size()) skip[t] = 1;
+  }
+  std::vector<glm::uvec3> drawn;
+  drawn.reserve(topo.triangles.size());
+  for (size_t t = 0; t < topo.triangles.size(); ++t) {
+    if (!skip[t]) drawn.push_back(topo.triangles[t]);
+  }
+  r.num_indices = static_cast<GLsizei>(drawn.size() * 3);
+
+  MVBRDF_ASSIGN_OR_RETURN(r.geometry_program, gl::BuildProgram({{GL_VERTEX_SHADER, "resample_geometry.vert", {}},
+                                                                {GL_FRAGMENT_SHADER, "resample_geometry.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(r.depth_program, gl::BuildProgram({{GL_VERTEX_SHADER, "resample_depth.vert", {}},
+                                                             {GL_FRAGMENT_SHADER, "resample_depth.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(r.camera_program, gl::BuildProgram({{GL_VERTEX_SHADER, "resample_fullscreen.vert", {}},
+                                                              {GL_FRAGMENT_SHADER, "resample_camera.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(r.shadow_atlas_program, gl::BuildProgram({{GL_VERTEX_SHADER, "resample_fullscreen.vert", {}},
+                                                                    {GL_FRAGMENT_SHADER, "resample_shadow.frag", {}}}));
+  // The renderer's shadow-map shaders: same maps, same lookups.
+  MVBRDF_ASSIGN_OR_RETURN(r.point_shadow_program, gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
+                                                                    {GL_FRAGMENT_SHADER, "shadow_point.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(
+      r.directional_shadow_program,
+      gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}}, {GL_FRAGMENT_SHADER, "shadow_directional.frag", {}}}));
+
+  // Mesh: positions and normals change per frame, UVs and indices do not.
+  const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(n * sizeof(glm::vec3));
+  r.position_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(r.position_buffer.id(), vec3_bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
+  r.normal_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(r.normal_buffer.id(), vec3_bytes, nullptr, GL_DYNAMIC_STORAGE_BIT);
+  r.uv_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(r.uv_buffer.id(), static_cast<GLsizeiptr>(n * sizeof(glm::vec2)), topo.uvs.data(), 0);
+  r.index_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(r.index_buffer.id(),
+                       static_cast<GLsizeiptr>(std::max<size_t>(drawn.size(), 1) * sizeof(glm::uvec3)),
+                       drawn.empty() ? nullptr : drawn.data(), 0);
+  r.mesh_vertex_array = gl::CreateVertexArray();
+  const GLuint vao = r.mesh_vertex_array.id();
+  glVertexArrayVertexBuffer(vao, 0, r.position_buffer.id(), 0, sizeof(glm::vec3));
+  glVertexArrayVertexBuffer(vao, 1, r.normal_buffer.id(), 0, sizeof(glm::vec3));
+  glVertexArrayVertexBuffer(vao, 2, r.uv_buffer.id(), 0, sizeof(glm::vec2));
+  const GLuint attributes[3] = {kPositionAttribute, kNormalAttribute, kUvAttribute};
+  const GLint components[3] = {3, 3, 2};
+  for (GLuint i = 0; i < 3; ++i) {
+    glEnableVertexArrayAttrib(vao, attributes[i]);
+    glVertexArrayAttribFormat(vao, attributes[i], components[i], GL_FLOAT, GL_FALSE, 0);
+    glVertexArrayAttribBinding(vao, attributes[i], i);
+  }
+  glVertexArrayElementBuffer(vao, r.index_buffer.id());
+  r.empty_vertex_array = gl::CreateVertexArray();
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Create: mesh buffers"));
+
+  // Atlas targets.
+  r.position_map = CreateTexture2D(GL_RGBA32F, r.size, r.size, GL_NEAREST);
+  r.normal_map = CreateTexture2D(GL_RGBA32F, r.size, r.size, GL_NEAREST);
+  r.geometry_framebuffer = gl::CreateFramebuffer();
+  glNamedFramebufferTexture(r.geometry_framebuffer.id(), GL_COLOR_ATTACHMENT0, r.position_map.id(), 0);
+  glNamedFramebufferTexture(r.geometry_framebuffer.id(), GL_COLOR_ATTACHMENT1, r.normal_map.id(), 0);
+  const GLenum geometry_buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+  glNamedFramebufferDrawBuffers(r.geometry_framebuffer.id(), 2, geometry_buffers);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckFramebufferComplete(r.geometry_framebuffer, "geometry atlas target"));
+
+  r.resample_target = gl::CreateRenderbuffer();
+  glNamedRenderbufferStorage(r.resample_target.id(), GL_RGBA32F, r.size, r.size);
+  r.resample_framebuffer = gl::CreateFramebuffer();
+  glNamedFramebufferRenderbuffer(r.resample_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                                 r.resample_target.id());
+  glNamedFramebufferDrawBuffer(r.resample_framebuffer.id(), GL_COLOR_ATTACHMENT0);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckFramebufferComplete(r.resample_framebuffer, "resampled atlas target"));
+
+  r.shadow_target = gl::CreateRenderbuffer();
+  glNamedRenderbufferStorage(r.shadow_target.id(), GL_R16UI, r.size, r.size);
+  r.shadow_atlas_framebuffer = gl::CreateFramebuffer();
+  glNamedFramebufferRenderbuffer(r.shadow_atlas_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER,
+                                 r.shadow_target.id());
+  glNamedFramebufferDrawBuffer(r.shadow_atlas_framebuffer.id(), GL_COLOR_ATTACHMENT0);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckFramebufferComplete(r.shadow_atlas_framebuffer, "shadow atlas target"));
+
+  // Shadow maps: allocated here (their size is fixed), rendered lazily.
+  if (!lights.empty()) {
+    r.point_shadows =
+        CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, options.shadow_map_size, 6 * std::max(r.num_point_lights, 1));
+    r.directional_shadows =
+        CreateShadowArray(GL_TEXTURE_2D_ARRAY, options.shadow_map_size, std::max(r.num_directional_lights, 1));
+    r.shadow_map_framebuffer = gl::CreateFramebuffer();
+    glNamedFramebufferDrawBuffer(r.shadow_map_framebuffer.id(), GL_NONE);
+    glNamedFramebufferReadBuffer(r.shadow_map_framebuffer.id(), GL_NONE);
+    r.light_buffer = gl::CreateBuffer();
+    glNamedBufferStorage(r.light_buffer.id(), sizeof(GpuShadowLightBlock), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Create: shadow maps"));
+  }
+
+  // Cameras: depth maps sized by their layout; frame textures on first use.
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    CameraState state;
+    state.model = cameras[c];
+    state.model.distortion.resize(8, 0.0);
+    state.layout = ComputeDepthMapLayout(state.model, r.max_texture_size);
+    if (state.model.width > r.max_texture_size || state.model.height > r.max_texture_size) {
+      return absl::InvalidArgumentError(absl::StrCat("cameras[", c, "]: image ", state.model.width, "x",
+                                                     state.model.height, " exceeds GL_MAX_TEXTURE_SIZE ",
+                                                     r.max_texture_size));
+    }
+    state.depth_map = CreateTexture2D(GL_R32F, state.layout.width, state.layout.height, GL_NEAREST);
+    state.depth_buffer = gl::CreateRenderbuffer();
+    glNamedRenderbufferStorage(state.depth_buffer.id(), GL_DEPTH_COMPONENT32F, state.layout.width, state.layout.height);
+    state.depth_framebuffer = gl::CreateFramebuffer();
+    glNamedFramebufferTexture(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT0, state.depth_map.id(), 0);
+    glNamedFramebufferRenderbuffer(state.depth_framebuffer.id(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
+                                   state.depth_buffer.id());
+    glNamedFramebufferDrawBuffer(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT0);
+    MVBRDF_RETURN_IF_ERROR(
+        gl::CheckFramebufferComplete(state.depth_framebuffer, absl::StrCat("depth map of cameras[", c, "]")));
+    r.cameras.push_back(std::move(state));
+  }
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Create"));
+  return std::unique_ptr<Resampler>(new Resampler(std::move(impl)));
+}
+
+absl::Status Resampler::SetFrame(const scene::FramePositions& file_positions) {
+  Impl& r = *impl_;
+  if (!r.context->IsCurrent()) {
+    return absl::FailedPreconditionError("Resampler::SetFrame: the EGL context is not current on this thread");
+  }
+  if (file_positions.size() != r.topology.num_file_vertices) {
+    return absl::InvalidArgumentError(absl::StrCat("file_positions: expected ", r.topology.num_file_vertices,
+                                                   " (one per file vertex), got ", file_positions.size()));
+  }
+  for (size_t v = 0; v < file_positions.size(); ++v) {
+    const glm::vec3& p = file_positions[v];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      return absl::InvalidArgumentError(absl::StrCat("file_positions[", v, "]: not finite"));
+    }
+  }
+  const std::vector<glm::vec3> file_normals = scene::ComputeFileVertexNormals(r.topology, file_positions);
+  const std::vector<glm::vec3> positions = scene::ToRenderVertices(r.topology, file_positions);
+  const std::vector<glm::vec3> normals = scene::ToRenderVertices(r.topology, file_normals);
+  const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(positions.size() * sizeof(glm::vec3));
+  glNamedBufferSubData(r.position_buffer.id(), 0, vec3_bytes, positions.data());
+  glNamedBufferSubData(r.normal_buffer.id(), 0, vec3_bytes, normals.data());
+  r.bounds = ComputeBoundingSphere(positions);
+  // A new frame number invalidates every camera's depth map and the shadow atlas.
+  ++r.frame;
+  r.shadow_atlas.release();
+  return r.RenderGeometry();
+}
+
+absl::Status Resampler::Impl::RenderGeometry() {
+  glBindFramebuffer(GL_FRAMEBUFFER, geometry_framebuffer.id());
+  glViewport(0, 0, size, size);
+  glDisable(GL_DEPTH_TEST);  // a valid atlas has no overlapping triangles
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  glDisable(GL_COLOR_LOGIC_OP);
+  const float zero[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  glClearNamedFramebufferfv(geometry_framebuffer.id(), GL_COLOR, 0, zero);
+  glClearNamedFramebufferfv(geometry_framebuffer.id(), GL_COLOR, 1, zero);
+  glUseProgram(geometry_program.id());
+  DrawMesh();
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  return gl::CheckGlError("Resampler::SetFrame: geometry atlas");
+}
+
+absl::Status Resampler::Impl::EnsureDepthMap(CameraState& camera) {
+  if (camera.depth_frame == frame) return absl::OkStatus();
+  // Near and far planes around the pose's bounding sphere (eye depth only
+  // needs the nearest surface; the stored value is the exact eye z).
+  const glm::dvec3 center_in_camera = camera.model.CamFromWorld(glm::dvec3(bounds.center));
+  const double radius = 1.01 * bounds.radius + 1e-6;
+  const double far_plane = std::max(center_in_camera.z + radius, 1e-3);
+  const double near_plane = std::max(center_in_camera.z - radius, far_plane * 1e-5);
+  const DepthMapLayout& layout = camera.layout;
+  const glm::dmat4 cam_from_world = CamFromWorld(camera.model);
+  const glm::mat4 clip_from_world(ClipFromCamera(camera.model.fx, camera.model.fy, layout.cx, layout.cy, layout.width,
+                                                 layout.height, near_plane, far_plane) *
+                                  cam_from_world);
+  const glm::mat4 cam_from_world_f(cam_from_world);
+  glProgramUniformMatrix4fv(depth_program.id(), kDepthClipFromWorld, 1, GL_FALSE, glm::value_ptr(clip_from_world));
+  glProgramUniformMatrix4fv(depth_program.id(), kDepthCamFromWorld, 1, GL_FALSE, glm::value_ptr(cam_from_world_f));
+
+  glBindFramebuffer(GL_FRAMEBUFFER, camera.depth_framebuffer.id());
+  glViewport(0, 0, layout.width, layout.height);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_CULL_FACE);  // both sides of every triangle occlude
+  glDisable(GL_BLEND);
+  glDisable(GL_COLOR_LOGIC_OP);
+  const float no_surface[4] = {kNoSurfaceDepth, 0.0f, 0.0f, 0.0f};
+  const float clear_depth = 1.0f;
+  glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_COLOR, 0, no_surface);
+  glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_DEPTH, 0, &clear_depth);
+  glUseProgram(depth_program.id());
+  DrawMesh();
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler: camera depth map"));
+  camera.depth_frame = frame;
+  return absl::OkStatus();
+}
+
+absl::Status Resampler::Impl::UploadFrame(CameraState& camera, const cv::Mat& frame_rgb) {
+  if (!camera.frame_texture) {
+    camera.frame_texture = CreateTexture2D(GL_RGB32F, camera.model.width, camera.model.height, GL_LINEAR);
+  }
+  // Rows as they are: image row 0 (top) is texture row 0 (t = 0), the same
+  // orientation the shader's pixel coordinates use.
+  cv::Mat data = frame_rgb;
+  if (data.step[0] % data.elemSize() != 0) data = frame_rgb.clone();
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, static_cast<GLint>(data.step[0] / data.elemSize()));
+  glTextureSubImage2D(camera.frame_texture.id(), 0, 0, 0, data.cols, data.rows, GL_RGB, GL_FLOAT, data.data);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  return gl::CheckGlError("Resampler::ResampleCamera: uploading the frame");
+}
+
+void Resampler::Impl::ReadAtlas(GLuint framebuffer, GLenum attachment, GLenum format, GLenum type, cv::Mat* out) const {
+  // Window row r is atlas row r (shaders/resample_geometry.vert), so the
+  // read-back is already top row first. Read in the target's own format
+  // (PERF.md: converting formats in glReadPixels is several times slower).
+  glNamedFramebufferReadBuffer(framebuffer, attachment);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+  glReadPixels(0, 0, size, size, format, type, out->data);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+}
+
+absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& frame) {
+  Impl& r = *impl_;
+  MVBRDF_RETURN_IF_ERROR(r.CheckReady("Resampler::ResampleCamera"));
+  if (camera < 0 || camera >= static_cast<int>(r.cameras.size())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera: index ", camera, " out of range, ", r.cameras.size(), " cameras"));
+  }
+  CameraState& state = r.cameras[camera];
+  if (frame.type() != CV_32FC3 || frame.cols != state.model.width || frame.rows != state.model.height) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "frame of cameras[", camera, "] (\"", state.model.name, "\"): expected CV_32FC3 ", state.model.width, "x",
+        state.model.height, ", got type ", frame.type(), " ", frame.cols, "x", frame.rows));
+  }
+  MVBRDF_RETURN_IF_ERROR(r.EnsureDepthMap(state));
+  MVBRDF_RETURN_IF_ERROR(r.UploadFrame(state, frame));
+
+  const scene::CameraModel& m = state.model;
+  const GLuint program = r.camera_program.id();
+  const glm::mat4 cam_from_world(CamFromWorld(m));
+  const glm::vec3 center(m.CenterInWorld());
+  glProgramUniformMatrix4fv(program, kCamFromWorld, 1, GL_FALSE, glm::value_ptr(cam_from_world));
+  glProgramUniform3fv(program, kCameraCenter, 1, glm::value_ptr(center));
+  glProgramUniform4f(program, kIntrinsics, static_cast<float>(m.fx), static_cast<float>(m.fy), static_cast<float>(m.cx),
+                     static_cast<float>(m.cy));
+  glProgramUniform2f(program, kDepthPrincipal, static_cast<float>(state.layout.cx),
+                     static_cast<float>(state.layout.cy));
+  const std::vector<double>& k = m.distortion;
+  glProgramUniform4f(program, kDistortionA, static_cast<float>(k[0]), static_cast<float>(k[1]),
+                     static_cast<float>(k[2]), static_cast<float>(k[3]));
+  glProgramUniform4f(program, kDistortionB, static_cast<float>(k[4]), static_cast<float>(k[5]),
+                     static_cast<float>(k[6]), static_cast<float>(k[7]));
+  glProgramUniform1f(program, kMinCosView,
+                     static_cast<float>(std::sin(r.options.grazing_margin_deg * 3.14159265358979323846 / 180.0)));
+  glProgramUniform1f(program, kDepthScale, static_cast<float>(1.0 + r.options.relative_depth_tolerance));
+
+  glBindTextureUnit(kPositionMapUnit, r.position_map.id());
+  glBindTextureUnit(kNormalMapUnit, r.normal_map.id());
+  glBindTextureUnit(kDepthMapUnit, state.depth_map.id());
+  glBindTextureUnit(kFrameUnit, state.frame_texture.id());
+  glBindFramebuffer(GL_FRAMEBUFFER, r.resample_framebuffer.id());
+  glViewport(0, 0, r.size, r.size);
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glDisable(GL_BLEND);
+  glDisable(GL_COLOR_LOGIC_OP);
+  glUseProgram(program);
+  r.DrawFullScreen();  // writes every texel: no clear needed
+
+  cv::Mat out(r.size, r.size, CV_32FC4);
+  r.ReadAtlas(r.resample_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RGBA, GL_FLOAT, &out);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  for (GLuint unit = 0; unit < 4; ++unit) glBindTextureUnit(unit, 0);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ResampleCamera"));
+  return out;
+}
+
+absl::StatusOr<GeometryAtlas> Resampler::Geometry() {
+  Impl& r = *impl_;
+  MVBRDF_RETURN_IF_ERROR(r.CheckReady("Resampler::Geometry"));
+  GeometryAtlas geometry;
+  geometry.position.create(r.size, r.size, CV_32FC4);
+  geometry.normal.create(r.size, r.size, CV_32FC4);
+  r.ReadAtlas(r.geometry_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RGBA, GL_FLOAT, &geometry.position);
+  r.ReadAtlas(r.geometry_framebuffer.id(), GL_COLOR_ATTACHMENT1, GL_RGBA, GL_FLOAT, &geometry.normal);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Geometry"));
+  return geometry;
+}
+
+absl::Status Resampler::Impl::RenderShadowMaps(GpuShadowLightBlock* block) {
+  const int map_size = options.shadow_map_size;
+  // The maps cover the bounding sphere with a little room, so that nothing of
+  // the mesh is clipped by a light's far plane or a map's border.
+  const float radius = bounds.radius * 1.01f + 1e-4f;
+  glBindFramebuffer(GL_FRAMEBUFFER, shadow_map_framebuffer.id());
+  glViewport(0, 0, map_size, map_size);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_CULL_FACE);  // both sides of every triangle cast shadows
+  glDisable(GL_BLEND);
+
+  int point_layer = 0, directional_layer = 0;
+  block->count = glm::ivec4(static_cast<int>(lights.size()), 0, 0, 0);
+  for (size_t k = 0; k < lights.size(); ++k) {
+    const scene::Light& light = lights[k];
+    GpuShadowLight& gpu = block->lights[k];
+    gpu.shadow_from_world = glm::mat4(1.0f);
+    if (!light.directional) {
+      gpu.position = glm::vec4(light.position, 1.0f);
+      const float range = glm::length(light.position - bounds.center) + radius;
+      // The perspective near plane only clips; depth is the distance written
+      // by shadow_point.frag, divided by the range.
+      const float near_plane = range * 1e-4f;
+      // Angle of one texel at the face centre (the largest on the face).
+      gpu.shadow = glm::vec4(static_cast<float>(point_layer), range, 2.0f / map_size, 0.0f);
+      glProgramUniform3fv(point_shadow_program.id(), kShadowLightPosition, 1, glm::value_ptr(light.position));
+      glProgramUniform1f(point_shadow_program.id(), kShadowInverseRange, 1.0f / range);
+      glUseProgram(point_shadow_program.id());
+      const glm::mat4 projection = glm::perspective(glm::radians(90.0f), 1.0f, near_plane, range);
+      for (int face = 0; face < 6; ++face) {
+        const glm::mat4 view = glm::lookAt(light.position, light.position + kCubeFaces[face][0], kCubeFaces[face][1]);
+        const glm::mat4 clip_from_world = projection * view;
+        glProgramUniformMatrix4fv(point_shadow_program.id(), kShadowClipFromWorld, 1, GL_FALSE,
+                                  glm::value_ptr(clip_from_world));
+        glNamedFramebufferTextureLayer(shadow_map_framebuffer.id(), GL_DEPTH_ATTACHMENT, point_shadows.id(), 0,
+                                       6 * point_layer + face);
+        glClear(GL_DEPTH_BUFFER_BIT);
+        DrawMesh();
+      }
+      ++point_layer;
+    } else {
+      const glm::vec3 l = glm::normalize(light.direction);
+      gpu.position = glm::vec4(l, 0.0f);
+      // Orthographic view along -l fitted to the bounding sphere: depth 0 at
+      // the sphere's near side, 1 at its far side (2 * radius further).
+      const glm::vec3 eye = bounds.center + l * radius;
+      const glm::vec3 up = std::abs(l.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+      const glm::mat4 view = glm::lookAt(eye, bounds.center, up);
+      const glm::mat4 projection = glm::ortho(-radius, radius, -radius, radius, 0.0f, 2.0f * radius);
+      const glm::mat4 clip_from_world = projection * view;
+      // Clip space [-1, 1]^3 -> texture coordinates and window depth [0, 1]^3.
+      const glm::mat4 unit_from_clip =
+          glm::translate(glm::mat4(1.0f), glm::vec3(0.5f)) * glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
+      gpu.shadow_from_world = unit_from_clip * clip_from_world;
+      gpu.shadow = glm::vec4(static_cast<float>(directional_layer), 2.0f * radius, 2.0f * radius / map_size, 0.0f);
+      glProgramUniformMatrix4fv(directional_shadow_program.id(), kShadowClipFromWorld, 1, GL_FALSE,
+                                glm::value_ptr(clip_from_world));
+      glUseProgram(directional_shadow_program.id());
+      glNamedFramebufferTextureLayer(shadow_map_framebuffer.id(), GL_DEPTH_ATTACHMENT, directional_shadows.id(), 0,
+                                     directional_layer);
+      glClear(GL_DEPTH_BUFFER_BIT);
+      DrawMesh();
+      ++directional_layer;
+    }
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  return gl::CheckGlError("Resampler::ShadowAtlas: shadow maps");
+}
+
+absl::StatusOr<cv::Mat> Resampler::ShadowAtlas() {
+  Impl& r = *impl_;
+  MVBRDF_RETURN_IF_ERROR(r.CheckReady("Resampler::ShadowAtlas"));
+  if (r.shadow_frame == r.frame && !r.shadow_atlas.empty()) return r.shadow_atlas.clone();
+  cv::Mat visible(r.size, r.size, CV_16UC1, cv::Scalar(0));
+  if (!r.lights.empty()) {
+    GpuShadowLightBlock block{};
+    MVBRDF_RETURN_IF_ERROR(r.RenderShadowMaps(&block));
+    glNamedBufferSubData(r.light_buffer.id(), 0, sizeof(GpuShadowLightBlock), &block);
+
+    glBindTextureUnit(kPositionMapUnit, r.position_map.id());
+    glBindTextureUnit(kNormalMapUnit, r.normal_map.id());
+    glBindTextureUnit(kPointShadowUnit, r.point_shadows.id());
+    glBindTextureUnit(kDirectionalShadowUnit, r.directional_shadows.id());
+    glBindBufferBase(GL_UNIFORM_BUFFER, kShadowLightBlockBinding, r.light_buffer.id());
+    glBindFramebuffer(GL_FRAMEBUFFER, r.shadow_atlas_framebuffer.id());
+    glViewport(0, 0, r.size, r.size);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_BLEND);
+    glDisable(GL_COLOR_LOGIC_OP);
+    glUseProgram(r.shadow_atlas_program.id());
+    r.DrawFullScreen();  // writes every texel
+    r.ReadAtlas(r.shadow_atlas_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RED_INTEGER, GL_UNSIGNED_SHORT, &visible);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glUseProgram(0);
+    glBindVertexArray(0);
+    glBindBufferBase(GL_UNIFORM_BUFFER, kShadowLightBlockBinding, 0);
+    for (GLuint unit = 0; unit < 4; ++unit) glBindTextureUnit(unit, 0);
+    MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ShadowAtlas"));
+  }
+  r.shadow_atlas = visible;
+  r.shadow_frame = r.frame;
+  return visible.clone();
+}
+
+}  // namespace mvbrdf::resample
