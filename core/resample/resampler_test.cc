@@ -1,0 +1,514 @@
+#include "core/resample/resampler.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <glm/gtc/matrix_transform.hpp>
+#include <vector>
+
+#include "core/gl/gl_api.h"
+#include "core/resample/resample_test_util.h"
+
+namespace mvbrdf::resample {
+namespace {
+
+using testing::CrossPlaneZ;
+using testing::InsideSquare;
+using testing::LookAtCamera;
+using testing::MakeQuadScene;
+using testing::Quad;
+using testing::QuadScene;
+
+// Resampled pixel position vs CPU CameraModel::Project, pixels: float
+// projection on the GPU and the texture unit's bilinear weights (measured on
+// llvmpipe: ~1.2e-4). The frame encodes the pixel position linearly, so a
+// bilinear lookup reproduces it; a half-pixel convention error would be 250x this.
+constexpr double kPixelTolerance = 2e-3;
+// Geometry atlas vs the analytic surface point of the texel centre, world
+// units, over a scene of size ~2 (measured: 4e-7), and unit normals (measured 1e-7).
+constexpr double kPositionTolerance = 2e-6;
+constexpr double kNormalTolerance = 1e-6;
+// Texels whose expected pixel is closer than this to the edge of the valid
+// image region [0, w-1] x [0, h-1] are not compared (float rounding decides).
+constexpr double kImageBorderBand = 0.01;
+// Occlusion boundary band, camera pixels: the depth map has the camera's
+// resolution and is looked up at the nearest pixel, so the occluder's
+// silhouette is placed to within about half a pixel either way (rasterisation
+// of the occluder edge plus the nearest lookup). Measured: 0.75 px suffices,
+// 0.5 px leaves 4 of ~100k texels misclassified. The occlusion scene has
+// ~1.1 atlas texels per camera pixel, so this is a band of ~1 texel either side.
+constexpr double kOcclusionBandPixels = 1.0;
+// Shadow boundary band, world units at the occluder: about two shadow-map
+// texels (2 / 512 rad at ~1 unit from the light) and one atlas texel of the
+// plane (~0.012). Measured: 0.001 still passes at these resolutions.
+constexpr double kShadowBandWorld = 0.01;
+
+// The ground plane z = 0, |x|, |y| <= 1, facing +z, over UVs [lo, hi]^2.
+Quad GroundQuad(double uv_lo, double uv_hi) {
+  Quad q;
+  q.origin = {-1.0, -1.0, 0.0};
+  q.edge_s = {2.0, 0.0, 0.0};
+  q.edge_t = {0.0, 2.0, 0.0};
+  q.uv_min = glm::dvec2(uv_lo);
+  q.uv_max = glm::dvec2(uv_hi);
+  return q;
+}
+
+// A square |x|, |y| <= half at height z facing +z, over UVs [lo, hi]^2.
+Quad SquareQuad(double half, double z, double uv_lo, double uv_hi) {
+  Quad q;
+  q.origin = {-half, -half, z};
+  q.edge_s = {2.0 * half, 0.0, 0.0};
+  q.edge_t = {0.0, 2.0 * half, 0.0};
+  q.uv_min = glm::dvec2(uv_lo);
+  q.uv_max = glm::dvec2(uv_hi);
+  return q;
+}
+
+// Frame whose pixel (x, y) holds (x / width, y / height, 0.25): a bilinear
+// lookup at pixel position p returns (p.x / width, p.y / height, 0.25).
+cv::Mat PixelPositionFrame(int width, int height) {
+  cv::Mat frame(height, width, CV_32FC3);
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      frame.at<cv::Vec3f>(y, x) = cv::Vec3f(static_cast<float>(x) / width, static_cast<float>(y) / height, 0.25f);
+    }
+  }
+  return frame;
+}
+
+bool Valid(const cv::Mat& rgba, int x, int y) { return rgba.at<cv::Vec4f>(y, x)[3] > 0.5f; }
+
+class ResamplerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    auto context = gl::EglContext::Create(gl::EglPlatform::kSurfaceless);
+    ASSERT_TRUE(context.ok()) << context.status();
+    context_ = std::move(*context);
+  }
+
+  std::unique_ptr<Resampler> Make(const QuadScene& scene, const std::vector<scene::CameraModel>& cameras,
+                                  const std::vector<scene::Light>& lights = {}, const ResamplerOptions& options = {}) {
+    auto resampler = Resampler::Create(*context_, scene.atlas, cameras, lights, options);
+    EXPECT_TRUE(resampler.ok()) << resampler.status();
+    if (!resampler.ok()) return nullptr;
+    const absl::Status status = (*resampler)->SetFrame(scene.positions);
+    EXPECT_TRUE(status.ok()) << status;
+    return std::move(*resampler);
+  }
+
+  std::unique_ptr<gl::EglContext> context_;
+};
+
+// Compares every covered texel's sample with CPU Project; returns the maximum
+// pixel error and counts the valid texels.
+struct ProjectionCheck {
+  double max_error = 0.0;
+  double max_distortion_shift = 0.0;  // |distorted - pinhole| pixel, for sanity
+  int covered = 0;
+  int valid = 0;
+};
+
+ProjectionCheck CheckProjection(const QuadScene& scene, const scene::CameraModel& camera, const cv::Mat& rgba) {
+  ProjectionCheck check;
+  scene::CameraModel pinhole = camera;
+  pinhole.distortion.assign(8, 0.0);
+  for (int y = 0; y < scene.atlas.size; ++y) {
+    for (int x = 0; x < scene.atlas.size; ++x) {
+      const auto point = scene.TexelPoint(x, y);
+      if (!point.has_value()) continue;
+      ++check.covered;
+      if (!Valid(rgba, x, y)) continue;
+      ++check.valid;
+      const glm::dvec2 expected = camera.Project(point->second);
+      const cv::Vec4f& s = rgba.at<cv::Vec4f>(y, x);
+      const glm::dvec2 actual(s[0] * camera.width, s[1] * camera.height);
+      check.max_error = std::max(check.max_error, glm::length(actual - expected));
+      check.max_distortion_shift =
+          std::max(check.max_distortion_shift, glm::length(expected - pinhole.Project(point->second)));
+      EXPECT_NEAR(s[2], 0.25f, 1e-6f);
+    }
+  }
+  return check;
+}
+
+TEST_F(ResamplerTest, PlaneSamplesTheProjectedPixel) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 256);
+  const scene::CameraModel camera = LookAtCamera({0.4, -0.5, 3.0}, {0.0, 0.0, 0.0}, 640, 480, 450.0);
+  auto resampler = Make(scene, {camera});
+  ASSERT_NE(resampler, nullptr);
+  auto rgba = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  ASSERT_EQ(rgba->type(), CV_32FC4);
+  ASSERT_EQ(rgba->rows, 256);
+  const ProjectionCheck check = CheckProjection(scene, camera, *rgba);
+  EXPECT_GT(check.covered, 200 * 200);
+  EXPECT_EQ(check.valid, check.covered);  // the whole plane is in view and unoccluded
+  EXPECT_LT(check.max_error, kPixelTolerance);
+  // Uncovered texels are invalid and zero.
+  for (int y = 0; y < 256; ++y) {
+    for (int x = 0; x < 256; ++x) {
+      if (scene.atlas.triangle_id.at<int32_t>(y, x) < 0) {
+        ASSERT_EQ(rgba->at<cv::Vec4f>(y, x), cv::Vec4f(0, 0, 0, 0)) << x << ", " << y;
+      }
+    }
+  }
+}
+
+TEST_F(ResamplerTest, DistortedCameraSamplesTheDistortedPixel) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 256);
+  scene::CameraModel camera = LookAtCamera({0.4, -0.5, 3.0}, {0.0, 0.0, 0.0}, 640, 480, 500.0);
+  camera.cx += 3.7;  // off-centre on purpose
+  camera.cy -= 2.2;
+  camera.distortion = {-0.25, 0.08, 0.002, -0.001, 0.01, 0.0, 0.0, 0.0};
+  auto resampler = Make(scene, {camera});
+  ASSERT_NE(resampler, nullptr);
+  auto rgba = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  const ProjectionCheck check = CheckProjection(scene, camera, *rgba);
+  EXPECT_EQ(check.valid, check.covered);
+  EXPECT_LT(check.max_error, kPixelTolerance);
+  EXPECT_GT(check.max_distortion_shift, 5.0);  // the distortion matters in this view
+}
+
+TEST_F(ResamplerTest, TexelsOutsideTheImageAreInvalid) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 256);
+  // Close enough that the plane overflows the image on every side.
+  scene::CameraModel camera = LookAtCamera({0.1, -0.2, 1.2}, {0.0, 0.0, 0.0}, 320, 240, 300.0);
+  camera.distortion = {-0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  auto resampler = Make(scene, {camera});
+  ASSERT_NE(resampler, nullptr);
+  auto rgba = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  int inside = 0, outside = 0, wrong = 0;
+  double max_error = 0.0;
+  for (int y = 0; y < 256; ++y) {
+    for (int x = 0; x < 256; ++x) {
+      const auto point = scene.TexelPoint(x, y);
+      if (!point.has_value()) continue;
+      const glm::dvec2 p = camera.Project(point->second);
+      const double margin = std::min({p.x, p.y, camera.width - 1 - p.x, camera.height - 1 - p.y});
+      if (std::abs(margin) < kImageBorderBand) continue;
+      const bool expected = margin > 0.0;
+      (expected ? inside : outside)++;
+      if (Valid(*rgba, x, y) != expected) ++wrong;
+      if (expected && Valid(*rgba, x, y)) {
+        const cv::Vec4f& s = rgba->at<cv::Vec4f>(y, x);
+        max_error = std::max(max_error, glm::length(glm::dvec2(s[0] * camera.width, s[1] * camera.height) - p));
+      }
+    }
+  }
+  EXPECT_GT(inside, 1000);
+  EXPECT_GT(outside, 1000);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_LT(max_error, kPixelTolerance);
+}
+
+TEST_F(ResamplerTest, BackFacingAndGrazingTexelsAreInvalid) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 128);
+  const scene::CameraModel below = LookAtCamera({0.3, 0.2, -3.0}, {0.0, 0.0, 0.0}, 320, 240, 200.0);
+  // ~1.9 degrees above the plane: front-facing but within the 5 degree margin.
+  const scene::CameraModel grazing = LookAtCamera({0.0, -30.0, 1.0}, {0.0, 0.0, 0.0}, 320, 240, 2000.0);
+  for (const double margin : {5.0, 0.0}) {
+    ResamplerOptions options;
+    options.grazing_margin_deg = margin;
+    auto resampler = Make(scene, {below, grazing}, {}, options);
+    ASSERT_NE(resampler, nullptr);
+    for (int c = 0; c < 2; ++c) {
+      const scene::CameraModel& camera = c == 0 ? below : grazing;
+      auto rgba = resampler->ResampleCamera(c, PixelPositionFrame(camera.width, camera.height));
+      ASSERT_TRUE(rgba.ok()) << rgba.status();
+      int valid = 0;
+      for (int y = 0; y < 128; ++y) {
+        for (int x = 0; x < 128; ++x) valid += Valid(*rgba, x, y) ? 1 : 0;
+      }
+      SCOPED_TRACE(::testing::Message() << "camera " << c << ", margin " << margin);
+      if (c == 0 || margin > 0.0) {
+        EXPECT_EQ(valid, 0);
+      } else {
+        EXPECT_GT(valid, 1000);  // without the margin the grazing view is kept
+      }
+    }
+  }
+}
+
+TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {
+  // Plane plus a floating square (its own atlas region) between it and the camera.
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.02, 0.66), SquareQuad(0.3, 1.0, 0.70, 0.98)}, 512);
+  const scene::CameraModel camera = LookAtCamera({0.5, -0.4, 3.0}, {0.0, 0.0, 0.0}, 640, 480, 450.0);
+  const glm::dvec3 center = camera.CenterInWorld();
+  auto resampler = Make(scene, {camera});
+  ASSERT_NE(resampler, nullptr);
+  // A black frame: valid texels are (0, 0, 0, 1), invalid ones (0, 0, 0, 0).
+  auto rgba = resampler->ResampleCamera(0, cv::Mat(camera.height, camera.width, CV_32FC3, cv::Scalar(0, 0, 0)));
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  int hidden = 0, seen = 0, in_band = 0, wrong = 0, occluder_invalid = 0, not_black = 0;
+  for (int y = 0; y < 512; ++y) {
+    for (int x = 0; x < 512; ++x) {
+      const cv::Vec4f& s = rgba->at<cv::Vec4f>(y, x);
+      if (s[0] != 0.0f || s[1] != 0.0f || s[2] != 0.0f || (s[3] != 0.0f && s[3] != 1.0f)) ++not_black;
+      const auto point = scene.TexelPoint(x, y);
+      if (!point.has_value()) continue;
+      if (point->first == 1) {
+        occluder_invalid += Valid(*rgba, x, y) ? 0 : 1;
+        continue;
+      }
+      const std::optional<glm::dvec3> cross = CrossPlaneZ(point->second, center, 1.0);
+      ASSERT_TRUE(cross.has_value());
+      const double inside = InsideSquare(*cross, glm::dvec2(0.0), 0.3);
+      const double distance_px = std::abs(inside) * camera.fx / camera.CamFromWorld(*cross).z;
+      if (distance_px < kOcclusionBandPixels) {
+        ++in_band;
+        continue;
+      }
+      const bool is_hidden = inside > 0.0;
+      (is_hidden ? hidden : seen)++;
+      if (Valid(*rgba, x, y) == is_hidden) ++wrong;
+    }
+  }
+  EXPECT_GT(hidden, 5000);
+  EXPECT_GT(seen, 50000);
+  EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(occluder_invalid, 0);
+  EXPECT_EQ(not_black, 0);
+  EXPECT_LT(in_band, hidden / 5);  // the band is a thin ring
+}
+
+TEST_F(ResamplerTest, GeometryAtlasFollowsThePose) {
+  Quad tilted = SquareQuad(0.3, 0.5, 0.70, 0.98);
+  tilted.edge_t = {0.0, 0.4, 0.35};  // not axis-aligned
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.02, 0.66), tilted}, 256);
+  auto resampler = Make(scene, {});
+  ASSERT_NE(resampler, nullptr);
+  const glm::dmat4 identity(1.0);
+  const glm::dmat4 moved =
+      glm::rotate(glm::translate(identity, glm::dvec3(0.2, -0.1, 0.4)), glm::radians(30.0), glm::dvec3(1.0, 0.2, 0.0));
+  for (const glm::dmat4& world_from_rest : {identity, moved}) {
+    ASSERT_TRUE(resampler->SetFrame(testing::Transformed(scene, world_from_rest)).ok());
+    auto geometry = resampler->Geometry();
+    ASSERT_TRUE(geometry.ok()) << geometry.status();
+    ASSERT_EQ(geometry->position.type(), CV_32FC4);
+    ASSERT_EQ(geometry->normal.type(), CV_32FC4);
+    double max_position_error = 0.0, max_normal_error = 0.0;
+    int coverage_mismatch = 0;
+    for (int y = 0; y < 256; ++y) {
+      for (int x = 0; x < 256; ++x) {
+        const cv::Vec4f& p = geometry->position.at<cv::Vec4f>(y, x);
+        const cv::Vec4f& n = geometry->normal.at<cv::Vec4f>(y, x);
+        const auto point = scene.TexelPoint(x, y);
+        if (!point.has_value()) {
+          coverage_mismatch += p[3] != 0.0f || n[3] != 0.0f;
+          continue;
+        }
+        if (p[3] != 1.0f || n[3] != 1.0f) {
+          ++coverage_mismatch;
+          continue;
+        }
+        const glm::dvec3 expected_p(world_from_rest * glm::dvec4(point->second, 1.0));
+        const glm::dvec3 expected_n = glm::normalize(glm::dmat3(world_from_rest) * scene.quads[point->first].Normal());
+        max_position_error = std::max(max_position_error, glm::length(glm::dvec3(p[0], p[1], p[2]) - expected_p));
+        max_normal_error = std::max(max_normal_error, glm::length(glm::dvec3(n[0], n[1], n[2]) - expected_n));
+      }
+    }
+    EXPECT_EQ(coverage_mismatch, 0);
+    EXPECT_LT(max_position_error, kPositionTolerance);
+    EXPECT_LT(max_normal_error, kNormalTolerance);
+  }
+}
+
+scene::Light PointLight(const glm::vec3& position) {
+  scene::Light light;
+  light.position = position;
+  return light;
+}
+
+TEST_F(ResamplerTest, ShadowAtlasHasOneBitPerLight) {
+  constexpr double kOccluderHalf = 0.25, kOccluderHeight = 1.0;
+  const QuadScene scene =
+      MakeQuadScene({GroundQuad(0.02, 0.66), SquareQuad(kOccluderHalf, kOccluderHeight, 0.70, 0.98)}, 256);
+  scene::Light directional;
+  directional.directional = true;
+  directional.direction = glm::normalize(glm::vec3(0.3f, -0.2f, 1.0f));
+  const std::vector<scene::Light> lights = {PointLight({0.0f, 0.0f, 2.0f}), PointLight({0.7f, 0.4f, 2.5f}),
+                                            directional};
+  ResamplerOptions options;
+  options.shadow_map_size = 512;
+  auto resampler = Make(scene, {}, lights, options);
+  ASSERT_NE(resampler, nullptr);
+
+  // The scene translated by `offset` (lights fixed): bit k of a plane texel is
+  // clear exactly where the segment to light k crosses the occluder.
+  auto check = [&](const glm::dvec3& offset) {
+    ASSERT_TRUE(resampler->SetFrame(testing::Transformed(scene, glm::translate(glm::dmat4(1.0), offset))).ok());
+    auto visible = resampler->ShadowAtlas();
+    ASSERT_TRUE(visible.ok()) << visible.status();
+    ASSERT_EQ(visible->type(), CV_16UC1);
+    int shadowed[3] = {0, 0, 0}, lit[3] = {0, 0, 0}, wrong[3] = {0, 0, 0}, wrong_occluder = 0, wrong_uncovered = 0;
+    for (int y = 0; y < 256; ++y) {
+      for (int x = 0; x < 256; ++x) {
+        const uint16_t bits = visible->at<uint16_t>(y, x);
+        const auto point = scene.TexelPoint(x, y);
+        if (!point.has_value()) {
+          wrong_uncovered += bits != 0;
+          continue;
+        }
+        if (point->first == 1) {
+          wrong_occluder += bits != 0x7;  // the occluder's top sees every light
+          continue;
+        }
+        EXPECT_EQ(bits & ~0x7, 0);
+        const glm::dvec3 p = point->second + offset;
+        for (int k = 0; k < 3; ++k) {
+          const glm::dvec3 towards =
+              lights[k].directional ? p + 10.0 * glm::dvec3(lights[k].direction) : glm::dvec3(lights[k].position);
+          const std::optional<glm::dvec3> cross = CrossPlaneZ(p, towards, kOccluderHeight + offset.z);
+          const double inside = cross.has_value() ? InsideSquare(*cross, glm::dvec2(offset), kOccluderHalf) : -1.0;
+          if (std::abs(inside) < kShadowBandWorld) continue;
+          const bool blocked = inside > 0.0;
+          (blocked ? shadowed : lit)[k]++;
+          if (((bits >> k) & 1) == (blocked ? 1 : 0)) ++wrong[k];
+        }
+      }
+    }
+    for (int k = 0; k < 3; ++k) {
+      SCOPED_TRACE(::testing::Message() << "light " << k);
+      EXPECT_GT(shadowed[k], 1000);
+      EXPECT_GT(lit[k], 10000);
+      EXPECT_EQ(wrong[k], 0);
+    }
+    EXPECT_EQ(wrong_occluder, 0);
+    EXPECT_EQ(wrong_uncovered, 0);
+    // Computed once per frame: a second call returns the same atlas.
+    auto again = resampler->ShadowAtlas();
+    ASSERT_TRUE(again.ok());
+    EXPECT_EQ(cv::countNonZero(*again != *visible), 0);
+  };
+  check(glm::dvec3(0.0));
+  check(glm::dvec3(0.3, -0.2, 0.1));
+}
+
+TEST_F(ResamplerTest, RejectsBadInput) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 64);
+  const scene::CameraModel camera = LookAtCamera({0.4, -0.5, 3.0}, {0.0, 0.0, 0.0}, 64, 48, 50.0);
+  ResamplerOptions bad;
+  bad.grazing_margin_deg = 95.0;
+  EXPECT_FALSE(Resampler::Create(*context_, scene.atlas, {camera}, {}, bad).ok());
+  scene::CameraModel no_focal = camera;
+  no_focal.fx = 0.0;
+  EXPECT_FALSE(Resampler::Create(*context_, scene.atlas, {no_focal}, {}, {}).ok());
+  auto resampler = Resampler::Create(*context_, scene.atlas, {camera}, {}, {});
+  ASSERT_TRUE(resampler.ok()) << resampler.status();
+  const cv::Mat frame(48, 64, CV_32FC3, cv::Scalar(0, 0, 0));
+  EXPECT_EQ((*resampler)->ResampleCamera(0, frame).status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_FALSE((*resampler)->SetFrame({glm::vec3(0.0f)}).ok());  // wrong vertex count
+  ASSERT_TRUE((*resampler)->SetFrame(scene.positions).ok());
+  EXPECT_FALSE((*resampler)->ResampleCamera(1, frame).ok());
+  EXPECT_FALSE((*resampler)->ResampleCamera(0, cv::Mat(48, 64, CV_8UC3)).ok());
+  EXPECT_FALSE((*resampler)->ResampleCamera(0, cv::Mat(40, 64, CV_32FC3)).ok());
+  EXPECT_TRUE((*resampler)->ResampleCamera(0, frame).ok());
+}
+
+// ---------------------------------------------------------------------------
+// Benchmark (disabled; run with
+//   LP_NUM_THREADS=2 build-resample/core/resample/resample_test
+//     --gtest_also_run_disabled_tests --gtest_filter='*Benchmark*')
+
+// A UV sphere of `rings` x `segments` quads between latitudes +-85 degrees
+// (no degenerate pole triangles), with a UV seam (render vertices split,
+// file vertices shared) and UVs filling [0.01, 0.99]^2.
+atlas::Atlas SphereAtlas(int rings, int segments, int size, scene::FramePositions* positions) {
+  atlas::Atlas atlas;
+  scene::MeshTopology& topo = atlas.topology;
+  const double max_lat = glm::radians(85.0);
+  for (int r = 0; r <= rings; ++r) {
+    const double lat = -max_lat + 2.0 * max_lat * r / rings;
+    for (int s = 0; s < segments; ++s) {
+      const double lon = 2.0 * glm::pi<double>() * s / segments;
+      positions->push_back(glm::vec3(std::cos(lat) * std::cos(lon), std::cos(lat) * std::sin(lon), std::sin(lat)));
+    }
+  }
+  topo.num_file_vertices = static_cast<uint32_t>(positions->size());
+  for (int r = 0; r <= rings; ++r) {
+    for (int s = 0; s <= segments; ++s) {
+      topo.render_to_file_vertex.push_back(static_cast<uint32_t>(r * segments + s % segments));
+      topo.uvs.emplace_back(0.01f + 0.98f * s / segments, 0.01f + 0.98f * r / rings);
+    }
+  }
+  for (int r = 0; r < rings; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      const uint32_t a = r * (segments + 1) + s, b = a + 1, c = a + (segments + 1), d = c + 1;
+      topo.triangles.emplace_back(a, b, d);
+      topo.triangles.emplace_back(a, d, c);
+    }
+  }
+  for (const glm::uvec3& t : topo.triangles) {
+    topo.file_triangles.emplace_back(topo.render_to_file_vertex[t.x], topo.render_to_file_vertex[t.y],
+                                     topo.render_to_file_vertex[t.z]);
+  }
+  atlas.size = size;
+  atlas::RasterizeTriangles(&atlas);
+  return atlas;
+}
+
+double MedianMs(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+template <typename F>
+double TimeMs(F&& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+TEST_F(ResamplerTest, DISABLED_Benchmark) {
+  constexpr int kRepeats = 15;
+  scene::FramePositions positions;
+  const int sizes[2] = {512, 1024};
+  // 100 x 100 quads: 20 000 triangles.
+  const scene::CameraModel camera = LookAtCamera({0.0, -3.0, 0.5}, {0.0, 0.0, 0.0}, 320, 240, 200.0);
+  const cv::Mat frame = PixelPositionFrame(camera.width, camera.height);
+  std::vector<scene::Light> lights;
+  for (int i = -1; i <= 1; ++i) {
+    for (int j = -1; j <= 1; ++j) lights.push_back(PointLight({1.5f * i, 1.5f * j, 3.0f}));
+  }
+  for (int size : sizes) {
+    positions.clear();
+    const atlas::Atlas atlas = SphereAtlas(100, 100, size, &positions);
+    for (int shadow_size : {256, 1024}) {
+      ResamplerOptions options;
+      options.shadow_map_size = shadow_size;
+      auto resampler = Resampler::Create(*context_, atlas, {camera}, lights, options);
+      ASSERT_TRUE(resampler.ok()) << resampler.status();
+      Resampler& r = **resampler;
+      std::vector<double> set_frame, first_camera, camera_pass, geometry, shadow;
+      for (int i = 0; i < kRepeats; ++i) {
+        // A slightly different pose each time (nothing is cached across frames).
+        scene::FramePositions pose = positions;
+        for (glm::vec3& p : pose) p *= 1.0f + 0.001f * i;
+        set_frame.push_back(TimeMs([&] {
+          ASSERT_TRUE(r.SetFrame(pose).ok());
+          glFinish();  // SetFrame only queues the draw
+        }));
+        first_camera.push_back(TimeMs([&] { ASSERT_TRUE(r.ResampleCamera(0, frame).ok()); }));
+        camera_pass.push_back(TimeMs([&] { ASSERT_TRUE(r.ResampleCamera(0, frame).ok()); }));
+        geometry.push_back(TimeMs([&] { ASSERT_TRUE(r.Geometry().ok()); }));
+        shadow.push_back(TimeMs([&] { ASSERT_TRUE(r.ShadowAtlas().ok()); }));
+      }
+      std::printf(
+          "atlas %4d, %zu triangles, camera %dx%d, %zu point lights, shadow maps %4d: SetFrame %.1f ms, "
+          "ResampleCamera first of frame (with depth map) %.1f ms, again %.1f ms, Geometry %.1f ms, "
+          "ShadowAtlas %.1f ms (medians of %d)\n",
+          size, atlas.topology.triangles.size(), camera.width, camera.height, lights.size(), shadow_size,
+          MedianMs(set_frame), MedianMs(first_camera), MedianMs(camera_pass), MedianMs(geometry), MedianMs(shadow),
+          kRepeats);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mvbrdf::resample
