@@ -7,7 +7,7 @@
 
 layout(binding = 0) uniform sampler2D u_position_map;  // RGBA32F: world xyz, w = 1 covered
 layout(binding = 1) uniform sampler2D u_normal_map;    // RGBA32F: unit world normal
-layout(binding = 2) uniform sampler2D u_depth_map;     // R32F: eye z of the nearest surface, pinhole, row r = image row
+layout(binding = 2) uniform sampler2D u_depth_map;     // R32F: 1 / eye z of the nearest surface, pinhole, row r = image row, bilinear
 layout(binding = 3) uniform sampler2D u_frame;         // RGB32F linear, row 0 = image top, bilinear
 
 layout(location = 0) uniform mat4 u_cam_from_world;
@@ -34,14 +34,16 @@ void main() {
   if (!(q.z > 0.0)) return;  // behind the camera
   vec2 undistorted = q.xy / q.z;
 
-  // Visibility: nearest depth-map pixel of the pinhole projection.
+  // Visibility: the depth map (inverse depth, bilinear: exact on the point's
+  // own triangle, so slanted surfaces do not occlude themselves) at the
+  // pinhole projection. Occluded when z > (1 + tolerance) * z_map.
   vec2 pinhole = u_intrinsics.xy * undistorted + u_depth_principal;
-  ivec2 depth_texel = ivec2(floor(pinhole + 0.5));
-  if (any(lessThan(depth_texel, ivec2(0))) || any(greaterThanEqual(depth_texel, textureSize(u_depth_map, 0)))) {
+  vec2 depth_size = vec2(textureSize(u_depth_map, 0));
+  if (any(lessThan(pinhole, vec2(-0.5))) || any(greaterThan(pinhole, depth_size - 0.5))) {
     return;  // outside the undistorted field of view (also rejects distortion fold-over)
   }
-  float nearest = texelFetch(u_depth_map, depth_texel, 0).r;
-  if (q.z > nearest * u_depth_scale) return;  // occluded
+  float inverse_depth = textureLod(u_depth_map, (pinhole + 0.5) / depth_size, 0.0).r;
+  if (q.z * inverse_depth > u_depth_scale) return;  // occluded
 
   // Sampling: the distorted pixel, inside [0, w-1] x [0, h-1] so that the
   // bilinear footprint stays inside the image.

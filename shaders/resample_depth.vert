@@ -1,6 +1,6 @@
 // Camera depth map of core/resample/resampler.cc: the posed mesh seen by an
 // undistorted pinhole with the camera's focal lengths (and a principal point
-// shifted to cover the undistorted image), storing linear eye depth.
+// shifted to cover the undistorted image), storing inverse eye depth.
 
 layout(location = 0) in vec3 a_position;  // world units
 

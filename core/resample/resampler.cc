@@ -50,9 +50,6 @@ constexpr GLuint kPointShadowUnit = 2;  // resample_shadow.frag
 constexpr GLuint kDirectionalShadowUnit = 3;
 constexpr GLuint kShadowLightBlockBinding = 0;
 
-// Colour the camera depth maps are cleared to: "no surface", larger than any
-// eye depth times (1 + tolerance) yet finite.
-constexpr float kNoSurfaceDepth = 1e30f;
 
 // std140 mirror of GpuShadowLight in shaders/resample_shadow.frag.
 struct GpuShadowLight {
@@ -227,7 +224,7 @@ absl::Status CheckCamera(const scene::CameraModel& camera, size_t index) {
 struct CameraState {
   scene::CameraModel model;  // distortion padded to 8 coefficients
   DepthMapLayout layout;
-  gl::Texture depth_map;          // R32F, layout size: eye z of the nearest surface, world units
+  gl::Texture depth_map;          // R32F, layout size: 1 / eye z of the nearest surface (1 / world units)
   gl::Renderbuffer depth_buffer;  // DEPTH_COMPONENT32F, for the nearest-surface test only
   gl::Framebuffer depth_framebuffer;
   gl::Texture frame_texture;  // RGB32F at the camera size, bilinear
@@ -493,7 +490,7 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
                                                      state.model.height, " exceeds GL_MAX_TEXTURE_SIZE ",
                                                      r.max_texture_size));
     }
-    state.depth_map = CreateTexture2D(GL_R32F, state.layout.width, state.layout.height, GL_NEAREST);
+    state.depth_map = CreateTexture2D(GL_R32F, state.layout.width, state.layout.height, GL_LINEAR);
     state.depth_buffer = gl::CreateRenderbuffer();
     glNamedRenderbufferStorage(state.depth_buffer.id(), GL_DEPTH_COMPONENT32F, state.layout.width, state.layout.height);
     state.depth_framebuffer = gl::CreateFramebuffer();
@@ -557,8 +554,8 @@ absl::Status Resampler::Impl::RenderGeometry() {
 
 absl::Status Resampler::Impl::EnsureDepthMap(CameraState& camera) {
   if (camera.depth_frame == frame) return absl::OkStatus();
-  // Near and far planes around the pose's bounding sphere (eye depth only
-  // needs the nearest surface; the stored value is the exact eye z).
+  // Near and far planes around the pose's bounding sphere (the depth buffer
+  // only selects the nearest surface; the stored value is the exact 1 / z).
   const glm::dvec3 center_in_camera = camera.model.CamFromWorld(glm::dvec3(bounds.center));
   const double radius = 1.01 * bounds.radius + 1e-6;
   const double far_plane = std::max(center_in_camera.z + radius, 1e-3);
@@ -580,7 +577,7 @@ absl::Status Resampler::Impl::EnsureDepthMap(CameraState& camera) {
   glDisable(GL_CULL_FACE);  // both sides of every triangle occlude
   glDisable(GL_BLEND);
   glDisable(GL_COLOR_LOGIC_OP);
-  const float no_surface[4] = {kNoSurfaceDepth, 0.0f, 0.0f, 0.0f};
+  const float no_surface[4] = {0.0f, 0.0f, 0.0f, 0.0f};  // inverse depth of "infinitely far"
   const float clear_depth = 1.0f;
   glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_COLOR, 0, no_surface);
   glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_DEPTH, 0, &clear_depth);

@@ -15,11 +15,14 @@
 // Visibility from a camera: its depth map is an undistorted pinhole with the
 // camera's focal lengths, widened (principal point shifted) to hold the
 // pinhole projection of every point whose distorted pixel lies in the image;
-// it stores linear eye depth (camera-space z, world units, R32F). A texel is
-// occluded when its eye depth exceeds the map's value at the nearest map
-// pixel of its pinhole projection times (1 + relative_depth_tolerance); the
-// frame is sampled bilinearly at its distorted pixel (CameraModel::Project).
-// Occlusion boundaries are therefore placed to within about one camera pixel.
+// it stores inverse eye depth 1 / z (z camera-space, world units; R32F, 0 where
+// no surface), looked up bilinearly at the point's pinhole projection. 1 / z
+// is affine in the image over a triangle, so the lookup is exact on the
+// point's own triangle and slanted surfaces do not occlude themselves however
+// grazing the view. A texel is occluded when z > (1 + relative_depth_tolerance)
+// times the looked-up depth. The frame is sampled bilinearly at the
+// distorted pixel (CameraModel::Project). Occlusion boundaries are placed to
+// within about one camera pixel (the depth map has the camera's resolution).
 //
 // Triangles listed in topology.zero_area_triangles are neither resampled nor
 // cast shadows (core/scene/mesh.h).
