@@ -35,12 +35,16 @@ constexpr double kNormalTolerance = 1e-6;
 // image region [0, w-1] x [0, h-1] are not compared (float rounding decides).
 constexpr double kImageBorderBand = 0.01;
 // Occlusion boundary band, camera pixels: the depth map has the camera's
-// resolution and is looked up at the nearest pixel, so the occluder's
-// silhouette is placed to within about half a pixel either way (rasterisation
-// of the occluder edge plus the nearest lookup). Measured: 0.75 px suffices,
-// 0.5 px leaves 4 of ~100k texels misclassified. The occlusion scene has
-// ~1.1 atlas texels per camera pixel, so this is a band of ~1 texel either side.
+// resolution and is looked up bilinearly, so within about one pixel of the
+// occluder's silhouette the occluder's and the background's depths mix.
+// Measured: every misclassified texel is a visible one declared occluded (the
+// safe side), at most 0.81 px from the silhouette (270 of ~100k texels with a
+// 0.5 px band, 93 with 0.75, none with 1.0). The scene has ~1.1 atlas texels
+// per camera pixel, so this is a band of ~1 texel either side.
 constexpr double kOcclusionBandPixels = 1.0;
+// Hidden texels this far inside the silhouette, camera pixels, are never
+// valid (the occluder's colour must not leak into the background's texels).
+constexpr double kHiddenBandPixels = 0.1;
 // Shadow boundary band, world units at the occluder: about two shadow-map
 // texels (2 / 512 rad at ~1 unit from the light) and one atlas texel of the
 // plane (~0.012). Measured: 0.001 still passes at these resolutions.
@@ -235,6 +239,23 @@ TEST_F(ResamplerTest, BackFacingAndGrazingTexelsAreInvalid) {
   }
 }
 
+// A shallow view just outside the grazing margin (6.3 to 8.1 degrees above
+// the plane): the plane must not occlude itself. With f = 500 its depth
+// changes by up to 1 / (f tan 6.3 deg) = 1.8 % per pixel, more than the 1 %
+// tolerance, so the depth lookup has to be exact on planar surfaces.
+TEST_F(ResamplerTest, ShallowViewIsNotSelfOccluded) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 256);
+  const scene::CameraModel camera = LookAtCamera({0.0, -10.0, 1.0}, {0.0, 0.0, 0.0}, 640, 480, 500.0);
+  auto resampler = Make(scene, {camera});
+  ASSERT_NE(resampler, nullptr);
+  auto rgba = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  const ProjectionCheck check = CheckProjection(scene, camera, *rgba);
+  EXPECT_GT(check.covered, 40000);
+  EXPECT_EQ(check.valid, check.covered);
+  EXPECT_LT(check.max_error, kPixelTolerance);
+}
+
 TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {
   // Plane plus a floating square (its own atlas region) between it and the camera.
   const QuadScene scene = MakeQuadScene({GroundQuad(0.02, 0.66), SquareQuad(0.3, 1.0, 0.70, 0.98)}, 512);
@@ -245,7 +266,7 @@ TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {
   // A black frame: valid texels are (0, 0, 0, 1), invalid ones (0, 0, 0, 0).
   auto rgba = resampler->ResampleCamera(0, cv::Mat(camera.height, camera.width, CV_32FC3, cv::Scalar(0, 0, 0)));
   ASSERT_TRUE(rgba.ok()) << rgba.status();
-  int hidden = 0, seen = 0, in_band = 0, wrong = 0, occluder_invalid = 0, not_black = 0;
+  int hidden = 0, seen = 0, in_band = 0, wrong = 0, occluder_invalid = 0, not_black = 0, hidden_but_valid = 0;
   for (int y = 0; y < 512; ++y) {
     for (int x = 0; x < 512; ++x) {
       const cv::Vec4f& s = rgba->at<cv::Vec4f>(y, x);
@@ -260,6 +281,9 @@ TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {
       ASSERT_TRUE(cross.has_value());
       const double inside = InsideSquare(*cross, glm::dvec2(0.0), 0.3);
       const double distance_px = std::abs(inside) * camera.fx / camera.CamFromWorld(*cross).z;
+      // Inside the band only the safe error is allowed: hidden texels that
+      // are more than kHiddenBandPixels inside the silhouette must be invalid.
+      if (inside > 0.0 && distance_px >= kHiddenBandPixels && Valid(*rgba, x, y)) ++hidden_but_valid;
       if (distance_px < kOcclusionBandPixels) {
         ++in_band;
         continue;
@@ -272,6 +296,7 @@ TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {
   EXPECT_GT(hidden, 5000);
   EXPECT_GT(seen, 50000);
   EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(hidden_but_valid, 0);
   EXPECT_EQ(occluder_invalid, 0);
   EXPECT_EQ(not_black, 0);
   EXPECT_LT(in_band, hidden / 5);  // the band is a thin ring
