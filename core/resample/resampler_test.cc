@@ -11,6 +11,7 @@
 
 #include "core/gl/gl_api.h"
 #include "core/resample/resample_test_util.h"
+#include "core/scene/mesh_loader.h"
 
 namespace mvbrdf::resample {
 namespace {
@@ -413,6 +414,69 @@ TEST_F(ResamplerTest, ShadowAtlasHasOneBitPerLight) {
   };
   check(glm::dvec3(0.0));
   check(glm::dvec3(0.3, -0.2, 0.1));
+}
+
+// Spot (a closed, curved mesh with its own UVs and seams): a camera's
+// visibility and the shadow atlas of a point light at the camera's centre
+// are the same question asked by two different passes, so they must agree up
+// to the grazing margin, the image bounds and boundary texels.
+TEST_F(ResamplerTest, CameraVisibilityAgreesWithShadowOfALightAtTheCamera) {
+  const std::string path = std::string(MVBRDF_SHARED_DATA_DIR) + "/spot/spot_triangulated.obj";
+  auto mesh = scene::LoadMesh(path, "spot");
+  if (!mesh.ok() && mesh.status().code() == absl::StatusCode::kNotFound) GTEST_SKIP() << mesh.status();
+  ASSERT_TRUE(mesh.ok()) << mesh.status();
+  atlas::Atlas atlas;
+  atlas.size = 512;
+  atlas.topology = mesh->topology;
+  atlas::RasterizeTriangles(&atlas);
+  const glm::dvec3 eye(1.6, 1.2, 2.2);
+  const scene::CameraModel camera = LookAtCamera(eye, {0.0, 0.1, 0.2}, 640, 480, 500.0);
+  ResamplerOptions options;
+  options.shadow_map_size = 1024;
+  auto resampler = Resampler::Create(*context_, atlas, {camera}, {PointLight(glm::vec3(eye))}, options);
+  ASSERT_TRUE(resampler.ok()) << resampler.status();
+  ASSERT_TRUE((*resampler)->SetFrame(mesh->positions).ok());
+  auto rgba = (*resampler)->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  auto lit = (*resampler)->ShadowAtlas();
+  ASSERT_TRUE(lit.ok()) << lit.status();
+  auto geometry = (*resampler)->Geometry();
+  ASSERT_TRUE(geometry.ok()) << geometry.status();
+  const double min_cos = std::sin(glm::radians(options.grazing_margin_deg));
+  int covered = 0, valid = 0, valid_not_lit = 0, facing_lit = 0, facing_lit_not_valid = 0;
+  double max_error = 0.0;
+  for (int y = 0; y < atlas.size; ++y) {
+    for (int x = 0; x < atlas.size; ++x) {
+      const cv::Vec4f& p = geometry->position.at<cv::Vec4f>(y, x);
+      if (p[3] < 0.5f) continue;
+      ++covered;
+      const glm::dvec3 point(p[0], p[1], p[2]);
+      const cv::Vec4f& n = geometry->normal.at<cv::Vec4f>(y, x);
+      const bool is_valid = Valid(*rgba, x, y), is_lit = lit->at<uint16_t>(y, x) & 1;
+      if (is_valid) {
+        ++valid;
+        valid_not_lit += is_lit ? 0 : 1;
+        const cv::Vec4f& s = rgba->at<cv::Vec4f>(y, x);
+        max_error = std::max(
+            max_error, glm::length(glm::dvec2(s[0] * camera.width, s[1] * camera.height) - camera.Project(point)));
+      }
+      // Facing the camera with some room beyond the margin (the margin's own
+      // boundary is float rounding).
+      const double cos_view = glm::dot(glm::dvec3(n[0], n[1], n[2]), glm::normalize(eye - point));
+      if (is_lit && cos_view > min_cos + 0.02) {
+        ++facing_lit;
+        facing_lit_not_valid += is_valid ? 0 : 1;
+      }
+    }
+  }
+  EXPECT_GT(covered, 50000);
+  EXPECT_GT(valid, covered / 5);
+  EXPECT_LT(max_error, kPixelTolerance);
+  // Disagreement only at boundaries (silhouettes, occlusion edges: about one
+  // camera pixel or shadow-map texel wide). Measured: 28 of 67685 valid texels
+  // not lit, 159 of 67089 lit and facing texels not valid.
+  EXPECT_LT(valid_not_lit, valid / 100);
+  EXPECT_LT(facing_lit_not_valid, facing_lit / 100);
 }
 
 TEST_F(ResamplerTest, RejectsBadInput) {
