@@ -50,7 +50,6 @@ constexpr GLuint kPointShadowUnit = 2;  // resample_shadow.frag
 constexpr GLuint kDirectionalShadowUnit = 3;
 constexpr GLuint kShadowLightBlockBinding = 0;
 
-
 // std140 mirror of GpuShadowLight in shaders/resample_shadow.frag.
 struct GpuShadowLight {
   glm::vec4 position;
