@@ -27,6 +27,8 @@ int RunResample(const std::vector<std::string>& args) {
   flags.AddInt("--grow", &o.grow_iterations, "dilation iterations of the grown atlases");
   flags.AddDouble("--grazing-margin", &o.resampler.grazing_margin_deg,
                   "texels seen within this angle of edge-on are invalid, degrees");
+  flags.AddDouble("--depth-tolerance", &o.resampler.relative_depth_tolerance,
+                  "occlusion test: a texel is hidden when further than this fraction of its depth behind the camera's depth map");
   flags.AddInt("--shadow-map-size", &o.resampler.shadow_map_size, "cube shadow map resolution per face");
   flags.AddString("--save", &save, "which frames' atlases to write: first, all or none (figures cover all)");
   flags.AddBool("--no-evaluate", &no_evaluate, "skip the comparison with ground_truth/ even when present");

@@ -50,5 +50,30 @@ void main() {
   vec2 pixel = u_intrinsics.xy * DistortNormalized(undistorted, u_distortion_a, u_distortion_b) + u_intrinsics.zw;
   vec2 size = vec2(textureSize(u_frame, 0));
   if (any(lessThan(pixel, vec2(0.0))) || any(greaterThan(pixel, size - 1.0))) return;
-  out_radiance = vec4(textureLod(u_frame, (pixel + 0.5) / size, 0.0).rgb, 1.0);
+
+  // Bilinear interpolation over the pixels of the 2x2 footprint that show the
+  // mesh, with renormalised weights. At silhouettes this is the thesis's
+  // "frame grown outwards at the edges" (§5): background pixels never leak
+  // into the surface's samples. A pixel shows the mesh when the depth map has
+  // a surface at its pinhole position (the distortion is taken as locally a
+  // translation between the distorted and the pinhole positions).
+  ivec2 base = ivec2(floor(pixel));
+  vec2 f = pixel - vec2(base);
+  ivec2 frame_max = ivec2(size) - 1;
+  ivec2 depth_max = ivec2(depth_size) - 1;
+  vec3 sum = vec3(0.0);
+  float weight = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    ivec2 offset = ivec2(k & 1, k >> 1);
+    ivec2 p = min(base + offset, frame_max);
+    ivec2 d = clamp(ivec2(round(pinhole + vec2(p) - pixel)), ivec2(0), depth_max);
+    if (texelFetch(u_depth_map, d, 0).r <= 0.0) continue;
+    float w = (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y);
+    sum += w * texelFetch(u_frame, p, 0).rgb;
+    weight += w;
+  }
+  // A texel whose footprint is almost all background sits outside the
+  // silhouette as the camera sees it: no reliable sample.
+  if (weight < 0.25) return;
+  out_radiance = vec4(sum / weight, 1.0);
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
@@ -77,19 +78,6 @@ absl::StatusOr<std::unique_ptr<ResampleEvaluator>> ResampleEvaluator::Create(
   if (!truth.KdTexture().empty()) MVBRDF_RETURN_IF_ERROR(e->renderer_->SetKdTexture(truth.KdTexture()));
   MVBRDF_RETURN_IF_ERROR(e->renderer_->SetLights(truth.ActiveLights()));
 
-  // Triangles around each file vertex, then each triangle's neighbourhood.
-  const auto& tris = atlas.topology.file_triangles;
-  std::vector<std::vector<uint32_t>> around(atlas.topology.num_file_vertices);
-  for (uint32_t t = 0; t < tris.size(); ++t) {
-    for (int k = 0; k < 3; ++k) around[tris[t][k]].push_back(t);
-  }
-  e->neighbours_.resize(tris.size());
-  for (uint32_t t = 0; t < tris.size(); ++t) {
-    std::vector<uint32_t>& n = e->neighbours_[t];
-    for (int k = 0; k < 3; ++k) n.insert(n.end(), around[tris[t][k]].begin(), around[tris[t][k]].end());
-    std::sort(n.begin(), n.end());
-    n.erase(std::unique(n.begin(), n.end()), n.end());
-  }
   return e;
 }
 
@@ -98,6 +86,25 @@ absl::Status ResampleEvaluator::SetFrame(const scene::FramePositions& file_posit
   pose_.positions = scene::ToRenderVertices(topo, file_positions);
   pose_.normals = scene::ToRenderVertices(topo, scene::ComputeFileVertexNormals(topo, file_positions));
   return absl::OkStatus();
+}
+
+double ResampleEvaluator::RayTriangle(const glm::dvec3& origin, const glm::dvec3& dir, uint32_t triangle) const {
+  // Moller-Trumbore in double precision on the posed triangle.
+  const glm::uvec3 t = atlas_->topology.triangles[triangle];
+  const glm::dvec3 a(pose_.positions[t.x]), b(pose_.positions[t.y]), c(pose_.positions[t.z]);
+  const glm::dvec3 e1 = b - a, e2 = c - a;
+  const glm::dvec3 h = glm::cross(dir, e2);
+  const double det = glm::dot(e1, h);
+  if (std::abs(det) < 1e-18) return std::numeric_limits<double>::infinity();
+  const double inv = 1.0 / det;
+  const glm::dvec3 sv = origin - a;
+  const double u = inv * glm::dot(sv, h);
+  if (u < 0.0 || u > 1.0) return std::numeric_limits<double>::infinity();
+  const glm::dvec3 q = glm::cross(sv, e1);
+  const double v = inv * glm::dot(dir, q);
+  if (v < 0.0 || u + v > 1.0) return std::numeric_limits<double>::infinity();
+  const double distance = inv * glm::dot(e2, q);
+  return distance > 0.0 ? distance : std::numeric_limits<double>::infinity();
 }
 
 absl::StatusOr<ResampleTally> ResampleEvaluator::Evaluate(int camera, const cv::Mat& resampled,
@@ -133,14 +140,28 @@ absl::StatusOr<ResampleTally> ResampleEvaluator::Evaluate(int camera, const cv::
         const bool inside = in_cam.z > 0.0 && pixel.x >= 0.0 && pixel.y >= 0.0 && pixel.x <= cam.width - 1.0 &&
                             pixel.y <= cam.height - 1.0;
         if (facing && inside) {
-          // Pinhole position in the supersampled id buffer.
+          // Pinhole position in the supersampled id buffer; the triangles seen
+          // within +-1 id pixel (a quarter camera pixel) are the candidate
+          // occluders, and the point is visible when none of them crosses the
+          // camera ray in front of it (exact ray-triangle test). The id buffer
+          // only names the front surfaces; the decision is geometric, so thin
+          // foreshortened triangles near silhouettes do not count as occluders.
           const double px = (cam.fx * in_cam.x / in_cam.z + cam.cx + 0.5) * s - 0.5;
           const double py = (cam.fy * in_cam.y / in_cam.z + cam.cy + 0.5) * s - 0.5;
-          const int ix = std::clamp(static_cast<int>(std::lround(px)), 0, ids.cols - 1);
-          const int iy = std::clamp(static_cast<int>(std::lround(py)), 0, ids.rows - 1);
-          const int32_t seen = ids.at<int32_t>(iy, ix);
-          const auto& n_list = neighbours_[static_cast<size_t>(tri[x])];
-          visible = seen >= 0 && std::binary_search(n_list.begin(), n_list.end(), static_cast<uint32_t>(seen));
+          const int ix = static_cast<int>(std::lround(px));
+          const int iy = static_cast<int>(std::lround(py));
+          const double distance = glm::length(p - center);
+          const glm::dvec3 dir = (p - center) / distance;
+          visible = true;
+          for (int dy = -1; dy <= 1 && visible; ++dy) {
+            for (int dx = -1; dx <= 1 && visible; ++dx) {
+              const int qx = std::clamp(ix + dx, 0, ids.cols - 1), qy = std::clamp(iy + dy, 0, ids.rows - 1);
+              const int32_t seen = ids.at<int32_t>(qy, qx);
+              if (seen < 0 || seen == tri[x]) continue;
+              const double hit = RayTriangle(center, dir, static_cast<uint32_t>(seen));
+              if (hit < distance * (1.0 - kOcclusionRelativeEpsilon)) visible = false;
+            }
+          }
         }
       }
       if (visible) ++tally.truly_visible;

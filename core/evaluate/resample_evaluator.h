@@ -1,8 +1,10 @@
 // Measures resampled atlases against the generator's ground truth: the true
 // radiance at each texel's surface point (rendered by the same renderer that
 // made the videos, in atlas space, with the true cameras, lights and
-// materials) and the true visibility of each texel (the generator's triangle
-// id buffer at 4x the camera's resolution).
+// materials) and the true visibility of each texel (no surface crosses the
+// camera ray in front of the texel's point: the generator's triangle id
+// buffer at 4x the camera's resolution names the front surfaces, an exact
+// ray-triangle test decides).
 #ifndef MVBRDF_CORE_EVALUATE_RESAMPLE_EVALUATOR_H_
 #define MVBRDF_CORE_EVALUATE_RESAMPLE_EVALUATOR_H_
 
@@ -62,18 +64,20 @@ class ResampleEvaluator {
 
   // Supersampling of the id buffer used for visibility.
   static constexpr int kIdSupersample = 4;
+  // A surface in front of a texel's point by more than this fraction of the
+  // point's distance hides it (0.3 mm at 3 m: parts that interpenetrate by
+  // more than that are hidden, as they are in the generator's images).
+  static constexpr double kOcclusionRelativeEpsilon = 1e-4;
 
  private:
   ResampleEvaluator() = default;
+  // Distance along the unit ray to the current pose's triangle, or +inf.
+  double RayTriangle(const glm::dvec3& origin, const glm::dvec3& dir, uint32_t triangle) const;
   const atlas::Atlas* atlas_ = nullptr;
   std::vector<scene::CameraModel> true_cameras_;
   resample::ResamplerOptions options_;
   std::unique_ptr<render::PhongRenderer> renderer_;
   render::Pose pose_;
-  // Per triangle: the triangles sharing a vertex with it (itself included),
-  // sorted; an id-buffer hit on any of them counts as visible, which absorbs
-  // rasterisation differences along shared edges.
-  std::vector<std::vector<uint32_t>> neighbours_;
 };
 
 }  // namespace mvbrdf::evaluate

@@ -55,7 +55,7 @@ struct ResamplerOptions {
   double grazing_margin_deg = 5.0;
   // Depth test against the camera's depth map: a texel is occluded when it
   // lies further than this (relative to its depth) behind the map. >= 0.
-  double relative_depth_tolerance = 0.01;
+  double relative_depth_tolerance = 0.001;
   // Resolution of the per-light cube depth maps (texels per face; also the
   // side of a directional light's orthographic map). In [1, 8192]; GPU memory
   // is 24 * size^2 bytes per point light (24 MB at 1024).

@@ -28,6 +28,10 @@ using testing::QuadScene;
 // llvmpipe: ~1.2e-4). The frame encodes the pixel position linearly, so a
 // bilinear lookup reproduces it; a half-pixel convention error would be 250x this.
 constexpr double kPixelTolerance = 2e-3;
+// At silhouettes the footprint's background pixels are dropped and the
+// weights renormalised: the sample moves towards the surface by less than one
+// pixel (the footprint is 1 x 1 pixel).
+constexpr double kSilhouetteBandPixels = 1.0;
 // Geometry atlas vs the analytic surface point of the texel centre, world
 // units, over a scene of size ~2 (measured: 4e-7), and unit normals (measured 1e-7).
 constexpr double kPositionTolerance = 2e-6;
@@ -108,13 +112,42 @@ class ResamplerTest : public ::testing::Test {
   std::unique_ptr<gl::EglContext> context_;
 };
 
-// Compares every covered texel's sample with CPU Project; returns the maximum
-// pixel error and counts the valid texels.
+// Does the camera ray through `pixel` (distorted image coordinates) hit one
+// of the scene's quads?
+bool PixelSeesScene(const QuadScene& scene, const scene::CameraModel& camera, const glm::dvec2& pixel) {
+  const glm::dvec2 u = camera.Undistort({(pixel.x - camera.cx) / camera.fx, (pixel.y - camera.cy) / camera.fy});
+  const glm::dvec3 origin = camera.CenterInWorld();
+  const glm::dvec3 dir = glm::transpose(camera.cam_from_world_rotation) * glm::dvec3(u.x, u.y, 1.0);
+  for (const Quad& q : scene.quads) {
+    const glm::dvec3 n = glm::cross(q.edge_s, q.edge_t);
+    const double denom = glm::dot(dir, n);
+    if (std::abs(denom) < 1e-12) continue;
+    const double t = glm::dot(q.origin - origin, n) / denom;
+    if (t <= 0.0) continue;
+    const glm::dvec3 r = origin + t * dir - q.origin;
+    // Parallelogram coordinates from the 2x2 normal equations.
+    const double ss = glm::dot(q.edge_s, q.edge_s), st = glm::dot(q.edge_s, q.edge_t), tt = glm::dot(q.edge_t, q.edge_t);
+    const double rs = glm::dot(r, q.edge_s), rt = glm::dot(r, q.edge_t);
+    const double det = ss * tt - st * st;
+    const double a = (rs * tt - rt * st) / det, b = (rt * ss - rs * st) / det;
+    if (a >= 0.0 && a <= 1.0 && b >= 0.0 && b <= 1.0) return true;
+  }
+  return false;
+}
+
+// Compares every covered texel's sample with CPU Project. Texels whose
+// bilinear footprint (with a one-pixel margin) lies entirely on the scene are
+// "interior" and must match to kPixelTolerance; at silhouettes the resampler
+// drops background pixels from the footprint and renormalises, which moves
+// the sample by less than kSilhouetteBandPixels.
 struct ProjectionCheck {
-  double max_error = 0.0;
+  double max_error = 0.0;       // interior texels
+  double max_band_error = 0.0;  // silhouette texels
   double max_distortion_shift = 0.0;  // |distorted - pinhole| pixel, for sanity
   int covered = 0;
   int valid = 0;
+  int interior = 0;
+  int interior_valid = 0;
 };
 
 ProjectionCheck CheckProjection(const QuadScene& scene, const scene::CameraModel& camera, const cv::Mat& rgba) {
@@ -126,12 +159,20 @@ ProjectionCheck CheckProjection(const QuadScene& scene, const scene::CameraModel
       const auto point = scene.TexelPoint(x, y);
       if (!point.has_value()) continue;
       ++check.covered;
+      const glm::dvec2 expected = camera.Project(point->second);
+      bool interior = true;
+      const glm::dvec2 base(std::floor(expected.x), std::floor(expected.y));
+      for (int dy = -1; dy <= 2 && interior; ++dy) {
+        for (int dx = -1; dx <= 2 && interior; ++dx) interior = PixelSeesScene(scene, camera, base + glm::dvec2(dx, dy));
+      }
+      check.interior += interior ? 1 : 0;
       if (!Valid(rgba, x, y)) continue;
       ++check.valid;
-      const glm::dvec2 expected = camera.Project(point->second);
+      check.interior_valid += interior ? 1 : 0;
       const cv::Vec4f& s = rgba.at<cv::Vec4f>(y, x);
       const glm::dvec2 actual(s[0] * camera.width, s[1] * camera.height);
-      check.max_error = std::max(check.max_error, glm::length(actual - expected));
+      double& max_error = interior ? check.max_error : check.max_band_error;
+      max_error = std::max(max_error, glm::length(actual - expected));
       check.max_distortion_shift =
           std::max(check.max_distortion_shift, glm::length(expected - pinhole.Project(point->second)));
       EXPECT_NEAR(s[2], 0.25f, 1e-6f);
@@ -151,8 +192,14 @@ TEST_F(ResamplerTest, PlaneSamplesTheProjectedPixel) {
   ASSERT_EQ(rgba->rows, 256);
   const ProjectionCheck check = CheckProjection(scene, camera, *rgba);
   EXPECT_GT(check.covered, 200 * 200);
-  EXPECT_EQ(check.valid, check.covered);  // the whole plane is in view and unoccluded
+  // The whole plane is in view and unoccluded: every texel off the silhouette
+  // is valid, and only texels at the very rim (footprint mostly background)
+  // are dropped.
+  EXPECT_EQ(check.interior_valid, check.interior);
+  EXPECT_GT(check.interior, check.covered * 9 / 10);
+  EXPECT_LT(check.covered - check.valid, check.covered / 100);
   EXPECT_LT(check.max_error, kPixelTolerance);
+  EXPECT_LT(check.max_band_error, kSilhouetteBandPixels);
   // Uncovered texels are invalid and zero.
   for (int y = 0; y < 256; ++y) {
     for (int x = 0; x < 256; ++x) {
@@ -174,8 +221,11 @@ TEST_F(ResamplerTest, DistortedCameraSamplesTheDistortedPixel) {
   auto rgba = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
   ASSERT_TRUE(rgba.ok()) << rgba.status();
   const ProjectionCheck check = CheckProjection(scene, camera, *rgba);
-  EXPECT_EQ(check.valid, check.covered);
+  EXPECT_EQ(check.interior_valid, check.interior);
+  EXPECT_GT(check.interior, check.covered * 9 / 10);
+  EXPECT_LT(check.covered - check.valid, check.covered / 100);
   EXPECT_LT(check.max_error, kPixelTolerance);
+  EXPECT_LT(check.max_band_error, kSilhouetteBandPixels);
   EXPECT_GT(check.max_distortion_shift, 5.0);  // the distortion matters in this view
 }
 
@@ -253,8 +303,13 @@ TEST_F(ResamplerTest, ShallowViewIsNotSelfOccluded) {
   ASSERT_TRUE(rgba.ok()) << rgba.status();
   const ProjectionCheck check = CheckProjection(scene, camera, *rgba);
   EXPECT_GT(check.covered, 40000);
-  EXPECT_EQ(check.valid, check.covered);
+  // No self-occlusion: every texel off the silhouette is valid. The plane is
+  // so foreshortened that a few percent of its texels sit within a pixel of
+  // its rim, where the footprint is mostly background.
+  EXPECT_EQ(check.interior_valid, check.interior);
+  EXPECT_GT(check.interior, check.covered / 2);  // measured: 35304 of 52900
   EXPECT_LT(check.max_error, kPixelTolerance);
+  EXPECT_LT(check.max_band_error, kSilhouetteBandPixels);
 }
 
 TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {
@@ -443,7 +498,7 @@ TEST_F(ResamplerTest, CameraVisibilityAgreesWithShadowOfALightAtTheCamera) {
   auto geometry = (*resampler)->Geometry();
   ASSERT_TRUE(geometry.ok()) << geometry.status();
   const double min_cos = std::sin(glm::radians(options.grazing_margin_deg));
-  int covered = 0, valid = 0, valid_not_lit = 0, facing_lit = 0, facing_lit_not_valid = 0;
+  int covered = 0, valid = 0, valid_not_lit = 0, facing_lit = 0, facing_lit_not_valid = 0, off_position = 0;
   double max_error = 0.0;
   for (int y = 0; y < atlas.size; ++y) {
     for (int x = 0; x < atlas.size; ++x) {
@@ -457,8 +512,10 @@ TEST_F(ResamplerTest, CameraVisibilityAgreesWithShadowOfALightAtTheCamera) {
         ++valid;
         valid_not_lit += is_lit ? 0 : 1;
         const cv::Vec4f& s = rgba->at<cv::Vec4f>(y, x);
-        max_error = std::max(
-            max_error, glm::length(glm::dvec2(s[0] * camera.width, s[1] * camera.height) - camera.Project(point)));
+        const double error =
+            glm::length(glm::dvec2(s[0] * camera.width, s[1] * camera.height) - camera.Project(point));
+        max_error = std::max(max_error, error);
+        off_position += error > kPixelTolerance ? 1 : 0;
       }
       // Facing the camera with some room beyond the margin (the margin's own
       // boundary is float rounding).
@@ -471,7 +528,11 @@ TEST_F(ResamplerTest, CameraVisibilityAgreesWithShadowOfALightAtTheCamera) {
   }
   EXPECT_GT(covered, 50000);
   EXPECT_GT(valid, covered / 5);
-  EXPECT_LT(max_error, kPixelTolerance);
+  // Samples move only at silhouettes (background pixels dropped from the
+  // footprint), by less than a pixel. Measured: 1649 of 67346 valid texels
+  // (2.4%) are off their pinhole position by more than kPixelTolerance.
+  EXPECT_LT(max_error, kSilhouetteBandPixels);
+  EXPECT_LT(off_position, valid / 20) << off_position << " of " << valid;
   // Disagreement only at boundaries (silhouettes, occlusion edges: about one
   // camera pixel or shadow-map texel wide). Measured: 28 of 67685 valid texels
   // not lit, 159 of 67089 lit and facing texels not valid.
