@@ -43,6 +43,9 @@ int RunResample(const std::vector<std::string>& args) {
   }
   auto platform = gl::ParseEglPlatform(egl);
   absl::Status usage = platform.status();
+  if (usage.ok() && (o.atlas.size < 16 || o.atlas.size > 16384)) {
+    usage = absl::InvalidArgumentError("--atlas: must be in [16, 16384], got " + std::to_string(o.atlas.size));
+  }
   if (usage.ok()) usage = o.atlas.Check();
   if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");
   if (usage.ok() && o.grow_iterations < 0) usage = absl::InvalidArgumentError("--grow: must be >= 0");
