@@ -439,6 +439,15 @@ TEST(BuildAtlasTest, SpotKeepsItsUvs) {
   ASSERT_TRUE(built.ok()) << built.status();
   ExpectTopologyConsistent(mesh->topology, *built);
   ExpectValidLayout(*built, options);
+  // Kept UVs are the author's (Spot's texture layout spans area ratios
+  // 0.0005..34); a built atlas holds the header's bound on Spot too.
+  const double cos_d = std::cos(options.max_normal_deviation_deg * kPi / 180.0);
+  constexpr double kFloatSlack = 1e-3;
+  const AtlasStats& b = built->stats;
+  std::printf("spot built: %d charts, coverage %.3f, area ratio [%.4f, %.4f]\n", b.num_charts, b.coverage,
+              b.min_area_ratio, b.max_area_ratio);
+  EXPECT_GE(b.min_area_ratio, cos_d * (1.0 - kFloatSlack));
+  EXPECT_LE(b.max_area_ratio / b.min_area_ratio, 1.0 / cos_d * (1.0 + kFloatSlack));
 }
 
 }  // namespace
