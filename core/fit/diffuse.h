@@ -1,0 +1,65 @@
+// Per-element diffuse albedo by closed-form least squares after removing a
+// fixed specular part (thesis Eq. 6.6): for element e and channel c,
+//
+//   kd_ec = sum_i G_ic (r_ic - s_ic) / sum_i G_ic^2
+//
+// over its samples i, with G the diffuse illumination and s = ks sum I h^ke.
+// The sums are accumulated in one streaming pass (samples need not be kept);
+// the residual sum of squares follows from the same sums, so the errors come
+// for free:  sum (r - s - kd G)^2 = S_rr - 2 kd S_rg + kd^2 S_gg.
+#ifndef MVBRDF_CORE_FIT_DIFFUSE_H_
+#define MVBRDF_CORE_FIT_DIFFUSE_H_
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/fit/phong_fit.h"
+#include "core/samples/sample_set.h"
+
+namespace mvbrdf::fit {
+
+struct DiffuseOptions {
+  double kd_max = 10.0;
+  // Elements whose sum G^2 (per channel) is below this have no usable
+  // diffuse information: kd falls back (see DiffuseAccumulator::Solve).
+  double min_illumination = 1e-8;
+};
+
+struct DiffuseSolution {
+  std::vector<glm::vec3> kd;       // per element, in [0, kd_max]
+  std::vector<uint32_t> samples;   // per element
+  std::vector<float> mse;          // per element, mean over its samples and channels
+  std::vector<uint8_t> fallback;   // 1 where kd took the fallback value
+  // Thesis E_d (Eq. 6.8): mean over elements with samples of their mse.
+  double mean_element_mse = 0.0;
+  uint32_t elements_with_samples = 0;
+};
+
+// Accumulates per element: S_gg, S_rg, S_rr per channel, and the count.
+// Not thread-safe; one per thread and Merge().
+class DiffuseAccumulator {
+ public:
+  explicit DiffuseAccumulator(size_t num_elements);
+  // `residual` = r - s (reflectance minus the specular part), `illumination` = G.
+  void Add(uint32_t element, const glm::vec3& residual, const glm::vec3& illumination);
+  void Merge(const DiffuseAccumulator& other);
+  // `fallback` per element (e.g. the cluster's kd) where the data has no
+  // diffuse information; zero when empty.
+  DiffuseSolution Solve(const DiffuseOptions& options, const std::vector<glm::vec3>& fallback = {}) const;
+  size_t num_elements() const { return count_.size(); }
+
+ private:
+  std::vector<glm::dvec3> s_gg_, s_rg_, s_rr_;
+  std::vector<uint32_t> count_;
+};
+
+// Convenience over a SampleSet: the specular part of `specular` (its ks, ke;
+// kd ignored) removed, per-element kd solved for the lights in `mask`.
+DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& specular,
+                             size_t num_elements, const DiffuseOptions& options);
+
+}  // namespace mvbrdf::fit
+
+#endif  // MVBRDF_CORE_FIT_DIFFUSE_H_

@@ -1,0 +1,58 @@
+// Assembling Samples from one frame's resampling outputs.
+//
+// Light estimation (§6.1.1) works per triangle: the triangle's mean over its
+// valid texels in the camera's averaged atlas, at the triangle's centre c with
+// its face normal n in the posed mesh, visibility of light k from the shadow
+// atlas over the triangle's texels. Reflectance measurement (§6.2.2) works per
+// texel: the resampled value, the texel's posed position and (interpolated)
+// normal from the geometry atlas, visibility from its shadow bit.
+#ifndef MVBRDF_CORE_SAMPLES_ASSEMBLE_H_
+#define MVBRDF_CORE_SAMPLES_ASSEMBLE_H_
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "core/atlas/atlas.h"
+#include "core/resample/atlas_ops.h"
+#include "core/resample/resampler.h"
+#include "core/samples/sample_set.h"
+#include "core/scene/camera_model.h"
+#include "core/scene/light.h"
+#include "core/scene/mesh.h"
+
+namespace mvbrdf::samples {
+
+struct AssembleOptions {
+  bool inverse_square_falloff = false;
+  // A light counts as visible from a triangle when at least this share of the
+  // triangle's texels see it in the shadow atlas.
+  float min_visible_fraction = 0.5f;
+};
+
+// An empty set for `lights` (names and intensities filled in).
+SampleSet MakeSampleSet(const std::vector<scene::Light>& lights);
+
+// Appends one sample per valid triangle of `means` (AverageTriangles of camera
+// `camera`'s resampled atlas in frame `frame`). `file_positions` is the posed
+// mesh of the frame; `shadows` the frame's ShadowAtlas (bit k = light k).
+// Triangles with zero area are skipped.
+void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, const atlas::Atlas& atlas,
+                           const scene::FramePositions& file_positions, const cv::Mat& shadows,
+                           const scene::CameraModel& camera, int camera_index, int frame,
+                           const std::vector<scene::Light>& lights, const AssembleOptions& options, SampleSet* out);
+
+// Per-texel cosines of one (frame, camera) without storing samples: calls
+// `visit(texel, rgb, g_row, h_row)` for every valid texel of `resampled`
+// (g_row/h_row hold lights.size() values). The reflectance passes stream
+// through this instead of materialising every texel sample.
+template <typename Visit>
+void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
+                        const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
+                        const AssembleOptions& options, Visit&& visit);
+
+}  // namespace mvbrdf::samples
+
+#include "core/samples/assemble_inl.h"
+
+#endif  // MVBRDF_CORE_SAMPLES_ASSEMBLE_H_
