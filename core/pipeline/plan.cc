@@ -1,0 +1,130 @@
+#include "core/pipeline/plan.h"
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+
+namespace mvbrdf::pipeline {
+
+const char* StageName(Stage stage) {
+  switch (stage) {
+    case Stage::kAtlas: return "atlas";
+    case Stage::kGatherSamples: return "gather_samples";
+    case Stage::kLightSweep: return "light_sweep";
+    case Stage::kClustering: return "clustering";
+    case Stage::kClusterFit: return "cluster_fit";
+    case Stage::kSolverComparison: return "solver_comparison";
+    case Stage::kTexelPass: return "texel_pass";
+    case Stage::kCorrection: return "correction_atlases";
+    case Stage::kCameraErrors: return "camera_errors";
+    case Stage::kWriteAtlases: return "write_atlases";
+  }
+  return "?";
+}
+
+bool Plan::Has(Stage stage) const {
+  for (const Step& s : steps) {
+    if (s.stage == stage) return true;
+  }
+  return false;
+}
+
+void Plan::ToProto(v1::Plan* plan) const {
+  for (const Step& s : steps) {
+    v1::PlannedStage* p = plan->add_stages();
+    p->set_name(StageName(s.stage));
+    p->set_why(s.why);
+  }
+  for (const v1::SkippedStage& s : skipped) *plan->add_skipped() = s;
+}
+
+std::string Plan::Describe() const {
+  std::string out = "plan:\n";
+  for (const Step& s : steps) absl::StrAppend(&out, "  run   ", StageName(s.stage), ": ", s.why, "\n");
+  for (const v1::SkippedStage& s : skipped) absl::StrAppend(&out, "  skip  ", s.name(), ": ", s.reason(), "\n");
+  return out;
+}
+
+absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest& request) {
+  Plan plan;
+  const v1::Scene& scene = sequence.scene;
+  const auto run = [&](Stage stage, std::string why) { plan.steps.push_back({stage, std::move(why)}); };
+  const auto skip = [&](Stage stage, std::string reason) {
+    v1::SkippedStage s;
+    s.set_name(StageName(stage));
+    s.set_reason(std::move(reason));
+    plan.skipped.push_back(std::move(s));
+  };
+  if (!request.light_table && !request.brdf_atlases && !request.correction && !request.camera_errors) {
+    return absl::InvalidArgumentError("outputs: nothing requested (light table, BRDF atlases, correction, errors)");
+  }
+  if (!request.configuration.empty()) {
+    bool known = false;
+    for (const auto& c : scene.light_configurations()) known = known || c.name() == request.configuration;
+    if (!known) {
+      return absl::InvalidArgumentError(absl::StrCat("--config: the scene has no light configuration \"",
+                                                     request.configuration, "\""));
+    }
+  }
+  // Everything beyond the light table needs the reflectance stages.
+  const bool reflectance = request.brdf_atlases || request.correction || request.camera_errors;
+
+  if (sequence.topology.has_uvs()) {
+    skip(Stage::kAtlas, "the mesh has UVs: they are the atlas");
+  } else {
+    run(Stage::kAtlas, "the mesh has no UVs");
+  }
+  run(Stage::kGatherSamples, reflectance ? "Samples for the light sweep and texel statistics for clustering"
+                                         : "triangle Samples for the light sweep");
+
+  if (!request.configuration.empty()) {
+    plan.fixed_configuration = request.configuration;
+    skip(Stage::kLightSweep, absl::StrCat("configuration given: ", request.configuration));
+  } else if (scene.light_configurations_size() == 1) {
+    plan.fixed_configuration = scene.light_configurations(0).name();
+    skip(Stage::kLightSweep, absl::StrCat("one candidate configuration: ", plan.fixed_configuration));
+  } else if (scene.light_configurations_size() == 0) {
+    plan.fixed_configuration = "";  // all lights on
+    skip(Stage::kLightSweep, "no candidate configurations: every light is on");
+  } else {
+    run(Stage::kLightSweep, absl::StrCat(scene.light_configurations_size(), " candidate configurations"));
+  }
+
+  if (!reflectance) {
+    const char* why = "only the light table was requested";
+    for (Stage s : {Stage::kClustering, Stage::kClusterFit, Stage::kSolverComparison, Stage::kTexelPass,
+                    Stage::kCorrection, Stage::kCameraErrors, Stage::kWriteAtlases}) {
+      skip(s, why);
+    }
+    return plan;
+  }
+  run(Stage::kClustering, scene.material_seeds_size() > 0
+                              ? absl::StrCat(scene.material_seeds_size(), " material seeds from the scene")
+                              : std::string("no material seeds: k chosen automatically"));
+  run(Stage::kClusterFit, "one Phong BRDF per cluster");
+  if (request.compare_solvers) {
+    run(Stage::kSolverComparison, "Table 6.2: Powell's method beside Levenberg-Marquardt");
+  } else {
+    skip(Stage::kSolverComparison, "not requested");
+  }
+  run(Stage::kTexelPass, "per-texel kd with the clusters' specular part removed");
+  if (!request.correction) {
+    skip(Stage::kCorrection, "not requested");
+  } else if (sequence.num_frames < 2) {
+    skip(Stage::kCorrection, "a single frame: the BRDF atlases already fit it");
+  } else {
+    run(Stage::kCorrection, absl::StrCat("a diffuse correction atlas for each of ", sequence.num_frames, " frames"));
+  }
+  if (request.camera_errors) {
+    run(Stage::kCameraErrors, absl::StrCat("Table 7.1 for ", sequence.cameras.size(), " cameras"));
+  } else {
+    skip(Stage::kCameraErrors, "not requested");
+  }
+  if (request.brdf_atlases) {
+    run(Stage::kWriteAtlases, "kd, ks, ke, cluster and confidence atlases");
+  } else {
+    skip(Stage::kWriteAtlases, "not requested");
+  }
+  return plan;
+}
+
+}  // namespace mvbrdf::pipeline

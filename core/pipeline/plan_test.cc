@@ -1,0 +1,123 @@
+#include "core/pipeline/plan.h"
+
+#include <gtest/gtest.h>
+
+namespace mvbrdf::pipeline {
+namespace {
+
+// A sequence as the loader would produce it, without files: `configs`
+// candidate configurations, `frames` frames, UVs or not, seeds or not.
+scene::Sequence MakeSequence(int configs, int frames, bool uvs, bool seeds) {
+  scene::Sequence s;
+  s.num_frames = frames;
+  s.cameras.resize(2);
+  s.topology.triangles = {{0, 1, 2}};
+  s.topology.render_to_file_vertex = {0, 1, 2};
+  if (uvs) s.topology.uvs = {{0, 0}, {1, 0}, {0, 1}};
+  for (int i = 0; i < configs; ++i) {
+    auto* c = s.scene.add_light_configurations();
+    c->set_name("config" + std::to_string(i));
+    c->add_lights("L");
+  }
+  if (seeds) s.scene.add_material_seeds()->set_name("cloth");
+  return s;
+}
+
+const v1::SkippedStage* FindSkipped(const Plan& plan, Stage stage) {
+  for (const auto& s : plan.skipped) {
+    if (s.name() == StageName(stage)) return &s;
+  }
+  return nullptr;
+}
+
+TEST(PlanTest, FullSceneRunsEverything) {
+  auto plan = MakePlan(MakeSequence(8, 30, false, true), {});
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  for (Stage s : {Stage::kAtlas, Stage::kGatherSamples, Stage::kLightSweep, Stage::kClustering, Stage::kClusterFit,
+                  Stage::kSolverComparison, Stage::kTexelPass, Stage::kCorrection, Stage::kCameraErrors,
+                  Stage::kWriteAtlases}) {
+    EXPECT_TRUE(plan->Has(s)) << StageName(s);
+  }
+  EXPECT_TRUE(plan->skipped.empty());
+  EXPECT_NE(plan->Describe().find("run   light_sweep: 8 candidate configurations"), std::string::npos);
+}
+
+TEST(PlanTest, OneCandidateConfigurationSkipsTheSweep) {
+  auto plan = MakePlan(MakeSequence(1, 30, false, true), {});
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->Has(Stage::kLightSweep));
+  ASSERT_NE(FindSkipped(*plan, Stage::kLightSweep), nullptr);
+  EXPECT_NE(FindSkipped(*plan, Stage::kLightSweep)->reason().find("one candidate"), std::string::npos);
+  EXPECT_EQ(plan->fixed_configuration, "config0");
+}
+
+TEST(PlanTest, KnownConfigurationSkipsTheSweepAndUnknownIsAnError) {
+  RunRequest request;
+  request.configuration = "config3";
+  auto plan = MakePlan(MakeSequence(8, 30, false, true), request);
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->Has(Stage::kLightSweep));
+  EXPECT_EQ(plan->fixed_configuration, "config3");
+  request.configuration = "nope";
+  const auto bad = MakePlan(MakeSequence(8, 30, false, true), request);
+  EXPECT_EQ(bad.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(bad.status().message().find("nope"), std::string::npos);
+}
+
+TEST(PlanTest, SingleFrameSkipsCorrectionAtlases) {
+  auto plan = MakePlan(MakeSequence(8, 1, false, true), {});
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->Has(Stage::kCorrection));
+  ASSERT_NE(FindSkipped(*plan, Stage::kCorrection), nullptr);
+  EXPECT_NE(FindSkipped(*plan, Stage::kCorrection)->reason().find("single frame"), std::string::npos);
+}
+
+TEST(PlanTest, MeshWithUvsSkipsAtlasBuilding) {
+  auto plan = MakePlan(MakeSequence(8, 30, true, true), {});
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->Has(Stage::kAtlas));
+  ASSERT_NE(FindSkipped(*plan, Stage::kAtlas), nullptr);
+}
+
+TEST(PlanTest, NoSeedsMeansAutomaticK) {
+  auto plan = MakePlan(MakeSequence(8, 30, false, false), {});
+  ASSERT_TRUE(plan.ok());
+  ASSERT_TRUE(plan->Has(Stage::kClustering));
+  EXPECT_NE(plan->Describe().find("k chosen automatically"), std::string::npos);
+}
+
+TEST(PlanTest, OutputsNotAskedForAreNotComputed) {
+  RunRequest light_only;
+  light_only.brdf_atlases = light_only.correction = light_only.camera_errors = false;
+  auto plan = MakePlan(MakeSequence(8, 30, false, true), light_only);
+  ASSERT_TRUE(plan.ok());
+  EXPECT_TRUE(plan->Has(Stage::kLightSweep));
+  for (Stage s : {Stage::kClustering, Stage::kClusterFit, Stage::kTexelPass, Stage::kCorrection,
+                  Stage::kCameraErrors, Stage::kWriteAtlases}) {
+    EXPECT_FALSE(plan->Has(s)) << StageName(s);
+    EXPECT_NE(FindSkipped(*plan, s), nullptr) << StageName(s);
+  }
+  RunRequest no_extras;
+  no_extras.correction = no_extras.camera_errors = no_extras.compare_solvers = false;
+  plan = MakePlan(MakeSequence(8, 30, false, true), no_extras);
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->Has(Stage::kCorrection));
+  EXPECT_FALSE(plan->Has(Stage::kCameraErrors));
+  EXPECT_FALSE(plan->Has(Stage::kSolverComparison));
+  EXPECT_TRUE(plan->Has(Stage::kWriteAtlases));
+  RunRequest nothing;
+  nothing.light_table = nothing.brdf_atlases = nothing.correction = nothing.camera_errors = false;
+  EXPECT_EQ(MakePlan(MakeSequence(8, 30, false, true), nothing).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST(PlanTest, PlanGoesIntoTheReport) {
+  auto plan = MakePlan(MakeSequence(1, 1, true, false), {});
+  ASSERT_TRUE(plan.ok());
+  v1::Plan proto;
+  plan->ToProto(&proto);
+  EXPECT_EQ(proto.stages_size(), static_cast<int>(plan->steps.size()));
+  EXPECT_EQ(proto.skipped_size(), 3);  // atlas, sweep, correction
+}
+
+}  // namespace
+}  // namespace mvbrdf::pipeline
