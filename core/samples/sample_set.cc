@@ -27,7 +27,8 @@ void Check(bool condition, const char* message) {
 //   offset  size            field
 //   0       4               magic "MVSS"
 //   4       4   u32         version (1)
-//   8       4   u32         flags: bit 0 = compact (halves); other bits must be 0
+//   8       4   u32         flags: bit 0 = compact (halves), bit 1 = falloff
+//                           array present; other bits must be 0
 //   12      4   u32         L = number of lights (0..kMaxLights)
 //   16      8   u64         N = number of samples
 //   24      ...             L times: u32 name length, name bytes (UTF-8, no
@@ -35,13 +36,14 @@ void Check(bool condition, const char* message) {
 //           then the arrays, each N (or N*3, N*L) long, in this order:
 //                           element u32, frame u16, camera u8,
 //                           reflectance 3 x (f16 | f32), g L x (f16 | f32),
-//                           h L x (f16 | f32)
-//   The buffer ends exactly after h; trailing bytes are an error.
+//                           h L x (f16 | f32), [falloff L x (f16 | f32)]
+//   The buffer ends exactly after the last array; trailing bytes are an error.
 // ---------------------------------------------------------------------------
 constexpr char kMagic[4] = {'M', 'V', 'S', 'S'};
 constexpr uint32_t kVersion = 1;
 constexpr uint32_t kFlagCompact = 1u;
-constexpr uint32_t kKnownFlags = kFlagCompact;
+constexpr uint32_t kFlagFalloff = 2u;
+constexpr uint32_t kKnownFlags = kFlagCompact | kFlagFalloff;
 constexpr uint32_t kMaxNameBytes = 4096;
 constexpr size_t kHeaderBytes = 24;
 
@@ -127,7 +129,7 @@ absl::Status Truncated(const char* what, size_t offset, size_t need, size_t have
 }  // namespace
 
 void SampleSet::Add(uint32_t element_id, int frame_index, int camera_index, const glm::vec3& rgb, const float* g_row,
-                    const float* h_row) {
+                    const float* h_row, const float* falloff_row) {
   Check(frame_index >= 0 && frame_index <= std::numeric_limits<uint16_t>::max(),
         "SampleSet::Add: frame index out of the uint16 range");
   Check(camera_index >= 0 && camera_index <= std::numeric_limits<uint8_t>::max(),
@@ -142,6 +144,13 @@ void SampleSet::Add(uint32_t element_id, int frame_index, int camera_index, cons
   if (num > 0) {
     g.insert(g.end(), g_row, g_row + num);
     h.insert(h.end(), h_row, h_row + num);
+  }
+  if (falloff_row != nullptr) {
+    // The first row with fall-off: the samples before it had a_k = 1.
+    if (falloff.empty()) falloff.assign((size() - 1) * static_cast<size_t>(num), 1.0f);
+    falloff.insert(falloff.end(), falloff_row, falloff_row + num);
+  } else if (!falloff.empty()) {
+    falloff.insert(falloff.end(), static_cast<size_t>(num), 1.0f);
   }
 }
 
@@ -186,6 +195,7 @@ size_t SampleSet::MemoryBytes() const {
   bytes += reflectance.capacity() * sizeof(glm::vec3);
   bytes += g.capacity() * sizeof(float);
   bytes += h.capacity() * sizeof(float);
+  bytes += falloff.capacity() * sizeof(float);
   return bytes;
 }
 
@@ -194,8 +204,9 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
   const size_t num = static_cast<size_t>(set.num_lights());
   Check(num <= static_cast<size_t>(kMaxLights), "EncodeSampleSet: more than kMaxLights lights");
   Check(set.light_intensity.size() == num, "EncodeSampleSet: light_intensity and light_names differ in size");
+  const bool has_falloff = !set.falloff.empty();
   Check(set.frame.size() == n && set.camera.size() == n && set.reflectance.size() == n && set.g.size() == n * num &&
-            set.h.size() == n * num,
+            set.h.size() == n * num && (!has_falloff || set.falloff.size() == n * num),
         "EncodeSampleSet: arrays of inconsistent sizes");
   const size_t real = compact ? 2 : 4;
   std::string out;
@@ -204,11 +215,12 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
     Check(name.size() <= kMaxNameBytes, "EncodeSampleSet: light name longer than 4096 bytes");
     names += 4 + name.size() + 12;
   }
-  out.reserve(kHeaderBytes + names + n * (4 + 2 + 1 + real * (3 + 2 * num)));
+  const size_t arrays = has_falloff ? 3 : 2;
+  out.reserve(kHeaderBytes + names + n * (4 + 2 + 1 + real * (3 + arrays * num)));
   Writer w(&out);
   w.Bytes(kMagic, 4);
   w.U32(kVersion);
-  w.U32(compact ? kFlagCompact : 0u);
+  w.U32((compact ? kFlagCompact : 0u) | (has_falloff ? kFlagFalloff : 0u));
   w.U32(static_cast<uint32_t>(num));
   w.U64(n);
   for (size_t k = 0; k < num; ++k) {
@@ -224,6 +236,7 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
   }
   for (float v : set.g) w.Real(v, compact);
   for (float v : set.h) w.Real(v, compact);
+  for (float v : set.falloff) w.Real(v, compact);
   return out;
 }
 
@@ -245,6 +258,7 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
     return absl::DataLossError(absl::StrCat("sample set encoding: unknown flags 0x", absl::Hex(flags)));
   }
   const bool compact = (flags & kFlagCompact) != 0;
+  const bool has_falloff = (flags & kFlagFalloff) != 0;
   const uint32_t num_lights = r.U32();
   if (num_lights > static_cast<uint32_t>(kMaxLights)) {
     return absl::DataLossError(
@@ -272,7 +286,7 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   // The arrays must fill the rest of the buffer exactly. Check the count
   // against the remaining bytes before allocating anything from it.
   const size_t real = compact ? 2 : 4;
-  const size_t per_sample = 4 + 2 + 1 + real * (3 + 2 * size_t{num_lights});
+  const size_t per_sample = 4 + 2 + 1 + real * (3 + (has_falloff ? 3 : 2) * size_t{num_lights});
   const size_t left = r.remaining();
   if (num_samples > left / per_sample) {
     return absl::DataLossError(absl::StrCat("sample set encoding: truncated arrays: sample count ", num_samples,
@@ -291,6 +305,7 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   set.reflectance.resize(n);
   set.g.resize(n * num);
   set.h.resize(n * num);
+  if (has_falloff) set.falloff.resize(n * num);
   for (size_t i = 0; i < n; ++i) set.element[i] = r.U32();
   for (size_t i = 0; i < n; ++i) set.frame[i] = r.U16();
   for (size_t i = 0; i < n; ++i) set.camera[i] = r.U8();
@@ -299,6 +314,7 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   }
   for (float& v : set.g) v = r.Real(compact);
   for (float& v : set.h) v = r.Real(compact);
+  for (float& v : set.falloff) v = r.Real(compact);
   return set;
 }
 

@@ -144,6 +144,35 @@ TEST(SampleSet, AddStoresRows) {
   EXPECT_GE(set.MemoryBytes(), sizeof(SampleSet) + 2 * (4 + 2 + 1 + 12 + 16));
 }
 
+TEST(SampleSet, FalloffRowsBackfillOnes) {
+  SampleSet set;
+  set.light_names = {"A", "B"};
+  set.light_intensity = {glm::vec3(1.0f), glm::vec3(1.0f)};
+  const float g[] = {0.5f, 0.25f};
+  const float h[] = {0.0f, 0.75f};
+  const float a[] = {0.25f, 0.125f};
+  set.Add(0, 0, 0, glm::vec3(0.0f), g, h);
+  EXPECT_TRUE(set.falloff.empty());
+  EXPECT_EQ(set.Falloff(0, 1), 1.0f);
+  set.Add(1, 0, 0, glm::vec3(0.0f), g, h, a);
+  set.Add(2, 0, 0, glm::vec3(0.0f), g, h);
+  EXPECT_EQ(set.falloff, (std::vector<float>{1.0f, 1.0f, 0.25f, 0.125f, 1.0f, 1.0f}));
+  EXPECT_EQ(set.Falloff(1, 1), 0.125f);
+
+  SampleSet first;
+  first.light_names = set.light_names;
+  first.light_intensity = set.light_intensity;
+  first.Add(0, 0, 0, glm::vec3(0.0f), g, h, a);  // fall-off on the very first sample
+  EXPECT_EQ(first.falloff, (std::vector<float>{0.25f, 0.125f}));
+
+  for (bool compact : {false, true}) {
+    auto decoded = DecodeSampleSet(EncodeSampleSet(set, compact));
+    ASSERT_TRUE(decoded.ok()) << decoded.status();
+    EXPECT_EQ(decoded->falloff, set.falloff);  // all exact in half too
+    EXPECT_EQ(decoded->g, set.g);
+  }
+}
+
 TEST(SampleSet, MaskOfAndIllumination) {
   SampleSet set;
   set.light_names = {"C", "NE", "NW"};
@@ -268,7 +297,7 @@ TEST(SampleSetEncoding, ForeignAndCorruptBuffers) {
   ExpectDataLoss(version, "unknown version 2");
 
   std::string flags = good;
-  flags[8] |= 0x02;
+  flags[8] |= 0x04;
   ExpectDataLoss(flags, "unknown flags");
 
   std::string lights = good;
