@@ -25,6 +25,9 @@ int ReportFailure(const absl::Status& status);
 int RunSynth(const std::vector<std::string>& args);
 int RunValidate(const std::vector<std::string>& args);
 int RunResample(const std::vector<std::string>& args);
+int RunRun(const std::vector<std::string>& args);
+int RunEvaluate(const std::vector<std::string>& args);
+int RunRender(const std::vector<std::string>& args);
 
 }  // namespace mvbrdf::client
 

@@ -15,6 +15,9 @@ constexpr char kUsage[] =
     "  synth      render a synthetic multi-view sequence with its ground truth\n"
     "  validate   load a scene, check everything, print a summary or the errors\n"
     "  resample   resample every frame into the texture atlas; coverage, timing and error vs truth\n"
+    "  run        reconstruct the BRDF: light sweep, clustering, fitting, atlases, errors\n"
+    "  render     draw a reconstruction from any camera under any lights\n"
+    "  evaluate   compare a reconstruction with the synthetic generator's ground truth\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files)\n";
@@ -32,6 +35,9 @@ int main(int argc, char** argv) {
   if (command == "synth") return mvbrdf::client::RunSynth(args);
   if (command == "validate") return mvbrdf::client::RunValidate(args);
   if (command == "resample") return mvbrdf::client::RunResample(args);
+  if (command == "run") return mvbrdf::client::RunRun(args);
+  if (command == "render") return mvbrdf::client::RunRender(args);
+  if (command == "evaluate") return mvbrdf::client::RunEvaluate(args);
   std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", command.c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }

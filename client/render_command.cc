@@ -1,0 +1,171 @@
+// `mvbrdf render DIR --camera NAME_OR_FILE --lights FILE --out IMAGE`: the
+// reconstruction drawn from any camera under any lights.
+#include <cstdio>
+
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "client/commands.h"
+#include "client/flags.h"
+#include "core/atlas/atlas.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/gl/egl_context.h"
+#include "core/image/exr.h"
+#include "core/render/phong_renderer.h"
+#include "core/scene/sequence.h"
+#include "core/synth/frame_encoder.h"
+#include "mvbrdf/v1/run_report.pb.h"
+
+namespace mvbrdf::client {
+namespace {
+
+absl::StatusOr<cv::Mat> ReadRgb(const std::filesystem::path& file) {
+  MVBRDF_ASSIGN_OR_RETURN(image::ExrImage exr, image::ReadExr(file));
+  if (exr.image.type() != CV_32FC3) return absl::InvalidArgumentError(absl::StrCat(file.string(), ": expected RGB"));
+  return exr.image;
+}
+
+absl::StatusOr<std::vector<scene::Light>> ReadLights(const std::string& file) {
+  MVBRDF_ASSIGN_OR_RETURN(const v1::LightList list, ReadJsonFileAs<v1::LightList>(file));
+  if (list.lights_size() == 0) return absl::InvalidArgumentError(absl::StrCat(file, ": lights: expected at least one"));
+  // The scene's validation gives the same checks and messages as for scenes.
+  v1::Scene probe;
+  probe.mutable_mesh()->set_path("x.obj");
+  probe.mutable_frames()->set_count(1);
+  probe.mutable_frames()->set_fps(1);
+  v1::Camera* cam = probe.add_cameras();
+  cam->set_name("c");
+  cam->set_width(1);
+  cam->set_height(1);
+  cam->mutable_intrinsics()->set_fx(1);
+  cam->mutable_intrinsics()->set_fy(1);
+  for (double r : {1, 0, 0, 0, 1, 0, 0, 0, 1}) cam->mutable_cam_from_world()->add_rotation(r);
+  for (int i = 0; i < 3; ++i) cam->mutable_cam_from_world()->add_translation(0);
+  cam->mutable_video()->set_path("v.mkv");
+  *probe.mutable_lights() = list.lights();
+  if (absl::Status s = scene::ValidateSceneMessage(probe); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat(file, ": ", s.message()));
+  }
+  std::vector<scene::Light> lights;
+  for (const v1::Light& l : list.lights()) {
+    scene::Light light;
+    light.name = l.name();
+    light.directional = l.direction_size() == 3;
+    if (l.position_size() == 3) light.position = {l.position(0), l.position(1), l.position(2)};
+    if (light.directional) light.direction = glm::normalize(glm::vec3(l.direction(0), l.direction(1), l.direction(2)));
+    if (l.intensity_size() == 3) light.intensity = {l.intensity(0), l.intensity(1), l.intensity(2)};
+    lights.push_back(light);
+  }
+  return lights;
+}
+
+absl::Status Render(const std::string& dir, const std::string& camera_arg, const std::string& lights_file, int frame,
+                    bool correction, const std::string& out, gl::EglPlatform platform) {
+  const std::filesystem::path run_dir = dir;
+  MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
+  scene::LoadOptions load;
+  load.check_all_frames = false;
+  load.probe_videos = false;
+  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(run.scene(), load));
+  if (frame < 0 || frame >= sequence.num_frames) {
+    return absl::InvalidArgumentError(absl::StrCat("--frame: must be in [0, ", sequence.num_frames, "), got ", frame));
+  }
+  // The layout is rebuilt (deterministically) from the scene and checked
+  // against the run's, so that the scene's per-frame file vertices apply.
+  atlas::AtlasOptions atlas_options;
+  atlas_options.size = static_cast<int>(run.atlas().size());
+  MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas,
+                          atlas::BuildAtlas(sequence.topology, sequence.rest_positions, atlas_options));
+  MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage ids, image::ReadExr(run_dir / "atlas" / "triangle_id.exr"));
+  if (ids.image.size() != atlas.triangle_id.size() || cv::norm(ids.image, atlas.triangle_id, cv::NORM_INF) != 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(dir, "/atlas/triangle_id.exr: the run's atlas differs from the one built now"));
+  }
+
+  scene::CameraModel camera;
+  bool found = false;
+  for (const scene::CameraModel& c : sequence.cameras) {
+    if (c.name == camera_arg) {
+      camera = c;
+      found = true;
+    }
+  }
+  if (!found) {
+    MVBRDF_ASSIGN_OR_RETURN(const v1::Camera message, ReadJsonFileAs<v1::Camera>(camera_arg));
+    camera = scene::CameraModelFromProto(message);
+    if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0) || !(camera.fy > 0)) {
+      return absl::InvalidArgumentError(absl::StrCat(camera_arg, ": width, height, fx and fy must be > 0"));
+    }
+  }
+  MVBRDF_ASSIGN_OR_RETURN(const std::vector<scene::Light> lights, ReadLights(lights_file));
+
+  MVBRDF_ASSIGN_OR_RETURN(cv::Mat kd, ReadRgb(run_dir / "atlases" / "kd.exr"));
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ks, ReadRgb(run_dir / "atlases" / "ks.exr"));
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ke, ReadRgb(run_dir / "atlases" / "ke.exr"));
+  if (correction) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "%04d.exr", static_cast<int>(sequence.scene.frames().first()) + frame);
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat c, ReadRgb(run_dir / "atlases" / "correction" / name));
+    kd = kd + c;  // shared/NOTES.md: render with kd + c
+  }
+
+  MVBRDF_ASSIGN_OR_RETURN(auto context, gl::EglContext::Create(platform));
+  render::RenderMesh mesh;
+  mesh.triangles = atlas.topology.triangles;
+  mesh.uvs = atlas.topology.uvs;
+  mesh.rest_positions = scene::ToRenderVertices(atlas.topology, sequence.rest_positions);
+  MVBRDF_ASSIGN_OR_RETURN(auto renderer, render::PhongRenderer::Create(*context, mesh, {}));
+  MVBRDF_RETURN_IF_ERROR(renderer->SetAtlasMaterials(kd, ks, ke));
+  MVBRDF_RETURN_IF_ERROR(renderer->SetLights(lights));
+  MVBRDF_ASSIGN_OR_RETURN(const scene::FramePositions positions, sequence.LoadFrame(frame));
+  render::Pose pose;
+  pose.positions = scene::ToRenderVertices(atlas.topology, positions);
+  pose.normals = scene::ToRenderVertices(atlas.topology, scene::ComputeFileVertexNormals(atlas.topology, positions));
+  MVBRDF_ASSIGN_OR_RETURN(const render::RenderOutput image, renderer->Render(pose, camera));
+  const cv::Mat radiance = synth::ApplyDistortion(image.radiance, camera);
+  const std::filesystem::path out_path = out;
+  if (out_path.extension() == ".exr") return image::WriteExr(out_path, radiance);
+  if (out_path.extension() == ".png") return image::WritePngPreview(out_path, radiance);
+  return absl::InvalidArgumentError(absl::StrCat("--out: expected a .png or .exr file, got ", out));
+}
+
+}  // namespace
+
+int RunRender(const std::vector<std::string>& args) {
+  std::string dir, camera, lights, out, egl = "auto";
+  int frame = 0;
+  bool correction = false;
+  FlagParser flags("render",
+                   "Draws a reconstruction (the output directory of 'mvbrdf run') from a scene camera or a\n"
+                   "camera given as JSON (a mvbrdf.v1.Camera), under lights given as JSON ({\"lights\": [...]}),\n"
+                   "in the pose of a frame, optionally with that frame's correction atlas.");
+  flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
+  flags.AddString("--camera", &camera, "a camera name of the scene, or a camera JSON file");
+  flags.AddString("--lights", &lights, "a JSON file with the lights");
+  flags.AddInt("--frame", &frame, "the frame whose pose is drawn (0-based)");
+  flags.AddBool("--correction", &correction, "add the frame's correction atlas to kd");
+  flags.AddString("--out", &out, "the image to write: .png (sRGB 8-bit) or .exr (linear float)");
+  flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  if (absl::Status s = flags.Parse(args); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf render: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
+  if (flags.help_requested()) {
+    std::fputs(flags.Usage().c_str(), stdout);
+    return kExitOk;
+  }
+  auto platform = gl::ParseEglPlatform(egl);
+  std::string missing = camera.empty() ? "--camera" : lights.empty() ? "--lights" : out.empty() ? "--out" : "";
+  if (!platform.ok() || !missing.empty()) {
+    std::fprintf(stderr, "mvbrdf render: %s\n",
+                 !platform.ok() ? std::string(platform.status().message()).c_str() : (missing + ": required").c_str());
+    return kExitUsage;
+  }
+  const absl::Status s = Render(dir, camera, lights, frame, correction, out, *platform);
+  if (!s.ok()) return ReportFailure(s);
+  std::printf("wrote %s\n", out.c_str());
+  return kExitOk;
+}
+
+}  // namespace mvbrdf::client

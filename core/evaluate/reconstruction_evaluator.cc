@@ -1,0 +1,125 @@
+#include "core/evaluate/reconstruction_evaluator.h"
+
+#include <cmath>
+#include <map>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/image/exr.h"
+#include "core/synth/ground_truth.h"
+
+namespace mvbrdf::evaluate {
+namespace {
+
+absl::StatusOr<cv::Mat> ReadImage(const std::filesystem::path& file, int type, int size) {
+  MVBRDF_ASSIGN_OR_RETURN(image::ExrImage exr, image::ReadExr(file));
+  if (exr.image.type() != type || (size > 0 && exr.image.rows != size)) {
+    return absl::InvalidArgumentError(absl::StrCat(file.string(), ": unexpected image type or size"));
+  }
+  return exr.image;
+}
+
+double RelativeError(double value, double truth) {
+  return std::abs(value - truth) / std::max(std::abs(truth), 1e-12);
+}
+
+}  // namespace
+
+absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
+                                                            const std::filesystem::path& truth_path) {
+  std::filesystem::path truth_file = truth_path / "truth.json";
+  if (!std::filesystem::exists(truth_file)) truth_file = truth_path / "ground_truth" / "truth.json";
+  MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth truth, synth::GroundTruth::Load(truth_file));
+  MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
+
+  v1::EvaluationReport report;
+  report.set_chosen_configuration(run.chosen_configuration());
+  report.set_true_configuration(truth.message().active_configuration());
+  report.set_configuration_correct(run.chosen_configuration() == truth.message().active_configuration());
+  if (run.clusters_size() == 0) return report;  // light table only
+
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat triangle_id, ReadImage(run_dir / "atlas" / "triangle_id.exr", CV_32SC1, 0));
+  const int size = triangle_id.rows;
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat rest, ReadImage(run_dir / "atlas" / "rest_position.exr", CV_32FC4, size));
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat kd, ReadImage(run_dir / "atlases" / "kd.exr", CV_32FC3, size));
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat confidence, ReadImage(run_dir / "atlases" / "confidence.exr", CV_32FC1, size));
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat cluster, ReadImage(run_dir / "atlases" / "cluster.exr", CV_32SC1, size));
+
+  const int num_clusters = run.clusters_size();
+  const int num_materials = truth.message().materials_size();
+  // votes[cluster][material]
+  std::vector<std::vector<uint64_t>> votes(static_cast<size_t>(num_clusters),
+                                           std::vector<uint64_t>(static_cast<size_t>(num_materials), 0));
+  double sq10 = 0.0, sq_all = 0.0;
+  uint64_t n10 = 0, n_all = 0;
+  std::vector<int32_t> texel_material(static_cast<size_t>(size) * size, -1);
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const int32_t tri = triangle_id.at<int32_t>(y, x);
+      const float count = confidence.at<float>(y, x);
+      const cv::Vec4f& p = rest.at<cv::Vec4f>(y, x);
+      if (tri < 0 || count <= 0.0f || p[3] < 0.5f) continue;
+      const glm::vec2 uv((x + 0.5f) / size, 1.0f - (y + 0.5f) / size);
+      const render::PhongParams t = truth.At(static_cast<uint32_t>(tri), {p[0], p[1], p[2]}, uv);
+      const cv::Vec3f& k = kd.at<cv::Vec3f>(y, x);
+      double sq = 0.0;
+      for (int c = 0; c < 3; ++c) sq += (k[c] - t.kd[c]) * (k[c] - t.kd[c]);
+      sq_all += sq;
+      ++n_all;
+      if (count >= kMinObservationsForKd) {
+        sq10 += sq;
+        ++n10;
+      }
+      const uint32_t material = truth.message().triangle_materials(tri);
+      texel_material[static_cast<size_t>(y) * size + x] = static_cast<int32_t>(material);
+      const int32_t k_cluster = cluster.at<int32_t>(y, x);
+      if (k_cluster >= 0 && k_cluster < num_clusters) ++votes[static_cast<size_t>(k_cluster)][material];
+    }
+  }
+  report.set_kd_rmse(n10 > 0 ? std::sqrt(sq10 / (3.0 * static_cast<double>(n10))) : 0.0);
+  report.set_kd_texels(n10);
+  report.set_kd_rmse_all_seen(n_all > 0 ? std::sqrt(sq_all / (3.0 * static_cast<double>(n_all))) : 0.0);
+
+  std::vector<int32_t> cluster_material(static_cast<size_t>(num_clusters), -1);
+  for (int k = 0; k < num_clusters; ++k) {
+    uint64_t best = 0;
+    for (int m = 0; m < num_materials; ++m) {
+      if (votes[static_cast<size_t>(k)][static_cast<size_t>(m)] > best) {
+        best = votes[static_cast<size_t>(k)][static_cast<size_t>(m)];
+        cluster_material[static_cast<size_t>(k)] = m;
+      }
+    }
+    v1::MaterialComparison* cmp = report.add_clusters();
+    const v1::ClusterRow& row = run.clusters(k);
+    cmp->set_cluster(row.name());
+    if (cluster_material[static_cast<size_t>(k)] < 0) continue;
+    const v1::Material& m = truth.message().materials(cluster_material[static_cast<size_t>(k)]);
+    cmp->set_material(m.name());
+    double ks_err = 0.0, ke_err = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      cmp->add_ks(row.ks(c));
+      cmp->add_ks_true(m.ks(c));
+      cmp->add_ke(row.ke(c));
+      cmp->add_ke_true(m.ke(c));
+      ks_err += RelativeError(row.ks(c), m.ks(c)) / 3.0;
+      ke_err += RelativeError(row.ke(c), m.ke(c)) / 3.0;
+    }
+    cmp->set_ks_rel_error(ks_err);
+    cmp->set_ke_rel_error(ke_err);
+  }
+  uint64_t correct = 0, assigned = 0;
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const int32_t k = cluster.at<int32_t>(y, x);
+      const int32_t m = texel_material[static_cast<size_t>(y) * size + x];
+      if (k < 0 || k >= num_clusters || m < 0) continue;
+      ++assigned;
+      if (cluster_material[static_cast<size_t>(k)] == m) ++correct;
+    }
+  }
+  report.set_cluster_accuracy(assigned > 0 ? static_cast<double>(correct) / static_cast<double>(assigned) : 0.0);
+  return report;
+}
+
+}  // namespace mvbrdf::evaluate

@@ -1,0 +1,25 @@
+// `mvbrdf evaluate DIR --truth TRUTH_DIR`: a reconstruction (the outputs of
+// `mvbrdf run`) against the generator's ground truth.
+#ifndef MVBRDF_CORE_EVALUATE_RECONSTRUCTION_EVALUATOR_H_
+#define MVBRDF_CORE_EVALUATE_RECONSTRUCTION_EVALUATOR_H_
+
+#include <filesystem>
+
+#include "absl/status/statusor.h"
+#include "mvbrdf/v1/run_report.pb.h"
+
+namespace mvbrdf::evaluate {
+
+// Texels observed at least this often count for the kd RMSE (issue #4's
+// target is stated over them).
+constexpr float kMinObservationsForKd = 10.0f;
+
+// `run_dir` holds result.json, atlas/ and atlases/; `truth` is a bundle
+// directory (with ground_truth/truth.json) or the ground_truth directory.
+// Clusters are matched to the true material most of their texels have.
+absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
+                                                            const std::filesystem::path& truth);
+
+}  // namespace mvbrdf::evaluate
+
+#endif  // MVBRDF_CORE_EVALUATE_RECONSTRUCTION_EVALUATOR_H_

@@ -1,0 +1,617 @@
+#include "core/pipeline/reconstruct_stage.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <sstream>
+
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/files.h"
+#include "core/base/process_stats.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/cluster/kmeans.h"
+#include "core/fit/light_sweep.h"
+#include "core/image/exr.h"
+#include "core/pipeline/texel_reservoir.h"
+#include "core/resample/atlas_ops.h"
+#include "core/samples/sample_set.h"
+#include "core/scene/mesh_loader.h"
+#include "core/scene/video_source.h"
+
+namespace mvbrdf::pipeline {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+void AddStage(v1::RunReport* report, const char* name, double seconds) {
+  v1::StageRow* row = report->add_stages();
+  row->set_name(name);
+  row->set_seconds(seconds);
+  row->set_peak_rss_bytes(PeakRssBytes());
+}
+
+std::vector<std::string> FlagNames(uint32_t flags) {
+  std::vector<std::string> names;
+  if (flags & fit::kKsKeNotIdentifiable) names.push_back("ks_ke_not_identifiable");
+  if (flags & fit::kKdNotIdentifiable) names.push_back("kd_not_identifiable");
+  if (flags & fit::kNoSamples) names.push_back("no_samples");
+  if (flags & fit::kNonFiniteInput) names.push_back("non_finite_input");
+  if (flags & fit::kDidNotConverge) names.push_back("did_not_converge");
+  if (flags & fit::kAtBound) names.push_back("at_bound");
+  return names;
+}
+
+void SolverRowFrom(const std::string& cluster, const fit::PhongFitResult& r, v1::SolverRow* row) {
+  row->set_cluster(cluster);
+  row->set_solver(fit::SolverName(r.solver));
+  double cost = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    row->add_kd(r.params[c].kd);
+    row->add_ks(r.params[c].ks);
+    row->add_ke(r.params[c].ke);
+    cost += r.channels[c].final_cost;
+  }
+  row->set_final_cost(cost);
+  row->set_mse(r.mse);
+  row->set_seconds(r.seconds);
+  row->set_samples(r.samples_used);
+  for (const std::string& f : FlagNames(r.flags())) row->add_flags(f);
+}
+
+glm::vec3 SrgbSeed(const v1::MaterialSeed& seed) {
+  glm::vec3 out(0.0f);
+  for (int c = 0; c < 3 && c < seed.srgb8_size(); ++c) out[c] = scene::SrgbToLinear(seed.srgb8(c) / 255.0f);
+  return out;
+}
+
+// Per-triangle segment index and per segment the allowed clusters, from the
+// scene's segmentation file and segment_materials (seed names).
+absl::Status ReadSegments(const scene::Sequence& sequence, const std::vector<std::string>& cluster_names,
+                          std::vector<uint32_t>* triangle_segment,
+                          std::vector<std::vector<uint32_t>>* allowed) {
+  const v1::Scene& scene = sequence.scene;
+  if (scene.segmentation_path().empty() || scene.segment_materials_size() == 0) return absl::OkStatus();
+  MVBRDF_ASSIGN_OR_RETURN(const std::string text,
+                          ReadFileToString(ResolvePath(sequence.scene_dir, scene.segmentation_path())));
+  std::vector<std::string> segment_names;
+  std::istringstream lines(text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    uint32_t index = 0;
+    while (index < segment_names.size() && segment_names[index] != line) ++index;
+    if (index == segment_names.size()) segment_names.push_back(line);
+    triangle_segment->push_back(index);
+  }
+  if (triangle_segment->size() != sequence.topology.triangles.size()) {
+    return absl::InvalidArgumentError(absl::StrCat("scene.segmentation_path: ", triangle_segment->size(),
+                                                   " lines, the mesh has ", sequence.topology.triangles.size(),
+                                                   " triangles"));
+  }
+  allowed->assign(segment_names.size(), {});
+  // Segments without an entry allow every cluster.
+  for (size_t s = 0; s < segment_names.size(); ++s) {
+    bool listed = false;
+    for (const v1::SegmentMaterials& sm : scene.segment_materials()) {
+      if (sm.segment() != segment_names[s]) continue;
+      listed = true;
+      for (const std::string& m : sm.materials()) {
+        for (uint32_t c = 0; c < cluster_names.size(); ++c) {
+          if (cluster_names[c] == m) (*allowed)[s].push_back(c);
+        }
+      }
+    }
+    if (!listed || (*allowed)[s].empty()) {
+      for (uint32_t c = 0; c < cluster_names.size(); ++c) (*allowed)[s].push_back(c);
+    }
+  }
+  return absl::OkStatus();
+}
+
+cv::Mat Rgba(const std::vector<glm::vec3>& rgb, const std::vector<uint8_t>& valid, int size) {
+  cv::Mat out(size, size, CV_32FC4, cv::Scalar::all(0));
+  for (size_t i = 0; i < rgb.size(); ++i) {
+    if (!valid[i]) continue;
+    out.at<cv::Vec4f>(static_cast<int>(i / size), static_cast<int>(i % size)) = {rgb[i].x, rgb[i].y, rgb[i].z, 1.0f};
+  }
+  return out;
+}
+
+cv::Mat RgbOf(const cv::Mat& rgba) {
+  cv::Mat rgb;
+  cv::cvtColor(rgba, rgb, cv::COLOR_RGBA2RGB);
+  return rgb;
+}
+
+absl::Status WriteRgbAtlas(const std::filesystem::path& stem, const cv::Mat& rgba, float preview_gain) {
+  MVBRDF_RETURN_IF_ERROR(image::WriteExr(stem.string() + ".exr", RgbOf(rgba)));
+  return image::WritePngPreview(stem.string() + ".png", rgba, preview_gain);
+}
+
+// Everything pass 1 produces.
+struct Gathered {
+  samples::SampleSet triangle_samples;
+  std::vector<glm::dvec3> texel_sum;  // per texel, sum of observed reflectance
+  std::vector<uint32_t> texel_count;
+  std::unique_ptr<TexelReservoir> reservoir;
+  cv::Mat rest_position;              // geometry atlas of frame 0 (CV_32FC4)
+};
+
+// Resamples frame t of every camera; calls visit(camera, resampled) with the
+// frame's geometry and shadow atlases already current.
+class FrameStream {
+ public:
+  static absl::StatusOr<std::unique_ptr<FrameStream>> Open(const scene::Sequence& sequence, gl::EglContext& context,
+                                                           const atlas::Atlas& atlas,
+                                                           const resample::ResamplerOptions& options) {
+    auto s = std::unique_ptr<FrameStream>(new FrameStream(sequence));
+    MVBRDF_ASSIGN_OR_RETURN(s->resampler_, resample::Resampler::Create(context, atlas, sequence.cameras,
+                                                                       sequence.lights, options));
+    for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
+      MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
+                                                                   static_cast<int>(sequence.scene.frames().first()),
+                                                                   absl::StrCat("scene.cameras[", c, "]")));
+      s->videos_.push_back(std::move(video));
+    }
+    return s;
+  }
+
+  // Loads frame t: pose, geometry and shadow atlases.
+  absl::Status SetFrame(int t) {
+    MVBRDF_ASSIGN_OR_RETURN(positions_, sequence_.LoadFrame(t));
+    MVBRDF_RETURN_IF_ERROR(resampler_->SetFrame(positions_));
+    MVBRDF_ASSIGN_OR_RETURN(shadows_, resampler_->ShadowAtlas());
+    MVBRDF_ASSIGN_OR_RETURN(geometry_, resampler_->Geometry());
+    frame_ = t;
+    return absl::OkStatus();
+  }
+
+  absl::StatusOr<cv::Mat> Resample(int camera) {
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat frame, videos_[static_cast<size_t>(camera)]->ReadFrame(frame_));
+    return resampler_->ResampleCamera(camera, frame);
+  }
+
+  const scene::FramePositions& positions() const { return positions_; }
+  const cv::Mat& shadows() const { return shadows_; }
+  const resample::GeometryAtlas& geometry() const { return geometry_; }
+
+ private:
+  explicit FrameStream(const scene::Sequence& sequence) : sequence_(sequence) {}
+  const scene::Sequence& sequence_;
+  std::unique_ptr<resample::Resampler> resampler_;
+  std::vector<std::unique_ptr<scene::VideoSource>> videos_;
+  scene::FramePositions positions_;
+  cv::Mat shadows_;
+  resample::GeometryAtlas geometry_;
+  int frame_ = 0;
+};
+
+// Sum of I_k h_k^ke over the lights in `mask`, channel c.
+inline float SpecularSum(const float* h, const std::vector<glm::vec3>& intensity, samples::LightMask mask, int c,
+                         double ke) {
+  double s = 0.0;
+  for (size_t k = 0; k < intensity.size(); ++k) {
+    if (!(mask & (1u << k)) || !(h[k] > 0.0f)) continue;
+    s += intensity[k][c] * std::exp(ke * std::log(static_cast<double>(h[k])));
+  }
+  return static_cast<float>(s);
+}
+
+inline glm::vec3 IlluminationOf(const float* g, const std::vector<glm::vec3>& intensity, samples::LightMask mask) {
+  glm::vec3 s(0.0f);
+  for (size_t k = 0; k < intensity.size(); ++k) {
+    if (mask & (1u << k)) s += intensity[k] * g[k];
+  }
+  return s;
+}
+
+}  // namespace
+
+absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
+                                                const ReconstructOptions& options) {
+  const auto start = Clock::now();
+  v1::RunReport report;
+  report.set_scene(sequence.scene_file.string());
+  report.set_frames(static_cast<uint32_t>(sequence.num_frames));
+  report.set_gl_renderer(context.Describe());
+  report.set_configuration_rule("lowest E_d; E_a breaks ties");
+  MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
+  plan.ToProto(report.mutable_plan());
+  if (sequence.lights.size() > static_cast<size_t>(samples::kMaxLights)) {
+    return absl::InvalidArgumentError(absl::StrCat("scene.lights: at most ", samples::kMaxLights, " lights, got ",
+                                                   sequence.lights.size()));
+  }
+  const std::filesystem::path& out = options.out_dir;
+  const int num_cameras = static_cast<int>(sequence.cameras.size());
+
+  // The atlas (kept UVs are still rasterised into the layout).
+  auto t0 = Clock::now();
+  MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas,
+                          atlas::BuildAtlas(sequence.topology, sequence.rest_positions, options.atlas));
+  {
+    v1::AtlasFigures* f = report.mutable_atlas();
+    f->set_size(static_cast<uint32_t>(atlas.size));
+    f->set_built(atlas.stats.built);
+    f->set_charts(static_cast<uint32_t>(atlas.stats.num_charts));
+    f->set_coverage(atlas.stats.coverage);
+    f->set_overlap_fraction(atlas.stats.overlap_fraction);
+    f->set_min_area_ratio(atlas.stats.min_area_ratio);
+    f->set_max_area_ratio(atlas.stats.max_area_ratio);
+    f->set_triangles_without_interior_texels(static_cast<uint32_t>(atlas.stats.triangles_without_interior_texels));
+    f->set_seconds(Since(t0));
+  }
+  MVBRDF_RETURN_IF_ERROR(scene::WriteObj(out / "atlas" / "mesh.obj", atlas.topology, sequence.rest_positions));
+  MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "triangle_id.exr", atlas.triangle_id));
+  AddStage(&report, "atlas", Since(t0));
+  const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
+  const bool reflectance = plan.Has(Stage::kTexelPass);
+
+  // Pass 1: triangle Samples, texel means and kept texel Samples.
+  t0 = Clock::now();
+  Gathered g;
+  g.triangle_samples = samples::MakeSampleSet(sequence.lights);
+  g.texel_sum.assign(num_texels, glm::dvec3(0.0));
+  g.texel_count.assign(num_texels, 0);
+  if (reflectance) {
+    g.reservoir = std::make_unique<TexelReservoir>(num_texels, static_cast<int>(sequence.lights.size()),
+                                                   options.reservoir_uniform, options.reservoir_highlight);
+  }
+  const std::vector<glm::vec3>& intensity = g.triangle_samples.light_intensity;
+  {
+    MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
+    const bool sweep = plan.Has(Stage::kLightSweep);
+    for (int t = 0; t < sequence.num_frames; ++t) {
+      const bool sweep_frame = sweep && t % std::max(options.sweep_frame_stride, 1) == 0;
+      if (!sweep_frame && !reflectance) continue;
+      MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
+      if (t == 0) g.rest_position = stream->geometry().position.clone();
+      for (int c = 0; c < num_cameras; ++c) {
+        MVBRDF_ASSIGN_OR_RETURN(const cv::Mat resampled, stream->Resample(c));
+        if (sweep_frame) {
+          const auto means = resample::AverageTriangles(resampled, atlas, options.min_valid_fraction);
+          samples::AppendTriangleSamples(means, atlas, stream->positions(), stream->shadows(), sequence.cameras[c],
+                                         c, t, sequence.lights, options.assemble, &g.triangle_samples);
+        }
+        if (!reflectance) continue;
+        samples::ForEachTexelSample(resampled, stream->geometry(), stream->shadows(), sequence.cameras[c],
+                                    sequence.lights, options.assemble,
+                                    [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr) {
+                                      g.texel_sum[texel] += glm::dvec3(rgb);
+                                      ++g.texel_count[texel];
+                                      g.reservoir->Offer(texel, t, c, rgb, gr, hr);
+                                    });
+      }
+    }
+  }
+  if (!g.rest_position.empty()) MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "rest_position.exr", g.rest_position));
+  AddStage(&report, "gather_samples", Since(t0));
+
+  // The light configuration.
+  t0 = Clock::now();
+  samples::LightMask mask = 0;
+  std::string chosen = plan.fixed_configuration;
+  if (plan.Has(Stage::kLightSweep)) {
+    std::vector<fit::LightConfiguration> configs;
+    for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
+      configs.push_back({c.name(), {c.lights().begin(), c.lights().end()}});
+    }
+    MVBRDF_ASSIGN_OR_RETURN(const fit::SweepResult sweep,
+                            fit::SweepConfigurations(g.triangle_samples, atlas.topology.triangles.size(), configs,
+                                                     options.fit, options.diffuse, options.threads));
+    for (const fit::SweepRow& row : sweep.rows) {
+      v1::LightConfigurationRow* r = report.add_light_configurations();
+      r->set_name(row.name);
+      for (const std::string& l : row.lights) r->add_lights(l);
+      r->set_lit_triangles(row.lit_triangles);
+      r->set_e_a(row.e_a);
+      r->set_e_d(row.e_d);
+      r->set_seconds(row.seconds);
+    }
+    if (sweep.best < 0) return absl::FailedPreconditionError("light sweep: no configuration could be fitted");
+    chosen = sweep.rows[static_cast<size_t>(sweep.best)].name;
+    mask = sweep.rows[static_cast<size_t>(sweep.best)].mask;
+    AddStage(&report, "light_sweep", Since(t0));
+  } else if (chosen.empty()) {
+    for (size_t k = 0; k < sequence.lights.size(); ++k) mask |= 1u << k;
+    chosen = "all lights";
+  } else {
+    for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
+      if (c.name() != chosen) continue;
+      MVBRDF_ASSIGN_OR_RETURN(mask, g.triangle_samples.MaskOf({c.lights().begin(), c.lights().end()}));
+    }
+  }
+  report.set_chosen_configuration(chosen);
+  g.triangle_samples = samples::SampleSet();  // no longer needed
+  if (!reflectance) {
+    report.set_seconds(Since(start));
+    report.set_peak_rss_bytes(PeakRssBytes());
+    MVBRDF_RETURN_IF_ERROR(WriteJsonFile(out / "result.json", report));
+    return report;
+  }
+
+  // Clustering texel means.
+  t0 = Clock::now();
+  cluster::KMeansInput km_input;
+  std::vector<uint32_t> seen_texels;
+  for (size_t i = 0; i < num_texels; ++i) {
+    if (g.texel_count[i] == 0) continue;
+    seen_texels.push_back(static_cast<uint32_t>(i));
+    km_input.points.push_back(glm::vec3(g.texel_sum[i] / static_cast<double>(g.texel_count[i])));
+    km_input.weights.push_back(static_cast<float>(g.texel_count[i]));
+  }
+  if (seen_texels.empty()) return absl::FailedPreconditionError("no texel was seen by any camera");
+  cluster::KMeansOptions km_options;
+  for (const v1::MaterialSeed& seed : sequence.scene.material_seeds()) {
+    km_options.seeds.push_back(SrgbSeed(seed));
+    km_options.seed_names.push_back(seed.name());
+  }
+  {
+    std::vector<uint32_t> triangle_segment;
+    MVBRDF_RETURN_IF_ERROR(
+        ReadSegments(sequence, km_options.seed_names, &triangle_segment, &km_input.allowed_clusters));
+    if (!triangle_segment.empty()) {
+      for (uint32_t texel : seen_texels) {
+        const int32_t tri = atlas.triangle_id.at<int32_t>(static_cast<int>(texel / atlas.size),
+                                                          static_cast<int>(texel % atlas.size));
+        km_input.segment.push_back(tri >= 0 ? triangle_segment[static_cast<size_t>(tri)] : 0u);
+      }
+    }
+  }
+  MVBRDF_ASSIGN_OR_RETURN(const cluster::KMeansResult clusters, cluster::KMeans(km_input, km_options));
+  const size_t num_clusters = clusters.centres.size();
+  std::vector<int32_t> texel_cluster(num_texels, -1);
+  std::vector<std::vector<uint32_t>> cluster_texels(num_clusters);
+  for (size_t i = 0; i < seen_texels.size(); ++i) {
+    texel_cluster[seen_texels[i]] = static_cast<int32_t>(clusters.assignment[i]);
+    cluster_texels[clusters.assignment[i]].push_back(seen_texels[i]);
+  }
+  AddStage(&report, "clustering", Since(t0));
+
+  // One BRDF per cluster.
+  t0 = Clock::now();
+  std::vector<fit::PhongRgb> cluster_brdf(num_clusters);
+  for (size_t k = 0; k < num_clusters; ++k) {
+    samples::SampleSet set = samples::MakeSampleSet(sequence.lights);
+    // Spread the cap over the cluster: every n-th texel.
+    std::vector<uint32_t> texels = cluster_texels[k];
+    const size_t slots = static_cast<size_t>(options.reservoir_uniform + options.reservoir_highlight);
+    const size_t stride = std::max<size_t>(1, texels.size() * slots / std::max<size_t>(options.max_cluster_samples, 1));
+    if (stride > 1) {
+      std::vector<uint32_t> kept;
+      for (size_t i = 0; i < texels.size(); i += stride) kept.push_back(texels[i]);
+      texels.swap(kept);
+    }
+    g.reservoir->Collect(texels, options.max_cluster_samples, &set);
+    fit::PhongFitOptions lm = options.fit;
+    lm.solver = fit::Solver::kLevenbergMarquardt;
+    MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, mask, lm));
+    cluster_brdf[k] = lm_result.params;
+    SolverRowFrom(clusters.names[k], lm_result, report.add_solvers());
+    if (plan.Has(Stage::kSolverComparison)) {
+      fit::PhongFitOptions powell = options.fit;
+      powell.solver = fit::Solver::kPowell;
+      MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult p_result, fit::FitPhong(set, {}, mask, powell));
+      SolverRowFrom(clusters.names[k], p_result, report.add_solvers());
+    }
+    v1::ClusterRow* row = report.add_clusters();
+    row->set_name(clusters.names[k]);
+    row->set_texels(clusters.sizes[k]);
+    for (int c = 0; c < 3; ++c) {
+      row->add_centre(clusters.centres[k][c]);
+      row->add_ks(cluster_brdf[k][c].ks);
+      row->add_ke(cluster_brdf[k][c].ke);
+    }
+  }
+  g.reservoir.reset();
+  AddStage(&report, "cluster_fit", Since(t0));
+
+  // Pass 2: per-texel kd, observed diffuse per frame, camera errors.
+  t0 = Clock::now();
+  fit::DiffuseAccumulator diffuse(num_texels);
+  // Table 7.1 with the final kd, from per-(camera, texel) sums:
+  // sum (res - kd G)^2 = S_rr - 2 kd S_gr + kd^2 S_gg.
+  const bool camera_errors = plan.Has(Stage::kCameraErrors);
+  const bool correction = plan.Has(Stage::kCorrection);
+  std::vector<glm::dvec3> cam_s_gr, cam_s_gg;
+  std::vector<double> cam_s_rr(static_cast<size_t>(num_cameras), 0.0), cam_corr_sq(static_cast<size_t>(num_cameras), 0.0);
+  std::vector<uint64_t> cam_count(static_cast<size_t>(num_cameras), 0);
+  if (camera_errors) {
+    cam_s_gr.assign(num_texels * static_cast<size_t>(num_cameras), glm::dvec3(0.0));
+    cam_s_gg.assign(num_texels * static_cast<size_t>(num_cameras), glm::dvec3(0.0));
+  }
+  const std::filesystem::path observed_dir = out / "atlases" / "observed_kd.tmp";
+  std::vector<int> observed_frames;
+  {
+    MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
+    std::vector<glm::vec3> frame_sum(num_texels);
+    std::vector<glm::vec3> frame_illumination(num_texels);
+    std::vector<uint16_t> frame_count(num_texels);
+    std::vector<cv::Mat> frame_atlases(static_cast<size_t>(num_cameras));
+    for (int t = 0; t < sequence.num_frames; ++t) {
+      MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
+      if (correction || camera_errors) {
+        std::fill(frame_sum.begin(), frame_sum.end(), glm::vec3(0.0f));
+        std::fill(frame_count.begin(), frame_count.end(), 0);
+      }
+      for (int c = 0; c < num_cameras; ++c) {
+        MVBRDF_ASSIGN_OR_RETURN(frame_atlases[static_cast<size_t>(c)], stream->Resample(c));
+        samples::ForEachTexelSample(
+            frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
+            sequence.lights, options.assemble,
+            [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr) {
+              const int32_t k = texel_cluster[texel];
+              if (k < 0) return;
+              const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
+              const glm::vec3 G = IlluminationOf(gr, intensity, mask);
+              glm::vec3 res;
+              for (int ch = 0; ch < 3; ++ch) {
+                res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) * SpecularSum(hr, intensity, mask, ch, p[ch].ke);
+              }
+              diffuse.Add(texel, res, G);
+              if (camera_errors) {
+                const size_t i = static_cast<size_t>(c) * num_texels + texel;
+                cam_s_gr[i] += glm::dvec3(G * res);
+                cam_s_gg[i] += glm::dvec3(G * G);
+                cam_s_rr[static_cast<size_t>(c)] += glm::dot(glm::dvec3(res), glm::dvec3(res));
+                ++cam_count[static_cast<size_t>(c)];
+              }
+              if (correction || camera_errors) {
+                frame_sum[texel] += res;
+                frame_illumination[texel] = G;
+                ++frame_count[texel];
+              }
+            });
+      }
+      if (!correction && !camera_errors) continue;
+      // The frame's observed diffuse albedo kd_o = mean over cameras of
+      // (r - s) / G (thesis Fig. 7.3), and the error of rendering with it.
+      cv::Mat observed(atlas.size, atlas.size, CV_32FC4, cv::Scalar::all(0));
+      for (size_t i = 0; i < num_texels; ++i) {
+        if (frame_count[i] == 0) continue;
+        const glm::vec3 G = frame_illumination[i];
+        cv::Vec4f& o = observed.at<cv::Vec4f>(static_cast<int>(i / atlas.size), static_cast<int>(i % atlas.size));
+        bool ok = true;
+        for (int ch = 0; ch < 3; ++ch) {
+          if (!(G[ch] > static_cast<float>(options.diffuse.min_illumination))) ok = false;
+        }
+        if (!ok) continue;
+        const glm::vec3 kd_o = frame_sum[i] / static_cast<float>(frame_count[i]) / G;
+        o = {kd_o.x, kd_o.y, kd_o.z, 1.0f};
+      }
+      if (camera_errors) {
+        for (int c = 0; c < num_cameras; ++c) {
+          samples::ForEachTexelSample(
+              frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
+              sequence.lights, options.assemble,
+              [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr) {
+                const int32_t k = texel_cluster[texel];
+                if (k < 0) return;
+                const cv::Vec4f& o =
+                    observed.at<cv::Vec4f>(static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
+                const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
+                const glm::vec3 G = IlluminationOf(gr, intensity, mask);
+                for (int ch = 0; ch < 3; ++ch) {
+                  const double s = p[ch].ks * SpecularSum(hr, intensity, mask, ch, p[ch].ke);
+                  const double model = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
+                  const double d = o[3] > 0.5f ? rgb[ch] - model : 0.0;
+                  cam_corr_sq[static_cast<size_t>(c)] += d * d;
+                }
+              });
+        }
+      }
+      if (correction) {
+        MVBRDF_RETURN_IF_ERROR(image::WriteExr(observed_dir / absl::StrCat(t, ".exr"), observed));
+        observed_frames.push_back(t);
+      }
+    }
+  }
+  std::vector<glm::vec3> fallback(num_texels, glm::vec3(0.0f));
+  for (size_t i = 0; i < num_texels; ++i) {
+    if (texel_cluster[i] >= 0) {
+      const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(texel_cluster[i])];
+      fallback[i] = glm::vec3(p[0].kd, p[1].kd, p[2].kd);
+    }
+  }
+  const fit::DiffuseSolution kd = diffuse.Solve(options.diffuse, fallback);
+  AddStage(&report, "texel_pass", Since(t0));
+
+  // Table 7.1.
+  if (camera_errors) {
+    for (int c = 0; c < num_cameras; ++c) {
+      double brdf_sq = cam_s_rr[static_cast<size_t>(c)];
+      for (size_t i = 0; i < num_texels; ++i) {
+        const size_t j = static_cast<size_t>(c) * num_texels + i;
+        const glm::dvec3 k(kd.kd[i]);
+        brdf_sq += glm::dot(k * k, cam_s_gg[j]) - 2.0 * glm::dot(k, cam_s_gr[j]);
+      }
+      const double n = 3.0 * static_cast<double>(std::max<uint64_t>(cam_count[static_cast<size_t>(c)], 1));
+      v1::CameraErrorRow* row = report.add_cameras();
+      row->set_name(sequence.cameras[c].name);
+      row->set_mse_brdf(std::max(0.0, brdf_sq) / n);
+      row->set_mse_correction(cam_corr_sq[static_cast<size_t>(c)] / n);
+      row->set_samples(cam_count[static_cast<size_t>(c)]);
+    }
+  }
+
+  // Atlases.
+  t0 = Clock::now();
+  std::vector<uint8_t> measured(num_texels, 0);
+  uint64_t seen = 0, seen10 = 0, fallbacks = 0;
+  for (size_t i = 0; i < num_texels; ++i) {
+    measured[i] = texel_cluster[i] >= 0 ? 1 : 0;
+    if (kd.samples[i] > 0) ++seen;
+    if (kd.samples[i] >= 10) ++seen10;
+    if (measured[i] && kd.fallback[i]) ++fallbacks;
+  }
+  report.set_texels_seen(seen);
+  report.set_texels_seen_10(seen10);
+  report.set_kd_fallback_texels(fallbacks);
+  const std::filesystem::path atlases = out / "atlases";
+  const cv::Mat kd_atlas = resample::GrowAtlas(Rgba(kd.kd, measured, atlas.size), options.grow_iterations);
+  if (plan.Has(Stage::kWriteAtlases)) {
+    std::vector<glm::vec3> ks(num_texels), ke(num_texels);
+    cv::Mat cluster_map(atlas.size, atlas.size, CV_32SC1, cv::Scalar(-1));
+    cv::Mat confidence(atlas.size, atlas.size, CV_32FC1, cv::Scalar(0));
+    for (size_t i = 0; i < num_texels; ++i) {
+      const int y = static_cast<int>(i / atlas.size), x = static_cast<int>(i % atlas.size);
+      confidence.at<float>(y, x) = static_cast<float>(kd.samples[i]);
+      if (texel_cluster[i] < 0) continue;
+      const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(texel_cluster[i])];
+      ks[i] = glm::vec3(p[0].ks, p[1].ks, p[2].ks);
+      ke[i] = glm::vec3(p[0].ke, p[1].ke, p[2].ke);
+      cluster_map.at<int32_t>(y, x) = texel_cluster[i];
+    }
+    MVBRDF_RETURN_IF_ERROR(WriteRgbAtlas(atlases / "kd", kd_atlas, 1.0f));
+    MVBRDF_RETURN_IF_ERROR(
+        WriteRgbAtlas(atlases / "ks", resample::GrowAtlas(Rgba(ks, measured, atlas.size), options.grow_iterations), 1.0f));
+    const cv::Mat ke_atlas = resample::GrowAtlas(Rgba(ke, measured, atlas.size), options.grow_iterations);
+    MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "ke.exr", RgbOf(ke_atlas)));
+    MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(atlases / "ke.png", ke_atlas, 1.0f / 100.0f));
+    MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "cluster.exr", cluster_map));
+    MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "confidence.exr", confidence));
+    cv::Mat cluster_preview(atlas.size, atlas.size, CV_32FC4, cv::Scalar::all(0));
+    for (size_t i = 0; i < num_texels; ++i) {
+      if (texel_cluster[i] < 0) continue;
+      const glm::vec3 centre = clusters.centres[static_cast<size_t>(texel_cluster[i])];
+      cluster_preview.at<cv::Vec4f>(static_cast<int>(i / atlas.size), static_cast<int>(i % atlas.size)) = {
+          centre.x, centre.y, centre.z, 1.0f};
+    }
+    MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(atlases / "cluster.png", cluster_preview));
+  }
+  // Correction atlases c = kd_o - kd where the frame observed the texel.
+  for (int t : observed_frames) {
+    const std::filesystem::path file = observed_dir / absl::StrCat(t, ".exr");
+    MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage observed, image::ReadExr(file));
+    cv::Mat corr(atlas.size, atlas.size, CV_32FC3, cv::Scalar::all(0));
+    for (int y = 0; y < atlas.size; ++y) {
+      for (int x = 0; x < atlas.size; ++x) {
+        const cv::Vec4f& o = observed.image.at<cv::Vec4f>(y, x);
+        if (o[3] < 0.5f) continue;
+        const glm::vec3& k = kd.kd[static_cast<size_t>(y) * atlas.size + x];
+        corr.at<cv::Vec3f>(y, x) = {o[0] - k.x, o[1] - k.y, o[2] - k.z};
+      }
+    }
+    char name[32];
+    std::snprintf(name, sizeof(name), "%04d.exr", static_cast<int>(sequence.scene.frames().first()) + t);
+    image::ExrOptions half;
+    half.half = true;
+    MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "correction" / name, corr, half));
+  }
+  std::error_code ec;
+  std::filesystem::remove_all(observed_dir, ec);
+  AddStage(&report, "write_atlases", Since(t0));
+
+  report.set_seconds(Since(start));
+  report.set_peak_rss_bytes(PeakRssBytes());
+  MVBRDF_RETURN_IF_ERROR(WriteJsonFile(out / "result.json", report));
+  return report;
+}
+
+}  // namespace mvbrdf::pipeline

@@ -1,0 +1,67 @@
+// `mvbrdf run`: the thesis's whole pipeline on one sequence (chapters 5-7),
+// planned from the scene and the requested outputs (core/pipeline/plan.h).
+//
+//   pass 1  resample every frame; triangle Samples (averaged atlases) for the
+//           light sweep; per-texel mean reflectance and a few kept Samples
+//   sweep   one Phong BRDF + per-triangle kd per candidate configuration
+//   cluster k-means of texel means; one Phong BRDF per cluster (LM, Powell)
+//   pass 2  resample again; per-texel kd with the cluster's specular part
+//           removed (closed form, streamed); per-frame observed diffuse
+//           albedo for the correction atlases; per-camera errors (Table 7.1)
+//
+// Resampling twice keeps memory independent of the number of frames.
+//
+// Output layout under out_dir:
+//   result.json                     RunReport
+//   atlas/mesh.obj                  rest pose with the atlas UVs (render with these)
+//   atlas/triangle_id.exr, rest_position.exr
+//   atlases/kd.exr ks.exr ke.exr    grown for rendering (RGB), PNG previews
+//   atlases/cluster.exr (+ .png)    cluster per texel, -1 where never seen
+//   atlases/confidence.exr          observations per texel (0 = never seen)
+//   atlases/correction/NNNN.exr     per frame: c = kd_o - kd (shared/NOTES.md), render kd + c
+#ifndef MVBRDF_CORE_PIPELINE_RECONSTRUCT_STAGE_H_
+#define MVBRDF_CORE_PIPELINE_RECONSTRUCT_STAGE_H_
+
+#include <filesystem>
+
+#include "absl/status/statusor.h"
+#include "core/atlas/atlas.h"
+#include "core/fit/diffuse.h"
+#include "core/fit/phong_fit.h"
+#include "core/gl/egl_context.h"
+#include "core/pipeline/plan.h"
+#include "core/resample/resampler.h"
+#include "core/samples/assemble.h"
+#include "core/scene/sequence.h"
+#include "mvbrdf/v1/run_report.pb.h"
+
+namespace mvbrdf::pipeline {
+
+struct ReconstructOptions {
+  RunRequest request;
+  atlas::AtlasOptions atlas;
+  resample::ResamplerOptions resampler;
+  samples::AssembleOptions assemble;
+  // Triangle averaging for light estimation (thesis §5.1.3).
+  float min_valid_fraction = 0.75f;
+  fit::PhongFitOptions fit;
+  fit::DiffuseOptions diffuse;
+  int grow_iterations = 2;
+  // Samples kept per texel for the cluster fits (TexelReservoir).
+  int reservoir_uniform = 2;
+  int reservoir_highlight = 2;
+  // Samples per cluster fit, at most (error against run time: more costs
+  // fitting time, fewer loses precision on ks and ke).
+  size_t max_cluster_samples = 100000;
+  // Use every n-th frame for light estimation (1 = all).
+  int sweep_frame_stride = 1;
+  int threads = 2;
+  std::filesystem::path out_dir;
+};
+
+absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
+                                                const ReconstructOptions& options);
+
+}  // namespace mvbrdf::pipeline
+
+#endif  // MVBRDF_CORE_PIPELINE_RECONSTRUCT_STAGE_H_

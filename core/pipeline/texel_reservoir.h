@@ -1,0 +1,57 @@
+// A few Samples kept per texel during the gathering pass, for fitting one
+// BRDF per cluster once the clusters are known (the clusters come from every
+// texel's mean, which needs the whole pass first).
+//
+// Per texel: `uniform` slots by reservoir sampling (every observation equally
+// likely to be kept) and `highlight` slots holding the observations with the
+// largest highlight cosine max_k h_k. Choosing samples by the regressors (the
+// cosines) and never by the response (the reflectance) keeps least squares
+// unbiased, and the highlight slots make sure ks and ke see highlights, which
+// are rare per texel. Memory: slots x texels x (3 + 2K) floats.
+#ifndef MVBRDF_CORE_PIPELINE_TEXEL_RESERVOIR_H_
+#define MVBRDF_CORE_PIPELINE_TEXEL_RESERVOIR_H_
+
+#include <cstdint>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/samples/sample_set.h"
+
+namespace mvbrdf::pipeline {
+
+class TexelReservoir {
+ public:
+  TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots);
+
+  // One observation of `texel` (g and h hold num_lights values).
+  void Offer(uint32_t texel, int frame, int camera, const glm::vec3& rgb, const float* g, const float* h);
+
+  // The kept Samples of the given texels (element = texel index), appended
+  // to `out` (whose lights must match), at most `max_samples` (texels taken
+  // in the given order, all slots of a texel together).
+  void Collect(const std::vector<uint32_t>& texels, size_t max_samples, samples::SampleSet* out) const;
+
+  size_t MemoryBytes() const;
+
+ private:
+  struct Slot {
+    float hmax = -1.0f;  // < 0: empty
+    uint16_t frame = 0;
+    uint8_t camera = 0;
+  };
+  float* Row(size_t slot) { return rows_.data() + slot * row_floats_; }
+  const float* Row(size_t slot) const { return rows_.data() + slot * row_floats_; }
+  void Store(size_t slot, int frame, int camera, float hmax, const glm::vec3& rgb, const float* g, const float* h);
+
+  int num_lights_;
+  int uniform_, highlight_, slots_per_texel_;
+  size_t row_floats_;
+  std::vector<uint32_t> seen_;  // observations offered per texel
+  std::vector<Slot> slots_;
+  std::vector<float> rows_;     // per slot: rgb, g[K], h[K]
+};
+
+}  // namespace mvbrdf::pipeline
+
+#endif  // MVBRDF_CORE_PIPELINE_TEXEL_RESERVOIR_H_
