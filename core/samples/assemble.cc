@@ -1,0 +1,92 @@
+#include "core/samples/assemble.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "core/render/phong_model.h"
+
+namespace mvbrdf::samples {
+namespace assemble_internal {
+
+void Check(bool condition, const char* message) {
+  if (condition) return;
+  std::fprintf(stderr, "core/samples/assemble: %s\n", message);
+  std::abort();
+}
+
+}  // namespace assemble_internal
+
+using assemble_internal::Check;
+
+SampleSet MakeSampleSet(const std::vector<scene::Light>& lights) {
+  Check(lights.size() <= static_cast<size_t>(kMaxLights), "MakeSampleSet: more than kMaxLights lights");
+  SampleSet set;
+  for (const scene::Light& light : lights) {
+    set.light_names.push_back(light.name);
+    set.light_intensity.push_back(light.intensity);
+  }
+  return set;
+}
+
+void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, const atlas::Atlas& atlas,
+                           const scene::FramePositions& file_positions, const cv::Mat& shadows,
+                           const scene::CameraModel& camera, int camera_index, int frame,
+                           const std::vector<scene::Light>& lights, const AssembleOptions& options, SampleSet* out) {
+  const std::vector<glm::uvec3>& triangles = atlas.topology.file_triangles;
+  Check(out != nullptr, "AppendTriangleSamples: null output");
+  Check(out->num_lights() == static_cast<int>(lights.size()),
+        "AppendTriangleSamples: the sample set was made for other lights (MakeSampleSet)");
+  Check(means.size() == triangles.size() && atlas.triangle_texels.size() == triangles.size(),
+        "AppendTriangleSamples: one TriangleMean and one texel list per triangle expected");
+  Check(shadows.type() == CV_16UC1 && shadows.rows == atlas.size && shadows.cols == atlas.size,
+        "AppendTriangleSamples: shadows must be CV_16UC1 of the atlas size");
+
+  std::vector<bool> zero_area(triangles.size(), false);
+  for (uint32_t t : atlas.topology.zero_area_triangles) {
+    if (t < zero_area.size()) zero_area[t] = true;
+  }
+  const glm::vec3 center(camera.CenterInWorld());
+  const size_t num_lights = lights.size();
+  float g_row[kMaxLights], h_row[kMaxLights], falloff_row[kMaxLights];
+  int visible_texels[kMaxLights];
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    if (!means[t].valid || zero_area[t]) continue;
+    const glm::uvec3& tri = triangles[t];
+    Check(tri.x < file_positions.size() && tri.y < file_positions.size() && tri.z < file_positions.size(),
+          "AppendTriangleSamples: file_positions does not cover the mesh");
+    const glm::vec3 p0 = file_positions[tri.x], p1 = file_positions[tri.y], p2 = file_positions[tri.z];
+    // Counter-clockwise seen from outside (core/scene/mesh.h): the cross
+    // product points outwards.
+    const glm::vec3 cross = glm::cross(p1 - p0, p2 - p0);
+    const float length = glm::length(cross);
+    if (!(length > 0.0f) || !std::isfinite(length)) continue;  // zero area in this pose
+    const glm::vec3 n = cross / length;
+    const glm::vec3 c = (p0 + p1 + p2) / 3.0f;
+    if (!(glm::dot(n, center - c) > 0.0f)) continue;  // back-facing (or edge-on)
+
+    // Visibility of each light: the share of the triangle's texels whose
+    // shadow bit is set.
+    const std::vector<uint32_t>& texels = atlas.triangle_texels[t];
+    for (size_t k = 0; k < num_lights; ++k) visible_texels[k] = 0;
+    for (uint32_t texel : texels) {
+      const int row = static_cast<int>(texel / static_cast<uint32_t>(atlas.size));
+      const int column = static_cast<int>(texel % static_cast<uint32_t>(atlas.size));
+      Check(row < atlas.size, "AppendTriangleSamples: texel outside the atlas");
+      const uint16_t bits = shadows.at<uint16_t>(row, column);
+      for (size_t k = 0; k < num_lights; ++k) visible_texels[k] += (bits >> k) & 1;
+    }
+    uint32_t visible_bits = 0;
+    for (size_t k = 0; k < num_lights; ++k) {
+      const bool visible = !texels.empty() && static_cast<double>(visible_texels[k]) >=
+                                                  static_cast<double>(options.min_visible_fraction) * texels.size();
+      if (visible) visible_bits |= 1u << k;
+    }
+    const bool any_falloff = assemble_internal::LightRows(lights, c, n, center, visible_bits,
+                                                          options.inverse_square_falloff, g_row, h_row, falloff_row);
+    out->Add(static_cast<uint32_t>(t), frame, camera_index, means[t].rgb, g_row, h_row,
+             any_falloff || !out->falloff.empty() ? falloff_row : nullptr);
+  }
+}
+
+}  // namespace mvbrdf::samples

@@ -1,0 +1,94 @@
+// The template of assemble.h; include assemble.h, not this file.
+#ifndef MVBRDF_CORE_SAMPLES_ASSEMBLE_INL_H_
+#define MVBRDF_CORE_SAMPLES_ASSEMBLE_INL_H_
+
+#include <array>
+#include <cmath>
+#include <type_traits>
+#include <utility>
+
+#include "core/render/phong_model.h"
+
+namespace mvbrdf::samples {
+namespace assemble_internal {
+
+// Aborts with `message` unless `condition` (programmer invariants: wrong image
+// types or sizes).
+void Check(bool condition, const char* message);
+
+// The cosines of every light at one surface point, as SampleSet stores them:
+// g = a V max(0, l.n), h = V max(0, R(l).v) (0 where g = 0), a = fall-off.
+// `visible_bits`: bit k = light k visible. Returns whether any a != 1.
+inline bool LightRows(const std::vector<scene::Light>& lights, const glm::vec3& point, const glm::vec3& unit_normal,
+                      const glm::vec3& camera_center, uint32_t visible_bits, bool inverse_square_falloff,
+                      float* g_row, float* h_row, float* falloff_row) {
+  bool any_falloff = false;
+  for (size_t k = 0; k < lights.size(); ++k) {
+    const render::LightCosines c =
+        render::ComputeLightCosines(lights[k], point, unit_normal, camera_center, inverse_square_falloff);
+    const bool visible = (visible_bits >> k) & 1u;
+    g_row[k] = visible ? c.g * c.attenuation : 0.0f;
+    h_row[k] = visible ? c.h : 0.0f;
+    falloff_row[k] = c.attenuation;
+    any_falloff |= c.attenuation != 1.0f;
+  }
+  return any_falloff;
+}
+
+}  // namespace assemble_internal
+
+template <typename Visit>
+void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
+                        const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
+                        const AssembleOptions& options, Visit&& visit) {
+  using assemble_internal::Check;
+  Check(resampled.type() == CV_32FC4 && resampled.rows == resampled.cols,
+        "ForEachTexelSample: resampled must be a square CV_32FC4 atlas");
+  Check(geometry.position.type() == CV_32FC4 && geometry.position.size() == resampled.size(),
+        "ForEachTexelSample: geometry.position must be CV_32FC4 of the atlas size");
+  Check(geometry.normal.type() == CV_32FC4 && geometry.normal.size() == resampled.size(),
+        "ForEachTexelSample: geometry.normal must be CV_32FC4 of the atlas size");
+  Check(shadows.type() == CV_16UC1 && shadows.size() == resampled.size(),
+        "ForEachTexelSample: shadows must be CV_16UC1 of the atlas size");
+  Check(lights.size() <= static_cast<size_t>(kMaxLights), "ForEachTexelSample: more than kMaxLights lights");
+
+  const glm::vec3 center(camera.CenterInWorld());
+  std::array<float, kMaxLights> g_row{}, h_row{}, falloff_row{};
+  const int size = resampled.cols;
+  for (int row = 0; row < size; ++row) {
+    const cv::Vec4f* value = resampled.ptr<cv::Vec4f>(row);
+    const cv::Vec4f* position = geometry.position.ptr<cv::Vec4f>(row);
+    const cv::Vec4f* normal = geometry.normal.ptr<cv::Vec4f>(row);
+    const uint16_t* bits = shadows.ptr<uint16_t>(row);
+    for (int column = 0; column < size; ++column) {
+      // Valid resampled value (a > 0.5, core/resample/atlas_ops) on a covered texel.
+      if (!(value[column][3] > 0.5f) || !(position[column][3] > 0.5f)) continue;
+      const glm::vec3 point(position[column][0], position[column][1], position[column][2]);
+      const glm::vec3 n_raw(normal[column][0], normal[column][1], normal[column][2]);
+      const float length = glm::length(n_raw);
+      if (!(length > 0.0f) || !std::isfinite(length)) continue;
+      // Interpolated normals are unit up to the GPU's rounding; renormalise.
+      const glm::vec3 n = n_raw / length;
+      // The resampler already rejects back-facing texels; this guards against
+      // a camera centre that differs from the one resampled with.
+      if (!(glm::dot(n, center - point) > 0.0f)) continue;
+      assemble_internal::LightRows(lights, point, n, center, bits[column], options.inverse_square_falloff,
+                                   g_row.data(), h_row.data(), falloff_row.data());
+      const uint32_t texel = static_cast<uint32_t>(row) * static_cast<uint32_t>(size) + static_cast<uint32_t>(column);
+      const glm::vec3 rgb(value[column][0], value[column][1], value[column][2]);
+      // A visitor taking a fifth argument also receives the fall-off row
+      // (a_k; all 1 without fall-off): see SampleSet::falloff.
+      if constexpr (std::is_invocable_v<Visit&, uint32_t, const glm::vec3&, const float*, const float*,
+                                        const float*>) {
+        visit(texel, rgb, static_cast<const float*>(g_row.data()), static_cast<const float*>(h_row.data()),
+              static_cast<const float*>(falloff_row.data()));
+      } else {
+        visit(texel, rgb, static_cast<const float*>(g_row.data()), static_cast<const float*>(h_row.data()));
+      }
+    }
+  }
+}
+
+}  // namespace mvbrdf::samples
+
+#endif  // MVBRDF_CORE_SAMPLES_ASSEMBLE_INL_H_

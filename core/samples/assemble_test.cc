@@ -1,0 +1,242 @@
+#include "core/samples/assemble.h"
+
+#include <cmath>
+#include <map>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/render/phong_model.h"
+
+namespace mvbrdf::samples {
+namespace {
+
+// A 4 x 4 atlas over the unit square z = 0 (two triangles facing +z), plus a
+// reversed copy of the first triangle (facing -z), a zero-area triangle and
+// a triangle without a valid mean; one camera above the square, two point
+// lights and one directional light.
+constexpr int kSize = 4;
+constexpr float kTolerance = 1e-6f;  // hand-derived cosines vs the float code
+
+struct Fixture {
+  atlas::Atlas atlas;
+  scene::FramePositions positions;
+  std::vector<resample::TriangleMean> means;
+  cv::Mat shadows;
+  scene::CameraModel camera;
+  std::vector<scene::Light> lights;
+};
+
+scene::CameraModel CameraAbove(const glm::dvec3& center) {
+  scene::CameraModel camera;
+  camera.name = "above";
+  camera.width = camera.height = 64;
+  camera.fx = camera.fy = 64;
+  camera.cx = camera.cy = 31.5;
+  // Looking down -z: camera z (forward) = world -z, camera y (down) = world -y.
+  camera.cam_from_world_rotation = glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(0, -1, 0), glm::dvec3(0, 0, -1));
+  camera.cam_from_world_translation = -(camera.cam_from_world_rotation * center);
+  return camera;
+}
+
+Fixture MakeFixture() {
+  Fixture f;
+  f.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0.5f, 0.5f, 0.0f}};
+  f.atlas.size = kSize;
+  f.atlas.topology.file_triangles = {{0, 1, 2}, {0, 2, 3}, {0, 2, 1}, {4, 4, 1}, {1, 2, 3}};
+  f.atlas.topology.triangles = f.atlas.topology.file_triangles;
+  // Triangle 0: rows 0-1 (texels 0..7); triangle 1: rows 2-3 (8..15); the
+  // others borrow a texel (they are skipped before visibility matters).
+  f.atlas.triangle_texels = {{0, 1, 2, 3, 4, 5, 6, 7}, {8, 9, 10, 11, 12, 13, 14, 15}, {0}, {1}, {2}};
+  f.means.resize(5);
+  for (int t = 0; t < 5; ++t) {
+    f.means[t].rgb = glm::vec3(0.1f * (t + 1), 0.2f, 0.3f);
+    f.means[t].texels = f.means[t].valid_texels = static_cast<int>(f.atlas.triangle_texels[t].size());
+    f.means[t].valid = t != 4;
+  }
+  // Light 0 visible everywhere; light 1 only on triangle 0 (cleared bits on
+  // triangle 1); light 2 on 3 of triangle 1's 8 texels and all of triangle 0.
+  f.shadows = cv::Mat(kSize, kSize, CV_16UC1, cv::Scalar(0));
+  for (int texel = 0; texel < 16; ++texel) {
+    uint16_t bits = 1;
+    if (texel < 8) bits |= 2 | 4;
+    if (texel == 8 || texel == 11 || texel == 15) bits |= 4;
+    f.shadows.at<uint16_t>(texel / kSize, texel % kSize) = bits;
+  }
+  f.camera = CameraAbove({0.5, 0.5, 3.0});
+  scene::Light a;
+  a.name = "A";
+  a.position = {2.0f, 0.5f, 2.0f};
+  a.intensity = {1.0f, 0.9f, 0.8f};
+  scene::Light b;
+  b.name = "B";
+  b.position = {-1.0f, 1.0f, 1.5f};
+  scene::Light c;
+  c.name = "C";
+  c.directional = true;
+  c.direction = glm::normalize(glm::vec3(0.0f, -1.0f, 1.0f));
+  f.lights = {a, b, c};
+  return f;
+}
+
+glm::vec3 Centre(const Fixture& f, int t) {
+  const glm::uvec3 tri = f.atlas.topology.file_triangles[t];
+  return (f.positions[tri.x] + f.positions[tri.y] + f.positions[tri.z]) / 3.0f;
+}
+
+TEST(MakeSampleSet, CopiesNamesAndIntensities) {
+  const Fixture f = MakeFixture();
+  const SampleSet set = MakeSampleSet(f.lights);
+  EXPECT_EQ(set.light_names, (std::vector<std::string>{"A", "B", "C"}));
+  EXPECT_EQ(set.light_intensity[0], glm::vec3(1.0f, 0.9f, 0.8f));
+  EXPECT_EQ(set.size(), 0u);
+}
+
+TEST(AppendTriangleSamples, CosinesVisibilityAndSkips) {
+  const Fixture f = MakeFixture();
+  SampleSet set = MakeSampleSet(f.lights);
+  AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, /*camera_index=*/2, /*frame=*/7, f.lights,
+                        AssembleOptions{}, &set);
+  // Triangle 2 faces away from the camera, 3 has zero area, 4 no valid mean.
+  ASSERT_EQ(set.size(), 2u);
+  EXPECT_EQ(set.element, (std::vector<uint32_t>{0, 1}));
+  EXPECT_EQ(set.frame, (std::vector<uint16_t>{7, 7}));
+  EXPECT_EQ(set.camera, (std::vector<uint8_t>{2, 2}));
+  EXPECT_EQ(set.reflectance[1], f.means[1].rgb);
+  EXPECT_TRUE(set.falloff.empty());
+
+  const glm::vec3 n(0, 0, 1), eye(0.5f, 0.5f, 3.0f);
+  // Visibility: light 1 not on triangle 1; light 2 on 3/8 < 0.5 of it.
+  const bool visible[2][3] = {{true, true, true}, {true, false, false}};
+  for (int i = 0; i < 2; ++i) {
+    const glm::vec3 c = Centre(f, i);
+    for (int k = 0; k < 3; ++k) {
+      const render::LightCosines ref = render::ComputeLightCosines(f.lights[k], c, n, eye, false);
+      EXPECT_EQ(set.g[i * 3 + k], visible[i][k] ? ref.g : 0.0f) << i << " " << k;
+      EXPECT_EQ(set.h[i * 3 + k], visible[i][k] ? ref.h : 0.0f) << i << " " << k;
+      // By hand: l = normalize(L - c) (or the direction), g = l.z; R = 2 g n - l, h = R.v.
+      const glm::vec3 l = f.lights[k].directional ? f.lights[k].direction : glm::normalize(f.lights[k].position - c);
+      const glm::vec3 v = glm::normalize(eye - c);
+      const glm::vec3 r(-l.x, -l.y, l.z);
+      EXPECT_NEAR(ref.g, l.z, kTolerance);
+      EXPECT_NEAR(ref.h, std::max(0.0f, glm::dot(r, v)), kTolerance);
+    }
+  }
+  EXPECT_GT(set.g[1], 0.0f);  // light B lights triangle 0...
+  EXPECT_EQ(set.g[4], 0.0f);  // ...but is shadowed on triangle 1
+  EXPECT_EQ(set.h[4], 0.0f);
+  // Illumination of triangle 0 by {A, B}: I_A g_A + I_B g_B.
+  const glm::vec3 e = set.Illumination(0, *set.MaskOf({"A", "B"}));
+  EXPECT_FLOAT_EQ(e.g, 0.9f * set.g[0] + set.g[1]);
+}
+
+TEST(AppendTriangleSamples, VisibleFractionThreshold) {
+  const Fixture f = MakeFixture();
+  for (float fraction : {0.3f, 0.375f, 0.4f, 1.0f}) {
+    AssembleOptions options;
+    options.min_visible_fraction = fraction;
+    SampleSet set = MakeSampleSet(f.lights);
+    AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, options, &set);
+    ASSERT_EQ(set.size(), 2u);
+    // Light 2 on triangle 1 is visible on exactly 3/8 of its texels.
+    EXPECT_EQ(set.g[1 * 3 + 2] > 0.0f, fraction <= 0.375f) << fraction;
+    EXPECT_GT(set.g[0 * 3 + 2], 0.0f);  // 8/8 always
+  }
+}
+
+TEST(AppendTriangleSamples, BackFacingFromBelow) {
+  Fixture f = MakeFixture();
+  f.camera = CameraAbove({0.5, 0.5, -3.0});  // below the square: only the reversed triangle faces it
+  SampleSet set = MakeSampleSet(f.lights);
+  AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, AssembleOptions{}, &set);
+  ASSERT_EQ(set.size(), 1u);
+  EXPECT_EQ(set.element[0], 2u);
+  // Every light is above the plane, so nothing lights the downward face.
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(set.g[k], 0.0f);
+}
+
+TEST(AppendTriangleSamples, InverseSquareFalloffFoldedIntoG) {
+  const Fixture f = MakeFixture();
+  AssembleOptions options;
+  options.inverse_square_falloff = true;
+  SampleSet set = MakeSampleSet(f.lights);
+  AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, options, &set);
+  ASSERT_EQ(set.size(), 2u);
+  ASSERT_EQ(set.falloff.size(), 6u);
+  const glm::vec3 c = Centre(f, 0), n(0, 0, 1), eye(0.5f, 0.5f, 3.0f);
+  for (int k = 0; k < 3; ++k) {
+    const render::LightCosines plain = render::ComputeLightCosines(f.lights[k], c, n, eye, false);
+    const render::LightCosines ref = render::ComputeLightCosines(f.lights[k], c, n, eye, true);
+    const float d2 = f.lights[k].directional ? 1.0f : glm::dot(f.lights[k].position - c, f.lights[k].position - c);
+    EXPECT_FLOAT_EQ(set.Falloff(0, k), 1.0f / d2) << k;
+    EXPECT_EQ(set.g[k], plain.g * ref.attenuation) << k;
+    EXPECT_EQ(set.h[k], plain.h) << k;  // h is not scaled; the fitter applies a to h^ke
+  }
+  EXPECT_EQ(set.Falloff(0, 2), 1.0f);  // directional: no fall-off
+}
+
+// Per-texel assembly over the same square: every texel of the 4 x 4 atlas at
+// its centre's position, normal +z, except one uncovered texel, one invalid
+// resampled texel and one texel with a downward normal.
+TEST(ForEachTexelSample, MatchesTheModelPerTexel) {
+  const Fixture f = MakeFixture();
+  cv::Mat resampled(kSize, kSize, CV_32FC4, cv::Scalar(0.25, 0.5, 0.75, 1.0));
+  resample::GeometryAtlas geometry;
+  geometry.position = cv::Mat(kSize, kSize, CV_32FC4);
+  geometry.normal = cv::Mat(kSize, kSize, CV_32FC4, cv::Scalar(0, 0, 1, 1));
+  for (int row = 0; row < kSize; ++row) {
+    for (int column = 0; column < kSize; ++column) {
+      geometry.position.at<cv::Vec4f>(row, column) =
+          cv::Vec4f((column + 0.5f) / kSize, 1.0f - (row + 0.5f) / kSize, 0.0f, 1.0f);
+    }
+  }
+  geometry.position.at<cv::Vec4f>(0, 3)[3] = 0.0f;               // texel 3: uncovered
+  resampled.at<cv::Vec4f>(1, 1)[3] = 0.0f;                       // texel 5: not seen by the camera
+  geometry.normal.at<cv::Vec4f>(2, 2) = cv::Vec4f(0, 0, -1, 1);  // texel 10: faces away
+  resampled.at<cv::Vec4f>(3, 0) = cv::Vec4f(0.1f, 0.2f, 0.3f, 1.0f);
+
+  std::map<uint32_t, std::vector<float>> seen;
+  AssembleOptions options;
+  options.inverse_square_falloff = true;
+  ForEachTexelSample(resampled, geometry, f.shadows, f.camera, f.lights, options,
+                     [&](uint32_t texel, const glm::vec3& rgb, const float* g, const float* h, const float* a) {
+                       EXPECT_EQ(seen.count(texel), 0u);
+                       std::vector<float>& row = seen[texel];
+                       row = {rgb.r, rgb.g, rgb.b};
+                       for (int k = 0; k < 3; ++k) row.insert(row.end(), {g[k], h[k], a[k]});
+                     });
+  ASSERT_EQ(seen.size(), 13u);
+  for (uint32_t skipped : {3u, 5u, 10u}) EXPECT_EQ(seen.count(skipped), 0u) << skipped;
+  EXPECT_EQ(seen[12][0], 0.1f);
+  EXPECT_EQ(seen[12][2], 0.3f);
+  const glm::vec3 eye(0.5f, 0.5f, 3.0f), n(0, 0, 1);
+  for (const auto& [texel, row] : seen) {
+    const cv::Vec4f p = geometry.position.at<cv::Vec4f>(texel / kSize, texel % kSize);
+    const glm::vec3 point(p[0], p[1], p[2]);
+    const uint16_t bits = f.shadows.at<uint16_t>(texel / kSize, texel % kSize);
+    for (int k = 0; k < 3; ++k) {
+      const render::LightCosines ref = render::ComputeLightCosines(f.lights[k], point, n, eye, true);
+      const bool visible = (bits >> k) & 1;
+      EXPECT_EQ(row[3 + 3 * k], visible ? ref.g * ref.attenuation : 0.0f) << texel << " " << k;
+      EXPECT_EQ(row[4 + 3 * k], visible ? ref.h : 0.0f) << texel << " " << k;
+      EXPECT_EQ(row[5 + 3 * k], ref.attenuation) << texel << " " << k;
+    }
+  }
+  EXPECT_EQ(seen[9][3 + 3], 0.0f);  // light 1 shadowed on texel 9
+
+  // The four-argument visitor of the header, without fall-off.
+  int count = 0;
+  ForEachTexelSample(resampled, geometry, f.shadows, f.camera, f.lights, AssembleOptions{},
+                     [&](uint32_t texel, const glm::vec3&, const float* g, const float* h) {
+                       const cv::Vec4f p = geometry.position.at<cv::Vec4f>(texel / kSize, texel % kSize);
+                       const render::LightCosines ref =
+                           render::ComputeLightCosines(f.lights[0], glm::vec3(p[0], p[1], p[2]), n, eye, false);
+                       EXPECT_EQ(g[0], ref.g);
+                       EXPECT_EQ(h[0], ref.h);
+                       ++count;
+                     });
+  EXPECT_EQ(count, 13);
+}
+
+}  // namespace
+}  // namespace mvbrdf::samples
