@@ -1,0 +1,308 @@
+// Weighted Lloyd k-means in linear RGB (thesis §6.2.1).
+//
+// Iteration: assign every point to the nearest allowed centre (squared
+// Euclidean distance in linear RGB; ties to the lowest index), then move
+// every centre to the weighted mean of its points. Stop after an iteration in
+// which fewer than min_change_fraction of the points (or none) changed
+// cluster, or after max_iterations; the reported assignment, sizes and inertia
+// are then recomputed against the final centres.
+//
+// Empty clusters (no point, or zero total weight) keep their previous centre:
+// a seed that no texel resembles stays where the scene put it rather than
+// jumping to an arbitrary point, so its name keeps meaning that material.
+//
+// Automatic k (no seeds): k-means++ seeding (weighted by w D^2) with fixed
+// generators seeded from options.random_seed + r gives kAutomaticRestarts
+// sequences of centres; the runs for k start from the first k of each, and
+// the one with the lowest inertia is I(k) (one sequence alone lands in a
+// local minimum, two seeds in one blob, a few times in a hundred). Criterion: the largest k in
+// 2..max_automatic_k whose cluster removed at least kAutomaticMinGain (40 %)
+// of the inertia of k - 1, I(k) <= (1 - 0.4) I(k-1); 1 when none did.
+// Splitting a compact blob removes well under 40 % of its inertia (an
+// isotropic Gaussian ~21 %, a uniform box 25 %), and once every blob has its
+// cluster that is at most ~25 % / k of the total; separating two blobs whose
+// distance is several noise widths removes far more. (The largest such k, not
+// the smallest k after which the gain drops: with several symmetric blobs the
+// first split can gain little, e.g. 5 blobs at the corners and centre of a
+// simplex.) The sweep stops at the first k with zero inertia (no more than k
+// distinct points). Inputs of more than kAutomaticSample points choose k on
+// a stride subsample of about that many (weights kept), then run Lloyd on all
+// points from the subsample's centres.
+
+//
+// Degenerate inputs: no points, a total weight of zero, a non-finite point,
+// weight or seed, a negative weight, a segment index out of range or a segment
+// whose allowed list is empty or names an unknown cluster are INVALID_ARGUMENT
+// naming the offending index.
+//
+// Deterministic: single-threaded, fixed iteration order and generator.
+#include "core/cluster/kmeans.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <utility>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+
+namespace mvbrdf::cluster {
+namespace {
+
+constexpr double kAutomaticMinGain = 0.4;
+constexpr size_t kAutomaticSample = 16384;
+constexpr int kAutomaticRestarts = 4;
+
+bool Finite(const glm::vec3& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+float Distance2(const glm::vec3& a, const glm::vec3& b) {
+  const glm::vec3 d = a - b;
+  return glm::dot(d, d);
+}
+
+// Per point: the clusters it may join (a shared list per segment).
+struct Allowed {
+  std::vector<std::vector<uint32_t>> lists;  // per segment, plus "all" last
+  const std::vector<uint32_t>& For(const KMeansInput& input, size_t i) const {
+    return input.segment.empty() ? lists.back() : lists[input.segment[i]];
+  }
+};
+
+float Weight(const KMeansInput& input, size_t i) { return input.weights.empty() ? 1.0f : input.weights[i]; }
+
+// Nearest allowed centre; ties to the lowest index (lists are sorted).
+uint32_t Nearest(const glm::vec3& p, const std::vector<glm::vec3>& centres, const std::vector<uint32_t>& allowed,
+                 float* distance2) {
+  uint32_t best = allowed[0];
+  float best_d = Distance2(p, centres[best]);
+  for (size_t j = 1; j < allowed.size(); ++j) {
+    const float d = Distance2(p, centres[allowed[j]]);
+    if (d < best_d) {
+      best_d = d;
+      best = allowed[j];
+    }
+  }
+  *distance2 = best_d;
+  return best;
+}
+
+// Lloyd from `centres` (modified in place); fills the result but not names.
+KMeansResult Lloyd(const KMeansInput& input, const Allowed& allowed, std::vector<glm::vec3> centres,
+                   const KMeansOptions& options) {
+  const size_t n = input.points.size();
+  const size_t k = centres.size();
+  KMeansResult result;
+  std::vector<uint32_t> assignment(n, std::numeric_limits<uint32_t>::max());
+  std::vector<glm::dvec3> sums(k);
+  std::vector<double> totals(k);
+  size_t changed = n;
+  int iterations = 0;
+  while (iterations < options.max_iterations) {
+    changed = 0;
+    std::fill(sums.begin(), sums.end(), glm::dvec3(0.0));
+    std::fill(totals.begin(), totals.end(), 0.0);
+    for (size_t i = 0; i < n; ++i) {
+      float d;
+      const uint32_t c = Nearest(input.points[i], centres, allowed.For(input, i), &d);
+      changed += c != assignment[i];
+      assignment[i] = c;
+      const double w = Weight(input, i);
+      sums[c] += w * glm::dvec3(input.points[i]);
+      totals[c] += w;
+    }
+    for (size_t c = 0; c < k; ++c) {
+      if (totals[c] > 0.0) centres[c] = glm::vec3(sums[c] / totals[c]);  // else: keeps its centre
+    }
+    ++iterations;
+    if (changed == 0 || static_cast<double>(changed) < options.min_change_fraction * static_cast<double>(n)) break;
+  }
+  // The final assignment against the final centres.
+  result.sizes.assign(k, 0);
+  result.inertia = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    float d;
+    assignment[i] = Nearest(input.points[i], centres, allowed.For(input, i), &d);
+    ++result.sizes[assignment[i]];
+    result.inertia += static_cast<double>(Weight(input, i)) * d;
+  }
+  result.centres = std::move(centres);
+  result.assignment = std::move(assignment);
+  result.iterations = iterations;
+  return result;
+}
+
+// A uniform double in [0, 1) from 53 bits of the generator (the standard
+// distributions are implementation-defined; this is the same everywhere).
+double Uniform(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+
+// Weighted k-means++: the first centre with probability proportional to w,
+// each next one to w D^2. Stops early when every point coincides with a centre.
+std::vector<glm::vec3> KMeansPlusPlus(const KMeansInput& input, int max_k, uint32_t seed) {
+  const size_t n = input.points.size();
+  std::mt19937_64 rng(seed);
+  std::vector<double> d2(n, 1.0);  // 1 for the first pick: proportional to w
+  std::vector<glm::vec3> centres;
+  while (static_cast<int>(centres.size()) < max_k) {
+    double total = 0.0;
+    for (size_t i = 0; i < n; ++i) total += Weight(input, i) * d2[i];
+    if (!(total > 0.0)) break;
+    const double target = Uniform(rng) * total;
+    double running = 0.0;
+    size_t pick = n;
+    for (size_t i = 0; i < n; ++i) {
+      const double p = Weight(input, i) * d2[i];
+      if (p <= 0.0) continue;
+      pick = i;  // the last point with positive probability catches rounding at the end
+      running += p;
+      if (running > target) break;
+    }
+    centres.push_back(input.points[pick]);
+    const bool first = centres.size() == 1;
+    for (size_t i = 0; i < n; ++i) {
+      const double d = Distance2(input.points[i], centres.back());
+      d2[i] = first ? d : std::min(d2[i], d);
+    }
+  }
+  return centres;
+}
+
+absl::Status Validate(const KMeansInput& input, const KMeansOptions& options, size_t num_seeds) {
+  const size_t n = input.points.size();
+  if (options.max_iterations < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("k-means: max_iterations must be >= 1, got ", options.max_iterations));
+  }
+  if (!(options.min_change_fraction >= 0.0)) {
+    return absl::InvalidArgumentError("k-means: min_change_fraction must be >= 0");
+  }
+  if (num_seeds == 0 && options.max_automatic_k < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("k-means: max_automatic_k must be >= 1, got ", options.max_automatic_k));
+  }
+  if (!options.seed_names.empty() && options.seed_names.size() != num_seeds) {
+    return absl::InvalidArgumentError(absl::StrCat("k-means: ", options.seed_names.size(), " seed_names for ",
+                                                   num_seeds, " seeds"));
+  }
+  for (size_t s = 0; s < num_seeds; ++s) {
+    if (!Finite(options.seeds[s])) return absl::InvalidArgumentError(absl::StrCat("k-means: seeds[", s, "] is not finite"));
+  }
+  if (n == 0) return absl::InvalidArgumentError("k-means: no points");
+  if (!input.weights.empty() && input.weights.size() != n) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("k-means: ", input.weights.size(), " weights for ", n, " points (expected one each or none)"));
+  }
+  double total = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!Finite(input.points[i])) {
+      return absl::InvalidArgumentError(absl::StrCat("k-means: points[", i, "] is not finite"));
+    }
+    const float w = Weight(input, i);
+    if (!(w >= 0.0f) || !std::isfinite(w)) {
+      return absl::InvalidArgumentError(absl::StrCat("k-means: weights[", i, "] must be finite and >= 0, got ", w));
+    }
+    total += w;
+  }
+  if (!(total > 0.0)) return absl::InvalidArgumentError("k-means: the weights sum to zero");
+  if (input.segment.empty()) return absl::OkStatus();
+  if (num_seeds == 0) {
+    return absl::InvalidArgumentError("k-means: segment restrictions name seeds, but no seeds were given");
+  }
+  if (input.segment.size() != n) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("k-means: ", input.segment.size(), " segment indices for ", n, " points"));
+  }
+  for (size_t s = 0; s < input.allowed_clusters.size(); ++s) {
+    for (uint32_t c : input.allowed_clusters[s]) {
+      if (c >= num_seeds) {
+        return absl::InvalidArgumentError(absl::StrCat("k-means: allowed_clusters[", s, "] names cluster ", c,
+                                                       ", but there are ", num_seeds, " seeds"));
+      }
+    }
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const uint32_t s = input.segment[i];
+    if (s >= input.allowed_clusters.size()) {
+      return absl::InvalidArgumentError(absl::StrCat("k-means: segment[", i, "] = ", s, " is out of range (",
+                                                     input.allowed_clusters.size(), " segments)"));
+    }
+    if (input.allowed_clusters[s].empty()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("k-means: points[", i, "] lies in segment ", s, ", which allows no cluster"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+Allowed MakeAllowed(const KMeansInput& input, size_t k) {
+  Allowed allowed;
+  if (!input.segment.empty()) {
+    for (const std::vector<uint32_t>& list : input.allowed_clusters) {
+      std::vector<uint32_t> sorted = list;
+      std::sort(sorted.begin(), sorted.end());
+      sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+      allowed.lists.push_back(std::move(sorted));
+    }
+  }
+  std::vector<uint32_t> all(k);
+  for (size_t c = 0; c < k; ++c) all[c] = static_cast<uint32_t>(c);
+  allowed.lists.push_back(std::move(all));
+  return allowed;
+}
+
+}  // namespace
+
+absl::StatusOr<KMeansResult> KMeans(const KMeansInput& input, const KMeansOptions& options) {
+  const size_t num_seeds = options.seeds.size();
+  if (absl::Status status = Validate(input, options, num_seeds); !status.ok()) return status;
+
+  if (num_seeds > 0) {
+    KMeansResult result = Lloyd(input, MakeAllowed(input, num_seeds), options.seeds, options);
+    for (size_t c = 0; c < num_seeds; ++c) {
+      result.names.push_back(options.seed_names.empty() ? absl::StrCat("cluster ", c) : options.seed_names[c]);
+    }
+    return result;
+  }
+
+  // k on a stride subsample of large inputs.
+  const size_t n = input.points.size();
+  const size_t stride = (n + kAutomaticSample - 1) / kAutomaticSample;
+  KMeansInput sample;
+  if (stride > 1) {
+    for (size_t i = 0; i < n; i += stride) {
+      sample.points.push_back(input.points[i]);
+      if (!input.weights.empty()) sample.weights.push_back(input.weights[i]);
+    }
+    double total = 0.0;
+    for (size_t i = 0; i < sample.points.size(); ++i) total += Weight(sample, i);
+    if (!(total > 0.0)) sample = input;  // every sampled weight zero: use everything
+  }
+  const KMeansInput& choose_on = stride > 1 ? sample : input;
+
+  std::vector<std::vector<glm::vec3>> plus_plus;
+  size_t max_k = 0;
+  for (int r = 0; r < kAutomaticRestarts; ++r) {
+    plus_plus.push_back(KMeansPlusPlus(choose_on, options.max_automatic_k, options.random_seed + r));
+    max_k = std::max(max_k, plus_plus.back().size());  // the same for every r: the distinct points
+  }
+  KMeansResult chosen, previous;
+  for (size_t k = 1; k <= max_k; ++k) {
+    KMeansResult run;
+    bool have_run = false;
+    for (const std::vector<glm::vec3>& sequence : plus_plus) {
+      if (sequence.size() < k) continue;
+      KMeansResult attempt = Lloyd(choose_on, MakeAllowed(choose_on, k),
+                                   std::vector<glm::vec3>(sequence.begin(), sequence.begin() + k), options);
+      if (!have_run || attempt.inertia < run.inertia) run = std::move(attempt);
+      have_run = true;
+    }
+    if (k == 1 || run.inertia <= (1.0 - kAutomaticMinGain) * previous.inertia) chosen = run;
+    if (run.inertia <= 0.0) break;  // every point on a centre
+    previous = std::move(run);
+  }
+  if (&choose_on != &input) chosen = Lloyd(input, MakeAllowed(input, chosen.centres.size()), chosen.centres, options);
+  chosen.automatic_k = true;
+  for (size_t c = 0; c < chosen.centres.size(); ++c) chosen.names.push_back(absl::StrCat("cluster ", c));
+  return chosen;
+}
+
+}  // namespace mvbrdf::cluster
