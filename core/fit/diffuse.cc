@@ -1,0 +1,135 @@
+// Per element e and channel c, with sums over its samples i and d_i = r_i - s_i:
+//
+//   S_gg = sum G_i^2,   S_rg = sum d_i G_i,   S_rr = sum d_i^2
+//   kd   = clamp(S_rg / S_gg, 0, kd_max)        (fallback where S_gg < min_illumination)
+//   SSE  = sum (d_i - kd G_i)^2 = S_rr - 2 kd S_rg + kd^2 S_gg
+//
+// The SSE form cancels catastrophically when the fit is good (it is a small
+// difference of large sums, accumulated in double): it is clamped at 0, so
+// an exact fit reports an error of the order of 1e-16 * S_rr, never a
+// negative one.
+#include "core/fit/diffuse.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "core/fit/phong_terms.h"
+
+namespace mvbrdf::fit {
+namespace {
+
+// Programmer invariants (not input errors).
+void Require(bool condition, const char* message) {
+  if (!condition) {
+    std::fprintf(stderr, "%s\n", message);
+    std::abort();
+  }
+}
+
+}  // namespace
+
+DiffuseAccumulator::DiffuseAccumulator(size_t num_elements)
+    : s_gg_(num_elements, glm::dvec3(0.0)),
+      s_rg_(num_elements, glm::dvec3(0.0)),
+      s_rr_(num_elements, glm::dvec3(0.0)),
+      count_(num_elements, 0) {}
+
+void DiffuseAccumulator::Add(uint32_t element, const glm::vec3& residual, const glm::vec3& illumination) {
+  Require(element < count_.size(), "DiffuseAccumulator::Add: element out of range");
+  const glm::dvec3 d(residual), g(illumination);
+  s_gg_[element] += g * g;
+  s_rg_[element] += d * g;
+  s_rr_[element] += d * d;
+  ++count_[element];
+}
+
+void DiffuseAccumulator::Merge(const DiffuseAccumulator& other) {
+  Require(other.count_.size() == count_.size(), "DiffuseAccumulator::Merge: element counts differ");
+  for (size_t e = 0; e < count_.size(); ++e) {
+    s_gg_[e] += other.s_gg_[e];
+    s_rg_[e] += other.s_rg_[e];
+    s_rr_[e] += other.s_rr_[e];
+    count_[e] += other.count_[e];
+  }
+}
+
+DiffuseSolution DiffuseAccumulator::Solve(const DiffuseOptions& options, const std::vector<glm::vec3>& fallback) const {
+  Require(fallback.empty() || fallback.size() == count_.size(), "DiffuseAccumulator::Solve: fallback size differs");
+  const size_t num = count_.size();
+  DiffuseSolution solution;
+  solution.kd.resize(num);
+  solution.samples = count_;
+  solution.mse.assign(num, 0.0f);
+  solution.fallback.assign(num, 0);
+  double mse_sum = 0.0;
+  for (size_t e = 0; e < num; ++e) {
+    double sse = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      double kd;
+      if (s_gg_[e][c] >= options.min_illumination && s_gg_[e][c] > 0.0) {
+        kd = std::clamp(s_rg_[e][c] / s_gg_[e][c], 0.0, options.kd_max);
+      } else {
+        kd = fallback.empty() ? 0.0 : std::clamp(static_cast<double>(fallback[e][c]), 0.0, options.kd_max);
+        solution.fallback[e] = 1;
+      }
+      if (!std::isfinite(kd)) kd = 0.0;
+      solution.kd[e][c] = static_cast<float>(kd);
+      sse += std::max(0.0, s_rr_[e][c] - 2.0 * kd * s_rg_[e][c] + kd * kd * s_gg_[e][c]);
+    }
+    if (count_[e] > 0) {
+      const double mse = sse / (3.0 * count_[e]);
+      solution.mse[e] = static_cast<float>(mse);
+      mse_sum += mse;
+      ++solution.elements_with_samples;
+    }
+  }
+  solution.mean_element_mse = solution.elements_with_samples > 0 ? mse_sum / solution.elements_with_samples : 0.0;
+  return solution;
+}
+
+DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& specular,
+                             size_t num_elements, const DiffuseOptions& options) {
+  const int num_lights = set.num_lights();
+  std::vector<int> lights;
+  for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
+    if (mask & (samples::LightMask{1} << k)) lights.push_back(k);
+  }
+  DiffuseAccumulator accumulator(num_elements);
+  const bool same_exponent = specular[0].ke == specular[1].ke && specular[0].ke == specular[2].ke;
+  for (size_t i = 0; i < set.size(); ++i) {
+    const uint32_t element = set.element[i];
+    if (element >= num_elements) continue;  // not part of this solve
+    const glm::vec3& r = set.reflectance[i];
+    if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z)) continue;
+    const float* g_row = set.g.data() + i * num_lights;
+    const float* h_row = set.h.data() + i * num_lights;
+    glm::dvec3 illumination(0.0), spec(0.0);
+    bool finite = true;
+    for (int k : lights) {
+      if (!std::isfinite(g_row[k]) || !std::isfinite(h_row[k])) {
+        finite = false;
+        break;
+      }
+      const double g = internal::ClampedCosine(g_row[k]);
+      if (g == 0.0) continue;
+      const double h = internal::ClampedHighlight(g, h_row[k]);
+      const glm::dvec3 intensity(set.light_intensity[k]);
+      illumination += intensity * g;
+      if (h > 0.0) {
+        if (same_exponent) {
+          spec += intensity * internal::SpecularPower(h, specular[0].ke);
+        } else {
+          for (int c = 0; c < 3; ++c) spec[c] += intensity[c] * internal::SpecularPower(h, specular[c].ke);
+        }
+      }
+    }
+    if (!finite) continue;
+    const glm::dvec3 ks(specular[0].ks, specular[1].ks, specular[2].ks);
+    accumulator.Add(element, glm::vec3(glm::dvec3(r) - ks * spec), glm::vec3(illumination));
+  }
+  return accumulator.Solve(options);
+}
+
+}  // namespace mvbrdf::fit

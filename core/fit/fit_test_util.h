@@ -1,0 +1,59 @@
+// Samples generated directly from known Phong parameters for the fitting
+// tests (no rendering): random unit normals, light and view directions, g
+// and h per shared/NOTES.md, and r from the model evaluated on the stored
+// (float) g and h, so that noise-free data is exactly representable.
+#ifndef MVBRDF_CORE_FIT_FIT_TEST_UTIL_H_
+#define MVBRDF_CORE_FIT_FIT_TEST_UTIL_H_
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "core/fit/phong_fit.h"
+#include "core/samples/sample_set.h"
+
+namespace mvbrdf::fit::testing {
+
+struct GeneratorOptions {
+  size_t num_samples = 4000;
+  int num_lights = 4;
+  // Lights that produce the reflectance (all when 0); the set holds all.
+  samples::LightMask true_mask = 0;
+  glm::vec3 intensity{1.0f};  // every light's intensity
+  uint32_t num_elements = 1;  // element = sample % num_elements
+  // Fraction of samples viewed close to the mirror direction of one of their
+  // lights, at an angle drawn from |N(0, spread)|; spread 0 means
+  // 1.5 / sqrt(max ke) so that the lobe is sampled whatever its width.
+  double highlight_fraction = 0.5;
+  double highlight_spread = 0.0;
+  // When set, no sample has h above this (views rejected until none does).
+  double max_highlight = 1.0;
+  // Lights drawn with l.n in (0, max_light_cosine] and views with n.v in
+  // (0, max_view_cosine] when below 1 (grazing); lights are else in the
+  // upper hemisphere with probability 0.85 and anywhere otherwise.
+  double max_light_cosine = 1.0;
+  double max_view_cosine = 1.0;
+  // Additive Gaussian noise, sigma = noise * the mean reflectance per channel.
+  double noise = 0.0;
+  // Reflectances clipped to [0, clip] when > 0 (saturated video).
+  double clip = 0.0;
+  uint64_t seed = 1;
+};
+
+// `kd_of_element` (optional, num_elements values) replaces truth's kd per element.
+samples::SampleSet MakeSamples(const PhongRgb& truth, const GeneratorOptions& options,
+                               const std::vector<glm::vec3>& kd_of_element = {});
+
+// The model on sample i of `set` for `mask` with the given parameters (double).
+glm::dvec3 ModelValue(const samples::SampleSet& set, size_t i, samples::LightMask mask, const PhongRgb& p,
+                      const glm::vec3& kd);
+
+PhongRgb MakePhong(const glm::dvec3& kd, const glm::dvec3& ks, const glm::dvec3& ke);
+
+std::string ToString(const PhongRgb& p);
+
+}  // namespace mvbrdf::fit::testing
+
+#endif  // MVBRDF_CORE_FIT_FIT_TEST_UTIL_H_

@@ -1,0 +1,113 @@
+#include "core/fit/light_sweep.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+
+namespace mvbrdf::fit {
+namespace {
+
+// E_a values closer than this (relative) are a tie.
+constexpr double kTieTolerance = 1e-9;
+
+bool NearlyEqual(double a, double b) { return std::fabs(a - b) <= kTieTolerance * std::max(std::fabs(a), std::fabs(b)); }
+
+// Triangles with at least one finite sample lit by a light of the mask.
+uint32_t CountLitTriangles(const samples::SampleSet& set, samples::LightMask mask, size_t num_triangles) {
+  const int num_lights = set.num_lights();
+  std::vector<uint8_t> lit(num_triangles, 0);
+  for (size_t i = 0; i < set.size(); ++i) {
+    const uint32_t t = set.element[i];
+    if (t >= num_triangles || lit[t]) continue;
+    const float* g_row = set.g.data() + i * num_lights;
+    for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
+      if ((mask & (samples::LightMask{1} << k)) && std::isfinite(g_row[k]) && g_row[k] > 0.0f) {
+        lit[t] = 1;
+        break;
+      }
+    }
+  }
+  return static_cast<uint32_t>(std::count(lit.begin(), lit.end(), uint8_t{1}));
+}
+
+absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_triangles,
+                                   const PhongFitOptions& fit_options, const DiffuseOptions& diffuse_options,
+                                   SweepRow* row) {
+  const auto start = std::chrono::steady_clock::now();
+  absl::StatusOr<PhongFitResult> fit = FitPhong(set, {}, row->mask, fit_options);
+  if (!fit.ok()) return fit.status();
+  row->fit = *std::move(fit);
+  row->e_a = row->fit.mse;
+  const DiffuseSolution diffuse = SolveDiffuse(set, row->mask, row->fit.params, num_triangles, diffuse_options);
+  row->e_d = diffuse.mean_element_mse;
+  row->lit_triangles = CountLitTriangles(set, row->mask, num_triangles);
+  row->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, size_t num_triangles,
+                                                const std::vector<LightConfiguration>& configurations,
+                                                const PhongFitOptions& fit_options,
+                                                const DiffuseOptions& diffuse_options, int threads) {
+  SweepResult result;
+  result.rows.resize(configurations.size());
+  for (size_t i = 0; i < configurations.size(); ++i) {
+    SweepRow& row = result.rows[i];
+    row.name = configurations[i].name;
+    row.lights = configurations[i].lights;
+    absl::StatusOr<samples::LightMask> mask = set.MaskOf(configurations[i].lights);
+    if (!mask.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("configurations[", i, "] (", configurations[i].name, "): ", mask.status().message()));
+    }
+    row.mask = *mask;
+  }
+
+  // Each configuration is independent and deterministic; workers take the
+  // next one from a shared counter, so the rows do not depend on `threads`.
+  std::vector<absl::Status> statuses(configurations.size());
+  std::atomic<size_t> next{0};
+  auto work = [&]() {
+    for (size_t i = next++; i < configurations.size(); i = next++) {
+      statuses[i] = EvaluateConfiguration(set, num_triangles, fit_options, diffuse_options, &result.rows[i]);
+    }
+  };
+  const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), configurations.size());
+  if (workers <= 1) {
+    work();
+  } else {
+    std::vector<std::thread> pool;
+    for (size_t w = 0; w < workers; ++w) pool.emplace_back(work);
+    for (std::thread& t : pool) t.join();
+  }
+  for (size_t i = 0; i < statuses.size(); ++i) {
+    if (!statuses[i].ok()) {
+      return absl::Status(statuses[i].code(),
+                          absl::StrCat("configurations[", i, "] (", configurations[i].name, "): ",
+                                       statuses[i].message()));
+    }
+  }
+
+  // The stated rule: lowest E_d; E_a breaks ties.
+  for (size_t i = 0; i < result.rows.size(); ++i) {
+    if (result.best < 0) {
+      result.best = static_cast<int>(i);
+      continue;
+    }
+    const SweepRow& row = result.rows[i];
+    const SweepRow& best = result.rows[result.best];
+    const bool better = NearlyEqual(row.e_d, best.e_d) ? row.e_a < best.e_a && !NearlyEqual(row.e_a, best.e_a)
+                                                       : row.e_d < best.e_d;
+    if (better) result.best = static_cast<int>(i);
+  }
+  return result;
+}
+
+}  // namespace mvbrdf::fit

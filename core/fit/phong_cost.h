@@ -1,0 +1,102 @@
+// The least-squares cost of one colour channel of the Phong fit, in the
+// normalised units the solvers work in (see phong_fit.cc for the scaling).
+//
+// Data per sample i (already restricted to the lights k of the mask and made
+// scale-free):
+//
+//   r_i       reflectance / r_scale
+//   G_i     = sum_k w_k g_ik                   diffuse illumination
+//   L_ik    = ln h_ik  (h_ik in (0, 1]), or "none" where h_ik = 0
+//   w_k     = I_k / I_max                      per-light weight, in [0, 1]
+//
+// Parameters x = (a, b, t): a = kd * I_max / r_scale, b = ks * I_max / r_scale,
+// t = ln ke. With ke = e^t and the specular sum
+//
+//   S_i(t)  = sum_k w_k exp(ke L_ik)           (= sum_k w_k h_ik^ke)
+//   D_i(t)  = sum_k w_k exp(ke L_ik) L_ik      (= dS_i / dke)
+//
+// the model, residual and cost are
+//
+//   f_i     = a G_i + b S_i(t)
+//   rho_i   = r_i - f_i
+//   C(x)    = 1/2 sum_i rho_i^2
+//
+// and the Jacobian of the residual (dke/dt = ke):
+//
+//   d rho_i / da = -G_i
+//   d rho_i / db = -S_i
+//   d rho_i / dt = -b D_i ke
+//
+// Lights with h = 0 contribute nothing to S and D (no log(0) is taken).
+// Every term is finite: L <= 0 and ke <= 1e4 keep exp(ke L) in [0, 1], and
+// for a huge ke * |L| it underflows to 0, which makes D's term 0 too.
+#ifndef MVBRDF_CORE_FIT_PHONG_COST_H_
+#define MVBRDF_CORE_FIT_PHONG_COST_H_
+
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include "ceres/cost_function.h"
+
+namespace mvbrdf::fit::internal {
+
+// Marks L_ik for h_ik = 0.
+constexpr double kNoHighlight = -std::numeric_limits<double>::infinity();
+
+// One channel's data. `log_h` (n * num_lights values, row per sample) is
+// shared by the three channels and owned by the caller.
+struct PhongChannelData {
+  int num_lights = 0;
+  const double* log_h = nullptr;
+  std::vector<double> weight;   // w_k, num_lights values
+  std::vector<double> r;        // r_i
+  std::vector<double> diffuse;  // G_i
+  size_t size() const { return r.size(); }
+};
+
+// S_i and D_i of sample i at exponent ke.
+inline void SpecularSums(const PhongChannelData& data, size_t i, double ke, double* s, double* d) {
+  const double* log_h = data.log_h + i * static_cast<size_t>(data.num_lights);
+  double sum = 0.0, dsum = 0.0;
+  for (int k = 0; k < data.num_lights; ++k) {
+    if (log_h[k] == kNoHighlight) continue;
+    const double p = data.weight[k] * std::exp(ke * log_h[k]);
+    sum += p;
+    dsum += p * log_h[k];
+  }
+  *s = sum;
+  *d = dsum;
+}
+
+// rho_i for i in [begin, end) into residuals[i - begin]; the Jacobian rows
+// (row-major, 3 per residual) into `jacobian` when not null.
+void EvaluatePhongResiduals(const PhongChannelData& data, size_t begin, size_t end, const double* x,
+                            double* residuals, double* jacobian);
+
+// C(x) over all samples.
+double PhongCost(const PhongChannelData& data, const double* x);
+
+// The analytic cost of a block of samples [begin, end) (Ceres: one residual
+// block of end - begin residuals and one parameter block x of size 3). The
+// block count is chosen at run time, so this is a ceres::CostFunction with
+// set_num_residuals rather than a SizedCostFunction. `data` must outlive it.
+class PhongBlockCost : public ceres::CostFunction {
+ public:
+  static ceres::CostFunction* Create(const PhongChannelData* data, size_t begin, size_t end) {
+    return new PhongBlockCost(data, begin, end);
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override;
+
+ private:
+  PhongBlockCost(const PhongChannelData* data, size_t begin, size_t end);
+
+  const PhongChannelData* data_;
+  size_t begin_, end_;
+};
+
+}  // namespace mvbrdf::fit::internal
+
+#endif  // MVBRDF_CORE_FIT_PHONG_COST_H_

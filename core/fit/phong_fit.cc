@@ -1,0 +1,408 @@
+// FitPhong: the data is made scale-free per channel before either solver sees
+// it, so that tolerances mean the same for intensities of 1e-6 and 1e6:
+//
+//   I_max   = max_{k in mask} I_kc          w_k = I_kc / I_max
+//   r_scale = sqrt(mean_i r_ic^2)           (1 when all r are 0)
+//   a = kd I_max / r_scale,  b = ks I_max / r_scale,  t = ln ke
+//
+// so r / r_scale = a G' + b S'(t) with G', S' built from w (phong_cost.h).
+// kd = a r_scale / I_max and ks likewise on the way out; ke is unchanged.
+//
+// Bounds: [0, kd_max], [0, ks_max], [ln ke_min, ln ke_max], mapped to the
+// normalised units. Ceres LM enforces them by projection inside its trust
+// region. Powell minimises C(P(x)) with P the clamp to the box (a projection:
+// continuous, piecewise smooth, flat outside the box), and the iterate is
+// projected back after each line minimisation; the bounds are reachable
+// exactly (ks = 0 for a diffuse surface), which a sigmoid map would not allow.
+#include "core/fit/phong_fit.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/strings/str_cat.h"
+#include "ceres/ceres.h"
+#include "core/fit/phong_cost.h"
+#include "core/fit/phong_terms.h"
+#include "core/fit/powell.h"
+
+namespace mvbrdf::fit {
+namespace {
+
+using internal::kNoHighlight;
+using internal::PhongChannelData;
+using samples::LightMask;
+using samples::SampleSet;
+
+// Residuals per Ceres residual block (PERF.md: analytic blocks of 1024).
+constexpr size_t kBlockSize = 1024;
+// A fitted parameter within this fraction of its range from a bound is at it.
+constexpr double kAtBoundFraction = 1e-6;
+// Ceres's parameter tolerance (relative step size to stop).
+constexpr double kParameterTolerance = 1e-10;
+
+bool IsFinite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// The samples of one fit restricted to the lights of the mask; shared by the
+// three channels.
+struct PreparedSamples {
+  std::vector<int> lights;     // light index per mask slot
+  std::vector<uint32_t> used;  // sample indices whose inputs are finite
+  std::vector<double> g;       // used.size() * lights.size(): clamped cosines
+  std::vector<double> log_h;   // likewise: ln h, or kNoHighlight
+  bool non_finite = false;     // some sample was skipped
+};
+
+PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indices, LightMask mask) {
+  PreparedSamples prep;
+  const int num_lights = set.num_lights();
+  for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
+    if (mask & (LightMask{1} << k)) prep.lights.push_back(k);
+  }
+  const size_t count = indices.empty() ? set.size() : indices.size();
+  prep.used.reserve(count);
+  prep.g.reserve(count * prep.lights.size());
+  prep.log_h.reserve(count * prep.lights.size());
+  for (size_t j = 0; j < count; ++j) {
+    const size_t i = indices.empty() ? j : indices[j];
+    bool finite = IsFinite(set.reflectance[i]);
+    const float* g_row = set.g.data() + i * num_lights;
+    const float* h_row = set.h.data() + i * num_lights;
+    for (int k : prep.lights) finite = finite && std::isfinite(g_row[k]) && std::isfinite(h_row[k]);
+    if (!finite) {
+      prep.non_finite = true;
+      continue;
+    }
+    prep.used.push_back(static_cast<uint32_t>(i));
+    for (int k : prep.lights) {
+      const double g = internal::ClampedCosine(g_row[k]);
+      const double h = internal::ClampedHighlight(g, h_row[k]);
+      prep.g.push_back(g);
+      prep.log_h.push_back(h > 0.0 ? std::log(h) : kNoHighlight);
+    }
+  }
+  return prep;
+}
+
+struct ChannelOutcome {
+  PhongChannel params;
+  ChannelFitSummary summary;
+  double sum_squares = 0.0;  // sum of squared residuals, original units
+};
+
+// Powell's cost C(P(x)) with S_i cached for the last exponent: the unit
+// directions of kd and ks leave ke unchanged and then cost no exp().
+class PowellPhongCost {
+ public:
+  PowellPhongCost(const PhongChannelData& data, const double* lower, const double* upper)
+      : data_(data), lower_(lower), upper_(upper), specular_(data.size()) {}
+
+  double operator()(const double* x_unclamped) {
+    double x[3];
+    for (int j = 0; j < 3; ++j) x[j] = std::clamp(x_unclamped[j], lower_[j], upper_[j]);
+    if (!(x[2] == cached_t_)) {
+      const double ke = std::exp(x[2]);
+      for (size_t i = 0; i < data_.size(); ++i) {
+        double d;
+        internal::SpecularSums(data_, i, ke, &specular_[i], &d);
+      }
+      cached_t_ = x[2];
+    }
+    double sum = 0.0;
+    for (size_t i = 0; i < data_.size(); ++i) {
+      const double rho = data_.r[i] - x[0] * data_.diffuse[i] - x[1] * specular_[i];
+      sum += rho * rho;
+    }
+    return 0.5 * sum;
+  }
+
+ private:
+  const PhongChannelData& data_;
+  const double* lower_;
+  const double* upper_;
+  std::vector<double> specular_;
+  double cached_t_ = std::nan("");
+};
+
+// Minimises over the free coordinates of x; returns the iteration count and
+// whether it converged.
+void SolveLevenbergMarquardt(const PhongChannelData& data, const bool* free, const double* lower,
+                             const double* upper, const PhongFitOptions& options, double* x,
+                             ChannelFitSummary* summary) {
+  ceres::Problem problem;
+  for (size_t begin = 0; begin < data.size(); begin += kBlockSize) {
+    const size_t end = std::min(data.size(), begin + kBlockSize);
+    problem.AddResidualBlock(internal::PhongBlockCost::Create(&data, begin, end), nullptr, x);
+  }
+  std::vector<int> constant;
+  for (int j = 0; j < 3; ++j) {
+    if (!free[j]) constant.push_back(j);
+  }
+  if (!constant.empty()) problem.SetManifold(x, new ceres::SubsetManifold(3, constant));
+  for (int j = 0; j < 3; ++j) {
+    if (!free[j]) continue;
+    problem.SetParameterLowerBound(x, j, lower[j]);
+    problem.SetParameterUpperBound(x, j, upper[j]);
+  }
+  ceres::Solver::Options solver_options;
+  solver_options.minimizer_type = ceres::TRUST_REGION;
+  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.parameter_tolerance = kParameterTolerance;
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  ceres::Solver::Summary ceres_summary;
+  ceres::Solve(solver_options, &problem, &ceres_summary);
+  summary->iterations = ceres_summary.num_successful_steps + ceres_summary.num_unsuccessful_steps;
+  if (ceres_summary.termination_type != ceres::CONVERGENCE) summary->flags |= kDidNotConverge;
+}
+
+void SolvePowell(const PhongChannelData& data, const bool* free, const double* lower, const double* upper,
+                 const PhongFitOptions& options, double* x, ChannelFitSummary* summary) {
+  int free_index[3];
+  int n = 0;
+  for (int j = 0; j < 3; ++j) {
+    if (free[j]) free_index[n++] = j;
+  }
+  PowellPhongCost phong_cost(data, lower, upper);
+  const auto cost = [&](const double* u) {
+    double point[3] = {x[0], x[1], x[2]};
+    for (int m = 0; m < n; ++m) point[free_index[m]] = u[m];
+    return phong_cost(point);
+  };
+  const auto project = [&](double* u) {
+    for (int m = 0; m < n; ++m) u[m] = std::clamp(u[m], lower[free_index[m]], upper[free_index[m]]);
+  };
+  double u[3];
+  for (int m = 0; m < n; ++m) u[m] = x[free_index[m]];
+  PowellOptions powell_options;
+  powell_options.max_iterations = options.max_iterations;
+  powell_options.function_tolerance = options.function_tolerance;
+  const PowellSummary powell = MinimizePowell(cost, n, u, powell_options, project);
+  for (int m = 0; m < n; ++m) x[free_index[m]] = std::clamp(u[m], lower[free_index[m]], upper[free_index[m]]);
+  summary->iterations = powell.iterations;
+  if (!powell.converged) summary->flags |= kDidNotConverge;
+}
+
+ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int c, const PhongFitOptions& options) {
+  ChannelOutcome out;
+  const int num_lights = static_cast<int>(prep.lights.size());
+  const size_t n = prep.used.size();
+
+  PhongChannelData data;
+  data.num_lights = num_lights;
+  data.log_h = prep.log_h.data();
+  double i_max = 0.0;
+  for (int k : prep.lights) {
+    const double intensity = set.light_intensity[k][c];
+    data.weight.push_back(intensity);
+    i_max = std::max(i_max, intensity);
+  }
+  if (i_max > 0.0) {
+    for (double& w : data.weight) w /= i_max;
+  }
+  data.r.resize(n);
+  data.diffuse.resize(n);
+  double sum_rr = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    const double r = set.reflectance[prep.used[i]][c];
+    sum_rr += r * r;
+    double g_sum = 0.0;
+    for (int k = 0; k < num_lights; ++k) g_sum += data.weight[k] * prep.g[i * num_lights + k];
+    data.r[i] = r;
+    data.diffuse[i] = g_sum;
+  }
+  double r_scale = n > 0 ? std::sqrt(sum_rr / static_cast<double>(n)) : 1.0;
+  if (!(r_scale > 0.0) || !std::isfinite(r_scale)) r_scale = 1.0;
+  for (double& r : data.r) r /= r_scale;
+  // kd = a * to_original, ks = b * to_original.
+  const double to_original = i_max > 0.0 ? r_scale / i_max : 1.0;
+
+  // Identifiability.
+  const double log_highlight = options.highlight_cosine > 0.0 ? std::log(options.highlight_cosine) : kNoHighlight;
+  size_t diffuse_samples = 0, highlight_samples = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (data.diffuse[i] > options.min_cosine) ++diffuse_samples;
+    for (int k = 0; k < num_lights; ++k) {
+      const double log_h = prep.log_h[i * num_lights + k];
+      if (data.weight[k] > 0.0 && log_h != kNoHighlight && log_h > log_highlight) {
+        ++highlight_samples;
+        break;
+      }
+    }
+  }
+  uint32_t flags = prep.non_finite ? kNonFiniteInput : kFitOk;
+  if (n == 0) flags |= kNoSamples;
+  const bool kd_free = diffuse_samples > 0;
+  const bool specular_free = highlight_samples >= static_cast<size_t>(std::max(options.min_highlight_samples, 1));
+  if (!kd_free) flags |= kKdNotIdentifiable;
+  if (!specular_free) flags |= kKsKeNotIdentifiable;
+
+  const double lower[3] = {0.0, 0.0, std::log(options.ke_min)};
+  const double upper[3] = {options.kd_max / to_original, options.ks_max / to_original, std::log(options.ke_max)};
+  const bool free[3] = {kd_free, specular_free, specular_free};
+
+  // Initial point: kd by least squares with ks = 0 (or the fallback kd), ks
+  // and ke from the options (ks = 0 when they are not identifiable).
+  double x[3];
+  x[1] = specular_free ? options.initial.ks / to_original : 0.0;
+  x[2] = std::log(std::clamp(options.initial.ke, options.ke_min, options.ke_max));
+  x[0] = options.initial.kd / to_original;
+  if (kd_free && options.initialise_kd_from_data) {
+    double s_rg = 0.0, s_gg = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      s_rg += data.r[i] * data.diffuse[i];
+      s_gg += data.diffuse[i] * data.diffuse[i];
+    }
+    if (s_gg > 0.0) x[0] = s_rg / s_gg;
+  }
+  for (int j = 0; j < 3; ++j) x[j] = std::clamp(x[j], lower[j], upper[j]);
+  const double x0[3] = {x[0], x[1], x[2]};
+
+  out.summary.initial_cost = PhongCost(data, x) * r_scale * r_scale;
+  if (n > 0 && (kd_free || specular_free)) {
+    if (options.solver == Solver::kPowell) {
+      SolvePowell(data, free, lower, upper, options, x, &out.summary);
+    } else {
+      SolveLevenbergMarquardt(data, free, lower, upper, options, x, &out.summary);
+    }
+  }
+  bool finite = true;
+  for (int j = 0; j < 3; ++j) finite = finite && std::isfinite(x[j]);
+  if (!finite) {  // cannot happen with finite data; never return it
+    std::copy(x0, x0 + 3, x);
+    flags |= kDidNotConverge;
+  }
+  for (int j = 0; j < 3; ++j) {
+    x[j] = std::clamp(x[j], lower[j], upper[j]);
+    const double margin = kAtBoundFraction * (upper[j] - lower[j]);
+    if (free[j] && (x[j] - lower[j] <= margin || upper[j] - x[j] <= margin)) flags |= kAtBound;
+  }
+  const double final_cost = PhongCost(data, x);
+  out.summary.final_cost = final_cost * r_scale * r_scale;
+  out.sum_squares = 2.0 * out.summary.final_cost;
+  out.summary.flags |= flags;
+  out.params.kd = std::clamp(x[0] * to_original, 0.0, options.kd_max);
+  out.params.ks = std::clamp(x[1] * to_original, 0.0, options.ks_max);
+  out.params.ke = std::clamp(std::exp(x[2]), options.ke_min, options.ke_max);
+  // Fallback values exactly as given (not through the normalisation).
+  if (!kd_free) out.params.kd = std::clamp(options.initial.kd, 0.0, options.kd_max);
+  if (!specular_free) {
+    out.params.ks = 0.0;
+    out.params.ke = std::clamp(options.initial.ke, options.ke_min, options.ke_max);
+  }
+  return out;
+}
+
+}  // namespace
+
+const char* SolverName(Solver solver) {
+  switch (solver) {
+    case Solver::kLevenbergMarquardt:
+      return "levenberg-marquardt";
+    case Solver::kPowell:
+      return "powell";
+  }
+  return "unknown";
+}
+
+absl::Status PhongFitOptions::Check() const {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (max_iterations <= 0) return absl::InvalidArgumentError(absl::StrCat("max_iterations: must be > 0, got ", max_iterations));
+  if (!positive(function_tolerance)) {
+    return absl::InvalidArgumentError(absl::StrCat("function_tolerance: must be > 0, got ", function_tolerance));
+  }
+  if (!positive(kd_max)) return absl::InvalidArgumentError(absl::StrCat("kd_max: must be > 0, got ", kd_max));
+  if (!positive(ks_max)) return absl::InvalidArgumentError(absl::StrCat("ks_max: must be > 0, got ", ks_max));
+  if (!positive(ke_min)) return absl::InvalidArgumentError(absl::StrCat("ke_min: must be > 0, got ", ke_min));
+  if (!std::isfinite(ke_max) || !(ke_max > ke_min)) {
+    return absl::InvalidArgumentError(absl::StrCat("ke_max: must be > ke_min (", ke_min, "), got ", ke_max));
+  }
+  if (!std::isfinite(initial.kd) || !std::isfinite(initial.ks) || !std::isfinite(initial.ke)) {
+    return absl::InvalidArgumentError(absl::StrCat("initial: must be finite, got (", initial.kd, ", ", initial.ks, ", ",
+                                                   initial.ke, ")"));
+  }
+  if (!std::isfinite(min_cosine) || min_cosine < 0.0) {
+    return absl::InvalidArgumentError(absl::StrCat("min_cosine: must be >= 0, got ", min_cosine));
+  }
+  if (!std::isfinite(highlight_cosine) || highlight_cosine < 0.0 || highlight_cosine >= 1.0) {
+    return absl::InvalidArgumentError(absl::StrCat("highlight_cosine: must be in [0, 1), got ", highlight_cosine));
+  }
+  if (min_highlight_samples < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_highlight_samples: must be >= 0, got ", min_highlight_samples));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<uint32_t>& indices, LightMask mask,
+                                        const PhongFitOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  if (absl::Status status = options.Check(); !status.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("PhongFitOptions.", status.message()));
+  }
+  const size_t num_lights = static_cast<size_t>(set.num_lights());
+  if (set.light_intensity.size() != num_lights || set.g.size() != set.size() * num_lights ||
+      set.h.size() != set.size() * num_lights || set.reflectance.size() != set.size()) {
+    return absl::InvalidArgumentError(absl::StrCat("SampleSet: inconsistent sizes (", set.size(), " samples, ",
+                                                   num_lights, " lights, ", set.light_intensity.size(),
+                                                   " intensities, ", set.g.size(), " g, ", set.h.size(), " h, ",
+                                                   set.reflectance.size(), " reflectances)"));
+  }
+  if (num_lights < static_cast<size_t>(samples::kMaxLights) && (mask >> num_lights) != 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mask: selects lights beyond the set's ", num_lights, " lights (mask ", mask, ")"));
+  }
+  for (size_t k = 0; k < num_lights; ++k) {
+    if (!(mask & (LightMask{1} << k))) continue;
+    const glm::vec3& intensity = set.light_intensity[k];
+    if (!IsFinite(intensity) || intensity.x < 0.0f || intensity.y < 0.0f || intensity.z < 0.0f) {
+      return absl::InvalidArgumentError(absl::StrCat("light_intensity[", k, "] (", set.light_names[k],
+                                                     "): must be finite and >= 0, got (", intensity.x, ", ",
+                                                     intensity.y, ", ", intensity.z, ")"));
+    }
+  }
+  for (size_t j = 0; j < indices.size(); ++j) {
+    if (indices[j] >= set.size()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("indices[", j, "]: must be < ", set.size(), " (the sample count), got ", indices[j]));
+    }
+  }
+
+  const PreparedSamples prep = Prepare(set, indices, mask);
+  PhongFitResult result;
+  result.solver = options.solver;
+  result.samples_used = prep.used.size();
+  double sum_squares = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    ChannelOutcome channel = FitChannel(prep, set, c, options);
+    result.params[c] = channel.params;
+    result.channels[c] = channel.summary;
+    sum_squares += channel.sum_squares;
+  }
+  result.mse = prep.used.empty() ? 0.0 : sum_squares / (3.0 * static_cast<double>(prep.used.size()));
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+double EvaluateSample(const SampleSet& set, size_t i, LightMask mask, const PhongChannel& p, int c) {
+  const int num_lights = set.num_lights();
+  const float* g_row = set.g.data() + i * num_lights;
+  const float* h_row = set.h.data() + i * num_lights;
+  double f = 0.0;
+  for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
+    if (!(mask & (LightMask{1} << k))) continue;
+    const double g = internal::ClampedCosine(g_row[k]);
+    const double h = internal::ClampedHighlight(g, h_row[k]);
+    f += set.light_intensity[k][c] * (p.kd * g + p.ks * internal::SpecularPower(h, p.ke));
+  }
+  return f;
+}
+
+}  // namespace mvbrdf::fit
