@@ -193,13 +193,14 @@ class FrameStream {
   int frame_ = 0;
 };
 
-// Sum of I_k h_k^ke over the lights in `mask`, channel c.
-inline float SpecularSum(const float* h, const std::vector<glm::vec3>& intensity, samples::LightMask mask, int c,
-                         double ke) {
+// Sum of I_k a_k h_k^ke over the lights in `mask`, channel c (a: the
+// fall-off row, all 1 without fall-off).
+inline float SpecularSum(const float* h, const float* a, const std::vector<glm::vec3>& intensity,
+                         samples::LightMask mask, int c, double ke) {
   double s = 0.0;
   for (size_t k = 0; k < intensity.size(); ++k) {
     if (!(mask & (1u << k)) || !(h[k] > 0.0f)) continue;
-    s += intensity[k][c] * std::exp(ke * std::log(static_cast<double>(h[k])));
+    s += intensity[k][c] * a[k] * std::exp(ke * std::log(static_cast<double>(h[k])));
   }
   return static_cast<float>(s);
 }
@@ -230,6 +231,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   }
   const std::filesystem::path& out = options.out_dir;
   const int num_cameras = static_cast<int>(sequence.cameras.size());
+  samples::AssembleOptions assemble = options.assemble;
+  assemble.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
 
   // The atlas (kept UVs are still rasterised into the layout).
   auto t0 = Clock::now();
@@ -261,7 +264,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   g.texel_count.assign(num_texels, 0);
   if (reflectance) {
     g.reservoir = std::make_unique<TexelReservoir>(num_texels, static_cast<int>(sequence.lights.size()),
-                                                   options.reservoir_uniform, options.reservoir_highlight);
+                                                   options.reservoir_uniform, options.reservoir_highlight,
+                                                   assemble.inverse_square_falloff);
   }
   const std::vector<glm::vec3>& intensity = g.triangle_samples.light_intensity;
   {
@@ -277,15 +281,16 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
         if (sweep_frame) {
           const auto means = resample::AverageTriangles(resampled, atlas, options.min_valid_fraction);
           samples::AppendTriangleSamples(means, atlas, stream->positions(), stream->shadows(), sequence.cameras[c],
-                                         c, t, sequence.lights, options.assemble, &g.triangle_samples);
+                                         c, t, sequence.lights, assemble, &g.triangle_samples);
         }
         if (!reflectance) continue;
         samples::ForEachTexelSample(resampled, stream->geometry(), stream->shadows(), sequence.cameras[c],
-                                    sequence.lights, options.assemble,
-                                    [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr) {
+                                    sequence.lights, assemble,
+                                    [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr,
+                                        const float* ar) {
                                       g.texel_sum[texel] += glm::dvec3(rgb);
                                       ++g.texel_count[texel];
-                                      g.reservoir->Offer(texel, t, c, rgb, gr, hr);
+                                      g.reservoir->Offer(texel, t, c, rgb, gr, hr, ar);
                                     });
       }
     }
@@ -444,15 +449,15 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
         MVBRDF_ASSIGN_OR_RETURN(frame_atlases[static_cast<size_t>(c)], stream->Resample(c));
         samples::ForEachTexelSample(
             frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
-            sequence.lights, options.assemble,
-            [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr) {
+            sequence.lights, assemble,
+            [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr, const float* ar) {
               const int32_t k = texel_cluster[texel];
               if (k < 0) return;
               const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
               const glm::vec3 G = IlluminationOf(gr, intensity, mask);
               glm::vec3 res;
               for (int ch = 0; ch < 3; ++ch) {
-                res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) * SpecularSum(hr, intensity, mask, ch, p[ch].ke);
+                res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) * SpecularSum(hr, ar, intensity, mask, ch, p[ch].ke);
               }
               diffuse.Add(texel, res, G);
               if (camera_errors) {
@@ -489,8 +494,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
         for (int c = 0; c < num_cameras; ++c) {
           samples::ForEachTexelSample(
               frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
-              sequence.lights, options.assemble,
-              [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr) {
+              sequence.lights, assemble,
+              [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr, const float* ar) {
                 const int32_t k = texel_cluster[texel];
                 if (k < 0) return;
                 const cv::Vec4f& o =
@@ -498,7 +503,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
                 const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
                 const glm::vec3 G = IlluminationOf(gr, intensity, mask);
                 for (int ch = 0; ch < 3; ++ch) {
-                  const double s = p[ch].ks * SpecularSum(hr, intensity, mask, ch, p[ch].ke);
+                  const double s = p[ch].ks * SpecularSum(hr, ar, intensity, mask, ch, p[ch].ke);
                   const double model = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
                   const double d = o[3] > 0.5f ? rgb[ch] - model : 0.0;
                   cam_corr_sq[static_cast<size_t>(c)] += d * d;

@@ -20,18 +20,20 @@ uint32_t Hash(uint32_t a, uint32_t b) {
 
 }  // namespace
 
-TexelReservoir::TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots)
+TexelReservoir::TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots,
+                               bool falloff)
     : num_lights_(num_lights),
+      falloff_(falloff),
       uniform_(uniform_slots),
       highlight_(highlight_slots),
       slots_per_texel_(uniform_slots + highlight_slots),
-      row_floats_(3 + 2 * static_cast<size_t>(num_lights)),
+      row_floats_(3 + (falloff ? 3 : 2) * static_cast<size_t>(num_lights)),
       seen_(num_texels, 0),
       slots_(num_texels * static_cast<size_t>(uniform_slots + highlight_slots)),
-      rows_(slots_.size() * (3 + 2 * static_cast<size_t>(num_lights)), 0.0f) {}
+      rows_(slots_.size() * row_floats_, 0.0f) {}
 
 void TexelReservoir::Store(size_t slot, int frame, int camera, float hmax, const glm::vec3& rgb, const float* g,
-                           const float* h) {
+                           const float* h, const float* a) {
   slots_[slot] = {hmax, static_cast<uint16_t>(frame), static_cast<uint8_t>(camera)};
   float* row = Row(slot);
   row[0] = rgb.x;
@@ -39,20 +41,23 @@ void TexelReservoir::Store(size_t slot, int frame, int camera, float hmax, const
   row[2] = rgb.z;
   std::memcpy(row + 3, g, sizeof(float) * static_cast<size_t>(num_lights_));
   std::memcpy(row + 3 + num_lights_, h, sizeof(float) * static_cast<size_t>(num_lights_));
+  if (falloff_) {
+    for (int k = 0; k < num_lights_; ++k) row[3 + 2 * num_lights_ + k] = a != nullptr ? a[k] : 1.0f;
+  }
 }
 
 void TexelReservoir::Offer(uint32_t texel, int frame, int camera, const glm::vec3& rgb, const float* g,
-                           const float* h) {
+                           const float* h, const float* a) {
   float hmax = 0.0f;
   for (int k = 0; k < num_lights_; ++k) hmax = std::max(hmax, h[k]);
   const size_t base = static_cast<size_t>(texel) * static_cast<size_t>(slots_per_texel_);
   const uint32_t n = ++seen_[texel];  // 1-based number of this observation
   if (uniform_ > 0) {
     if (n <= static_cast<uint32_t>(uniform_)) {
-      Store(base + n - 1, frame, camera, hmax, rgb, g, h);
+      Store(base + n - 1, frame, camera, hmax, rgb, g, h, a);
     } else {
       const uint32_t j = Hash(texel, n) % n;
-      if (j < static_cast<uint32_t>(uniform_)) Store(base + j, frame, camera, hmax, rgb, g, h);
+      if (j < static_cast<uint32_t>(uniform_)) Store(base + j, frame, camera, hmax, rgb, g, h, a);
     }
   }
   if (highlight_ > 0 && hmax > 0.0f) {
@@ -61,7 +66,7 @@ void TexelReservoir::Offer(uint32_t texel, int frame, int camera, const glm::vec
       const size_t slot = base + static_cast<size_t>(uniform_ + s);
       if (slots_[slot].hmax < slots_[weakest].hmax) weakest = slot;
     }
-    if (hmax > slots_[weakest].hmax) Store(weakest, frame, camera, hmax, rgb, g, h);
+    if (hmax > slots_[weakest].hmax) Store(weakest, frame, camera, hmax, rgb, g, h, a);
   }
 }
 
@@ -73,7 +78,8 @@ void TexelReservoir::Collect(const std::vector<uint32_t>& texels, size_t max_sam
       const Slot& slot = slots_[base + static_cast<size_t>(s)];
       if (slot.hmax < 0.0f) continue;
       const float* row = Row(base + static_cast<size_t>(s));
-      out->Add(texel, slot.frame, slot.camera, {row[0], row[1], row[2]}, row + 3, row + 3 + num_lights_);
+      out->Add(texel, slot.frame, slot.camera, {row[0], row[1], row[2]}, row + 3, row + 3 + num_lights_,
+               falloff_ ? row + 3 + 2 * num_lights_ : nullptr);
     }
   }
 }

@@ -22,10 +22,14 @@ namespace mvbrdf::pipeline {
 
 class TexelReservoir {
  public:
-  TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots);
+  // `falloff`: also keep the per-light fall-off a_k of each sample (scenes
+  // with inverse-square fall-off; SampleSet::falloff).
+  TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots, bool falloff = false);
 
-  // One observation of `texel` (g and h hold num_lights values).
-  void Offer(uint32_t texel, int frame, int camera, const glm::vec3& rgb, const float* g, const float* h);
+  // One observation of `texel` (g, h and a hold num_lights values; a is
+  // ignored without fall-off).
+  void Offer(uint32_t texel, int frame, int camera, const glm::vec3& rgb, const float* g, const float* h,
+             const float* a = nullptr);
 
   // The kept Samples of the given texels (element = texel index), appended
   // to `out` (whose lights must match), at most `max_samples` (texels taken
@@ -42,14 +46,16 @@ class TexelReservoir {
   };
   float* Row(size_t slot) { return rows_.data() + slot * row_floats_; }
   const float* Row(size_t slot) const { return rows_.data() + slot * row_floats_; }
-  void Store(size_t slot, int frame, int camera, float hmax, const glm::vec3& rgb, const float* g, const float* h);
+  void Store(size_t slot, int frame, int camera, float hmax, const glm::vec3& rgb, const float* g, const float* h,
+             const float* a);
 
   int num_lights_;
+  bool falloff_;
   int uniform_, highlight_, slots_per_texel_;
   size_t row_floats_;
   std::vector<uint32_t> seen_;  // observations offered per texel
   std::vector<Slot> slots_;
-  std::vector<float> rows_;     // per slot: rgb, g[K], h[K]
+  std::vector<float> rows_;     // per slot: rgb, g[K], h[K] (, a[K])
 };
 
 }  // namespace mvbrdf::pipeline
