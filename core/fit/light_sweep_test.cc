@@ -1,0 +1,103 @@
+#include "core/fit/light_sweep.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "core/fit/fit_test_util.h"
+#include "gtest/gtest.h"
+
+namespace mvbrdf::fit {
+namespace {
+
+using testing::GeneratorOptions;
+using testing::MakePhong;
+using testing::MakeSamples;
+
+constexpr uint32_t kTriangles = 40;
+
+// Six candidate lights; the data is lit by B = {L2, L3, L4} only, with a
+// per-triangle kd and one global specular lobe, 2 % noise.
+samples::SampleSet MakeSweepSamples() {
+  const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.4, 0.2}, {30, 30, 30});
+  std::vector<glm::vec3> kd_of_element;
+  for (uint32_t t = 0; t < kTriangles; ++t) kd_of_element.push_back(glm::vec3(0.2f + 0.01f * t, 0.5f - 0.005f * t, 0.3f));
+  GeneratorOptions generator;
+  generator.num_samples = 4000;
+  generator.num_lights = 6;
+  generator.true_mask = 0b011100;
+  generator.num_elements = kTriangles;
+  generator.noise = 0.02;
+  return MakeSamples(truth, generator, kd_of_element);
+}
+
+const std::vector<LightConfiguration> kConfigurations = {
+    {"A", {"L0", "L1"}},
+    {"B", {"L2", "L3", "L4"}},
+    {"C", {"L0", "L1", "L2", "L3", "L4", "L5"}},
+};
+
+TEST(LightSweepTest, PicksTheGeneratingConfiguration) {
+  const samples::SampleSet set = MakeSweepSamples();
+  absl::StatusOr<SweepResult> result =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions());
+  ASSERT_TRUE(result.ok()) << result.status();
+  ASSERT_EQ(result->rows.size(), 3u);
+  EXPECT_EQ(result->best, 1);
+  for (const SweepRow& row : result->rows) {
+    std::printf("MEASURED sweep %s: lit %u  E_a %.4g  E_d %.4g  %.1f ms  %s\n", row.name.c_str(), row.lit_triangles,
+                row.e_a, row.e_d, 1e3 * row.seconds, testing::ToString(row.fit.params).c_str());
+    EXPECT_TRUE(std::isfinite(row.e_a) && std::isfinite(row.e_d));
+    // Equal samples per triangle and the same specular part: per-triangle kd
+    // can only lower each triangle's error.
+    EXPECT_LE(row.e_d, row.e_a * (1.0 + 1e-9));
+    EXPECT_EQ(row.lit_triangles, kTriangles);
+    EXPECT_GT(row.seconds, 0.0);
+  }
+  EXPECT_EQ(result->rows[1].mask, 0b011100u);
+  // B's E_d is the noise level: sigma = 0.02 * mean reflectance.
+  EXPECT_LT(result->rows[1].e_d, 0.5 * result->rows[0].e_d);
+  EXPECT_LT(result->rows[1].e_d, 0.5 * result->rows[2].e_d);
+}
+
+TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
+  const samples::SampleSet set = MakeSweepSamples();
+  absl::StatusOr<SweepResult> one = SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 1);
+  absl::StatusOr<SweepResult> two = SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 2);
+  ASSERT_TRUE(one.ok() && two.ok());
+  EXPECT_EQ(one->best, two->best);
+  for (size_t i = 0; i < kConfigurations.size(); ++i) {
+    const SweepRow &a = one->rows[i], &b = two->rows[i];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.mask, b.mask);
+    EXPECT_EQ(a.lit_triangles, b.lit_triangles);
+    EXPECT_EQ(a.e_a, b.e_a);
+    EXPECT_EQ(a.e_d, b.e_d);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(a.fit.params[c].kd, b.fit.params[c].kd);
+      EXPECT_EQ(a.fit.params[c].ks, b.fit.params[c].ks);
+      EXPECT_EQ(a.fit.params[c].ke, b.fit.params[c].ke);
+    }
+  }
+}
+
+// Equal E_d and E_a: the first stays best.
+TEST(LightSweepTest, TiesKeepTheFirstConfiguration) {
+  const samples::SampleSet set = MakeSweepSamples();
+  const std::vector<LightConfiguration> same = {{"B1", {"L2", "L3", "L4"}}, {"B2", {"L4", "L3", "L2"}}};
+  absl::StatusOr<SweepResult> result = SweepConfigurations(set, kTriangles, same, PhongFitOptions(), DiffuseOptions(), 2);
+  ASSERT_TRUE(result.ok());
+  EXPECT_EQ(result->best, 0);
+}
+
+TEST(LightSweepTest, UnknownLightIsAnError) {
+  const samples::SampleSet set = MakeSweepSamples();
+  absl::StatusOr<SweepResult> result =
+      SweepConfigurations(set, kTriangles, {{"X", {"L2", "NE"}}}, PhongFitOptions(), DiffuseOptions());
+  EXPECT_EQ(result.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(result.status().message().find("configurations[0] (X)"), std::string::npos) << result.status();
+}
+
+}  // namespace
+}  // namespace mvbrdf::fit
