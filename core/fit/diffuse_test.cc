@@ -61,16 +61,15 @@ TEST(DiffuseAccumulatorTest, HandComputedSolutionAndError) {
 
 TEST(DiffuseAccumulatorTest, ClampsAndFallsBack) {
   DiffuseAccumulator accumulator(4);
-  accumulator.Add(0, glm::vec3(-1.0f), glm::vec3(1.0f));      // kd = -1 -> 0
-  accumulator.Add(1, glm::vec3(100.0f), glm::vec3(1.0f));     // kd = 100 -> kd_max
-  accumulator.Add(2, glm::vec3(0.5f), glm::vec3(1e-5f));      // sum G^2 = 1e-10 < 1e-8
-  accumulator.Add(3, glm::vec3(0.5f), glm::vec3(0.0f));       // no illumination at all
+  accumulator.Add(0, glm::vec3(-1.0f), glm::vec3(1.0f));   // kd = -1 -> 0
+  accumulator.Add(1, glm::vec3(100.0f), glm::vec3(1.0f));  // kd = 100 -> kd_max
+  accumulator.Add(2, glm::vec3(0.5f), glm::vec3(1e-5f));   // sum G^2 = 1e-10 < 1e-8
+  accumulator.Add(3, glm::vec3(0.5f), glm::vec3(0.0f));    // no illumination at all
   DiffuseOptions options;
   options.kd_max = 10.0;
   const std::vector<glm::vec3> fallback(4, glm::vec3(0.25f, 0.5f, 20.0f));
   for (bool with_fallback : {false, true}) {
-    const DiffuseSolution solution =
-        with_fallback ? accumulator.Solve(options, fallback) : accumulator.Solve(options);
+    const DiffuseSolution solution = with_fallback ? accumulator.Solve(options, fallback) : accumulator.Solve(options);
     EXPECT_EQ(solution.kd[0], glm::vec3(0.0f));
     EXPECT_EQ(solution.kd[1], glm::vec3(10.0f));
     EXPECT_EQ(solution.fallback[0] + solution.fallback[1], 0);
@@ -137,7 +136,8 @@ TEST(SolveDiffuseTest, RecoversPerElementKdWithSpecularRemoved) {
   const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40});
   constexpr uint32_t kElements = 50;
   std::vector<glm::vec3> kd_of_element;
-  for (uint32_t e = 0; e < kElements; ++e) kd_of_element.push_back(glm::vec3(0.1f + 0.015f * e, 0.6f - 0.01f * e, 0.3f));
+  for (uint32_t e = 0; e < kElements; ++e)
+    kd_of_element.push_back(glm::vec3(0.1f + 0.015f * e, 0.6f - 0.01f * e, 0.3f));
   GeneratorOptions generator;
   generator.num_samples = 3000;
   generator.num_elements = kElements;
@@ -149,7 +149,8 @@ TEST(SolveDiffuseTest, RecoversPerElementKdWithSpecularRemoved) {
   ASSERT_EQ(solution.kd.size(), kElements);
   double worst = 0.0;
   for (uint32_t e = 0; e < kElements; ++e) {
-    for (int c = 0; c < 3; ++c) worst = std::max(worst, std::fabs(double{solution.kd[e][c]} - kd_of_element[e][c]) / kd_of_element[e][c]);
+    for (int c = 0; c < 3; ++c)
+      worst = std::max(worst, std::fabs(double{solution.kd[e][c]} - kd_of_element[e][c]) / kd_of_element[e][c]);
   }
   std::printf("MEASURED per-element kd (50 elements, 60 samples each) worst relative error %.3g, E_d %.3g\n", worst,
               solution.mean_element_mse);

@@ -44,7 +44,8 @@ void BM_FitPhong(benchmark::State& state) {
   state.SetLabel(SolverName(options.solver));
   state.counters["solver_iterations_rgb"] = iterations;
   state.counters["final_cost_rgb"] = cost;
-  state.counters["samples_per_s"] = benchmark::Counter(static_cast<double>(set.size()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["samples_per_s"] =
+      benchmark::Counter(static_cast<double>(set.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_FitPhong)
     ->ArgsProduct({{10000, 100000, 1000000}, {0, 1}})
@@ -60,7 +61,8 @@ void BM_SolveDiffuse(benchmark::State& state) {
     DiffuseSolution solution = SolveDiffuse(set, 0xF, specular, kElements, DiffuseOptions());
     benchmark::DoNotOptimize(solution);
   }
-  state.counters["samples_per_s"] = benchmark::Counter(static_cast<double>(set.size()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["samples_per_s"] =
+      benchmark::Counter(static_cast<double>(set.size()), benchmark::Counter::kIsIterationInvariantRate);
   // Bytes read: reflectance (12) + g and h for 4 lights (32) + element (4).
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * set.size() * 48));
 }
@@ -71,11 +73,13 @@ void BM_DiffuseAccumulator(benchmark::State& state) {
   const samples::SampleSet& set = Samples(static_cast<size_t>(state.range(0)));
   for (auto _ : state) {
     DiffuseAccumulator accumulator(kElements);
-    for (size_t i = 0; i < set.size(); ++i) accumulator.Add(set.element[i], set.reflectance[i], set.Illumination(i, 0xF));
+    for (size_t i = 0; i < set.size(); ++i)
+      accumulator.Add(set.element[i], set.reflectance[i], set.Illumination(i, 0xF));
     DiffuseSolution solution = accumulator.Solve(DiffuseOptions());
     benchmark::DoNotOptimize(solution);
   }
-  state.counters["samples_per_s"] = benchmark::Counter(static_cast<double>(set.size()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["samples_per_s"] =
+      benchmark::Counter(static_cast<double>(set.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_DiffuseAccumulator)->Arg(1000000)->Unit(benchmark::kMillisecond);
 

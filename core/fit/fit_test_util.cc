@@ -15,8 +15,7 @@ glm::dvec3 RandomUnit(Rng &rng) {
   for (;;) {
     const glm::dvec3 v(normal(rng), normal(rng), normal(rng));
     const double length = glm::length(v);
-    if (length > 1e-6)
-      return v / length;
+    if (length > 1e-6) return v / length;
   }
 }
 
@@ -26,62 +25,50 @@ glm::dvec3 RandomPerpendicular(const glm::dvec3 &d, Rng &rng) {
     const glm::dvec3 u = RandomUnit(rng);
     const glm::dvec3 t = u - glm::dot(u, d) * d;
     const double length = glm::length(t);
-    if (length > 1e-3)
-      return t / length;
+    if (length > 1e-3) return t / length;
   }
 }
 
 // A direction at cosine c from n.
 glm::dvec3 AtCosine(const glm::dvec3 &n, double c, Rng &rng) {
-  return c * n +
-         std::sqrt(std::max(0.0, 1.0 - c * c)) * RandomPerpendicular(n, rng);
+  return c * n + std::sqrt(std::max(0.0, 1.0 - c * c)) * RandomPerpendicular(n, rng);
 }
 
 glm::dvec3 UpperHemisphere(const glm::dvec3 &n, double max_cosine, Rng &rng) {
   std::uniform_real_distribution<double> uniform(0.02, 1.0);
-  if (max_cosine < 1.0)
-    return AtCosine(n, max_cosine * uniform(rng), rng);
+  if (max_cosine < 1.0) return AtCosine(n, max_cosine * uniform(rng), rng);
   glm::dvec3 u = RandomUnit(rng);
-  if (glm::dot(u, n) < 0.0)
-    u = -u;
+  if (glm::dot(u, n) < 0.0) u = -u;
   return u;
 }
 
 // R(l) = 2 (l.n) n - l (NOTES.md).
-glm::dvec3 Reflect(const glm::dvec3 &l, const glm::dvec3 &n) {
-  return 2.0 * glm::dot(l, n) * n - l;
-}
+glm::dvec3 Reflect(const glm::dvec3 &l, const glm::dvec3 &n) { return 2.0 * glm::dot(l, n) * n - l; }
 
-} // namespace
+}  // namespace
 
-PhongRgb MakePhong(const glm::dvec3 &kd, const glm::dvec3 &ks,
-                   const glm::dvec3 &ke) {
+PhongRgb MakePhong(const glm::dvec3 &kd, const glm::dvec3 &ks, const glm::dvec3 &ke) {
   PhongRgb p;
-  for (int c = 0; c < 3; ++c)
-    p[c] = PhongChannel{kd[c], ks[c], ke[c]};
+  for (int c = 0; c < 3; ++c) p[c] = PhongChannel{kd[c], ks[c], ke[c]};
   return p;
 }
 
 std::string ToString(const PhongRgb &p) {
   std::ostringstream out;
   out.precision(9);
-  for (int c = 0; c < 3; ++c)
-    out << (c ? " | " : "") << p[c].kd << " " << p[c].ks << " " << p[c].ke;
+  for (int c = 0; c < 3; ++c) out << (c ? " | " : "") << p[c].kd << " " << p[c].ks << " " << p[c].ke;
   return out.str();
 }
 
-glm::dvec3 ModelValue(const samples::SampleSet &set, size_t i,
-                      samples::LightMask mask, const PhongRgb &p,
+glm::dvec3 ModelValue(const samples::SampleSet &set, size_t i, samples::LightMask mask, const PhongRgb &p,
                       const glm::vec3 &kd) {
   const int num_lights = set.num_lights();
   glm::dvec3 f(0.0);
   for (int k = 0; k < num_lights; ++k) {
-    if (!(mask & (samples::LightMask{1} << k)))
-      continue;
+    if (!(mask & (samples::LightMask{1} << k))) continue;
     const double g = set.g[i * num_lights + k];
     const double h = set.h[i * num_lights + k];
-    if (!(g > 0.0))
-      continue;
+    if (!(g > 0.0)) continue;
     for (int c = 0; c < 3; ++c) {
       const double spec = h > 0.0 ? std::pow(h, p[c].ke) : 0.0;
       f[c] += set.light_intensity[k][c] * (kd[c] * g + p[c].ks * spec);
@@ -90,22 +77,17 @@ glm::dvec3 ModelValue(const samples::SampleSet &set, size_t i,
   return f;
 }
 
-samples::SampleSet MakeSamples(const PhongRgb &truth,
-                               const GeneratorOptions &options,
+samples::SampleSet MakeSamples(const PhongRgb &truth, const GeneratorOptions &options,
                                const std::vector<glm::vec3> &kd_of_element) {
   Rng rng(options.seed);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> normal;
   const int num_lights = options.num_lights;
   const samples::LightMask mask =
-      options.true_mask != 0 ? options.true_mask
-                             : (samples::LightMask{1} << num_lights) - 1;
+      options.true_mask != 0 ? options.true_mask : (samples::LightMask{1} << num_lights) - 1;
   double max_ke = 1.0;
-  for (const PhongChannel &p : truth)
-    max_ke = std::max(max_ke, p.ke);
-  const double spread = options.highlight_spread > 0.0
-                            ? options.highlight_spread
-                            : 1.5 / std::sqrt(max_ke);
+  for (const PhongChannel &p : truth) max_ke = std::max(max_ke, p.ke);
+  const double spread = options.highlight_spread > 0.0 ? options.highlight_spread : 1.5 / std::sqrt(max_ke);
 
   samples::SampleSet set;
   for (int k = 0; k < num_lights; ++k) {
@@ -128,19 +110,15 @@ samples::SampleSet MakeSamples(const PhongRgb &truth,
       }
       std::vector<int> lit;
       for (int k = 0; k < num_lights; ++k) {
-        if (glm::dot(l[k], n) > 0.0)
-          lit.push_back(k);
+        if (glm::dot(l[k], n) > 0.0) lit.push_back(k);
       }
       glm::dvec3 v = UpperHemisphere(n, options.max_view_cosine, rng);
       if (!lit.empty() && uniform(rng) < options.highlight_fraction) {
-        const int j = lit[std::min(
-            lit.size() - 1, static_cast<size_t>(uniform(rng) * lit.size()))];
+        const int j = lit[std::min(lit.size() - 1, static_cast<size_t>(uniform(rng) * lit.size()))];
         const glm::dvec3 mirror = Reflect(l[j], n);
         for (int attempt = 0; attempt < 20; ++attempt) {
           const double angle = std::fabs(normal(rng)) * spread;
-          const glm::dvec3 candidate =
-              std::cos(angle) * mirror +
-              std::sin(angle) * RandomPerpendicular(mirror, rng);
+          const glm::dvec3 candidate = std::cos(angle) * mirror + std::sin(angle) * RandomPerpendicular(mirror, rng);
           const double cosine = glm::dot(candidate, n);
           if (cosine > 0.0 && cosine <= options.max_view_cosine) {
             v = candidate;
@@ -154,17 +132,14 @@ samples::SampleSet MakeSamples(const PhongRgb &truth,
           const double cos_light = glm::dot(l[k], n);
           g[k] = cos_light > 0.0 ? static_cast<float>(cos_light) : 0.0f;
           const double cos_highlight = glm::dot(Reflect(l[k], n), v);
-          h[k] = g[k] > 0.0f && cos_highlight > 0.0
-                     ? static_cast<float>(std::min(1.0, cos_highlight))
-                     : 0.0f;
+          h[k] = g[k] > 0.0f && cos_highlight > 0.0 ? static_cast<float>(std::min(1.0, cos_highlight)) : 0.0f;
           too_bright = too_bright || h[k] > options.max_highlight;
         }
         if (!too_bright) {
           accepted = true;
           break;
         }
-        if (attempt > 100)
-          break;
+        if (attempt > 100) break;
         v = UpperHemisphere(n, options.max_view_cosine, rng);
       }
     }
@@ -175,23 +150,20 @@ samples::SampleSet MakeSamples(const PhongRgb &truth,
   glm::dvec3 mean(0.0);
   std::vector<glm::dvec3> values(set.size());
   for (size_t i = 0; i < set.size(); ++i) {
-    const glm::vec3 kd = kd_of_element.empty()
-                             ? glm::vec3(truth[0].kd, truth[1].kd, truth[2].kd)
-                             : kd_of_element[set.element[i]];
+    const glm::vec3 kd =
+        kd_of_element.empty() ? glm::vec3(truth[0].kd, truth[1].kd, truth[2].kd) : kd_of_element[set.element[i]];
     values[i] = ModelValue(set, i, mask, truth, kd);
     mean += values[i] / static_cast<double>(set.size());
   }
   for (size_t i = 0; i < set.size(); ++i) {
     glm::dvec3 r = values[i];
     if (options.noise > 0.0) {
-      for (int c = 0; c < 3; ++c)
-        r[c] += options.noise * mean[c] * normal(rng);
+      for (int c = 0; c < 3; ++c) r[c] += options.noise * mean[c] * normal(rng);
     }
-    if (options.clip > 0.0)
-      r = glm::clamp(r, 0.0, options.clip);
+    if (options.clip > 0.0) r = glm::clamp(r, 0.0, options.clip);
     set.reflectance[i] = glm::vec3(r);
   }
   return set;
 }
 
-} // namespace mvbrdf::fit::testing
+}  // namespace mvbrdf::fit::testing

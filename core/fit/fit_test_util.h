@@ -6,10 +6,9 @@
 #define MVBRDF_CORE_FIT_FIT_TEST_UTIL_H_
 
 #include <cstdint>
+#include <glm/glm.hpp>
 #include <string>
 #include <vector>
-
-#include <glm/glm.hpp>
 
 #include "core/fit/phong_fit.h"
 #include "core/samples/sample_set.h"

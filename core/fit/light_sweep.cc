@@ -1,3 +1,7 @@
+// Per configuration (thesis Fig. 6.2): FitPhong on all samples with the
+// caller's options (Levenberg-Marquardt by default), then SolveDiffuse with
+// that fit's ks/ke and no fallback kd (unlit triangles get kd = 0 and keep
+// their error, which is what penalises a configuration that leaves them dark).
 #include "core/fit/light_sweep.h"
 
 #include <algorithm>
@@ -15,7 +19,9 @@ namespace {
 // E_a values closer than this (relative) are a tie.
 constexpr double kTieTolerance = 1e-9;
 
-bool NearlyEqual(double a, double b) { return std::fabs(a - b) <= kTieTolerance * std::max(std::fabs(a), std::fabs(b)); }
+bool NearlyEqual(double a, double b) {
+  return std::fabs(a - b) <= kTieTolerance * std::max(std::fabs(a), std::fabs(b));
+}
 
 // Triangles with at least one finite sample lit by a light of the mask.
 uint32_t CountLitTriangles(const samples::SampleSet& set, samples::LightMask mask, size_t num_triangles) {
@@ -89,9 +95,8 @@ absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, s
   }
   for (size_t i = 0; i < statuses.size(); ++i) {
     if (!statuses[i].ok()) {
-      return absl::Status(statuses[i].code(),
-                          absl::StrCat("configurations[", i, "] (", configurations[i].name, "): ",
-                                       statuses[i].message()));
+      return absl::Status(statuses[i].code(), absl::StrCat("configurations[", i, "] (", configurations[i].name,
+                                                           "): ", statuses[i].message()));
     }
   }
 
@@ -103,8 +108,8 @@ absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, s
     }
     const SweepRow& row = result.rows[i];
     const SweepRow& best = result.rows[result.best];
-    const bool better = NearlyEqual(row.e_d, best.e_d) ? row.e_a < best.e_a && !NearlyEqual(row.e_a, best.e_a)
-                                                       : row.e_d < best.e_d;
+    const bool better =
+        NearlyEqual(row.e_d, best.e_d) ? row.e_a < best.e_a && !NearlyEqual(row.e_a, best.e_a) : row.e_d < best.e_d;
     if (better) result.best = static_cast<int>(i);
   }
   return result;

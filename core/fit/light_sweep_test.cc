@@ -22,7 +22,8 @@ constexpr uint32_t kTriangles = 40;
 samples::SampleSet MakeSweepSamples() {
   const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.4, 0.2}, {30, 30, 30});
   std::vector<glm::vec3> kd_of_element;
-  for (uint32_t t = 0; t < kTriangles; ++t) kd_of_element.push_back(glm::vec3(0.2f + 0.01f * t, 0.5f - 0.005f * t, 0.3f));
+  for (uint32_t t = 0; t < kTriangles; ++t)
+    kd_of_element.push_back(glm::vec3(0.2f + 0.01f * t, 0.5f - 0.005f * t, 0.3f));
   GeneratorOptions generator;
   generator.num_samples = 4000;
   generator.num_lights = 6;
@@ -63,8 +64,10 @@ TEST(LightSweepTest, PicksTheGeneratingConfiguration) {
 
 TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
   const samples::SampleSet set = MakeSweepSamples();
-  absl::StatusOr<SweepResult> one = SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 1);
-  absl::StatusOr<SweepResult> two = SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 2);
+  absl::StatusOr<SweepResult> one =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 1);
+  absl::StatusOr<SweepResult> two =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 2);
   ASSERT_TRUE(one.ok() && two.ok());
   EXPECT_EQ(one->best, two->best);
   for (size_t i = 0; i < kConfigurations.size(); ++i) {
@@ -86,7 +89,8 @@ TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
 TEST(LightSweepTest, TiesKeepTheFirstConfiguration) {
   const samples::SampleSet set = MakeSweepSamples();
   const std::vector<LightConfiguration> same = {{"B1", {"L2", "L3", "L4"}}, {"B2", {"L4", "L3", "L2"}}};
-  absl::StatusOr<SweepResult> result = SweepConfigurations(set, kTriangles, same, PhongFitOptions(), DiffuseOptions(), 2);
+  absl::StatusOr<SweepResult> result =
+      SweepConfigurations(set, kTriangles, same, PhongFitOptions(), DiffuseOptions(), 2);
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->best, 0);
 }

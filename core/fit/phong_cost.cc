@@ -5,8 +5,8 @@
 
 namespace mvbrdf::fit::internal {
 
-void EvaluatePhongResiduals(const PhongChannelData& data, size_t begin, size_t end, const double* x,
-                            double* residuals, double* jacobian) {
+void EvaluatePhongResiduals(const PhongChannelData& data, size_t begin, size_t end, const double* x, double* residuals,
+                            double* jacobian) {
   const double a = x[0], b = x[1], ke = std::exp(x[2]);
   for (size_t i = begin; i < end; ++i) {
     double s, d;

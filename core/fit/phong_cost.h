@@ -72,8 +72,8 @@ inline void SpecularSums(const PhongChannelData& data, size_t i, double ke, doub
 
 // rho_i for i in [begin, end) into residuals[i - begin]; the Jacobian rows
 // (row-major, 3 per residual) into `jacobian` when not null.
-void EvaluatePhongResiduals(const PhongChannelData& data, size_t begin, size_t end, const double* x,
-                            double* residuals, double* jacobian);
+void EvaluatePhongResiduals(const PhongChannelData& data, size_t begin, size_t end, const double* x, double* residuals,
+                            double* jacobian);
 
 // C(x) over all samples.
 double PhongCost(const PhongChannelData& data, const double* x);

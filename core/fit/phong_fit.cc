@@ -129,9 +129,8 @@ class PowellPhongCost {
 
 // Minimises over the free coordinates of x; returns the iteration count and
 // whether it converged.
-void SolveLevenbergMarquardt(const PhongChannelData& data, const bool* free, const double* lower,
-                             const double* upper, const PhongFitOptions& options, double* x,
-                             ChannelFitSummary* summary) {
+void SolveLevenbergMarquardt(const PhongChannelData& data, const bool* free, const double* lower, const double* upper,
+                             const PhongFitOptions& options, double* x, ChannelFitSummary* summary) {
   ceres::Problem problem;
   for (size_t begin = 0; begin < data.size(); begin += kBlockSize) {
     const size_t end = std::min(data.size(), begin + kBlockSize);
@@ -314,7 +313,8 @@ const char* SolverName(Solver solver) {
 
 absl::Status PhongFitOptions::Check() const {
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (max_iterations <= 0) return absl::InvalidArgumentError(absl::StrCat("max_iterations: must be > 0, got ", max_iterations));
+  if (max_iterations <= 0)
+    return absl::InvalidArgumentError(absl::StrCat("max_iterations: must be > 0, got ", max_iterations));
   if (!positive(function_tolerance)) {
     return absl::InvalidArgumentError(absl::StrCat("function_tolerance: must be > 0, got ", function_tolerance));
   }
@@ -325,8 +325,8 @@ absl::Status PhongFitOptions::Check() const {
     return absl::InvalidArgumentError(absl::StrCat("ke_max: must be > ke_min (", ke_min, "), got ", ke_max));
   }
   if (!std::isfinite(initial.kd) || !std::isfinite(initial.ks) || !std::isfinite(initial.ke)) {
-    return absl::InvalidArgumentError(absl::StrCat("initial: must be finite, got (", initial.kd, ", ", initial.ks, ", ",
-                                                   initial.ke, ")"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("initial: must be finite, got (", initial.kd, ", ", initial.ks, ", ", initial.ke, ")"));
   }
   if (!std::isfinite(min_cosine) || min_cosine < 0.0) {
     return absl::InvalidArgumentError(absl::StrCat("min_cosine: must be >= 0, got ", min_cosine));
@@ -335,8 +335,7 @@ absl::Status PhongFitOptions::Check() const {
     return absl::InvalidArgumentError(absl::StrCat("highlight_cosine: must be in [0, 1), got ", highlight_cosine));
   }
   if (min_highlight_samples < 0) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("min_highlight_samples: must be >= 0, got ", min_highlight_samples));
+    return absl::InvalidArgumentError(absl::StrCat("min_highlight_samples: must be >= 0, got ", min_highlight_samples));
   }
   return absl::OkStatus();
 }

@@ -38,8 +38,7 @@ class LineFunction {
 
 // NR §10.1 mnbrak: from a and b, a bracket a < b < c (or reversed) with
 // f(b) <= f(a), f(c).
-void Bracket(LineFunction& f, double* ax, double* bx, double* cx, double* fa, double* fb, double* fc,
-             int max_steps) {
+void Bracket(LineFunction& f, double* ax, double* bx, double* cx, double* fa, double* fb, double* fc, int max_steps) {
   *fa = f(*ax);
   *fb = f(*bx);
   if (*fb > *fa) {
@@ -166,8 +165,8 @@ double Brent(LineFunction& f, double ax, double bx, double cx, double fbx, doubl
 
 // NR §10.5 linmin: moves p to the minimum along xi, replaces xi by the
 // actual displacement, returns the cost there.
-double LineMinimize(const std::function<double(const double*)>& cost, std::vector<double>& p,
-                    std::vector<double>& xi, double fp, const PowellOptions& options, int* evaluations) {
+double LineMinimize(const std::function<double(const double*)>& cost, std::vector<double>& p, std::vector<double>& xi,
+                    double fp, const PowellOptions& options, int* evaluations) {
   LineFunction f(cost, p, xi, evaluations);
   double ax = 0.0, xx = 1.0, bx, fa, fx, fb;
   Bracket(f, &ax, &xx, &bx, &fa, &fx, &fb, options.max_bracket_steps);
@@ -235,8 +234,8 @@ PowellSummary MinimizePowell(const std::function<double(const double*)>& cost, i
     if (project) project(ptt.data());
     const double fptt = evaluate(ptt);
     if (fptt < fp) {
-      const double t = 2.0 * (fp - 2.0 * fret + fptt) * (fp - fret - del) * (fp - fret - del) -
-                       del * (fp - fptt) * (fp - fptt);
+      const double t =
+          2.0 * (fp - 2.0 * fret + fptt) * (fp - fret - del) * (fp - fret - del) - del * (fp - fptt) * (fp - fptt);
       if (t < 0.0) {
         fret = line_minimize(xit, fret);
         directions[ibig] = directions[size - 1];

@@ -41,8 +41,7 @@ struct PowellSummary {
 // the unit vectors as directions. `project`, when set, is applied to x after
 // each line minimisation (see above).
 PowellSummary MinimizePowell(const std::function<double(const double*)>& cost, int n, double* x,
-                             const PowellOptions& options,
-                             const std::function<void(double*)>& project = nullptr);
+                             const PowellOptions& options, const std::function<void(double*)>& project = nullptr);
 
 }  // namespace mvbrdf::fit
 
