@@ -118,10 +118,12 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask m
       const glm::dvec3 intensity(set.light_intensity[k]);
       illumination += intensity * g;
       if (h > 0.0) {
+        // Fall-off is folded into g but not into h (SampleSet::falloff).
+        const double a = set.Falloff(i, k);
         if (same_exponent) {
-          spec += intensity * internal::SpecularPower(h, specular[0].ke);
+          spec += a * intensity * internal::SpecularPower(h, specular[0].ke);
         } else {
-          for (int c = 0; c < 3; ++c) spec[c] += intensity[c] * internal::SpecularPower(h, specular[c].ke);
+          for (int c = 0; c < 3; ++c) spec[c] += a * intensity[c] * internal::SpecularPower(h, specular[c].ke);
         }
       }
     }

@@ -50,6 +50,9 @@ constexpr double kNoHighlight = -std::numeric_limits<double>::infinity();
 struct PhongChannelData {
   int num_lights = 0;
   const double* log_h = nullptr;
+  // Optional, like log_h: ln a_ik of the inverse-square fall-off
+  // (SampleSet::falloff), added to the exponent: a h^ke = exp(ke ln h + ln a).
+  const double* log_a = nullptr;
   std::vector<double> weight;   // w_k, num_lights values
   std::vector<double> r;        // r_i
   std::vector<double> diffuse;  // G_i
@@ -59,10 +62,11 @@ struct PhongChannelData {
 // S_i and D_i of sample i at exponent ke.
 inline void SpecularSums(const PhongChannelData& data, size_t i, double ke, double* s, double* d) {
   const double* log_h = data.log_h + i * static_cast<size_t>(data.num_lights);
+  const double* log_a = data.log_a == nullptr ? nullptr : data.log_a + i * static_cast<size_t>(data.num_lights);
   double sum = 0.0, dsum = 0.0;
   for (int k = 0; k < data.num_lights; ++k) {
     if (log_h[k] == kNoHighlight) continue;
-    const double p = data.weight[k] * std::exp(ke * log_h[k]);
+    const double p = data.weight[k] * std::exp(ke * log_h[k] + (log_a == nullptr ? 0.0 : log_a[k]));
     sum += p;
     dsum += p * log_h[k];
   }

@@ -53,6 +53,7 @@ struct PreparedSamples {
   std::vector<uint32_t> used;  // sample indices whose inputs are finite
   std::vector<double> g;       // used.size() * lights.size(): clamped cosines
   std::vector<double> log_h;   // likewise: ln h, or kNoHighlight
+  std::vector<double> log_a;   // likewise: ln a (fall-off), empty without fall-off
   bool non_finite = false;     // some sample was skipped
 };
 
@@ -82,6 +83,10 @@ PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indic
       const double h = internal::ClampedHighlight(g, h_row[k]);
       prep.g.push_back(g);
       prep.log_h.push_back(h > 0.0 ? std::log(h) : kNoHighlight);
+      if (!set.falloff.empty()) {
+        const double a = set.Falloff(i, k);
+        prep.log_a.push_back(a > 0.0 && std::isfinite(a) ? std::log(a) : kNoHighlight);
+      }
     }
   }
   return prep;
@@ -197,6 +202,7 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   PhongChannelData data;
   data.num_lights = num_lights;
   data.log_h = prep.log_h.data();
+  data.log_a = prep.log_a.empty() ? nullptr : prep.log_a.data();
   double i_max = 0.0;
   for (int k : prep.lights) {
     const double intensity = set.light_intensity[k][c];
@@ -399,7 +405,7 @@ double EvaluateSample(const SampleSet& set, size_t i, LightMask mask, const Phon
     if (!(mask & (LightMask{1} << k))) continue;
     const double g = internal::ClampedCosine(g_row[k]);
     const double h = internal::ClampedHighlight(g, h_row[k]);
-    f += set.light_intensity[k][c] * (p.kd * g + p.ks * internal::SpecularPower(h, p.ke));
+    f += set.light_intensity[k][c] * (p.kd * g + p.ks * set.Falloff(i, k) * internal::SpecularPower(h, p.ke));
   }
   return f;
 }

@@ -1,6 +1,8 @@
 #include "core/fit/phong_fit.h"
+#include "core/fit/diffuse.h"
 
 #include <algorithm>
+#include <random>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -111,6 +113,35 @@ TEST_P(RecoveryTest, RecoversKdKsKe) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Exponents, RecoveryTest, ::testing::Values(1.0, 10.0, 100.0, 1000.0, 10000.0));
+
+// Inverse-square fall-off: a_k scales the specular term as a h^ke (never
+// (a h)^ke), in the fit, in EvaluateSample and in the diffuse solve.
+TEST(FitPhongTest, FalloffScalesTheSpecularTermLinearly) {
+  const PhongRgb truth = MakePhong({0.4, 0.3, 0.2}, {0.3, 0.25, 0.2}, {40, 40, 40});
+  SampleSet set = MakeSamples(truth, GeneratorOptions());
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(0.1f, 1.0f);
+  set.falloff.resize(set.g.size());
+  for (float& a : set.falloff) a = u(rng);
+  for (size_t i = 0; i < set.size(); ++i) {
+    for (int c = 0; c < 3; ++c) set.reflectance[i][c] = static_cast<float>(EvaluateSample(set, i, kAllFour, truth[c], c));
+  }
+  // Hand check of one sample: sum_k I (kd g + ks a h^ke).
+  double expected = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    const double g = std::max(0.0f, set.g[k]), h = g > 0.0 ? std::min(1.0f, std::max(0.0f, set.h[k])) : 0.0;
+    expected += truth[0].kd * g + truth[0].ks * set.falloff[k] * (h > 0.0 ? std::pow(h, truth[0].ke) : 0.0);
+  }
+  EXPECT_NEAR(EvaluateSample(set, 0, kAllFour, truth[0], 0), expected, 1e-12);
+  const PhongFitResult result = Fit(set, kAllFour, PhongFitOptions());
+  const Errors e = WorstErrors(result.params, truth);
+  Report("fall-off", e);
+  EXPECT_LT(e.kd, kExactTolerance) << testing::ToString(result.params);
+  EXPECT_LT(e.ks, kExactTolerance) << testing::ToString(result.params);
+  EXPECT_LT(e.ke, kExactKeTolerance) << testing::ToString(result.params);
+  const DiffuseSolution diffuse = SolveDiffuse(set, kAllFour, truth, 1, DiffuseOptions());
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(diffuse.kd[0][c], truth[c].kd, 1e-5);
+}
 
 TEST(FitPhongTest, PureDiffuseGivesZeroKs) {
   const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.0, 0.0, 0.0}, {50, 50, 50});
