@@ -1,5 +1,6 @@
 #include "core/evaluate/reconstruction_evaluator.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -54,6 +55,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   double sq10 = 0.0, sq_all = 0.0;
   uint64_t n10 = 0, n_all = 0;
   std::vector<int32_t> texel_material(static_cast<size_t>(size) * size, -1);
+  std::vector<double> abs_errors;
   for (int y = 0; y < size; ++y) {
     for (int x = 0; x < size; ++x) {
       const int32_t tri = triangle_id.at<int32_t>(y, x);
@@ -70,6 +72,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
       if (count >= kMinObservationsForKd) {
         sq10 += sq;
         ++n10;
+        abs_errors.push_back((std::abs(k[0] - t.kd[0]) + std::abs(k[1] - t.kd[1]) + std::abs(k[2] - t.kd[2])) / 3.0);
       }
       const uint32_t material = truth.message().triangle_materials(tri);
       texel_material[static_cast<size_t>(y) * size + x] = static_cast<int32_t>(material);
@@ -79,6 +82,11 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   }
   report.set_kd_rmse(n10 > 0 ? std::sqrt(sq10 / (3.0 * static_cast<double>(n10))) : 0.0);
   report.set_kd_texels(n10);
+  if (!abs_errors.empty()) {
+    std::sort(abs_errors.begin(), abs_errors.end());
+    report.set_kd_median_abs_error(abs_errors[abs_errors.size() / 2]);
+    report.set_kd_p95_abs_error(abs_errors[abs_errors.size() * 95 / 100]);
+  }
   report.set_kd_rmse_all_seen(n_all > 0 ? std::sqrt(sq_all / (3.0 * static_cast<double>(n_all))) : 0.0);
 
   std::vector<int32_t> cluster_material(static_cast<size_t>(num_clusters), -1);

@@ -69,7 +69,10 @@ DiffuseSolution DiffuseAccumulator::Solve(const DiffuseOptions& options, const s
     for (int c = 0; c < 3; ++c) {
       double kd;
       if (s_gg_[e][c] >= options.min_illumination && s_gg_[e][c] > 0.0) {
-        kd = std::clamp(s_rg_[e][c] / s_gg_[e][c], 0.0, options.kd_max);
+        // With a prior: lambda pseudo-observations of the fallback at G = 1.
+        const double lambda = fallback.empty() ? 0.0 : options.prior_weight;
+        const double prior = lambda > 0.0 ? lambda * static_cast<double>(fallback[e][c]) : 0.0;
+        kd = std::clamp((s_rg_[e][c] + prior) / (s_gg_[e][c] + lambda), 0.0, options.kd_max);
       } else {
         kd = fallback.empty() ? 0.0 : std::clamp(static_cast<double>(fallback[e][c]), 0.0, options.kd_max);
         solution.fallback[e] = 1;

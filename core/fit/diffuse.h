@@ -25,6 +25,14 @@ struct DiffuseOptions {
   // Elements whose sum G^2 (per channel) is below this have no usable
   // diffuse information: kd falls back (see DiffuseAccumulator::Solve).
   double min_illumination = 1e-8;
+  // Shrinkage towards the fallback (e.g. the cluster's kd) where one is
+  // given: kd = (S_rg + lambda kd_fallback) / (S_gg + lambda), lambda
+  // pseudo-observations at full illumination (G = 1). 0 is the thesis's plain
+  // least squares. A texel observed n times at G ~ 1 moves lambda / (n +
+  // lambda) of the way towards the fallback; one that only ever saw grazing
+  // or mislabelled (shadow-boundary) light, with tiny S_gg, is held near the
+  // cluster's kd instead of running to kd_max.
+  double prior_weight = 0.0;
 };
 
 struct DiffuseSolution {

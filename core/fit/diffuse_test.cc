@@ -160,5 +160,24 @@ TEST(SolveDiffuseTest, RecoversPerElementKdWithSpecularRemoved) {
   EXPECT_EQ(solution.samples[0] + solution.samples[1], 2 * (3000 / kElements) - 2);
 }
 
+TEST(DiffuseAccumulatorTest, PriorPullsPoorlyLitElementsTowardsTheFallback) {
+  DiffuseAccumulator acc(2);
+  // Element 0: well lit (G = 1, ten samples of kd 0.4). Element 1: a single
+  // grazing sample (G = 0.01) with a reflectance that would mean kd = 5.
+  for (int i = 0; i < 10; ++i) acc.Add(0, glm::vec3(0.4f), glm::vec3(1.0f));
+  acc.Add(1, glm::vec3(0.05f), glm::vec3(0.01f));
+  DiffuseOptions options;
+  const std::vector<glm::vec3> fallback = {glm::vec3(0.3f), glm::vec3(0.3f)};
+  const DiffuseSolution plain = acc.Solve(options, fallback);
+  EXPECT_NEAR(plain.kd[1].x, 5.0f, 1e-4f);
+  options.prior_weight = 0.1;
+  const DiffuseSolution shrunk = acc.Solve(options, fallback);
+  // (10 * 0.4 + 0.1 * 0.3) / (10 + 0.1) and (0.0005 + 0.03) / (0.0001 + 0.1).
+  EXPECT_NEAR(shrunk.kd[0].x, (4.0 + 0.03) / 10.1, 1e-6);
+  EXPECT_NEAR(shrunk.kd[1].x, (0.0005 + 0.03) / 0.1001, 1e-5);
+  // Without a fallback the prior has nothing to pull towards: plain LS.
+  EXPECT_NEAR(acc.Solve(options).kd[1].x, 5.0f, 1e-4f);
+}
+
 }  // namespace
 }  // namespace mvbrdf::fit

@@ -140,6 +140,10 @@ struct Gathered {
   samples::SampleSet triangle_samples;
   std::vector<glm::dvec3> texel_sum;  // per texel, sum of observed reflectance
   std::vector<uint32_t> texel_count;
+  // Per texel and light: sum of g_k over the texel's observations, so that
+  // once the configuration is known each texel's albedo estimate is
+  // sum r / sum_k I_k sum g_k (clustering runs on it).
+  std::vector<float> texel_g_sum;
   std::unique_ptr<TexelReservoir> reservoir;
   cv::Mat rest_position;              // geometry atlas of frame 0 (CV_32FC4)
 };
@@ -262,12 +266,15 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   g.triangle_samples = samples::MakeSampleSet(sequence.lights);
   g.texel_sum.assign(num_texels, glm::dvec3(0.0));
   g.texel_count.assign(num_texels, 0);
+  const size_t num_lights = sequence.lights.size();
+  g.texel_g_sum.assign(num_texels * num_lights, 0.0f);
   if (reflectance) {
     g.reservoir = std::make_unique<TexelReservoir>(num_texels, static_cast<int>(sequence.lights.size()),
                                                    options.reservoir_uniform, options.reservoir_highlight,
                                                    assemble.inverse_square_falloff);
   }
-  const std::vector<glm::vec3>& intensity = g.triangle_samples.light_intensity;
+  // A copy: the triangle Samples are released after the sweep.
+  const std::vector<glm::vec3> intensity = g.triangle_samples.light_intensity;
   {
     MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
     const bool sweep = plan.Has(Stage::kLightSweep);
@@ -290,6 +297,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
                                         const float* ar) {
                                       g.texel_sum[texel] += glm::dvec3(rgb);
                                       ++g.texel_count[texel];
+                                      float* gs = g.texel_g_sum.data() + static_cast<size_t>(texel) * num_lights;
+                                      for (size_t k = 0; k < num_lights; ++k) gs[k] += gr[k];
                                       g.reservoir->Offer(texel, t, c, rgb, gr, hr, ar);
                                     });
       }
@@ -341,17 +350,28 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     return report;
   }
 
-  // Clustering texel means.
+  // Clustering. The thesis clusters each texel's average reflectance, which
+  // mixes albedo with shading (a cloth texel under the arm looks as dark as
+  // hair). We cluster each texel's albedo estimate sum r / sum G under the
+  // chosen configuration instead, weighted by its illumination sum G, and
+  // read the seeds as diffuse colours.
   t0 = Clock::now();
   cluster::KMeansInput km_input;
   std::vector<uint32_t> seen_texels;
   for (size_t i = 0; i < num_texels; ++i) {
     if (g.texel_count[i] == 0) continue;
+    glm::dvec3 illumination(0.0);
+    const float* gs = g.texel_g_sum.data() + i * num_lights;
+    for (size_t k = 0; k < num_lights; ++k) {
+      if (mask & (1u << k)) illumination += glm::dvec3(intensity[k]) * static_cast<double>(gs[k]);
+    }
+    if (!(illumination.x > 0.0 && illumination.y > 0.0 && illumination.z > 0.0)) continue;  // never lit
     seen_texels.push_back(static_cast<uint32_t>(i));
-    km_input.points.push_back(glm::vec3(g.texel_sum[i] / static_cast<double>(g.texel_count[i])));
-    km_input.weights.push_back(static_cast<float>(g.texel_count[i]));
+    km_input.points.push_back(glm::vec3(g.texel_sum[i] / illumination));
+    km_input.weights.push_back(static_cast<float>((illumination.x + illumination.y + illumination.z) / 3.0));
   }
-  if (seen_texels.empty()) return absl::FailedPreconditionError("no texel was seen by any camera");
+  g.texel_g_sum = {};
+  if (seen_texels.empty()) return absl::FailedPreconditionError("no texel was seen lit by any camera");
   cluster::KMeansOptions km_options;
   for (const v1::MaterialSeed& seed : sequence.scene.material_seeds()) {
     km_options.seeds.push_back(SrgbSeed(seed));
@@ -524,7 +544,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       fallback[i] = glm::vec3(p[0].kd, p[1].kd, p[2].kd);
     }
   }
-  const fit::DiffuseSolution kd = diffuse.Solve(options.diffuse, fallback);
+  fit::DiffuseOptions texel_diffuse = options.diffuse;
+  texel_diffuse.prior_weight = options.kd_prior_weight;
+  const fit::DiffuseSolution kd = diffuse.Solve(texel_diffuse, fallback);
   AddStage(&report, "texel_pass", Since(t0));
 
   // Table 7.1.

@@ -46,6 +46,11 @@ struct ReconstructOptions {
   float min_valid_fraction = 0.75f;
   fit::PhongFitOptions fit;
   fit::DiffuseOptions diffuse;
+  // Per-texel kd shrinks towards its cluster's kd with this many
+  // pseudo-observations at full illumination (fit::DiffuseOptions::
+  // prior_weight); keeps texels that saw only grazing or mislabelled light
+  // from running away. 0: the thesis's plain least squares.
+  double kd_prior_weight = 0.1;
   int grow_iterations = 2;
   // Samples kept per texel for the cluster fits (TexelReservoir).
   int reservoir_uniform = 2;
