@@ -56,6 +56,8 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   uint64_t n10 = 0, n_all = 0;
   std::vector<int32_t> texel_material(static_cast<size_t>(size) * size, -1);
   std::vector<double> abs_errors;
+  std::vector<double> cluster_sq(static_cast<size_t>(num_clusters), 0.0);
+  std::vector<uint64_t> cluster_n(static_cast<size_t>(num_clusters), 0);
   for (int y = 0; y < size; ++y) {
     for (int x = 0; x < size; ++x) {
       const int32_t tri = triangle_id.at<int32_t>(y, x);
@@ -69,9 +71,14 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
       for (int c = 0; c < 3; ++c) sq += (k[c] - t.kd[c]) * (k[c] - t.kd[c]);
       sq_all += sq;
       ++n_all;
+      const int32_t texel_cluster = cluster.at<int32_t>(y, x);
       if (count >= kMinObservationsForKd) {
         sq10 += sq;
         ++n10;
+        if (texel_cluster >= 0 && texel_cluster < num_clusters) {
+          cluster_sq[static_cast<size_t>(texel_cluster)] += sq;
+          ++cluster_n[static_cast<size_t>(texel_cluster)];
+        }
         abs_errors.push_back((std::abs(k[0] - t.kd[0]) + std::abs(k[1] - t.kd[1]) + std::abs(k[2] - t.kd[2])) / 3.0);
       }
       const uint32_t material = truth.message().triangle_materials(tri);
@@ -101,6 +108,10 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     v1::MaterialComparison* cmp = report.add_clusters();
     const v1::ClusterRow& row = run.clusters(k);
     cmp->set_cluster(row.name());
+    cmp->set_kd_texels(cluster_n[static_cast<size_t>(k)]);
+    if (cluster_n[static_cast<size_t>(k)] > 0) {
+      cmp->set_kd_rmse(std::sqrt(cluster_sq[static_cast<size_t>(k)] / (3.0 * cluster_n[static_cast<size_t>(k)])));
+    }
     if (cluster_material[static_cast<size_t>(k)] < 0) continue;
     const v1::Material& m = truth.message().materials(cluster_material[static_cast<size_t>(k)]);
     cmp->set_material(m.name());
