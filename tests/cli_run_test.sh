@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# End-to-end: `mvbrdf run` on a generated bundle, then `render` and
+# `evaluate` on its outputs; bad input gets the documented exit codes.
+# Usage: cli_run_test.sh MVBRDF_BINARY WORK_DIR
+set -u
+bin=$1
+work=$2
+rm -rf "$work"
+mkdir -p "$work"
+failures=0
+passes=0
+
+check() {  # check NAME EXPECTED_EXIT PATTERN -- command...
+  local name=$1 want=$2 pattern=$3
+  shift 4
+  local out rc
+  out=$("$@" 2>&1)
+  rc=$?
+  if [ "$rc" -ne "$want" ]; then
+    echo "FAIL $name: exit $rc, expected $want"; echo "$out" | tail -5; failures=$((failures + 1)); return
+  fi
+  if ! grep -q -- "$pattern" <<<"$out"; then
+    echo "FAIL $name: output lacks '$pattern'"; echo "$out" | tail -5; failures=$((failures + 1)); return
+  fi
+  echo "ok   $name"; passes=$((passes + 1))
+}
+
+"$bin" synth --cameras 4 --frames 3 --width 160 --height 120 --actor-segments 12 --out "$work/b" >/dev/null || exit 1
+scene="$work/b/scene.json"
+cat > "$work/lights.json" <<'JSON'
+{"lights": [{"name": "key", "position": [2.0, 3.0, 2.0], "intensity": [1.0, 0.9, 0.8]},
+            {"name": "sun", "direction": [0.0, 1.0, 0.0], "intensity": [0.3, 0.3, 0.3]}]}
+JSON
+cat > "$work/bad_lights.json" <<'JSON'
+{"lights": [{"name": "key", "position": [2.0, 3.0], "intensity": [1.0, 0.9, 0.8]}]}
+JSON
+
+check "run help" 0 "--outputs" -- "$bin" run --help
+check "bad outputs" 2 "--outputs: expected light, brdf, correction or errors" -- "$bin" run "$scene" --outputs shiny --out "$work/x"
+check "unknown configuration" 3 "no light configuration \"XY\"" -- "$bin" run "$scene" --config XY --out "$work/x"
+check "missing scene" 3 "nope.json" -- "$bin" run "$work/nope.json" --out "$work/x"
+check "plan printed, light table only" 0 "skip  texel_pass: only the light table was requested" -- \
+  "$bin" run "$scene" --outputs light --out "$work/light"
+[ ! -d "$work/light/atlases" ] && { echo "ok   light table only writes no atlases"; passes=$((passes + 1)); } ||
+  { echo "FAIL light table only wrote atlases"; failures=$((failures + 1)); }
+check "full run" 0 "correction atlas" -- "$bin" run "$scene" --config "NE,NW,SE,SW" --no-powell --atlas 256 --out "$work/run"
+for f in result.json atlases/kd.exr atlases/ks.exr atlases/ke.exr atlases/cluster.exr atlases/confidence.exr \
+         atlases/correction/0002.exr atlas/mesh.obj; do
+  [ -f "$work/run/$f" ] && { echo "ok   wrote $f"; passes=$((passes + 1)); } || { echo "FAIL missing $f"; failures=$((failures + 1)); }
+done
+grep -q '"chosenConfiguration": "NE,NW,SE,SW"' "$work/run/result.json" && grep -q '"skipped"' "$work/run/result.json" &&
+  { echo "ok   result.json has the plan and the configuration"; passes=$((passes + 1)); } ||
+  { echo "FAIL result.json"; failures=$((failures + 1)); }
+check "evaluate" 0 '"configurationCorrect": true' -- "$bin" evaluate "$work/run" --truth "$work/b"
+check "evaluate without truth" 3 "truth.json" -- "$bin" evaluate "$work/run" --truth "$work"
+check "render a scene camera" 0 "wrote" -- "$bin" render "$work/run" --camera cam1 --lights "$work/lights.json" --out "$work/cam1.png"
+check "render with correction" 0 "wrote" -- "$bin" render "$work/run" --camera cam1 --lights "$work/lights.json" --frame 2 --correction --out "$work/cam1.exr"
+check "render unknown camera" 3 "nocam" -- "$bin" render "$work/run" --camera nocam --lights "$work/lights.json" --out "$work/x.png"
+check "render bad lights" 3 "bad_lights.json" -- "$bin" render "$work/run" --camera cam1 --lights "$work/bad_lights.json" --out "$work/x.png"
+check "render bad frame" 3 "--frame" -- "$bin" render "$work/run" --camera cam1 --lights "$work/lights.json" --frame 9 --out "$work/x.png"
+size=$(stat -c %s "$work/cam1.png" 2>/dev/null || echo 0)
+[ "$size" -gt 1000 ] && { echo "ok   rendered image has content ($size bytes)"; passes=$((passes + 1)); } ||
+  { echo "FAIL rendered image is empty"; failures=$((failures + 1)); }
+
+echo "$passes passed, $failures failed"
+[ "$failures" -eq 0 ]
