@@ -3,6 +3,7 @@
 #include "core/pipeline/reconstruct_stage.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "core/evaluate/reconstruction_evaluator.h"
 #include "core/image/exr.h"
@@ -31,7 +32,9 @@ class ReconstructStageTest : public ::testing::Test {
     auto context = gl::EglContext::Create(gl::EglPlatform::kSurfaceless);
     ASSERT_TRUE(context.ok()) << context.status();
     context_ = context->release();
-    dir_ = std::filesystem::temp_directory_path() / "mvbrdf_reconstruct_stage_test";
+    // One directory per process: ctest runs the tests of this suite in
+    // parallel processes, each with its own bundle.
+    dir_ = std::filesystem::temp_directory_path() / ("mvbrdf_reconstruct_stage_test_" + std::to_string(getpid()));
     std::filesystem::remove_all(dir_);
     synth::SynthOptions so;
     so.num_frames = 12;
@@ -42,6 +45,8 @@ class ReconstructStageTest : public ::testing::Test {
   static void TearDownTestSuite() {
     delete context_;
     context_ = nullptr;
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
   }
 
   static gl::EglContext* context_;
