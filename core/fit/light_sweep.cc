@@ -41,14 +41,36 @@ uint32_t CountLitTriangles(const samples::SampleSet& set, samples::LightMask mas
   return static_cast<uint32_t>(std::count(lit.begin(), lit.end(), uint8_t{1}));
 }
 
+// E_a (Eq. 6.7) over every finite Sample: mean over Samples and channels.
+double MeanSquaredError(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& params) {
+  double sum = 0.0;
+  size_t n = 0;
+  for (size_t i = 0; i < set.size(); ++i) {
+    double sq = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const double d = set.reflectance[i][c] - EvaluateSample(set, i, mask, params[c], c);
+      sq += d * d;
+    }
+    if (!std::isfinite(sq)) continue;
+    sum += sq;
+    ++n;
+  }
+  return n > 0 ? sum / (3.0 * static_cast<double>(n)) : 0.0;
+}
+
 absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_triangles,
                                    const PhongFitOptions& fit_options, const DiffuseOptions& diffuse_options,
-                                   SweepRow* row) {
+                                   size_t max_fit_samples, SweepRow* row) {
   const auto start = std::chrono::steady_clock::now();
-  absl::StatusOr<PhongFitResult> fit = FitPhong(set, {}, row->mask, fit_options);
+  std::vector<uint32_t> subsample;
+  if (max_fit_samples > 0 && set.size() > max_fit_samples) {
+    const size_t stride = (set.size() + max_fit_samples - 1) / max_fit_samples;
+    for (size_t i = 0; i < set.size(); i += stride) subsample.push_back(static_cast<uint32_t>(i));
+  }
+  absl::StatusOr<PhongFitResult> fit = FitPhong(set, subsample, row->mask, fit_options);
   if (!fit.ok()) return fit.status();
   row->fit = *std::move(fit);
-  row->e_a = row->fit.mse;
+  row->e_a = subsample.empty() ? row->fit.mse : MeanSquaredError(set, row->mask, row->fit.params);
   const DiffuseSolution diffuse = SolveDiffuse(set, row->mask, row->fit.params, num_triangles, diffuse_options);
   row->e_d = diffuse.mean_element_mse;
   row->lit_triangles = CountLitTriangles(set, row->mask, num_triangles);
@@ -61,7 +83,8 @@ absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_tri
 absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, size_t num_triangles,
                                                 const std::vector<LightConfiguration>& configurations,
                                                 const PhongFitOptions& fit_options,
-                                                const DiffuseOptions& diffuse_options, int threads) {
+                                                const DiffuseOptions& diffuse_options, int threads,
+                                                size_t max_fit_samples) {
   SweepResult result;
   result.rows.resize(configurations.size());
   for (size_t i = 0; i < configurations.size(); ++i) {
@@ -82,7 +105,8 @@ absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, s
   std::atomic<size_t> next{0};
   auto work = [&]() {
     for (size_t i = next++; i < configurations.size(); i = next++) {
-      statuses[i] = EvaluateConfiguration(set, num_triangles, fit_options, diffuse_options, &result.rows[i]);
+      statuses[i] =
+          EvaluateConfiguration(set, num_triangles, fit_options, diffuse_options, max_fit_samples, &result.rows[i]);
     }
   };
   const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), configurations.size());

@@ -41,11 +41,16 @@ struct SweepResult {
 // `set` holds triangle Samples (element = triangle id), `num_triangles` the
 // mesh's triangle count. Configurations naming unknown lights are an error.
 // Configurations may be evaluated in parallel (`threads`); results do not
-// depend on it.
+// depend on it. With `max_fit_samples` > 0 the average BRDF is fitted on an
+// even subsample of at most that many Samples (every n-th; an error-against-
+// run-time knob: four parameters per channel need far fewer than the ~1e6
+// Samples of a sequence), while E_a, E_d and the per-triangle kd always use
+// every Sample.
 absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, size_t num_triangles,
                                                 const std::vector<LightConfiguration>& configurations,
                                                 const PhongFitOptions& fit_options,
-                                                const DiffuseOptions& diffuse_options, int threads = 1);
+                                                const DiffuseOptions& diffuse_options, int threads = 1,
+                                                size_t max_fit_samples = 0);
 
 }  // namespace mvbrdf::fit
 

@@ -85,6 +85,30 @@ TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
   }
 }
 
+// Fitting the average BRDF on a subsample: the same choice, E_a over every
+// Sample, and errors within a few percent of the full fit.
+TEST(LightSweepTest, SubsampledFitKeepsTheChoiceAndTheErrors) {
+  const samples::SampleSet set = MakeSweepSamples();
+  absl::StatusOr<SweepResult> full =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 1, 0);
+  absl::StatusOr<SweepResult> sub =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 1, 500);
+  ASSERT_TRUE(full.ok() && sub.ok());
+  EXPECT_EQ(full->best, sub->best);
+  for (size_t i = 0; i < kConfigurations.size(); ++i) {
+    EXPECT_LE(sub->rows[i].fit.samples_used, 500u);
+    EXPECT_EQ(full->rows[i].fit.samples_used, set.size());
+    // A fit on fewer Samples cannot beat the full fit on the full data.
+    EXPECT_GE(sub->rows[i].e_a, full->rows[i].e_a * (1.0 - 1e-9));
+    // The generating configuration (B) fits any subsample alike; the wrong
+    // ones fit badly in subsample-dependent ways (measured: up to 12 % on
+    // 500 of 4000 Samples).
+    const double tolerance = i == 1 ? 0.05 : 0.2;
+    EXPECT_NEAR(sub->rows[i].e_a, full->rows[i].e_a, tolerance * full->rows[i].e_a) << kConfigurations[i].name;
+    EXPECT_NEAR(sub->rows[i].e_d, full->rows[i].e_d, tolerance * full->rows[i].e_d) << kConfigurations[i].name;
+  }
+}
+
 // Equal E_d and E_a: the first stays best.
 TEST(LightSweepTest, TiesKeepTheFirstConfiguration) {
   const samples::SampleSet set = MakeSweepSamples();

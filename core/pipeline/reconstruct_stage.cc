@@ -318,7 +318,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
     MVBRDF_ASSIGN_OR_RETURN(const fit::SweepResult sweep,
                             fit::SweepConfigurations(g.triangle_samples, atlas.topology.triangles.size(), configs,
-                                                     options.fit, options.diffuse, options.threads));
+                                                     options.fit, options.diffuse, options.threads,
+                                                     options.sweep_fit_samples));
     for (const fit::SweepRow& row : sweep.rows) {
       v1::LightConfigurationRow* r = report.add_light_configurations();
       r->set_name(row.name);

@@ -60,6 +60,9 @@ struct ReconstructOptions {
   size_t max_cluster_samples = 100000;
   // Use every n-th frame for light estimation (1 = all).
   int sweep_frame_stride = 1;
+  // The sweep's average BRDF is fitted on at most this many triangle
+  // Samples (E_a and E_d still use all of them); 0 = all.
+  size_t sweep_fit_samples = 100000;
   int threads = 2;
   std::filesystem::path out_dir;
 };
