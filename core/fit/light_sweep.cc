@@ -5,6 +5,7 @@
 #include "core/fit/light_sweep.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -64,8 +65,17 @@ absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_tri
   const auto start = std::chrono::steady_clock::now();
   std::vector<uint32_t> subsample;
   if (max_fit_samples > 0 && set.size() > max_fit_samples) {
-    const size_t stride = (set.size() + max_fit_samples - 1) / max_fit_samples;
-    for (size_t i = 0; i < set.size(); i += stride) subsample.push_back(static_cast<uint32_t>(i));
+    // A hashed, not strided, choice: Samples come ordered by (frame, camera,
+    // triangle), and every n-th one could alias with that order and keep
+    // only some triangles.
+    const uint64_t keep = static_cast<uint64_t>(max_fit_samples) * (uint64_t{1} << 32) / set.size();
+    for (size_t i = 0; i < set.size(); ++i) {
+      uint64_t x = static_cast<uint64_t>(i) * 0x9e3779b97f4a7c15ULL;
+      x ^= x >> 29;
+      x *= 0xbf58476d1ce4e5b9ULL;
+      x ^= x >> 32;
+      if ((x & 0xffffffffULL) < keep) subsample.push_back(static_cast<uint32_t>(i));
+    }
   }
   absl::StatusOr<PhongFitResult> fit = FitPhong(set, subsample, row->mask, fit_options);
   if (!fit.ok()) return fit.status();

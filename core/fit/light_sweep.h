@@ -42,7 +42,7 @@ struct SweepResult {
 // mesh's triangle count. Configurations naming unknown lights are an error.
 // Configurations may be evaluated in parallel (`threads`); results do not
 // depend on it. With `max_fit_samples` > 0 the average BRDF is fitted on an
-// even subsample of at most that many Samples (every n-th; an error-against-
+// hashed subsample of about that many Samples (an error-against-
 // run-time knob: four parameters per channel need far fewer than the ~1e6
 // Samples of a sequence), while E_a, E_d and the per-triangle kd always use
 // every Sample.
