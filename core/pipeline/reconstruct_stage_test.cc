@@ -14,17 +14,17 @@ namespace {
 
 // Thresholds from measurement on this sequence (actor, 8 cameras x 12
 // frames, 320x240, sensor noise 1 code value, 512^2 atlas; `mvbrdf synth
-// --frames 12` then `mvbrdf run` and `mvbrdf evaluate`): kd RMSE 0.0246
-// (median 0.0026; skin 0.043), cluster accuracy 0.99, ks relative error
-// 0.21 / 0.28 / 0.48 and ke 0.10 / 0.32 / 0.51 (cloth / skin / hair). ks and
-// ke come out low because the 320x240 images blur the highlights before they
-// reach the atlas (at 640x480 the hair's ks error falls to 0.24 and its ke
-// error to 0.21). With 4 frames the sweep cannot yet tell NE,NW,SE,SW from
-// NE,NW,SE,SW,C (E_d differ by 1 % at 12 frames, 3 % at 30).
+// --frames 12` then `mvbrdf run` and `mvbrdf evaluate`): kd RMSE 0.0248
+// (median 0.0032; cloth 0.020, skin 0.043, hair 0.025), cluster accuracy
+// 0.990, ks relative error 0.198 / 0.039 / 0.007 and ke 0.052 / 0.077 /
+// 0.043 (cloth / skin / hair). Cloth's ks is the hard one: its red kd (0.28,
+// varying by 25 % over the surface) swamps a 0.04 lobe in the red channel.
+// With 4 frames the sweep cannot yet tell NE,NW,SE,SW from NE,NW,SE,SW,C
+// (E_d differ by 1 % at 12 frames, 3 % at 30).
 constexpr double kMaxKdRmse = 0.03;
 constexpr double kMinClusterAccuracy = 0.97;
-constexpr double kMaxKsRelError = 0.6;
-constexpr double kMaxKeRelError = 0.6;
+constexpr double kMaxKsRelError = 0.3;
+constexpr double kMaxKeRelError = 0.15;
 
 class ReconstructStageTest : public ::testing::Test {
  protected:

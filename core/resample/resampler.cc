@@ -29,6 +29,7 @@ constexpr GLuint kUvAttribute = 2;
 // Uniform locations (layout(location = ...) in the shaders).
 constexpr GLint kDepthClipFromWorld = 0;  // resample_depth.vert
 constexpr GLint kDepthCamFromWorld = 1;
+constexpr GLint kDepthAtlasSize = 8;  // resample_depth.frag
 constexpr GLint kCamFromWorld = 0;  // resample_camera.frag
 constexpr GLint kCameraCenter = 1;
 constexpr GLint kIntrinsics = 2;
@@ -226,6 +227,8 @@ struct CameraState {
   gl::Texture depth_map;          // R32F, layout size: 1 / eye z of the nearest surface (1 / world units)
   gl::Renderbuffer depth_buffer;  // DEPTH_COMPONENT32F, for the nearest-surface test only
   gl::Framebuffer depth_framebuffer;
+  gl::Texture surface_position;  // RGBA32F, layout size: world xyz, w = atlas texel + 1 (0: none)
+  gl::Texture surface_normal;    // RGBA32F, layout size: unit world normal
   gl::Texture frame_texture;  // RGB32F at the camera size, bilinear
   uint64_t depth_frame = 0;   // the frame number the depth map belongs to (0: none)
 };
@@ -493,10 +496,15 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
     state.depth_buffer = gl::CreateRenderbuffer();
     glNamedRenderbufferStorage(state.depth_buffer.id(), GL_DEPTH_COMPONENT32F, state.layout.width, state.layout.height);
     state.depth_framebuffer = gl::CreateFramebuffer();
+    state.surface_position = CreateTexture2D(GL_RGBA32F, state.layout.width, state.layout.height, GL_NEAREST);
+    state.surface_normal = CreateTexture2D(GL_RGBA32F, state.layout.width, state.layout.height, GL_NEAREST);
     glNamedFramebufferTexture(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT0, state.depth_map.id(), 0);
+    glNamedFramebufferTexture(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT1, state.surface_position.id(), 0);
+    glNamedFramebufferTexture(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT2, state.surface_normal.id(), 0);
     glNamedFramebufferRenderbuffer(state.depth_framebuffer.id(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
                                    state.depth_buffer.id());
-    glNamedFramebufferDrawBuffer(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT0);
+    const GLenum depth_draw_buffers[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+    glNamedFramebufferDrawBuffers(state.depth_framebuffer.id(), 3, depth_draw_buffers);
     MVBRDF_RETURN_IF_ERROR(
         gl::CheckFramebufferComplete(state.depth_framebuffer, absl::StrCat("depth map of cameras[", c, "]")));
     r.cameras.push_back(std::move(state));
@@ -579,6 +587,9 @@ absl::Status Resampler::Impl::EnsureDepthMap(CameraState& camera) {
   const float no_surface[4] = {0.0f, 0.0f, 0.0f, 0.0f};  // inverse depth of "infinitely far"
   const float clear_depth = 1.0f;
   glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_COLOR, 0, no_surface);
+  glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_COLOR, 1, no_surface);
+  glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_COLOR, 2, no_surface);
+  glProgramUniform1i(depth_program.id(), kDepthAtlasSize, size);
   glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_DEPTH, 0, &clear_depth);
   glUseProgram(depth_program.id());
   DrawMesh();
@@ -673,6 +684,33 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   for (GLuint unit = 0; unit < 4; ++unit) glBindTextureUnit(unit, 0);
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ResampleCamera"));
   return out;
+}
+
+absl::StatusOr<CameraSurface> Resampler::Surface(int camera) {
+  Impl& r = *impl_;
+  MVBRDF_RETURN_IF_ERROR(r.CheckReady("Resampler::Surface"));
+  if (camera < 0 || camera >= static_cast<int>(r.cameras.size())) {
+    return absl::OutOfRangeError(absl::StrCat("Resampler::Surface: no camera ", camera));
+  }
+  CameraState& state = r.cameras[static_cast<size_t>(camera)];
+  MVBRDF_RETURN_IF_ERROR(r.EnsureDepthMap(state));
+  CameraSurface surface;
+  surface.cx = state.layout.cx;
+  surface.cy = state.layout.cy;
+  surface.position_texel.create(state.layout.height, state.layout.width, CV_32FC4);
+  surface.normal.create(state.layout.height, state.layout.width, CV_32FC4);
+  // Window row r is image row r (the depth pass's projection), so no flip.
+  for (auto [attachment, out] : {std::pair<GLenum, cv::Mat*>{GL_COLOR_ATTACHMENT1, &surface.position_texel},
+                                 std::pair<GLenum, cv::Mat*>{GL_COLOR_ATTACHMENT2, &surface.normal}}) {
+    glNamedFramebufferReadBuffer(state.depth_framebuffer.id(), attachment);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, state.depth_framebuffer.id());
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    glReadPixels(0, 0, state.layout.width, state.layout.height, GL_RGBA, GL_FLOAT, out->data);
+  }
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Surface"));
+  return surface;
 }
 
 absl::StatusOr<GeometryAtlas> Resampler::Geometry() {

@@ -68,6 +68,17 @@ struct GeometryAtlas {
   cv::Mat normal;    // CV_32FC4: unit normal (interpolated vertex normals), w as above
 };
 
+// The surface under every pixel centre of a camera in the current frame, from
+// the camera's pinhole depth pass (no distortion: look a distorted pixel up
+// at its undistorted position). Pixel (x, y) of these maps is the pinhole
+// pixel (x, y) of a camera with the same focal lengths and principal point
+// (cx, cy); without distortion that is the camera's own grid.
+struct CameraSurface {
+  cv::Mat position_texel;  // CV_32FC4: world xyz; w = atlas texel index + 1 (0: no surface)
+  cv::Mat normal;          // CV_32FC4: unit interpolated normal
+  double cx = 0.0, cy = 0.0;
+};
+
 class Resampler {
  public:
   // `atlas` fixes the layout (its topology's render vertices and UVs);
@@ -92,6 +103,11 @@ class Resampler {
 
   // The current frame's geometry atlas (read back from the GPU on each call).
   absl::StatusOr<GeometryAtlas> Geometry();
+
+  // Camera `camera`'s surface map of the current frame: exact per-pixel
+  // Samples (the video's pixel and the surface point it shows), free of the
+  // atlas's bilinear blur, for fitting highlights.
+  absl::StatusOr<CameraSurface> Surface(int camera);
 
   // CV_16UC1: bit k set where light k is visible from the texel's surface
   // point (shadow test only; the cosine is computed by later stages); 0 at

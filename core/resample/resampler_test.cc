@@ -181,6 +181,48 @@ ProjectionCheck CheckProjection(const QuadScene& scene, const scene::CameraModel
   return check;
 }
 
+// The camera's surface map holds, at every pixel centre, the exact surface
+// point the pixel shows, its normal and its atlas texel.
+TEST_F(ResamplerTest, SurfaceMapHoldsThePointUnderEachPixelCentre) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 256);
+  const scene::CameraModel camera = LookAtCamera({0.4, -0.5, 3.0}, {0.0, 0.0, 0.0}, 320, 240, 225.0);
+  auto resampler = Make(scene, {camera});
+  ASSERT_NE(resampler, nullptr);
+  auto surface = resampler->Surface(0);
+  ASSERT_TRUE(surface.ok()) << surface.status();
+  ASSERT_EQ(surface->position_texel.rows, 240);
+  ASSERT_EQ(surface->position_texel.cols, 320);
+  const Quad& q = scene.quads[0];
+  const glm::dvec3 origin = camera.CenterInWorld();
+  int covered = 0, texel_matches = 0;
+  double max_error = 0.0;
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) {
+      const cv::Vec4f& p = surface->position_texel.at<cv::Vec4f>(y, x);
+      // The analytic hit of the pixel centre's ray with the plane z = 0.
+      const glm::dvec3 dir = glm::transpose(camera.cam_from_world_rotation) *
+                             glm::dvec3((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy, 1.0);
+      const double t = -origin.z / dir.z;
+      const glm::dvec3 hit = origin + t * dir;
+      const double a = (hit.x - q.origin.x) / q.edge_s.x, b = (hit.y - q.origin.y) / q.edge_t.y;
+      const bool inside = a > 0.002 && a < 0.998 && b > 0.002 && b < 0.998;  // away from the rim
+      if (!inside) continue;
+      ASSERT_GT(p[3], 0.0f) << x << ", " << y;
+      ++covered;
+      max_error = std::max(max_error, glm::length(glm::dvec3(p[0], p[1], p[2]) - hit));
+      const cv::Vec4f& n = surface->normal.at<cv::Vec4f>(y, x);
+      EXPECT_NEAR(n[2], 1.0f, 1e-5f);
+      const glm::dvec2 uv = q.uv_min + glm::dvec2(a, b) * (q.uv_max - q.uv_min);
+      const int texel = static_cast<int>(std::floor((1.0 - uv.y) * 256)) * 256 + static_cast<int>(std::floor(uv.x * 256));
+      texel_matches += static_cast<int>(p[3]) - 1 == texel ? 1 : 0;
+    }
+  }
+  EXPECT_GT(covered, 20000);
+  EXPECT_LT(max_error, kPositionTolerance * 10);
+  // Texel boundaries decide on float rounding for a few pixel centres.
+  EXPECT_GT(texel_matches, covered * 99 / 100);
+}
+
 TEST_F(ResamplerTest, PlaneSamplesTheProjectedPixel) {
   const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 256);
   const scene::CameraModel camera = LookAtCamera({0.4, -0.5, 3.0}, {0.0, 0.0, 0.0}, 640, 480, 450.0);

@@ -51,6 +51,17 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
                         const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
                         const AssembleOptions& options, Visit&& visit);
 
+// Per-pixel Samples of one (frame, camera): every video pixel whose centre
+// shows the mesh (with its four neighbours, so silhouettes are left out) and
+// faces the camera by more than `min_cos_view`, with the exact surface point
+// and normal under it (Resampler::Surface) and its atlas texel; calls
+// visit(texel, rgb, g_row, h_row, falloff_row). Unlike texel Samples these
+// carry no resampling blur, which matters for highlights (ks, ke).
+template <typename Visit>
+void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& surface, const cv::Mat& shadows,
+                        const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
+                        const AssembleOptions& options, double min_cos_view, Visit&& visit);
+
 }  // namespace mvbrdf::samples
 
 #include "core/samples/assemble_inl.h"

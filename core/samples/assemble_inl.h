@@ -89,6 +89,62 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
   }
 }
 
+template <typename Visit>
+void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& surface, const cv::Mat& shadows,
+                        const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
+                        const AssembleOptions& options, double min_cos_view, Visit&& visit) {
+  using assemble_internal::Check;
+  Check(frame.type() == CV_32FC3 && frame.cols == camera.width && frame.rows == camera.height,
+        "ForEachPixelSample: frame must be CV_32FC3 of the camera's size");
+  Check(surface.position_texel.type() == CV_32FC4 && surface.normal.size() == surface.position_texel.size(),
+        "ForEachPixelSample: surface maps must be CV_32FC4 of one size");
+  Check(shadows.type() == CV_16UC1 && shadows.rows == shadows.cols, "ForEachPixelSample: shadows must be CV_16UC1");
+  Check(lights.size() <= static_cast<size_t>(kMaxLights), "ForEachPixelSample: more than kMaxLights lights");
+  const glm::vec3 center(camera.CenterInWorld());
+  const int size = shadows.cols;
+  const int map_w = surface.position_texel.cols, map_h = surface.position_texel.rows;
+  const bool distorted = camera.has_distortion();
+  std::array<float, kMaxLights> g_row{}, h_row{}, falloff_row{};
+  const auto covered = [&](int mx, int my) {
+    return mx >= 0 && my >= 0 && mx < map_w && my < map_h && surface.position_texel.at<cv::Vec4f>(my, mx)[3] > 0.5f;
+  };
+  for (int y = 0; y < frame.rows; ++y) {
+    for (int x = 0; x < frame.cols; ++x) {
+      // The pinhole pixel of the surface map showing this video pixel's centre.
+      double px = x - camera.cx + surface.cx, py = y - camera.cy + surface.cy;
+      if (distorted) {
+        const glm::dvec2 u = camera.Undistort({(x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy});
+        px = camera.fx * u.x + surface.cx;
+        py = camera.fy * u.y + surface.cy;
+      }
+      const int mx = static_cast<int>(std::lround(px)), my = static_cast<int>(std::lround(py));
+      // Pixels at silhouettes integrate background in a real camera: only
+      // pixels whose four neighbours show the mesh too.
+      if (!covered(mx, my) || !covered(mx - 1, my) || !covered(mx + 1, my) || !covered(mx, my - 1) ||
+          !covered(mx, my + 1)) {
+        continue;
+      }
+      const cv::Vec4f& p = surface.position_texel.at<cv::Vec4f>(my, mx);
+      const cv::Vec4f& nv = surface.normal.at<cv::Vec4f>(my, mx);
+      const glm::vec3 point(p[0], p[1], p[2]);
+      glm::vec3 n(nv[0], nv[1], nv[2]);
+      const float length = glm::length(n);
+      if (!(length > 0.0f) || !std::isfinite(length)) continue;
+      n /= length;
+      const glm::vec3 v = glm::normalize(center - point);
+      if (!(glm::dot(n, v) > static_cast<float>(min_cos_view))) continue;
+      const int64_t texel = static_cast<int64_t>(p[3]) - 1;
+      if (texel < 0 || texel >= static_cast<int64_t>(size) * size) continue;
+      const uint16_t bits = shadows.at<uint16_t>(static_cast<int>(texel / size), static_cast<int>(texel % size));
+      assemble_internal::LightRows(lights, point, n, center, bits, options.inverse_square_falloff, g_row.data(),
+                                   h_row.data(), falloff_row.data());
+      const cv::Vec3f& rgb = frame.at<cv::Vec3f>(y, x);
+      visit(static_cast<uint32_t>(texel), glm::vec3(rgb[0], rgb[1], rgb[2]), static_cast<const float*>(g_row.data()),
+            static_cast<const float*>(h_row.data()), static_cast<const float*>(falloff_row.data()));
+    }
+  }
+}
+
 }  // namespace mvbrdf::samples
 
 #endif  // MVBRDF_CORE_SAMPLES_ASSEMBLE_INL_H_
