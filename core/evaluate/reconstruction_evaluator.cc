@@ -28,7 +28,8 @@ double RelativeError(double value, double truth) {
 }  // namespace
 
 absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
-                                                            const std::filesystem::path& truth_path) {
+                                                            const std::filesystem::path& truth_path,
+                                                            const std::filesystem::path& error_atlas) {
   std::filesystem::path truth_file = truth_path / "truth.json";
   if (!std::filesystem::exists(truth_file)) truth_file = truth_path / "ground_truth" / "truth.json";
   MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth truth, synth::GroundTruth::Load(truth_file));
@@ -56,6 +57,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   uint64_t n10 = 0, n_all = 0;
   std::vector<int32_t> texel_material(static_cast<size_t>(size) * size, -1);
   std::vector<double> abs_errors;
+  cv::Mat error_image(size, size, CV_32FC4, cv::Scalar::all(0));
   std::vector<double> cluster_sq(static_cast<size_t>(num_clusters), 0.0);
   std::vector<uint64_t> cluster_n(static_cast<size_t>(num_clusters), 0);
   for (int y = 0; y < size; ++y) {
@@ -69,6 +71,8 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
       const cv::Vec3f& k = kd.at<cv::Vec3f>(y, x);
       double sq = 0.0;
       for (int c = 0; c < 3; ++c) sq += (k[c] - t.kd[c]) * (k[c] - t.kd[c]);
+      error_image.at<cv::Vec4f>(y, x) = {std::abs(k[0] - t.kd[0]), std::abs(k[1] - t.kd[1]), std::abs(k[2] - t.kd[2]),
+                                         1.0f};
       sq_all += sq;
       ++n_all;
       const int32_t texel_cluster = cluster.at<int32_t>(y, x);
@@ -93,6 +97,13 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     std::sort(abs_errors.begin(), abs_errors.end());
     report.set_kd_median_abs_error(abs_errors[abs_errors.size() / 2]);
     report.set_kd_p95_abs_error(abs_errors[abs_errors.size() * 95 / 100]);
+  }
+  if (!error_atlas.empty()) {
+    if (error_atlas.extension() == ".exr") {
+      MVBRDF_RETURN_IF_ERROR(image::WriteExr(error_atlas, error_image));
+    } else {
+      MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(error_atlas, error_image, 10.0f));
+    }
   }
   report.set_kd_rmse_all_seen(n_all > 0 ? std::sqrt(sq_all / (3.0 * static_cast<double>(n_all))) : 0.0);
 
