@@ -8,23 +8,7 @@ bin=$1
 work=$2
 rm -rf "$work"
 mkdir -p "$work"
-failures=0
-passes=0
-
-check() {  # check NAME EXPECTED_EXIT PATTERN -- command...
-  local name=$1 want=$2 pattern=$3
-  shift 4
-  local out rc
-  out=$("$@" 2>&1)
-  rc=$?
-  if [ "$rc" -ne "$want" ]; then
-    echo "FAIL $name: exit $rc, expected $want"; echo "$out" | tail -5; failures=$((failures + 1)); return
-  fi
-  if ! grep -q -- "$pattern" <<<"$out"; then
-    echo "FAIL $name: output lacks '$pattern'"; echo "$out" | tail -5; failures=$((failures + 1)); return
-  fi
-  echo "ok   $name"; passes=$((passes + 1))
-}
+source "$(dirname "$0")/lib.sh"
 
 json_field() {  # json_field FILE FIELD -> the number after "FIELD":
   grep -o "\"$2\": \"*[0-9.e+-]*" "$1" | head -1 | sed 's/.*: "*//'
@@ -56,5 +40,4 @@ else
   echo "FAIL memory grows with frames: $rss4 B (4 frames) vs $rss16 B (16 frames)"; failures=$((failures + 1))
 fi
 
-echo "$passes passed, $failures failed"
-[ "$failures" -eq 0 ]
+summary

@@ -7,23 +7,7 @@ bin=$1
 work=$2
 rm -rf "$work"
 mkdir -p "$work"
-failures=0
-passes=0
-
-check() {  # check NAME EXPECTED_EXIT PATTERN -- command...
-  local name=$1 want=$2 pattern=$3
-  shift 4
-  local out rc
-  out=$("$@" 2>&1)
-  rc=$?
-  if [ "$rc" -ne "$want" ]; then
-    echo "FAIL $name: exit $rc, expected $want"; echo "$out" | tail -5; failures=$((failures + 1)); return
-  fi
-  if ! grep -q -- "$pattern" <<<"$out"; then
-    echo "FAIL $name: output lacks '$pattern'"; echo "$out" | tail -5; failures=$((failures + 1)); return
-  fi
-  echo "ok   $name"; passes=$((passes + 1))
-}
+source "$(dirname "$0")/lib.sh"
 
 "$bin" synth --cameras 4 --frames 3 --width 160 --height 120 --actor-segments 12 --out "$work/b" >/dev/null || exit 1
 scene="$work/b/scene.json"
@@ -62,5 +46,4 @@ size=$(stat -c %s "$work/cam1.png" 2>/dev/null || echo 0)
 [ "$size" -gt 1000 ] && { echo "ok   rendered image has content ($size bytes)"; passes=$((passes + 1)); } ||
   { echo "FAIL rendered image is empty"; failures=$((failures + 1)); }
 
-echo "$passes passed, $failures failed"
-[ "$failures" -eq 0 ]
+summary

@@ -7,23 +7,7 @@ bin=$1
 work=$2
 rm -rf "$work"
 mkdir -p "$work"
-failures=0
-passes=0
-
-check() {  # check NAME EXPECTED_EXIT PATTERN -- command...
-  local name=$1 want=$2 pattern=$3
-  shift 4
-  local out rc
-  out=$("$@" 2>&1)
-  rc=$?
-  if [ "$rc" -ne "$want" ]; then
-    echo "FAIL $name: exit $rc, expected $want"; echo "$out" | tail -5; failures=$((failures + 1)); return
-  fi
-  if ! grep -q -- "$pattern" <<<"$out"; then
-    echo "FAIL $name: output lacks '$pattern'"; echo "$out" | tail -5; failures=$((failures + 1)); return
-  fi
-  echo "ok   $name"; passes=$((passes + 1))
-}
+source "$(dirname "$0")/lib.sh"
 
 check "no command is a usage error" 2 "usage: mvbrdf" -- "$bin"
 check "help" 0 "synth" -- "$bin" --help
@@ -52,5 +36,4 @@ head -c 200 "$scene" > "$work/actor/truncated.json"
 check "truncated json" 3 "truncated.json" -- "$bin" validate "$work/actor/truncated.json"
 check "missing scene" 3 "missing.json" -- "$bin" validate "$work/actor/missing.json"
 
-echo "$passes passed, $failures failed"
-[ "$failures" -eq 0 ]
+summary

@@ -17,6 +17,7 @@
 #include "core/cluster/kmeans.h"
 #include "core/fit/light_sweep.h"
 #include "core/image/exr.h"
+#include "core/pipeline/atlas_figures.h"
 #include "core/pipeline/texel_reservoir.h"
 #include "core/resample/atlas_ops.h"
 #include "core/samples/sample_set.h"
@@ -246,18 +247,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   auto t0 = Clock::now();
   MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas,
                           atlas::BuildAtlas(sequence.topology, sequence.rest_positions, options.atlas));
-  {
-    v1::AtlasFigures* f = report.mutable_atlas();
-    f->set_size(static_cast<uint32_t>(atlas.size));
-    f->set_built(atlas.stats.built);
-    f->set_charts(static_cast<uint32_t>(atlas.stats.num_charts));
-    f->set_coverage(atlas.stats.coverage);
-    f->set_overlap_fraction(atlas.stats.overlap_fraction);
-    f->set_min_area_ratio(atlas.stats.min_area_ratio);
-    f->set_max_area_ratio(atlas.stats.max_area_ratio);
-    f->set_triangles_without_interior_texels(static_cast<uint32_t>(atlas.stats.triangles_without_interior_texels));
-    f->set_seconds(Since(t0));
-  }
+  SetAtlasFigures(atlas, Since(t0), report.mutable_atlas());
   MVBRDF_RETURN_IF_ERROR(scene::WriteObj(out / "atlas" / "mesh.obj", atlas.topology, sequence.rest_positions));
   MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "triangle_id.exr", atlas.triangle_id));
   AddStage(&report, "atlas", Since(t0));

@@ -11,6 +11,7 @@
 #include "core/base/status_macros.h"
 #include "core/evaluate/resample_evaluator.h"
 #include "core/image/exr.h"
+#include "core/pipeline/atlas_figures.h"
 #include "core/pipeline/stage_timer.h"
 #include "core/resample/atlas_ops.h"
 #include "core/scene/mesh_loader.h"
@@ -37,18 +38,6 @@ cv::Mat ChartPreview(const atlas::Atlas& atlas) {
     }
   }
   return out;
-}
-
-void SetAtlasFigures(const atlas::Atlas& atlas, double seconds, v1::AtlasFigures* f) {
-  f->set_size(static_cast<uint32_t>(atlas.size));
-  f->set_built(atlas.stats.built);
-  f->set_charts(static_cast<uint32_t>(atlas.stats.num_charts));
-  f->set_coverage(atlas.stats.coverage);
-  f->set_overlap_fraction(atlas.stats.overlap_fraction);
-  f->set_min_area_ratio(atlas.stats.min_area_ratio);
-  f->set_max_area_ratio(atlas.stats.max_area_ratio);
-  f->set_triangles_without_interior_texels(static_cast<uint32_t>(atlas.stats.triangles_without_interior_texels));
-  f->set_seconds(seconds);
 }
 
 absl::Status WriteAtlas(const std::filesystem::path& stem, const cv::Mat& rgba) {

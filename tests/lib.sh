@@ -1,0 +1,32 @@
+# Shared by the end-to-end test scripts: `check NAME EXPECTED_EXIT PATTERN -- command...`
+# runs the command, compares its exit code and looks for PATTERN in its output;
+# `summary` prints the closing "N passed, N failed" line and sets the exit code.
+failures=0
+passes=0
+
+check() {
+  local name=$1 want=$2 pattern=$3
+  shift 4
+  local out rc
+  out=$("$@" 2>&1)
+  rc=$?
+  if [ "$rc" -ne "$want" ]; then
+    echo "FAIL $name: exit $rc, expected $want"; echo "$out" | tail -5; failures=$((failures + 1)); return
+  fi
+  if ! grep -q -- "$pattern" <<<"$out"; then
+    echo "FAIL $name: output lacks '$pattern'"; echo "$out" | tail -5; failures=$((failures + 1)); return
+  fi
+  echo "ok   $name"; passes=$((passes + 1))
+}
+
+# expect NAME CONDITION...: passes when the command CONDITION succeeds.
+expect() {
+  local name=$1
+  shift
+  if "$@"; then echo "ok   $name"; passes=$((passes + 1)); else echo "FAIL $name"; failures=$((failures + 1)); fi
+}
+
+summary() {
+  echo "$passes passed, $failures failed"
+  [ "$failures" -eq 0 ]
+}
