@@ -92,7 +92,14 @@ int RunRun(const std::vector<std::string>& args) {
                   r.seconds(), r.name() == report->chosen_configuration() ? "  <- chosen" : "");
     }
   }
-  std::printf("\nconfiguration: %s\n", report->chosen_configuration().c_str());
+  std::printf("\nconfiguration: %s", report->chosen_configuration().c_str());
+  if (report->light_configurations_size() > 1) {
+    std::printf(" (the next best E_d is %.1f %% higher)", 100.0 * report->configuration_margin());
+  }
+  std::printf("\n");
+  if (!report->configuration_warning().empty()) {
+    std::printf("warning: %s\n", report->configuration_warning().c_str());
+  }
   if (report->solvers_size() > 0) {
     std::printf("\n%-10s %-20s %-26s %-26s %-26s %12s %8s\n", "cluster", "solver", "kd (RGB)", "ks (RGB)", "ke (RGB)",
                 "cost", "seconds");

@@ -336,6 +336,18 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     if (sweep.best < 0) return absl::FailedPreconditionError("light sweep: no configuration could be fitted");
     chosen = sweep.rows[static_cast<size_t>(sweep.best)].name;
     mask = sweep.rows[static_cast<size_t>(sweep.best)].mask;
+    const fit::SweepRow& best = sweep.rows[static_cast<size_t>(sweep.best)];
+    double runner_up = -1.0;
+    const fit::SweepRow* best_e_a = &best;
+    for (const fit::SweepRow& row : sweep.rows) {
+      if (&row != &best && (runner_up < 0.0 || row.e_d < runner_up)) runner_up = row.e_d;
+      if (row.e_a < best_e_a->e_a) best_e_a = &row;
+    }
+    if (runner_up >= 0.0 && best.e_d > 0.0) report.set_configuration_margin(runner_up / best.e_d - 1.0);
+    if (best_e_a != &best) {
+      report.set_configuration_warning(absl::StrCat("E_a prefers ", best_e_a->name, " (", best_e_a->e_a, " vs ",
+                                                    best.e_a, "); the choice by E_d may be ambiguous"));
+    }
     AddStage(&report, "light_sweep", Since(t0));
   } else if (chosen.empty()) {
     for (size_t k = 0; k < sequence.lights.size(); ++k) mask |= 1u << k;
