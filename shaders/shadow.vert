@@ -1,5 +1,6 @@
-// Position-only passes of core/render/phong_renderer.cc: the shadow maps (one
-// cube face or one directional map per draw) and the triangle-id pass.
+// Position-only passes: the shadow maps of core/render/shadow_maps.cc (one
+// cube face or one directional map per draw) and the triangle-id pass of
+// core/render/phong_renderer.cc.
 
 layout(location = 0) in vec3 a_position;  // world units
 

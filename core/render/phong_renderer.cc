@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <limits>
 #include <opencv2/core.hpp>
@@ -14,6 +13,7 @@
 #include "core/gl/gl_api.h"
 #include "core/gl/gl_objects.h"
 #include "core/gl/shader_program.h"
+#include "core/render/shadow_maps.h"
 
 namespace mvbrdf::render {
 namespace {
@@ -63,42 +63,6 @@ constexpr GLint kCameraCenterLocation = 1;
 constexpr GLint kAtlasModeLocation = 2;
 constexpr GLint kFalloffLocation = 3;
 constexpr GLint kUvSpaceLocation = 4;
-constexpr GLint kLightPositionLocation = 1;
-constexpr GLint kInverseRangeLocation = 2;
-
-// Cube-map faces in GL layer order (+X, -X, +Y, -Y, +Z, -Z): view direction
-// and the up vector that makes glm::lookAt match the cube-map (s, t) axes.
-constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
-    {glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)},
-    {glm::vec3(-1, 0, 0), glm::vec3(0, -1, 0)},
-    {glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)},
-    {glm::vec3(0, -1, 0), glm::vec3(0, 0, -1)},
-    {glm::vec3(0, 0, 1), glm::vec3(0, -1, 0)},
-    {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
-}};
-
-struct BoundingSphere {
-  glm::vec3 center{0.0f};
-  float radius = 0.0f;
-};
-
-BoundingSphere ComputeBoundingSphere(const std::vector<glm::vec3>& points) {
-  BoundingSphere sphere;
-  if (points.empty()) return sphere;
-  glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-  for (const glm::vec3& p : points) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
-  sphere.center = 0.5f * (lo + hi);
-  float r2 = 0.0f;
-  for (const glm::vec3& p : points) {
-    const glm::vec3 d = p - sphere.center;
-    r2 = std::max(r2, glm::dot(d, d));
-  }
-  sphere.radius = std::sqrt(r2);
-  return sphere;
-}
 
 // OpenCV pinhole (x right, y down, z forward; pixel (0,0) the centre of the
 // top-left pixel) as GL clip coordinates from camera coordinates. Pixel (u, v)
@@ -143,20 +107,6 @@ absl::StatusOr<gl::Texture> UploadUvImage(const cv::Mat& image, absl::string_vie
   glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError(absl::StrCat("uploading ", what)));
-  return texture;
-}
-
-// Depth texture array for shadow maps: `target` GL_TEXTURE_CUBE_MAP_ARRAY
-// (layers = 6 per light) or GL_TEXTURE_2D_ARRAY. Nearest lookups, no compare
-// mode: the shader compares against distances itself.
-gl::Texture CreateShadowArray(GLenum target, int size, int layers) {
-  gl::Texture texture = gl::CreateTexture(target);
-  glTextureStorage3D(texture.id(), 1, GL_DEPTH_COMPONENT32F, size, size, layers);
-  glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-  glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  glTextureParameteri(texture.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
   return texture;
 }
 
@@ -221,8 +171,6 @@ struct PhongRenderer::Impl {
   gl::Buffer light_buffer;
 
   gl::Program phong_program;
-  gl::Program point_shadow_program;
-  gl::Program directional_shadow_program;
   gl::Program triangle_id_program;
 
   // 1x1 stand-ins so that every sampler of phong.frag always has a texture.
@@ -235,11 +183,7 @@ struct PhongRenderer::Impl {
   bool needs_kd_texture = false;
 
   std::vector<scene::Light> lights;
-  int num_point_lights = 0;
-  int num_directional_lights = 0;
-  gl::Texture point_shadows;        // cube-map array, 6 layers per point light (at least one cube)
-  gl::Texture directional_shadows;  // 2D array, one layer per directional light (at least one)
-  gl::Framebuffer shadow_framebuffer;
+  std::unique_ptr<ShadowMaps> shadow_maps;
 
   RenderTarget camera_target{GL_RGBA32F};    // Render
   RenderTarget atlas_target{GL_RGBA32F};     // RenderAtlas
@@ -251,7 +195,6 @@ struct PhongRenderer::Impl {
   bool shadows_valid = false;
   std::vector<glm::vec3> shadow_positions;  // the positions the shadow maps were rendered for
 
-  absl::Status EnsureShadowMaps();
   // FAILED_PRECONDITION unless the context is current here; INVALID_ARGUMENT
   // unless the pose has one position and normal per render vertex.
   absl::Status CheckContextAndPose(absl::string_view caller, const Pose& pose) const;
@@ -266,8 +209,6 @@ struct PhongRenderer::Impl {
   // RGBA floats of the target, bottom window row first, in `readback`.
   absl::Status DrawShaded(const glm::mat4& clip_from_world, const glm::vec3& camera_center, bool uv_space,
                           RenderTarget& target);
-  // Fills `block` and renders every shadow map for the pose's bounds.
-  absl::Status RenderShadowMaps(const BoundingSphere& bounds, GpuLightBlock* block);
   void Draw() const {
     glBindVertexArray(vertex_array.id());
     glDrawElements(GL_TRIANGLES, num_indices, GL_UNSIGNED_INT, nullptr);
@@ -318,12 +259,6 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
 
   MVBRDF_ASSIGN_OR_RETURN(impl->phong_program, gl::BuildProgram({{GL_VERTEX_SHADER, "phong.vert", {}},
                                                                  {GL_FRAGMENT_SHADER, "phong.frag", {}}}));
-  MVBRDF_ASSIGN_OR_RETURN(
-      impl->point_shadow_program,
-      gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}}, {GL_FRAGMENT_SHADER, "shadow_point.frag", {}}}));
-  MVBRDF_ASSIGN_OR_RETURN(
-      impl->directional_shadow_program,
-      gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}}, {GL_FRAGMENT_SHADER, "shadow_directional.frag", {}}}));
   MVBRDF_ASSIGN_OR_RETURN(impl->triangle_id_program, gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
                                                                        {GL_FRAGMENT_SHADER, "triangle_id.frag", {}}}));
 
@@ -374,10 +309,7 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
 
   const cv::Mat zero(1, 1, CV_32FC3, cv::Scalar(0, 0, 0));
   MVBRDF_ASSIGN_OR_RETURN(impl->placeholder_texture, UploadUvImage(zero, "placeholder texture"));
-  impl->shadow_framebuffer = gl::CreateFramebuffer();
-  glNamedFramebufferDrawBuffer(impl->shadow_framebuffer.id(), GL_NONE);
-  glNamedFramebufferReadBuffer(impl->shadow_framebuffer.id(), GL_NONE);
-  MVBRDF_RETURN_IF_ERROR(impl->EnsureShadowMaps());
+  MVBRDF_ASSIGN_OR_RETURN(impl->shadow_maps, ShadowMaps::Create(options.shadow_map_size, impl->lights));
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("PhongRenderer::Create"));
   return std::unique_ptr<PhongRenderer>(new PhongRenderer(std::move(impl)));
 }
@@ -437,111 +369,14 @@ absl::Status PhongRenderer::SetLights(const std::vector<scene::Light>& lights) {
     return absl::InvalidArgumentError(
         absl::StrCat("lights: at most ", kMaxLights, " lights are supported, got ", lights.size()));
   }
-  int num_point = 0, num_directional = 0;
   for (size_t k = 0; k < lights.size(); ++k) {
-    const scene::Light& light = lights[k];
-    if (light.directional) {
-      if (!(glm::length(light.direction) > 0.0f)) {
-        return absl::InvalidArgumentError(absl::StrCat("lights[", k, "].direction: must be non-zero"));
-      }
-      ++num_directional;
-    } else {
-      ++num_point;
+    if (lights[k].directional && !(glm::length(lights[k].direction) > 0.0f)) {
+      return absl::InvalidArgumentError(absl::StrCat("lights[", k, "].direction: must be non-zero"));
     }
   }
   impl_->lights = lights;
-  impl_->num_point_lights = num_point;
-  impl_->num_directional_lights = num_directional;
-  impl_->shadows_valid = false;
-  return impl_->EnsureShadowMaps();
-}
-
-absl::Status PhongRenderer::Impl::EnsureShadowMaps() {
-  const int size = options.shadow_map_size;
-  const int cubes = std::max(num_point_lights, 1);
-  GLint current = 0;
-  if (point_shadows) glGetTextureLevelParameteriv(point_shadows.id(), 0, GL_TEXTURE_DEPTH, &current);
-  if (!point_shadows || current != 6 * cubes) {
-    point_shadows = CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, size, 6 * cubes);
-  }
-  const int maps = std::max(num_directional_lights, 1);
-  current = 0;
-  if (directional_shadows) glGetTextureLevelParameteriv(directional_shadows.id(), 0, GL_TEXTURE_DEPTH, &current);
-  if (!directional_shadows || current != maps) {
-    directional_shadows = CreateShadowArray(GL_TEXTURE_2D_ARRAY, size, maps);
-  }
-  return gl::CheckGlError("allocating shadow maps");
-}
-
-absl::Status PhongRenderer::Impl::RenderShadowMaps(const BoundingSphere& bounds, GpuLightBlock* block) {
-  const int size = options.shadow_map_size;
-  // Shadow maps cover the bounding sphere with a little room, so that nothing
-  // of the mesh is clipped by the light's far plane or the map's border.
-  const float radius = bounds.radius * 1.01f + 1e-4f;
-  glBindFramebuffer(GL_FRAMEBUFFER, shadow_framebuffer.id());
-  glViewport(0, 0, size, size);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glDepthMask(GL_TRUE);
-  glDisable(GL_CULL_FACE);  // both sides of every triangle cast shadows
-  glDisable(GL_BLEND);
-
-  int point_layer = 0, directional_layer = 0;
-  block->count = glm::ivec4(static_cast<int>(lights.size()), 0, 0, 0);
-  for (size_t k = 0; k < lights.size(); ++k) {
-    const scene::Light& light = lights[k];
-    GpuLight& gpu = block->lights[k];
-    gpu.intensity = glm::vec4(light.intensity, 0.0f);
-    gpu.shadow_from_world = glm::mat4(1.0f);
-    if (!light.directional) {
-      gpu.position = glm::vec4(light.position, 1.0f);
-      const float range = glm::length(light.position - bounds.center) + radius;
-      // The perspective near plane only clips; depth is the distance written
-      // by shadow_point.frag.
-      const float near_plane = range * 1e-4f;
-      // Angle of one texel at the face centre (the largest on the face).
-      gpu.shadow = glm::vec4(static_cast<float>(point_layer), range, 2.0f / size, 0.0f);
-      glProgramUniform3fv(point_shadow_program.id(), kLightPositionLocation, 1, glm::value_ptr(light.position));
-      glProgramUniform1f(point_shadow_program.id(), kInverseRangeLocation, 1.0f / range);
-      glUseProgram(point_shadow_program.id());
-      const glm::mat4 projection = glm::perspective(glm::radians(90.0f), 1.0f, near_plane, range);
-      for (int face = 0; face < 6; ++face) {
-        const glm::mat4 view = glm::lookAt(light.position, light.position + kCubeFaces[face][0], kCubeFaces[face][1]);
-        const glm::mat4 clip_from_world = projection * view;
-        glProgramUniformMatrix4fv(point_shadow_program.id(), kClipFromWorldLocation, 1, GL_FALSE,
-                                  glm::value_ptr(clip_from_world));
-        glNamedFramebufferTextureLayer(shadow_framebuffer.id(), GL_DEPTH_ATTACHMENT, point_shadows.id(), 0,
-                                       6 * point_layer + face);
-        glClear(GL_DEPTH_BUFFER_BIT);
-        Draw();
-      }
-      ++point_layer;
-    } else {
-      const glm::vec3 l = glm::normalize(light.direction);
-      gpu.position = glm::vec4(l, 0.0f);
-      // Orthographic view along -l, fitted to the bounding sphere: depth 0 at
-      // the sphere's near side, 1 at its far side (2 * radius further).
-      const glm::vec3 eye = bounds.center + l * radius;
-      const glm::vec3 up = std::abs(l.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
-      const glm::mat4 view = glm::lookAt(eye, bounds.center, up);
-      const glm::mat4 projection = glm::ortho(-radius, radius, -radius, radius, 0.0f, 2.0f * radius);
-      const glm::mat4 clip_from_world = projection * view;
-      // Clip space [-1, 1]^3 -> texture coordinates and window depth [0, 1]^3.
-      const glm::mat4 unit_from_clip =
-          glm::translate(glm::mat4(1.0f), glm::vec3(0.5f)) * glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
-      gpu.shadow_from_world = unit_from_clip * clip_from_world;
-      gpu.shadow = glm::vec4(static_cast<float>(directional_layer), 2.0f * radius, 2.0f * radius / size, 0.0f);
-      glProgramUniformMatrix4fv(directional_shadow_program.id(), kClipFromWorldLocation, 1, GL_FALSE,
-                                glm::value_ptr(clip_from_world));
-      glUseProgram(directional_shadow_program.id());
-      glNamedFramebufferTextureLayer(shadow_framebuffer.id(), GL_DEPTH_ATTACHMENT, directional_shadows.id(), 0,
-                                     directional_layer);
-      glClear(GL_DEPTH_BUFFER_BIT);
-      Draw();
-      ++directional_layer;
-    }
-  }
-  return gl::CheckGlError("rendering shadow maps");
+  impl_->shadows_valid = false;  // the shadow maps are (re)allocated and rendered by the next PreparePose
+  return absl::OkStatus();
 }
 
 absl::Status PhongRenderer::Impl::CheckContextAndPose(absl::string_view caller, const Pose& pose) const {
@@ -575,8 +410,17 @@ absl::Status PhongRenderer::Impl::PreparePose(const Pose& pose) {
   glNamedBufferSubData(normal_buffer.id(), 0, vec3_bytes, pose.normals.data());
   if (!shadows_valid || shadow_positions != pose.positions) {
     shadows_valid = false;
+    MVBRDF_RETURN_IF_ERROR(shadow_maps->Render(lights, ComputeBoundingSphere(pose.positions), [this] { Draw(); }));
     GpuLightBlock block{};
-    MVBRDF_RETURN_IF_ERROR(RenderShadowMaps(ComputeBoundingSphere(pose.positions), &block));
+    block.count = glm::ivec4(static_cast<int>(lights.size()), 0, 0, 0);
+    for (size_t k = 0; k < lights.size(); ++k) {
+      const LightShadow& shadow = shadow_maps->light_shadows()[k];
+      GpuLight& gpu = block.lights[k];
+      gpu.position = shadow.position;
+      gpu.intensity = glm::vec4(lights[k].intensity, 0.0f);
+      gpu.shadow = shadow.shadow;
+      gpu.shadow_from_world = shadow.shadow_from_world;
+    }
     glNamedBufferSubData(light_buffer.id(), 0, sizeof(GpuLightBlock), &block);
     shadow_positions = pose.positions;
     shadows_valid = true;
@@ -599,8 +443,8 @@ absl::Status PhongRenderer::Impl::DrawShaded(const glm::mat4& clip_from_world, c
   glBindTextureUnit(kAtlasKdUnit, atlas ? atlas_kd.id() : placeholder);
   glBindTextureUnit(kAtlasKsUnit, atlas ? atlas_ks.id() : placeholder);
   glBindTextureUnit(kAtlasKeUnit, atlas ? atlas_ke.id() : placeholder);
-  glBindTextureUnit(kPointShadowUnit, point_shadows.id());
-  glBindTextureUnit(kDirectionalShadowUnit, directional_shadows.id());
+  glBindTextureUnit(kPointShadowUnit, shadow_maps->point_maps().id());
+  glBindTextureUnit(kDirectionalShadowUnit, shadow_maps->directional_maps().id());
   glBindBufferBase(GL_UNIFORM_BUFFER, kLightBlockBinding, light_buffer.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMaterialBlockBinding, material_buffer.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTriangleMaterialBlockBinding, triangle_material_buffer.id());

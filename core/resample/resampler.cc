@@ -1,10 +1,8 @@
 #include "core/resample/resampler.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
-#include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
 #include <limits>
 
@@ -14,6 +12,7 @@
 #include "core/gl/gl_api.h"
 #include "core/gl/gl_objects.h"
 #include "core/gl/shader_program.h"
+#include "core/render/shadow_maps.h"
 
 namespace mvbrdf::resample {
 namespace {
@@ -21,7 +20,7 @@ namespace {
 constexpr int kMaxLights = 16;  // shaders/resample_shadow.frag kMaxLights; the shadow atlas is 16 bits
 
 // Vertex attributes (shaders/resample_geometry.vert, resample_depth.vert and
-// the reused shadow.vert all read the position at location 0).
+// render::ShadowMaps's shadow.vert all read the position at location 0).
 constexpr GLuint kPositionAttribute = 0;
 constexpr GLuint kNormalAttribute = 1;
 constexpr GLuint kUvAttribute = 2;
@@ -38,9 +37,6 @@ constexpr GLint kDistortionA = 4;
 constexpr GLint kDistortionB = 5;
 constexpr GLint kMinCosView = 6;
 constexpr GLint kDepthScale = 7;
-constexpr GLint kShadowClipFromWorld = 0;  // shadow.vert
-constexpr GLint kShadowLightPosition = 1;  // shadow_point.frag
-constexpr GLint kShadowInverseRange = 2;
 
 // Texture units of the full-screen passes.
 constexpr GLuint kPositionMapUnit = 0;
@@ -63,41 +59,6 @@ struct GpuShadowLightBlock {
   glm::ivec4 count;
   GpuShadowLight lights[kMaxLights];
 };
-
-// Cube-map faces in GL layer order (+X, -X, +Y, -Y, +Z, -Z): view direction
-// and the up vector that makes glm::lookAt match the cube-map (s, t) axes
-// (as core/render/phong_renderer.cc, whose shadow shaders are reused).
-constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
-    {glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)},
-    {glm::vec3(-1, 0, 0), glm::vec3(0, -1, 0)},
-    {glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)},
-    {glm::vec3(0, -1, 0), glm::vec3(0, 0, -1)},
-    {glm::vec3(0, 0, 1), glm::vec3(0, -1, 0)},
-    {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
-}};
-
-struct BoundingSphere {
-  glm::vec3 center{0.0f};
-  float radius = 0.0f;
-};
-
-BoundingSphere ComputeBoundingSphere(const std::vector<glm::vec3>& points) {
-  BoundingSphere sphere;
-  if (points.empty()) return sphere;
-  glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
-  for (const glm::vec3& p : points) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
-  sphere.center = 0.5f * (lo + hi);
-  float r2 = 0.0f;
-  for (const glm::vec3& p : points) {
-    const glm::vec3 d = p - sphere.center;
-    r2 = std::max(r2, glm::dot(d, d));
-  }
-  sphere.radius = std::sqrt(r2);
-  return sphere;
-}
 
 // The camera's depth map: an undistorted pinhole with the camera's focal
 // lengths whose pixel grid is the camera's shifted by an integer offset, large
@@ -182,20 +143,6 @@ gl::Texture CreateTexture2D(GLenum internal_format, int width, int height, GLint
   return texture;
 }
 
-// Depth texture array for shadow maps (as core/render/phong_renderer.cc):
-// `target` GL_TEXTURE_CUBE_MAP_ARRAY (6 layers per light) or
-// GL_TEXTURE_2D_ARRAY; nearest lookups, no compare mode.
-gl::Texture CreateShadowArray(GLenum target, int size, int layers) {
-  gl::Texture texture = gl::CreateTexture(target);
-  glTextureStorage3D(texture.id(), 1, GL_DEPTH_COMPONENT32F, size, size, layers);
-  glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-  glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  glTextureParameteri(texture.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
-  return texture;
-}
-
 absl::Status CheckCamera(const scene::CameraModel& camera, size_t index) {
   const std::string field = absl::StrCat("cameras[", index, "] (\"", camera.name, "\")");
   if (camera.width <= 0 || camera.height <= 0) {
@@ -241,8 +188,6 @@ struct Resampler::Impl {
   int size = 0;  // atlas texels per side
   scene::MeshTopology topology;
   std::vector<scene::Light> lights;
-  int num_point_lights = 0;
-  int num_directional_lights = 0;
   GLsizei num_indices = 0;  // of the triangles with non-zero rest-pose area
   GLint max_texture_size = 0;
 
@@ -257,8 +202,6 @@ struct Resampler::Impl {
   gl::Program geometry_program;
   gl::Program depth_program;
   gl::Program camera_program;
-  gl::Program point_shadow_program;
-  gl::Program directional_shadow_program;
   gl::Program shadow_atlas_program;
 
   // Geometry atlas: RGBA32F textures, GL row r = atlas image row r.
@@ -271,15 +214,14 @@ struct Resampler::Impl {
   gl::Renderbuffer shadow_target;  // R16UI
   gl::Framebuffer shadow_atlas_framebuffer;
 
-  gl::Texture point_shadows;        // cube-map array, 6 layers per point light (at least one cube)
-  gl::Texture directional_shadows;  // 2D array, one layer per directional light (at least one)
-  gl::Framebuffer shadow_map_framebuffer;
+  // The renderer's shadow maps (same maps, same lookups); null without lights.
+  std::unique_ptr<render::ShadowMaps> shadow_maps;
 
   std::vector<CameraState> cameras;
 
   // Frames are numbered from 1 by SetFrame; 0 means none yet.
   uint64_t frame = 0;
-  BoundingSphere bounds;  // of the current pose
+  render::BoundingSphere bounds;  // of the current pose
   uint64_t shadow_frame = 0;
   cv::Mat shadow_atlas;  // CV_16UC1 of shadow_frame
 
@@ -301,7 +243,6 @@ struct Resampler::Impl {
   absl::Status RenderGeometry();
   absl::Status EnsureDepthMap(CameraState& camera);
   absl::Status UploadFrame(CameraState& camera, const cv::Mat& frame_rgb);
-  absl::Status RenderShadowMaps(GpuShadowLightBlock* block);
   // Reads the bound read framebuffer's `attachment` (size x size) into `out`.
   void ReadAtlas(GLuint framebuffer, GLenum attachment, GLenum format, GLenum type, cv::Mat* out) const;
 };
@@ -378,7 +319,6 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
   r.size = atlas.size;
   r.topology = topo;
   r.lights = lights;
-  for (const scene::Light& light : lights) (light.directional ? r.num_directional_lights : r.num_point_lights)++;
   glGetIntegerv(GL_MAX_TEXTURE_SIZE, &r.max_texture_size);
   if (atlas.size < 1 || atlas.size > r.max_texture_size) {
     return absl::InvalidArgumentError(
@@ -406,12 +346,6 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
                                                               {GL_FRAGMENT_SHADER, "resample_camera.frag", {}}}));
   MVBRDF_ASSIGN_OR_RETURN(r.shadow_atlas_program, gl::BuildProgram({{GL_VERTEX_SHADER, "resample_fullscreen.vert", {}},
                                                                     {GL_FRAGMENT_SHADER, "resample_shadow.frag", {}}}));
-  // The renderer's shadow-map shaders: same maps, same lookups.
-  MVBRDF_ASSIGN_OR_RETURN(r.point_shadow_program, gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
-                                                                    {GL_FRAGMENT_SHADER, "shadow_point.frag", {}}}));
-  MVBRDF_ASSIGN_OR_RETURN(
-      r.directional_shadow_program,
-      gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}}, {GL_FRAGMENT_SHADER, "shadow_directional.frag", {}}}));
 
   // Mesh: positions and normals change per frame, UVs and indices do not.
   const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(n * sizeof(glm::vec3));
@@ -469,13 +403,7 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
 
   // Shadow maps: allocated here (their size is fixed), rendered lazily.
   if (!lights.empty()) {
-    r.point_shadows =
-        CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, options.shadow_map_size, 6 * std::max(r.num_point_lights, 1));
-    r.directional_shadows =
-        CreateShadowArray(GL_TEXTURE_2D_ARRAY, options.shadow_map_size, std::max(r.num_directional_lights, 1));
-    r.shadow_map_framebuffer = gl::CreateFramebuffer();
-    glNamedFramebufferDrawBuffer(r.shadow_map_framebuffer.id(), GL_NONE);
-    glNamedFramebufferReadBuffer(r.shadow_map_framebuffer.id(), GL_NONE);
+    MVBRDF_ASSIGN_OR_RETURN(r.shadow_maps, render::ShadowMaps::Create(options.shadow_map_size, lights));
     r.light_buffer = gl::CreateBuffer();
     glNamedBufferStorage(r.light_buffer.id(), sizeof(GpuShadowLightBlock), nullptr, GL_DYNAMIC_STORAGE_BIT);
     MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Create: shadow maps"));
@@ -534,7 +462,7 @@ absl::Status Resampler::SetFrame(const scene::FramePositions& file_positions) {
   const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(positions.size() * sizeof(glm::vec3));
   glNamedBufferSubData(r.position_buffer.id(), 0, vec3_bytes, positions.data());
   glNamedBufferSubData(r.normal_buffer.id(), 0, vec3_bytes, normals.data());
-  r.bounds = ComputeBoundingSphere(positions);
+  r.bounds = render::ComputeBoundingSphere(positions);
   // A new frame number invalidates every camera's depth map and the shadow atlas.
   ++r.frame;
   r.shadow_atlas.release();
@@ -725,93 +653,25 @@ absl::StatusOr<GeometryAtlas> Resampler::Geometry() {
   return geometry;
 }
 
-absl::Status Resampler::Impl::RenderShadowMaps(GpuShadowLightBlock* block) {
-  const int map_size = options.shadow_map_size;
-  // The maps cover the bounding sphere with a little room, so that nothing of
-  // the mesh is clipped by a light's far plane or a map's border.
-  const float radius = bounds.radius * 1.01f + 1e-4f;
-  glBindFramebuffer(GL_FRAMEBUFFER, shadow_map_framebuffer.id());
-  glViewport(0, 0, map_size, map_size);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glDepthMask(GL_TRUE);
-  glDisable(GL_CULL_FACE);  // both sides of every triangle cast shadows
-  glDisable(GL_BLEND);
-
-  int point_layer = 0, directional_layer = 0;
-  block->count = glm::ivec4(static_cast<int>(lights.size()), 0, 0, 0);
-  for (size_t k = 0; k < lights.size(); ++k) {
-    const scene::Light& light = lights[k];
-    GpuShadowLight& gpu = block->lights[k];
-    gpu.shadow_from_world = glm::mat4(1.0f);
-    if (!light.directional) {
-      gpu.position = glm::vec4(light.position, 1.0f);
-      const float range = glm::length(light.position - bounds.center) + radius;
-      // The perspective near plane only clips; depth is the distance written
-      // by shadow_point.frag, divided by the range.
-      const float near_plane = range * 1e-4f;
-      // Angle of one texel at the face centre (the largest on the face).
-      gpu.shadow = glm::vec4(static_cast<float>(point_layer), range, 2.0f / map_size, 0.0f);
-      glProgramUniform3fv(point_shadow_program.id(), kShadowLightPosition, 1, glm::value_ptr(light.position));
-      glProgramUniform1f(point_shadow_program.id(), kShadowInverseRange, 1.0f / range);
-      glUseProgram(point_shadow_program.id());
-      const glm::mat4 projection = glm::perspective(glm::radians(90.0f), 1.0f, near_plane, range);
-      for (int face = 0; face < 6; ++face) {
-        const glm::mat4 view = glm::lookAt(light.position, light.position + kCubeFaces[face][0], kCubeFaces[face][1]);
-        const glm::mat4 clip_from_world = projection * view;
-        glProgramUniformMatrix4fv(point_shadow_program.id(), kShadowClipFromWorld, 1, GL_FALSE,
-                                  glm::value_ptr(clip_from_world));
-        glNamedFramebufferTextureLayer(shadow_map_framebuffer.id(), GL_DEPTH_ATTACHMENT, point_shadows.id(), 0,
-                                       6 * point_layer + face);
-        glClear(GL_DEPTH_BUFFER_BIT);
-        DrawMesh();
-      }
-      ++point_layer;
-    } else {
-      const glm::vec3 l = glm::normalize(light.direction);
-      gpu.position = glm::vec4(l, 0.0f);
-      // Orthographic view along -l fitted to the bounding sphere: depth 0 at
-      // the sphere's near side, 1 at its far side (2 * radius further).
-      const glm::vec3 eye = bounds.center + l * radius;
-      const glm::vec3 up = std::abs(l.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
-      const glm::mat4 view = glm::lookAt(eye, bounds.center, up);
-      const glm::mat4 projection = glm::ortho(-radius, radius, -radius, radius, 0.0f, 2.0f * radius);
-      const glm::mat4 clip_from_world = projection * view;
-      // Clip space [-1, 1]^3 -> texture coordinates and window depth [0, 1]^3.
-      const glm::mat4 unit_from_clip =
-          glm::translate(glm::mat4(1.0f), glm::vec3(0.5f)) * glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
-      gpu.shadow_from_world = unit_from_clip * clip_from_world;
-      gpu.shadow = glm::vec4(static_cast<float>(directional_layer), 2.0f * radius, 2.0f * radius / map_size, 0.0f);
-      glProgramUniformMatrix4fv(directional_shadow_program.id(), kShadowClipFromWorld, 1, GL_FALSE,
-                                glm::value_ptr(clip_from_world));
-      glUseProgram(directional_shadow_program.id());
-      glNamedFramebufferTextureLayer(shadow_map_framebuffer.id(), GL_DEPTH_ATTACHMENT, directional_shadows.id(), 0,
-                                     directional_layer);
-      glClear(GL_DEPTH_BUFFER_BIT);
-      DrawMesh();
-      ++directional_layer;
-    }
-  }
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  glUseProgram(0);
-  glBindVertexArray(0);
-  return gl::CheckGlError("Resampler::ShadowAtlas: shadow maps");
-}
-
 absl::StatusOr<cv::Mat> Resampler::ShadowAtlas() {
   Impl& r = *impl_;
   MVBRDF_RETURN_IF_ERROR(r.CheckReady("Resampler::ShadowAtlas"));
   if (r.shadow_frame == r.frame && !r.shadow_atlas.empty()) return r.shadow_atlas.clone();
   cv::Mat visible(r.size, r.size, CV_16UC1, cv::Scalar(0));
   if (!r.lights.empty()) {
+    MVBRDF_RETURN_IF_ERROR(r.shadow_maps->Render(r.lights, r.bounds, [&r] { r.DrawMesh(); }));
     GpuShadowLightBlock block{};
-    MVBRDF_RETURN_IF_ERROR(r.RenderShadowMaps(&block));
+    block.count = glm::ivec4(static_cast<int>(r.lights.size()), 0, 0, 0);
+    for (size_t k = 0; k < r.lights.size(); ++k) {
+      const render::LightShadow& shadow = r.shadow_maps->light_shadows()[k];
+      block.lights[k] = {shadow.position, shadow.shadow, shadow.shadow_from_world};
+    }
     glNamedBufferSubData(r.light_buffer.id(), 0, sizeof(GpuShadowLightBlock), &block);
 
     glBindTextureUnit(kPositionMapUnit, r.position_map.id());
     glBindTextureUnit(kNormalMapUnit, r.normal_map.id());
-    glBindTextureUnit(kPointShadowUnit, r.point_shadows.id());
-    glBindTextureUnit(kDirectionalShadowUnit, r.directional_shadows.id());
+    glBindTextureUnit(kPointShadowUnit, r.shadow_maps->point_maps().id());
+    glBindTextureUnit(kDirectionalShadowUnit, r.shadow_maps->directional_maps().id());
     glBindBufferBase(GL_UNIFORM_BUFFER, kShadowLightBlockBinding, r.light_buffer.id());
     glBindFramebuffer(GL_FRAMEBUFFER, r.shadow_atlas_framebuffer.id());
     glViewport(0, 0, r.size, r.size);

@@ -1,0 +1,174 @@
+#include "core/render/shadow_maps.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <limits>
+
+#include "core/base/status_macros.h"
+#include "core/gl/gl_api.h"
+#include "core/gl/shader_program.h"
+
+namespace mvbrdf::render {
+namespace {
+
+// Uniform locations (layout(location = ...) in shaders/shadow.vert and
+// shadow_point.frag).
+constexpr GLint kClipFromWorldLocation = 0;
+constexpr GLint kLightPositionLocation = 1;
+constexpr GLint kInverseRangeLocation = 2;
+
+// Cube-map faces in GL layer order (+X, -X, +Y, -Y, +Z, -Z): view direction
+// and the up vector that makes glm::lookAt match the cube-map (s, t) axes.
+constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
+    {glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)},
+    {glm::vec3(-1, 0, 0), glm::vec3(0, -1, 0)},
+    {glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)},
+    {glm::vec3(0, -1, 0), glm::vec3(0, 0, -1)},
+    {glm::vec3(0, 0, 1), glm::vec3(0, -1, 0)},
+    {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
+}};
+
+// Depth texture array: `target` GL_TEXTURE_CUBE_MAP_ARRAY (layers = 6 per
+// light) or GL_TEXTURE_2D_ARRAY. Nearest lookups, no compare mode.
+gl::Texture CreateShadowArray(GLenum target, int size, int layers) {
+  gl::Texture texture = gl::CreateTexture(target);
+  glTextureStorage3D(texture.id(), 1, GL_DEPTH_COMPONENT32F, size, size, layers);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(texture.id(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture.id(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(texture.id(), GL_TEXTURE_COMPARE_MODE, GL_NONE);
+  return texture;
+}
+
+}  // namespace
+
+BoundingSphere ComputeBoundingSphere(const std::vector<glm::vec3>& points) {
+  BoundingSphere sphere;
+  if (points.empty()) return sphere;
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(std::numeric_limits<float>::lowest());
+  for (const glm::vec3& p : points) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  sphere.center = 0.5f * (lo + hi);
+  float r2 = 0.0f;
+  for (const glm::vec3& p : points) {
+    const glm::vec3 d = p - sphere.center;
+    r2 = std::max(r2, glm::dot(d, d));
+  }
+  sphere.radius = std::sqrt(r2);
+  return sphere;
+}
+
+absl::StatusOr<std::unique_ptr<ShadowMaps>> ShadowMaps::Create(int size, const std::vector<scene::Light>& lights) {
+  std::unique_ptr<ShadowMaps> maps(new ShadowMaps());
+  maps->size_ = size;
+  MVBRDF_ASSIGN_OR_RETURN(maps->point_program_, gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
+                                                                  {GL_FRAGMENT_SHADER, "shadow_point.frag", {}}}));
+  MVBRDF_ASSIGN_OR_RETURN(
+      maps->directional_program_,
+      gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}}, {GL_FRAGMENT_SHADER, "shadow_directional.frag", {}}}));
+  maps->framebuffer_ = gl::CreateFramebuffer();
+  glNamedFramebufferDrawBuffer(maps->framebuffer_.id(), GL_NONE);
+  glNamedFramebufferReadBuffer(maps->framebuffer_.id(), GL_NONE);
+  MVBRDF_RETURN_IF_ERROR(maps->Allocate(lights));
+  return maps;
+}
+
+ShadowMaps::~ShadowMaps() = default;
+
+absl::Status ShadowMaps::Allocate(const std::vector<scene::Light>& lights) {
+  int num_point = 0, num_directional = 0;
+  for (const scene::Light& light : lights) (light.directional ? num_directional : num_point)++;
+  const int cubes = std::max(num_point, 1);
+  const int maps = std::max(num_directional, 1);
+  if (!point_maps_ || num_cubes_ != cubes) {
+    point_maps_ = CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, size_, 6 * cubes);
+    num_cubes_ = cubes;
+  }
+  if (!directional_maps_ || num_directional_ != maps) {
+    directional_maps_ = CreateShadowArray(GL_TEXTURE_2D_ARRAY, size_, maps);
+    num_directional_ = maps;
+  }
+  return gl::CheckGlError("allocating shadow maps");
+}
+
+absl::Status ShadowMaps::Render(const std::vector<scene::Light>& lights, const BoundingSphere& bounds,
+                                absl::FunctionRef<void()> draw_mesh) {
+  MVBRDF_RETURN_IF_ERROR(Allocate(lights));
+  // The maps cover the bounding sphere with a little room, so that nothing of
+  // the mesh is clipped by a light's far plane or a map's border.
+  const float radius = bounds.radius * 1.01f + 1e-4f;
+  glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
+  glViewport(0, 0, size_, size_);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDepthMask(GL_TRUE);
+  glDisable(GL_CULL_FACE);  // both sides of every triangle cast shadows
+  glDisable(GL_BLEND);
+
+  int point_layer = 0, directional_layer = 0;
+  light_shadows_.assign(lights.size(), LightShadow{});
+  for (size_t k = 0; k < lights.size(); ++k) {
+    const scene::Light& light = lights[k];
+    LightShadow& out = light_shadows_[k];
+    out.shadow_from_world = glm::mat4(1.0f);
+    if (!light.directional) {
+      out.position = glm::vec4(light.position, 1.0f);
+      const float range = glm::length(light.position - bounds.center) + radius;
+      // The perspective near plane only clips; depth is the distance written
+      // by shadow_point.frag, divided by the range.
+      const float near_plane = range * 1e-4f;
+      // Angle of one texel at the face centre (the largest on the face).
+      out.shadow = glm::vec4(static_cast<float>(point_layer), range, 2.0f / size_, 0.0f);
+      glProgramUniform3fv(point_program_.id(), kLightPositionLocation, 1, glm::value_ptr(light.position));
+      glProgramUniform1f(point_program_.id(), kInverseRangeLocation, 1.0f / range);
+      glUseProgram(point_program_.id());
+      const glm::mat4 projection = glm::perspective(glm::radians(90.0f), 1.0f, near_plane, range);
+      for (int face = 0; face < 6; ++face) {
+        const glm::mat4 view = glm::lookAt(light.position, light.position + kCubeFaces[face][0], kCubeFaces[face][1]);
+        const glm::mat4 clip_from_world = projection * view;
+        glProgramUniformMatrix4fv(point_program_.id(), kClipFromWorldLocation, 1, GL_FALSE,
+                                  glm::value_ptr(clip_from_world));
+        glNamedFramebufferTextureLayer(framebuffer_.id(), GL_DEPTH_ATTACHMENT, point_maps_.id(), 0,
+                                       6 * point_layer + face);
+        glClear(GL_DEPTH_BUFFER_BIT);
+        draw_mesh();
+      }
+      ++point_layer;
+    } else {
+      const glm::vec3 l = glm::normalize(light.direction);
+      out.position = glm::vec4(l, 0.0f);
+      // Orthographic view along -l fitted to the bounding sphere: depth 0 at
+      // the sphere's near side, 1 at its far side (2 * radius further).
+      const glm::vec3 eye = bounds.center + l * radius;
+      const glm::vec3 up = std::abs(l.y) < 0.9f ? glm::vec3(0, 1, 0) : glm::vec3(1, 0, 0);
+      const glm::mat4 view = glm::lookAt(eye, bounds.center, up);
+      const glm::mat4 projection = glm::ortho(-radius, radius, -radius, radius, 0.0f, 2.0f * radius);
+      const glm::mat4 clip_from_world = projection * view;
+      // Clip space [-1, 1]^3 -> texture coordinates and window depth [0, 1]^3.
+      const glm::mat4 unit_from_clip =
+          glm::translate(glm::mat4(1.0f), glm::vec3(0.5f)) * glm::scale(glm::mat4(1.0f), glm::vec3(0.5f));
+      out.shadow_from_world = unit_from_clip * clip_from_world;
+      out.shadow = glm::vec4(static_cast<float>(directional_layer), 2.0f * radius, 2.0f * radius / size_, 0.0f);
+      glProgramUniformMatrix4fv(directional_program_.id(), kClipFromWorldLocation, 1, GL_FALSE,
+                                glm::value_ptr(clip_from_world));
+      glUseProgram(directional_program_.id());
+      glNamedFramebufferTextureLayer(framebuffer_.id(), GL_DEPTH_ATTACHMENT, directional_maps_.id(), 0,
+                                     directional_layer);
+      glClear(GL_DEPTH_BUFFER_BIT);
+      draw_mesh();
+      ++directional_layer;
+    }
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glUseProgram(0);
+  glBindVertexArray(0);
+  return gl::CheckGlError("rendering shadow maps");
+}
+
+}  // namespace mvbrdf::render
