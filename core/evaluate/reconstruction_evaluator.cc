@@ -58,6 +58,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   std::vector<int32_t> texel_material(static_cast<size_t>(size) * size, -1);
   std::vector<double> abs_errors;
   cv::Mat error_image(size, size, CV_32FC4, cv::Scalar::all(0));
+  cv::Mat truth_image(size, size, CV_32FC4, cv::Scalar::all(0));
   std::vector<double> cluster_sq(static_cast<size_t>(num_clusters), 0.0);
   std::vector<uint64_t> cluster_n(static_cast<size_t>(num_clusters), 0);
   for (int y = 0; y < size; ++y) {
@@ -71,6 +72,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
       const cv::Vec3f& k = kd.at<cv::Vec3f>(y, x);
       double sq = 0.0;
       for (int c = 0; c < 3; ++c) sq += (k[c] - t.kd[c]) * (k[c] - t.kd[c]);
+      truth_image.at<cv::Vec4f>(y, x) = {t.kd[0], t.kd[1], t.kd[2], 1.0f};
       error_image.at<cv::Vec4f>(y, x) = {std::abs(k[0] - t.kd[0]), std::abs(k[1] - t.kd[1]), std::abs(k[2] - t.kd[2]),
                                          1.0f};
       sq_all += sq;
@@ -99,10 +101,16 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     report.set_kd_p95_abs_error(abs_errors[abs_errors.size() * 95 / 100]);
   }
   if (!error_atlas.empty()) {
+    // Beside it, the true kd of the same texels (for people to compare with
+    // atlases/kd.png).
+    std::filesystem::path truth_file = error_atlas;
+    truth_file.replace_filename(error_atlas.stem().string() + "_truth_kd" + error_atlas.extension().string());
     if (error_atlas.extension() == ".exr") {
       MVBRDF_RETURN_IF_ERROR(image::WriteExr(error_atlas, error_image));
+      MVBRDF_RETURN_IF_ERROR(image::WriteExr(truth_file, truth_image));
     } else {
       MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(error_atlas, error_image, 10.0f));
+      MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(truth_file, truth_image));
     }
   }
   report.set_kd_rmse_all_seen(n_all > 0 ? std::sqrt(sq_all / (3.0 * static_cast<double>(n_all))) : 0.0);

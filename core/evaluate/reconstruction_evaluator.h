@@ -18,7 +18,8 @@ constexpr float kMinObservationsForKd = 10.0f;
 // directory (with ground_truth/truth.json) or the ground_truth directory.
 // Clusters are matched to the true material most of their texels have.
 // `error_atlas` (optional, .png or .exr): the per-texel kd error, |kd - kd_true|
-// per channel, where the texel was seen (a PNG shows it times 10).
+// per channel, where the texel was seen (a PNG shows it times 10), and beside
+// it NAME_truth_kd.EXT with the true kd of the same texels.
 absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
                                                             const std::filesystem::path& truth,
                                                             const std::filesystem::path& error_atlas = {});
