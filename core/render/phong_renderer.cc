@@ -1,5 +1,7 @@
 #include "core/render/phong_renderer.h"
 
+#include "core/render/camera_projection.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -63,30 +65,6 @@ constexpr GLint kCameraCenterLocation = 1;
 constexpr GLint kAtlasModeLocation = 2;
 constexpr GLint kFalloffLocation = 3;
 constexpr GLint kUvSpaceLocation = 4;
-
-// OpenCV pinhole (x right, y down, z forward; pixel (0,0) the centre of the
-// top-left pixel) as GL clip coordinates from camera coordinates. Pixel (u, v)
-// maps to window (u + 0.5, v + 0.5): image row v is window row v, so
-// glReadPixels returns the top image row first and no flip is needed. (The
-// image is upside down in GL's own y-up sense; no face culling is used, so the
-// mirrored winding is harmless.) Depth: near -> -1, far -> +1.
-glm::dmat4 ClipFromCamera(const scene::CameraModel& camera, double near_plane, double far_plane) {
-  glm::dmat4 p(0.0);  // p[column][row]
-  p[0][0] = 2.0 * camera.fx / camera.width;
-  p[2][0] = 2.0 * (camera.cx + 0.5) / camera.width - 1.0;
-  p[1][1] = 2.0 * camera.fy / camera.height;
-  p[2][1] = 2.0 * (camera.cy + 0.5) / camera.height - 1.0;
-  p[2][2] = (far_plane + near_plane) / (far_plane - near_plane);
-  p[3][2] = -2.0 * far_plane * near_plane / (far_plane - near_plane);
-  p[2][3] = 1.0;
-  return p;
-}
-
-glm::dmat4 CamFromWorld(const scene::CameraModel& camera) {
-  glm::dmat4 m(camera.cam_from_world_rotation);
-  m[3] = glm::dvec4(camera.cam_from_world_translation, 1.0);
-  return m;
-}
 
 // Uploads an image with row 0 = v = 1 into a 2D RGB32F texture with row 0 at
 // t = 0 (GL's convention), i.e. flipped.
@@ -491,7 +469,7 @@ absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene
   MVBRDF_RETURN_IF_ERROR(r.PreparePose(pose));
   MVBRDF_RETURN_IF_ERROR(r.camera_target.Ensure(camera.width, camera.height, "render target"));
   const glm::dmat4 clip_from_world =
-      ClipFromCamera(camera, r.options.near_plane, r.options.far_plane) * CamFromWorld(camera);
+      ClipFromCamera(camera, r.options.near_plane, r.options.far_plane) * CamFromWorldMatrix(camera);
   // Window row 0 is image row 0 (see ClipFromCamera): no flip.
   MVBRDF_RETURN_IF_ERROR(
       r.DrawShaded(glm::mat4(clip_from_world), glm::vec3(camera.CenterInWorld()), /*uv_space=*/false, r.camera_target));
@@ -574,7 +552,7 @@ absl::StatusOr<cv::Mat> PhongRenderer::RenderTriangleIds(const Pose& pose, const
   RenderTarget& target = r.triangle_id_target;
   MVBRDF_RETURN_IF_ERROR(target.Ensure(scaled.width, scaled.height, "triangle-id target"));
   const glm::mat4 clip_from_world(ClipFromCamera(scaled, r.options.near_plane, r.options.far_plane) *
-                                  CamFromWorld(scaled));
+                                  CamFromWorldMatrix(scaled));
   const GLuint program = r.triangle_id_program.id();
   glProgramUniformMatrix4fv(program, kClipFromWorldLocation, 1, GL_FALSE, glm::value_ptr(clip_from_world));
   glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer.id());

@@ -1,5 +1,7 @@
 #include "core/resample/resampler.h"
 
+#include "core/render/camera_projection.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -106,30 +108,6 @@ DepthMapLayout ComputeDepthMapLayout(const scene::CameraModel& camera, int max_s
   ex = std::min({ex, camera.width + camera.width / 2, ox + max_size});
   ey = std::min({ey, camera.height + camera.height / 2, oy + max_size});
   return {ex - ox, ey - oy, camera.cx - ox, camera.cy - oy};
-}
-
-// OpenCV pinhole (x right, y down, z forward; pixel (0,0) the centre of the
-// top-left pixel) of a `width` x `height` grid with principal point (cx, cy) as
-// GL clip coordinates from camera coordinates: pixel (u, v) maps to window
-// (u + 0.5, v + 0.5), so image row v is window row v (as in
-// core/render/phong_renderer.cc). Depth: near -> -1, far -> +1.
-glm::dmat4 ClipFromCamera(double fx, double fy, double cx, double cy, int width, int height, double near_plane,
-                          double far_plane) {
-  glm::dmat4 p(0.0);  // p[column][row]
-  p[0][0] = 2.0 * fx / width;
-  p[2][0] = 2.0 * (cx + 0.5) / width - 1.0;
-  p[1][1] = 2.0 * fy / height;
-  p[2][1] = 2.0 * (cy + 0.5) / height - 1.0;
-  p[2][2] = (far_plane + near_plane) / (far_plane - near_plane);
-  p[3][2] = -2.0 * far_plane * near_plane / (far_plane - near_plane);
-  p[2][3] = 1.0;
-  return p;
-}
-
-glm::dmat4 CamFromWorld(const scene::CameraModel& camera) {
-  glm::dmat4 m(camera.cam_from_world_rotation);
-  m[3] = glm::dvec4(camera.cam_from_world_translation, 1.0);
-  return m;
 }
 
 // A 2D texture for texelFetch/bilinear lookups, clamped at the border.
@@ -496,8 +474,8 @@ absl::Status Resampler::Impl::EnsureDepthMap(CameraState& camera) {
   const double far_plane = std::max(center_in_camera.z + radius, 1e-3);
   const double near_plane = std::max(center_in_camera.z - radius, far_plane * 1e-5);
   const DepthMapLayout& layout = camera.layout;
-  const glm::dmat4 cam_from_world = CamFromWorld(camera.model);
-  const glm::mat4 clip_from_world(ClipFromCamera(camera.model.fx, camera.model.fy, layout.cx, layout.cy, layout.width,
+  const glm::dmat4 cam_from_world = render::CamFromWorldMatrix(camera.model);
+  const glm::mat4 clip_from_world(render::ClipFromCamera(camera.model.fx, camera.model.fy, layout.cx, layout.cy, layout.width,
                                                  layout.height, near_plane, far_plane) *
                                   cam_from_world);
   const glm::mat4 cam_from_world_f(cam_from_world);
@@ -574,7 +552,7 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
 
   const scene::CameraModel& m = state.model;
   const GLuint program = r.camera_program.id();
-  const glm::mat4 cam_from_world(CamFromWorld(m));
+  const glm::mat4 cam_from_world(render::CamFromWorldMatrix(m));
   const glm::vec3 center(m.CenterInWorld());
   glProgramUniformMatrix4fv(program, kCamFromWorld, 1, GL_FALSE, glm::value_ptr(cam_from_world));
   glProgramUniform3fv(program, kCameraCenter, 1, glm::value_ptr(center));

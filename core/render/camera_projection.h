@@ -1,0 +1,46 @@
+// GL matrices of an OpenCV camera, shared by every pass that draws from a
+// camera (the renderer, the resampler's depth maps, the id buffer).
+#ifndef MVBRDF_CORE_RENDER_CAMERA_PROJECTION_H_
+#define MVBRDF_CORE_RENDER_CAMERA_PROJECTION_H_
+
+#include <glm/glm.hpp>
+
+#include "core/scene/camera_model.h"
+
+namespace mvbrdf::render {
+
+// OpenCV pinhole (x right, y down, z forward; pixel (0,0) the centre of the
+// top-left pixel) of a `width` x `height` grid with principal point (cx, cy),
+// as GL clip coordinates from camera coordinates. Pixel (u, v) maps to window
+// (u + 0.5, v + 0.5): image row v is window row v, so glReadPixels returns the
+// top image row first and no flip is needed. (The image is upside down in
+// GL's own y-up sense; no face culling is used, so the mirrored winding is
+// harmless.) Depth: near -> -1, far -> +1.
+inline glm::dmat4 ClipFromCamera(double fx, double fy, double cx, double cy, int width, int height,
+                                 double near_plane, double far_plane) {
+  glm::dmat4 p(0.0);  // p[column][row]
+  p[0][0] = 2.0 * fx / width;
+  p[2][0] = 2.0 * (cx + 0.5) / width - 1.0;
+  p[1][1] = 2.0 * fy / height;
+  p[2][1] = 2.0 * (cy + 0.5) / height - 1.0;
+  p[2][2] = (far_plane + near_plane) / (far_plane - near_plane);
+  p[3][2] = -2.0 * far_plane * near_plane / (far_plane - near_plane);
+  p[2][3] = 1.0;
+  return p;
+}
+
+inline glm::dmat4 ClipFromCamera(const scene::CameraModel& camera, double near_plane, double far_plane) {
+  return ClipFromCamera(camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height, near_plane,
+                        far_plane);
+}
+
+// The camera's rigid transform as a 4x4 matrix.
+inline glm::dmat4 CamFromWorldMatrix(const scene::CameraModel& camera) {
+  glm::dmat4 m(camera.cam_from_world_rotation);
+  m[3] = glm::dvec4(camera.cam_from_world_translation, 1.0);
+  return m;
+}
+
+}  // namespace mvbrdf::render
+
+#endif  // MVBRDF_CORE_RENDER_CAMERA_PROJECTION_H_
