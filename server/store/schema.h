@@ -1,0 +1,42 @@
+// The storage schema and its migrations. PRAGMA user_version holds the version
+// applied; each migration moves it up by one inside one transaction, so a
+// crash leaves the database at the old or the new version, never between.
+//
+// Version 1:
+//   jobs(id, client, state, scene_hash, request, error, created_ms, updated_ms)
+//   tasks(id, job_id -> jobs, kind, key, depends_on -> tasks, state, attempts,
+//         max_attempts, lease_owner, lease_expires_ms, result, error,
+//         created_ms, updated_ms)
+//   sample_cache(sequence_hash, configuration, sample_level, options_hash,
+//                data (zlib), raw_size, stored_size, sha256 (of the raw
+//                bytes), created_ms, last_used_ms)
+//   artifacts(job_id, name, sha256, size, created_ms)
+// Times are unix milliseconds.
+#ifndef MVBRDF_SERVER_STORE_SCHEMA_H_
+#define MVBRDF_SERVER_STORE_SCHEMA_H_
+
+#include <filesystem>
+#include <memory>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "server/store/sqlite_db.h"
+
+namespace mvbrdf::store {
+
+// The newest schema this build knows.
+constexpr int kSchemaVersion = 1;
+
+// Brings the database up to kSchemaVersion. FAILED_PRECONDITION when the file
+// was written by a newer build (its version is above kSchemaVersion).
+absl::Status ApplyMigrations(SqliteDb& db);
+
+// The version recorded in the file (0 for a new file).
+absl::StatusOr<int> SchemaVersion(SqliteDb& db);
+
+// SqliteDb::Open followed by ApplyMigrations: how every store opens its file.
+absl::StatusOr<std::unique_ptr<SqliteDb>> OpenStoreDb(const std::filesystem::path& path);
+
+}  // namespace mvbrdf::store
+
+#endif  // MVBRDF_SERVER_STORE_SCHEMA_H_
