@@ -1,0 +1,211 @@
+#include "server/store/sample_cache.h"
+
+#include <zlib.h>
+
+#include <utility>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "server/store/digest.h"
+#include "server/store/schema.h"
+
+namespace mvbrdf::store {
+namespace {
+
+constexpr const char* kKeyWhere =
+    "sequence_hash = ?1 AND configuration = ?2 AND sample_level = ?3 AND options_hash = ?4";
+
+absl::Status BindKey(Statement& statement, const SampleKey& key) {
+  MVBRDF_RETURN_IF_ERROR(statement.BindText(1, key.sequence_hash));
+  MVBRDF_RETURN_IF_ERROR(statement.BindText(2, key.configuration));
+  MVBRDF_RETURN_IF_ERROR(statement.BindInt64(3, key.sample_level));
+  return statement.BindText(4, key.options_hash);
+}
+
+absl::StatusOr<std::string> Compress(absl::string_view bytes, int level) {
+  uLongf size = compressBound(static_cast<uLong>(bytes.size()));
+  std::string out(size, '\0');
+  const int code = compress2(reinterpret_cast<Bytef*>(out.data()), &size,
+                             reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uLong>(bytes.size()), level);
+  if (code != Z_OK) return absl::InternalError(absl::StrCat("zlib compress2 failed with code ", code));
+  out.resize(size);
+  return out;
+}
+
+// Empty error string on success.
+std::string Uncompress(absl::string_view stored, size_t raw_size, std::string* out) {
+  out->assign(raw_size, '\0');
+  uLongf size = static_cast<uLongf>(raw_size);
+  // zlib wants a non-null destination even for 0 bytes.
+  char dummy = 0;
+  Bytef* dest = raw_size == 0 ? reinterpret_cast<Bytef*>(&dummy) : reinterpret_cast<Bytef*>(out->data());
+  const int code = uncompress(dest, &size, reinterpret_cast<const Bytef*>(stored.data()),
+                              static_cast<uLong>(stored.size()));
+  if (code != Z_OK) return absl::StrCat("zlib uncompress failed with code ", code);
+  if (size != raw_size) return absl::StrCat("uncompressed to ", size, " bytes, expected ", raw_size);
+  return std::string();
+}
+
+}  // namespace
+
+std::string SampleKey::ToString() const {
+  return absl::StrCat(sequence_hash, "/", configuration, "/", sample_level, "/", options_hash);
+}
+
+absl::Status SampleCacheOptions::Check() const {
+  if (max_stored_bytes < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SampleCacheOptions.max_stored_bytes: must be >= 0, got ", max_stored_bytes));
+  }
+  if (compression_level < 1 || compression_level > 9) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SampleCacheOptions.compression_level: must be in [1, 9], got ", compression_level));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::unique_ptr<SampleCache>> SampleCache::Open(const std::filesystem::path& path,
+                                                               SampleCacheOptions options) {
+  MVBRDF_RETURN_IF_ERROR(options.Check());
+  MVBRDF_ASSIGN_OR_RETURN(std::unique_ptr<SqliteDb> db, OpenStoreDb(path));
+  return std::unique_ptr<SampleCache>(new SampleCache(std::move(db), options));
+}
+
+absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms) {
+  // Hashing and compressing outside the lock: they are the slow part.
+  const std::string sha256 = Sha256Hex(bytes);
+  MVBRDF_ASSIGN_OR_RETURN(std::string stored, Compress(bytes, options_.compression_level));
+  const auto stored_size = static_cast<int64_t>(stored.size());
+  if (options_.max_stored_bytes > 0 && stored_size > options_.max_stored_bytes) {
+    return absl::ResourceExhaustedError(absl::StrCat("sample cache: entry ", key.ToString(), " needs ",
+                                                     stored_size, " bytes compressed, the cache holds at most ",
+                                                     options_.max_stored_bytes));
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement insert,
+      Statement::Prepare(*db_,
+                         "INSERT OR REPLACE INTO sample_cache (sequence_hash, configuration, sample_level, "
+                         "options_hash, data, raw_size, stored_size, sha256, created_ms, last_used_ms) "
+                         "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?9)"));
+  MVBRDF_RETURN_IF_ERROR(BindKey(insert, key));
+  MVBRDF_RETURN_IF_ERROR(insert.BindBlob(5, stored));
+  MVBRDF_RETURN_IF_ERROR(insert.BindInt64(6, static_cast<int64_t>(bytes.size())));
+  MVBRDF_RETURN_IF_ERROR(insert.BindInt64(7, stored_size));
+  MVBRDF_RETURN_IF_ERROR(insert.BindText(8, sha256));
+  MVBRDF_RETURN_IF_ERROR(insert.BindInt64(9, now_ms));
+  MVBRDF_RETURN_IF_ERROR(insert.Run());
+  MVBRDF_RETURN_IF_ERROR(EvictLocked(key));
+  return transaction.Commit();
+}
+
+absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key, int64_t now_ms) {
+  std::lock_guard<std::mutex> lock(mu_);
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement select,
+      Statement::Prepare(*db_, absl::StrCat("SELECT data, raw_size, sha256 FROM sample_cache WHERE ", kKeyWhere)));
+  MVBRDF_RETURN_IF_ERROR(BindKey(select, key));
+  MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
+  if (step == StepResult::kDone) {
+    ++counters_.misses;
+    return std::optional<std::string>();
+  }
+  const std::string stored = select.ColumnBlob(0);
+  const int64_t raw_size = select.ColumnInt64(1);
+  const std::string expected_sha256 = select.ColumnText(2);
+  MVBRDF_RETURN_IF_ERROR(select.Reset());  // ends the read before the writes below
+
+  std::string bytes;
+  std::string problem;
+  if (raw_size < 0) {
+    problem = absl::StrCat("negative raw_size ", raw_size);
+  } else {
+    problem = Uncompress(stored, static_cast<size_t>(raw_size), &bytes);
+  }
+  if (problem.empty()) {
+    const std::string actual = Sha256Hex(bytes);
+    if (actual != expected_sha256) {
+      problem = absl::StrCat("SHA-256 ", actual, " does not match the stored ", expected_sha256);
+    }
+  }
+  if (!problem.empty()) {
+    ++counters_.corrupt;
+    MVBRDF_RETURN_IF_ERROR(EraseLocked(key));
+    return absl::DataLossError(
+        absl::StrCat("sample cache entry ", key.ToString(), " is corrupt (", problem, "); removed it"));
+  }
+
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement touch,
+      Statement::Prepare(*db_, absl::StrCat("UPDATE sample_cache SET last_used_ms = ?5 WHERE ", kKeyWhere)));
+  MVBRDF_RETURN_IF_ERROR(BindKey(touch, key));
+  MVBRDF_RETURN_IF_ERROR(touch.BindInt64(5, now_ms));
+  MVBRDF_RETURN_IF_ERROR(touch.Run());
+  ++counters_.hits;
+  return std::optional<std::string>(std::move(bytes));
+}
+
+absl::Status SampleCache::Erase(const SampleKey& key) {
+  std::lock_guard<std::mutex> lock(mu_);
+  return EraseLocked(key);
+}
+
+absl::StatusOr<SampleCacheStats> SampleCache::Stats() {
+  std::lock_guard<std::mutex> lock(mu_);
+  SampleCacheStats stats = counters_;
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement totals,
+      Statement::Prepare(*db_,
+                         "SELECT COUNT(*), COALESCE(SUM(stored_size), 0), COALESCE(SUM(raw_size), 0) "
+                         "FROM sample_cache"));
+  MVBRDF_ASSIGN_OR_RETURN(StepResult step, totals.Step());
+  if (step != StepResult::kRow) return absl::InternalError("sample cache: COUNT returned no row");
+  stats.entries = totals.ColumnInt64(0);
+  stats.stored_bytes = totals.ColumnInt64(1);
+  stats.raw_bytes = totals.ColumnInt64(2);
+  return stats;
+}
+
+absl::Status SampleCache::EraseLocked(const SampleKey& key) {
+  MVBRDF_ASSIGN_OR_RETURN(Statement erase,
+                          Statement::Prepare(*db_, absl::StrCat("DELETE FROM sample_cache WHERE ", kKeyWhere)));
+  MVBRDF_RETURN_IF_ERROR(BindKey(erase, key));
+  return erase.Run();
+}
+
+absl::Status SampleCache::EvictLocked(const SampleKey& keep) {
+  if (options_.max_stored_bytes == 0) return absl::OkStatus();
+  MVBRDF_ASSIGN_OR_RETURN(Statement total,
+                          Statement::Prepare(*db_, "SELECT COALESCE(SUM(stored_size), 0) FROM sample_cache"));
+  MVBRDF_ASSIGN_OR_RETURN(StepResult step, total.Step());
+  if (step != StepResult::kRow) return absl::InternalError("sample cache: SUM returned no row");
+  int64_t stored_bytes = total.ColumnInt64(0);
+  if (stored_bytes <= options_.max_stored_bytes) return absl::OkStatus();
+
+  // Oldest use first; the entry just put stays (it fits on its own).
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement oldest,
+      Statement::Prepare(*db_, absl::StrCat("SELECT rowid, stored_size FROM sample_cache WHERE NOT (", kKeyWhere,
+                                            ") ORDER BY last_used_ms, rowid")));
+  MVBRDF_RETURN_IF_ERROR(BindKey(oldest, keep));
+  std::vector<int64_t> victims;
+  while (stored_bytes > options_.max_stored_bytes) {
+    MVBRDF_ASSIGN_OR_RETURN(StepResult row, oldest.Step());
+    if (row == StepResult::kDone) break;
+    victims.push_back(oldest.ColumnInt64(0));
+    stored_bytes -= oldest.ColumnInt64(1);
+  }
+  MVBRDF_RETURN_IF_ERROR(oldest.Reset());
+  MVBRDF_ASSIGN_OR_RETURN(Statement erase, Statement::Prepare(*db_, "DELETE FROM sample_cache WHERE rowid = ?1"));
+  for (int64_t rowid : victims) {
+    MVBRDF_RETURN_IF_ERROR(erase.BindInt64(1, rowid));
+    MVBRDF_RETURN_IF_ERROR(erase.Run());
+    MVBRDF_RETURN_IF_ERROR(erase.Reset());
+  }
+  counters_.evictions += static_cast<int64_t>(victims.size());
+  return absl::OkStatus();
+}
+
+}  // namespace mvbrdf::store

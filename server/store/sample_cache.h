@@ -1,0 +1,93 @@
+// The Sample cache (issue #5): encoded SampleSets (samples::EncodeSampleSet)
+// per (sequence, light configuration, sample level, options), stored in
+// SQLite zlib-compressed with the SHA-256 of the uncompressed bytes, so a
+// repeated sweep on the same sequence skips resampling.
+//
+// A corrupt entry (checksum or zlib failure) is deleted and reported as
+// DATA_LOSS: the caller recomputes and Puts again. The cache holds at most
+// `max_stored_bytes` of compressed data; Put evicts the least recently used
+// entries (Get and Put stamp last_used_ms) to make room.
+//
+// Threading: every method may be called from any thread (a mutex serialises
+// them). Other stores may use the same database file through their own
+// connections.
+#ifndef MVBRDF_SERVER_STORE_SAMPLE_CACHE_H_
+#define MVBRDF_SERVER_STORE_SAMPLE_CACHE_H_
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "server/store/sqlite_db.h"
+
+namespace mvbrdf::store {
+
+struct SampleKey {
+  std::string sequence_hash;  // SHA-256 hex of the sequence bundle
+  std::string configuration;  // the light configuration, e.g. "key+fill"
+  int sample_level = 0;       // triangle / texel level of the Samples
+  std::string options_hash;   // hash of the options that change the Samples
+
+  // For messages: "sequence/configuration/level/options".
+  std::string ToString() const;
+};
+
+struct SampleCacheOptions {
+  // Upper bound on the compressed bytes held; 0: unlimited.
+  int64_t max_stored_bytes = int64_t{2} << 30;
+  // zlib level, 1 (fast) .. 9 (small).
+  int compression_level = 6;
+
+  absl::Status Check() const;
+};
+
+struct SampleCacheStats {
+  // Counted by this SampleCache object since it was opened.
+  int64_t hits = 0;
+  int64_t misses = 0;
+  int64_t corrupt = 0;    // entries found corrupt and removed
+  int64_t evictions = 0;  // entries evicted for space
+  // The table as it is now (all connections).
+  int64_t entries = 0;
+  int64_t stored_bytes = 0;  // compressed
+  int64_t raw_bytes = 0;     // uncompressed
+};
+
+class SampleCache {
+ public:
+  static absl::StatusOr<std::unique_ptr<SampleCache>> Open(const std::filesystem::path& path,
+                                                           SampleCacheOptions options = {});
+
+  // Stores (or replaces) the entry, then evicts least recently used entries
+  // until the total fits. RESOURCE_EXHAUSTED when the entry alone is larger
+  // than the limit (nothing stored).
+  absl::Status Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms);
+  // The bytes given to Put, or nullopt on a miss. DATA_LOSS naming the key
+  // when the stored entry is corrupt; the entry is then gone.
+  absl::StatusOr<std::optional<std::string>> Get(const SampleKey& key, int64_t now_ms);
+  // Removes the entry if present.
+  absl::Status Erase(const SampleKey& key);
+
+  absl::StatusOr<SampleCacheStats> Stats();
+
+ private:
+  SampleCache(std::unique_ptr<SqliteDb> db, SampleCacheOptions options) : db_(std::move(db)), options_(options) {}
+
+  absl::Status EraseLocked(const SampleKey& key);
+  absl::Status EvictLocked(const SampleKey& keep);
+
+  std::mutex mu_;
+  std::unique_ptr<SqliteDb> db_;  // guarded by mu_
+  const SampleCacheOptions options_;
+  SampleCacheStats counters_;  // guarded by mu_; only the counted fields
+};
+
+}  // namespace mvbrdf::store
+
+#endif  // MVBRDF_SERVER_STORE_SAMPLE_CACHE_H_

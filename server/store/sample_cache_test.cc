@@ -1,0 +1,170 @@
+#include "server/store/sample_cache.h"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <random>
+#include <string>
+
+#include "core/samples/sample_set.h"
+#include "server/store/sqlite_db.h"
+#include "server/store/test_dir.h"
+
+namespace mvbrdf::store {
+namespace {
+
+constexpr int64_t kT0 = 1'700'000'000'000;
+
+samples::SampleSet MakeSampleSet(int count) {
+  samples::SampleSet set;
+  set.light_names = {"key", "fill", "rim"};
+  set.light_intensity = {glm::vec3(1.0f), glm::vec3(0.5f, 0.4f, 0.3f), glm::vec3(2.0f)};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (int i = 0; i < count; ++i) {
+    const float g[3] = {unit(rng), unit(rng), 0.0f};
+    const float h[3] = {unit(rng), 0.0f, unit(rng)};
+    set.Add(static_cast<uint32_t>(i * 3), i % 40, i % 4, glm::vec3(unit(rng), unit(rng), unit(rng)), g, h);
+  }
+  return set;
+}
+
+SampleKey Key(const std::string& configuration) {
+  return SampleKey{"seqhash", configuration, 1, "opts"};
+}
+
+std::unique_ptr<SampleCache> OpenOrDie(const std::filesystem::path& path, SampleCacheOptions options = {}) {
+  auto cache = SampleCache::Open(path, options);
+  EXPECT_TRUE(cache.ok()) << cache.status();
+  return cache.ok() ? std::move(*cache) : nullptr;
+}
+
+TEST(SampleCacheTest, RoundTripsAnEncodedSampleSet) {
+  TestDir dir;
+  auto cache = OpenOrDie(dir.db());
+  const samples::SampleSet set = MakeSampleSet(2000);
+  const std::string bytes = samples::EncodeSampleSet(set);
+
+  auto miss = cache->Get(Key("key+fill"), kT0);
+  ASSERT_TRUE(miss.ok()) << miss.status();
+  EXPECT_FALSE(miss->has_value());
+  ASSERT_TRUE(cache->Put(Key("key+fill"), bytes, kT0).ok());
+  auto hit = cache->Get(Key("key+fill"), kT0 + 1);
+  ASSERT_TRUE(hit.ok()) << hit.status();
+  ASSERT_TRUE(hit->has_value());
+  EXPECT_EQ(**hit, bytes);
+  auto decoded = samples::DecodeSampleSet(**hit);
+  ASSERT_TRUE(decoded.ok()) << decoded.status();
+  EXPECT_EQ(decoded->size(), set.size());
+  EXPECT_EQ(decoded->light_names, set.light_names);
+  EXPECT_EQ(decoded->element, set.element);
+
+  // The rest of the key matters.
+  auto other_level = cache->Get(SampleKey{"seqhash", "key+fill", 2, "opts"}, kT0 + 2);
+  ASSERT_TRUE(other_level.ok());
+  EXPECT_FALSE(other_level->has_value());
+
+  auto stats = cache->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->hits, 1);
+  EXPECT_EQ(stats->misses, 2);
+  EXPECT_EQ(stats->entries, 1);
+  EXPECT_EQ(stats->raw_bytes, static_cast<int64_t>(bytes.size()));
+  EXPECT_LT(stats->stored_bytes, stats->raw_bytes);  // compressed
+
+  // A new connection (server restart) sees the entry.
+  cache.reset();
+  auto reopened = OpenOrDie(dir.db());
+  auto again = reopened->Get(Key("key+fill"), kT0 + 3);
+  ASSERT_TRUE(again.ok());
+  ASSERT_TRUE(again->has_value());
+  EXPECT_EQ(**again, bytes);
+}
+
+TEST(SampleCacheTest, CorruptEntryIsDataLossAndRemoved) {
+  TestDir dir;
+  auto cache = OpenOrDie(dir.db());
+  const std::string bytes = samples::EncodeSampleSet(MakeSampleSet(500));
+  ASSERT_TRUE(cache->Put(Key("key"), bytes, kT0).ok());
+  {
+    // Flip one byte in the middle of the stored blob behind the cache's back.
+    auto db = SqliteDb::Open(dir.db());
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE((*db)
+                    ->Exec("UPDATE sample_cache SET data = substr(data, 1, length(data) / 2) || "
+                           "CAST(char((unicode(substr(data, length(data) / 2 + 1, 1)) + 1) % 128) AS BLOB) || "
+                           "substr(data, length(data) / 2 + 2)")
+                    .ok());
+  }
+  auto corrupt = cache->Get(Key("key"), kT0 + 1);
+  ASSERT_FALSE(corrupt.ok());
+  EXPECT_EQ(corrupt.status().code(), absl::StatusCode::kDataLoss);
+  EXPECT_NE(corrupt.status().message().find(Key("key").ToString()), absl::string_view::npos) << corrupt.status();
+  auto gone = cache->Get(Key("key"), kT0 + 2);
+  ASSERT_TRUE(gone.ok()) << gone.status();
+  EXPECT_FALSE(gone->has_value());
+
+  ASSERT_TRUE(cache->Put(Key("key"), bytes, kT0 + 3).ok());  // the caller recomputed
+  auto fixed = cache->Get(Key("key"), kT0 + 4);
+  ASSERT_TRUE(fixed.ok()) << fixed.status();
+  ASSERT_TRUE(fixed->has_value());
+  EXPECT_EQ(**fixed, bytes);
+  auto stats = cache->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->corrupt, 1);
+}
+
+TEST(SampleCacheTest, ChecksumMismatchAloneIsDetected) {
+  TestDir dir;
+  auto cache = OpenOrDie(dir.db());
+  ASSERT_TRUE(cache->Put(Key("key"), "some sample bytes", kT0).ok());
+  {
+    auto db = SqliteDb::Open(dir.db());
+    ASSERT_TRUE(db.ok());
+    // Valid zlib data of other content: only the SHA-256 can tell.
+    ASSERT_TRUE((*db)->Exec("UPDATE sample_cache SET sha256 = '" + std::string(64, '0') + "'").ok());
+  }
+  auto corrupt = cache->Get(Key("key"), kT0 + 1);
+  EXPECT_EQ(corrupt.status().code(), absl::StatusCode::kDataLoss) << corrupt.status();
+  EXPECT_NE(corrupt.status().message().find("SHA-256"), absl::string_view::npos) << corrupt.status();
+}
+
+TEST(SampleCacheTest, EvictsLeastRecentlyUsed) {
+  TestDir dir;
+  // Random bytes do not compress: each entry stores ~1000 bytes.
+  std::mt19937 rng(3);
+  auto random_bytes = [&rng] {
+    std::string bytes(1000, '\0');
+    for (char& c : bytes) c = static_cast<char>(rng() & 0xff);
+    return bytes;
+  };
+  auto cache = OpenOrDie(dir.db(), SampleCacheOptions{/*max_stored_bytes=*/2600, /*compression_level=*/6});
+  const std::string a = random_bytes(), b = random_bytes(), c = random_bytes();
+  ASSERT_TRUE(cache->Put(Key("a"), a, kT0).ok());
+  ASSERT_TRUE(cache->Put(Key("b"), b, kT0 + 1).ok());
+  ASSERT_TRUE(cache->Get(Key("a"), kT0 + 2).ok());  // a is now newer than b
+  ASSERT_TRUE(cache->Put(Key("c"), c, kT0 + 3).ok());
+
+  auto has = [&](const std::string& name) {
+    auto got = cache->Get(Key(name), kT0 + 10);
+    EXPECT_TRUE(got.ok()) << got.status();
+    return got.ok() && got->has_value();
+  };
+  EXPECT_FALSE(has("b"));
+  EXPECT_TRUE(has("a"));
+  EXPECT_TRUE(has("c"));
+  auto stats = cache->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->evictions, 1);
+  EXPECT_EQ(stats->entries, 2);
+  EXPECT_LE(stats->stored_bytes, 2600);
+
+  const std::string huge(1 << 16, 'x');  // compresses well: fits
+  EXPECT_TRUE(cache->Put(Key("huge"), huge, kT0 + 20).ok());
+  std::string too_big;
+  for (int i = 0; i < 4; ++i) too_big += random_bytes();
+  EXPECT_EQ(cache->Put(Key("too big"), too_big, kT0 + 21).code(), absl::StatusCode::kResourceExhausted);
+}
+
+}  // namespace
+}  // namespace mvbrdf::store
