@@ -1,0 +1,18 @@
+// SHA-256 of a file, streamed (never the whole file in memory).
+#ifndef MVBRDF_CORE_BUNDLE_SHA256_H_
+#define MVBRDF_CORE_BUNDLE_SHA256_H_
+
+#include <filesystem>
+#include <string>
+
+#include "absl/status/statusor.h"
+
+namespace mvbrdf::bundle {
+
+// Lowercase hex digest (64 characters). NOT_FOUND when the file does not
+// exist, INTERNAL for read errors.
+absl::StatusOr<std::string> Sha256File(const std::filesystem::path& path);
+
+}  // namespace mvbrdf::bundle
+
+#endif  // MVBRDF_CORE_BUNDLE_SHA256_H_
