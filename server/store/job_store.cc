@@ -1,7 +1,10 @@
 #include "server/store/job_store.h"
 
+#include <algorithm>
 #include <utility>
 
+#include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "server/store/digest.h"
@@ -10,10 +13,13 @@
 namespace mvbrdf::store {
 namespace {
 
-constexpr const char* kJobColumns = "id, client, state, scene_hash, request, error, created_ms, updated_ms";
+constexpr const char* kJobColumns =
+    "id, client, state, scene_hash, request, error, created_ms, updated_ms, sealed";
+// tasks.depends_on is unused since schema version 2 (see task_deps).
 constexpr const char* kTaskColumns =
-    "id, job_id, kind, key, depends_on, state, attempts, max_attempts, lease_owner, lease_expires_ms, result, "
+    "id, job_id, kind, key, added_by, state, attempts, max_attempts, lease_owner, lease_expires_ms, result, "
     "error, created_ms, updated_ms";
+constexpr absl::string_view kFollowUpRefPrefix = "follow_up:";
 
 absl::StatusOr<Job> ReadJob(const Statement& row) {
   Job job;
@@ -25,6 +31,7 @@ absl::StatusOr<Job> ReadJob(const Statement& row) {
   job.error = row.ColumnText(5);
   job.created_ms = row.ColumnInt64(6);
   job.updated_ms = row.ColumnInt64(7);
+  job.sealed = row.ColumnInt64(8) != 0;
   return job;
 }
 
@@ -34,7 +41,7 @@ absl::StatusOr<Task> ReadTask(const Statement& row) {
   task.job_id = row.ColumnText(1);
   task.kind = row.ColumnText(2);
   task.key = row.ColumnText(3);
-  if (!row.ColumnIsNull(4)) task.depends_on = row.ColumnText(4);
+  if (!row.ColumnIsNull(4)) task.added_by = row.ColumnText(4);
   MVBRDF_ASSIGN_OR_RETURN(task.state, ParseTaskState(row.ColumnText(5)));
   task.attempts = static_cast<int>(row.ColumnInt64(6));
   task.max_attempts = static_cast<int>(row.ColumnInt64(7));
@@ -48,6 +55,8 @@ absl::StatusOr<Task> ReadTask(const Statement& row) {
 }
 
 }  // namespace
+
+std::string FollowUpRef(int index) { return absl::StrCat(kFollowUpRefPrefix, index); }
 
 // --- States -----------------------------------------------------------------
 
@@ -128,8 +137,6 @@ absl::StatusOr<std::string> JobStore::CreateJob(const NewJob& job, int64_t now_m
 }
 
 absl::StatusOr<std::string> JobStore::AddTask(const NewTask& task, int64_t now_ms) {
-  const int max_attempts = task.max_attempts > 0 ? task.max_attempts : options_.default_max_attempts;
-  MVBRDF_ASSIGN_OR_RETURN(std::string id, RandomId128());
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));
   MVBRDF_ASSIGN_OR_RETURN(Job job, GetJobLocked(task.job_id));
@@ -137,32 +144,40 @@ absl::StatusOr<std::string> JobStore::AddTask(const NewTask& task, int64_t now_m
     return absl::FailedPreconditionError(
         absl::StrCat("AddTask: job ", job.id, " is ", JobStateName(job.state), "; it takes no more tasks"));
   }
-  if (task.depends_on.has_value()) {
-    absl::StatusOr<Task> dependency = GetTaskLocked(*task.depends_on);
-    if (!dependency.ok() || dependency->job_id != task.job_id) {
-      return absl::InvalidArgumentError(absl::StrCat("NewTask.depends_on: '", *task.depends_on,
-                                                     "' is not a task of job ", task.job_id));
-    }
+  if (job.sealed) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "AddTask: job ", job.id, " is sealed; only a completing task may add follow-ups (CompleteTask)"));
   }
-  MVBRDF_ASSIGN_OR_RETURN(
-      Statement insert,
-      Statement::Prepare(*db_,
-                         "INSERT INTO tasks (id, job_id, kind, key, depends_on, state, max_attempts, created_ms, "
-                         "updated_ms) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', ?6, ?7, ?7)"));
-  MVBRDF_RETURN_IF_ERROR(insert.BindText(1, id));
-  MVBRDF_RETURN_IF_ERROR(insert.BindText(2, task.job_id));
-  MVBRDF_RETURN_IF_ERROR(insert.BindText(3, task.kind));
-  MVBRDF_RETURN_IF_ERROR(insert.BindText(4, task.key));
-  if (task.depends_on.has_value()) {
-    MVBRDF_RETURN_IF_ERROR(insert.BindText(5, *task.depends_on));
-  } else {
-    MVBRDF_RETURN_IF_ERROR(insert.BindNull(5));
-  }
-  MVBRDF_RETURN_IF_ERROR(insert.BindInt64(6, max_attempts));
-  MVBRDF_RETURN_IF_ERROR(insert.BindInt64(7, now_ms));
-  MVBRDF_RETURN_IF_ERROR(insert.Run());
+  MVBRDF_ASSIGN_OR_RETURN(std::string id, InsertTaskLocked(task, std::nullopt, {}, now_ms));
   MVBRDF_RETURN_IF_ERROR(transaction.Commit());
   return id;
+}
+
+absl::Status JobStore::SealJob(absl::string_view job_id, int64_t now_ms) {
+  std::lock_guard<std::mutex> lock(mu_);
+  MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));
+  MVBRDF_ASSIGN_OR_RETURN(Job job, GetJobLocked(job_id));
+  if (job.sealed) return absl::OkStatus();  // a retried call
+  if (IsFinal(job.state)) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("SealJob: job ", job_id, " is ", JobStateName(job.state)));
+  }
+  MVBRDF_ASSIGN_OR_RETURN(Statement count,
+                          Statement::Prepare(*db_, "SELECT COUNT(*) FROM tasks WHERE job_id = ?1"));
+  MVBRDF_RETURN_IF_ERROR(count.BindText(1, job_id));
+  MVBRDF_ASSIGN_OR_RETURN(StepResult step, count.Step());
+  if (step != StepResult::kRow) return absl::InternalError("SealJob: COUNT returned no row");
+  if (count.ColumnInt64(0) == 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("SealJob: job ", job_id, " has no tasks; sealed, it could never finish"));
+  }
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement seal, Statement::Prepare(*db_, "UPDATE jobs SET sealed = 1, updated_ms = ?2 WHERE id = ?1"));
+  MVBRDF_RETURN_IF_ERROR(seal.BindText(1, job_id));
+  MVBRDF_RETURN_IF_ERROR(seal.BindInt64(2, now_ms));
+  MVBRDF_RETURN_IF_ERROR(seal.Run());
+  MVBRDF_RETURN_IF_ERROR(RefreshJobState(job_id, now_ms));
+  return transaction.Commit();
 }
 
 absl::StatusOr<std::optional<Task>> JobStore::LeaseTask(absl::string_view worker, int64_t now_ms,
@@ -178,8 +193,9 @@ absl::StatusOr<std::optional<Task>> JobStore::LeaseTask(absl::string_view worker
   std::string sql = absl::StrCat(
       "SELECT t.id FROM tasks t JOIN jobs j ON j.id = t.job_id "
       "WHERE j.state IN ('queued', 'running') AND ("
-      "  (t.state = 'queued' AND (t.depends_on IS NULL OR EXISTS ("
-      "     SELECT 1 FROM tasks d WHERE d.id = t.depends_on AND d.state = 'done')))"
+      "  (t.state = 'queued' AND NOT EXISTS ("
+      "     SELECT 1 FROM task_deps e JOIN tasks d ON d.id = e.depends_on"
+      "     WHERE e.task_id = t.id AND d.state <> 'done'))"
       "  OR (t.state = 'leased' AND t.lease_expires_ms <= ?1))");
   if (!kinds.empty()) {
     sql += " AND t.kind IN (";
@@ -235,14 +251,34 @@ absl::Status JobStore::RenewLease(absl::string_view task_id, absl::string_view w
 
 absl::Status JobStore::CompleteTask(absl::string_view task_id, absl::string_view worker, absl::string_view result,
                                     int64_t now_ms) {
+  return CompleteTask(task_id, worker, result, now_ms, {}).status();
+}
+
+absl::StatusOr<std::vector<std::string>> JobStore::CompleteTask(absl::string_view task_id,
+                                                                absl::string_view worker,
+                                                                absl::string_view result, int64_t now_ms,
+                                                                const std::vector<NewTask>& follow_ups) {
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));
   MVBRDF_ASSIGN_OR_RETURN(Task task, GetTaskLocked(task_id));
   if (task.state == TaskState::kDone && task.lease_owner == worker) {
-    // A retried completion (the worker did not see our answer).
-    if (task.result.has_value() && *task.result == result) return absl::OkStatus();
-    return absl::FailedPreconditionError(
-        absl::StrCat("CompleteTask: task ", task_id, " is already done with a different result"));
+    // A retried completion (the worker did not see our answer): its
+    // follow-ups were added with the first one.
+    if (!task.result.has_value() || *task.result != result) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("CompleteTask: task ", task_id, " is already done with a different result"));
+    }
+    MVBRDF_ASSIGN_OR_RETURN(
+        Statement select,
+        Statement::Prepare(*db_, "SELECT id FROM tasks WHERE added_by = ?1 ORDER BY created_ms, rowid"));
+    MVBRDF_RETURN_IF_ERROR(select.BindText(1, task_id));
+    std::vector<std::string> added;
+    while (true) {
+      MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
+      if (step == StepResult::kDone) break;
+      added.push_back(select.ColumnText(0));
+    }
+    return added;
   }
   MVBRDF_RETURN_IF_ERROR(GetLeasedTaskOf(task_id, worker, "CompleteTask").status());
   MVBRDF_ASSIGN_OR_RETURN(
@@ -254,8 +290,21 @@ absl::Status JobStore::CompleteTask(absl::string_view task_id, absl::string_view
   MVBRDF_RETURN_IF_ERROR(complete.BindBlob(2, result));
   MVBRDF_RETURN_IF_ERROR(complete.BindInt64(3, now_ms));
   MVBRDF_RETURN_IF_ERROR(complete.Run());
+  std::vector<std::string> added;
+  for (size_t i = 0; i < follow_ups.size(); ++i) {
+    NewTask follow_up = follow_ups[i];
+    if (follow_up.job_id.empty()) follow_up.job_id = task.job_id;
+    if (follow_up.job_id != task.job_id) {
+      return absl::InvalidArgumentError(absl::StrCat("CompleteTask.follow_ups[", i, "].job_id: '", follow_up.job_id,
+                                                     "' is not the job of task ", task_id, " (", task.job_id,
+                                                     ")"));
+    }
+    MVBRDF_ASSIGN_OR_RETURN(std::string id, InsertTaskLocked(follow_up, task.id, added, now_ms));
+    added.push_back(std::move(id));
+  }
   MVBRDF_RETURN_IF_ERROR(RefreshJobState(task.job_id, now_ms));
-  return transaction.Commit();
+  MVBRDF_RETURN_IF_ERROR(transaction.Commit());
+  return added;
 }
 
 absl::Status JobStore::FailTask(absl::string_view task_id, absl::string_view worker, absl::string_view error,
@@ -275,6 +324,7 @@ absl::Status JobStore::FailTask(absl::string_view task_id, absl::string_view wor
   MVBRDF_RETURN_IF_ERROR(fail.BindInt64(4, now_ms));
   MVBRDF_RETURN_IF_ERROR(fail.Run());
   if (final) {
+    MVBRDF_RETURN_IF_ERROR(FailDependents(task, now_ms));
     MVBRDF_RETURN_IF_ERROR(FailJobLocked(task.job_id,
                                          absl::StrCat("task ", task.kind, " '", task.key, "' failed after ",
                                                       task.attempts, " attempts: ", error),
@@ -339,6 +389,7 @@ absl::StatusOr<std::vector<Task>> JobStore::TasksOfJob(absl::string_view job_id)
     MVBRDF_ASSIGN_OR_RETURN(Task task, ReadTask(select));
     tasks.push_back(std::move(task));
   }
+  for (Task& task : tasks) MVBRDF_RETURN_IF_ERROR(LoadDependencies(task));
   return tasks;
 }
 
@@ -359,7 +410,97 @@ absl::StatusOr<Task> JobStore::GetTaskLocked(absl::string_view task_id) {
   MVBRDF_RETURN_IF_ERROR(select.BindText(1, task_id));
   MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
   if (step == StepResult::kDone) return absl::NotFoundError(absl::StrCat("task ", task_id, ": no such task"));
-  return ReadTask(select);
+  MVBRDF_ASSIGN_OR_RETURN(Task task, ReadTask(select));
+  MVBRDF_RETURN_IF_ERROR(LoadDependencies(task));
+  return task;
+}
+
+absl::Status JobStore::LoadDependencies(Task& task) {
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement select,
+      Statement::Prepare(*db_, "SELECT depends_on FROM task_deps WHERE task_id = ?1 ORDER BY rowid"));
+  MVBRDF_RETURN_IF_ERROR(select.BindText(1, task.id));
+  task.depends_on.clear();
+  while (true) {
+    MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
+    if (step == StepResult::kDone) break;
+    task.depends_on.push_back(select.ColumnText(0));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::string> JobStore::InsertTaskLocked(const NewTask& task,
+                                                       const std::optional<std::string>& added_by,
+                                                       const std::vector<std::string>& batch, int64_t now_ms) {
+  const int max_attempts = task.max_attempts > 0 ? task.max_attempts : options_.default_max_attempts;
+  // Resolve and check every dependency before writing anything.
+  std::vector<std::string> dependencies;
+  for (const std::string& dependency : task.depends_on) {
+    std::string id = dependency;
+    if (absl::StartsWith(dependency, kFollowUpRefPrefix)) {
+      int index = -1;
+      if (!absl::SimpleAtoi(absl::string_view(dependency).substr(kFollowUpRefPrefix.size()), &index) || index < 0 ||
+          static_cast<size_t>(index) >= batch.size()) {
+        return absl::InvalidArgumentError(absl::StrCat("NewTask.depends_on: '", dependency,
+                                                       "' is not an earlier follow-up of the same call (",
+                                                       batch.size(), " so far)"));
+      }
+      id = batch[static_cast<size_t>(index)];
+    } else {
+      absl::StatusOr<Task> found = GetTaskLocked(dependency);
+      if (!found.ok() || found->job_id != task.job_id) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("NewTask.depends_on: '", dependency, "' is not a task of job ", task.job_id));
+      }
+    }
+    if (std::find(dependencies.begin(), dependencies.end(), id) == dependencies.end()) {
+      dependencies.push_back(std::move(id));
+    }
+  }
+
+  MVBRDF_ASSIGN_OR_RETURN(std::string id, RandomId128());
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement insert,
+      Statement::Prepare(*db_,
+                         "INSERT INTO tasks (id, job_id, kind, key, added_by, state, max_attempts, created_ms, "
+                         "updated_ms) VALUES (?1, ?2, ?3, ?4, ?5, 'queued', ?6, ?7, ?7)"));
+  MVBRDF_RETURN_IF_ERROR(insert.BindText(1, id));
+  MVBRDF_RETURN_IF_ERROR(insert.BindText(2, task.job_id));
+  MVBRDF_RETURN_IF_ERROR(insert.BindText(3, task.kind));
+  MVBRDF_RETURN_IF_ERROR(insert.BindText(4, task.key));
+  if (added_by.has_value()) {
+    MVBRDF_RETURN_IF_ERROR(insert.BindText(5, *added_by));
+  } else {
+    MVBRDF_RETURN_IF_ERROR(insert.BindNull(5));
+  }
+  MVBRDF_RETURN_IF_ERROR(insert.BindInt64(6, max_attempts));
+  MVBRDF_RETURN_IF_ERROR(insert.BindInt64(7, now_ms));
+  MVBRDF_RETURN_IF_ERROR(insert.Run());
+  MVBRDF_ASSIGN_OR_RETURN(Statement insert_dependency,
+                          Statement::Prepare(*db_, "INSERT INTO task_deps (task_id, depends_on) VALUES (?1, ?2)"));
+  for (const std::string& dependency : dependencies) {
+    MVBRDF_RETURN_IF_ERROR(insert_dependency.Reset());
+    MVBRDF_RETURN_IF_ERROR(insert_dependency.BindText(1, id));
+    MVBRDF_RETURN_IF_ERROR(insert_dependency.BindText(2, dependency));
+    MVBRDF_RETURN_IF_ERROR(insert_dependency.Run());
+  }
+  return id;
+}
+
+absl::Status JobStore::FailDependents(const Task& failed, int64_t now_ms) {
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement fail,
+      Statement::Prepare(*db_,
+                         "WITH RECURSIVE dependents (id) AS ("
+                         "  SELECT task_id FROM task_deps WHERE depends_on = ?1"
+                         "  UNION SELECT e.task_id FROM task_deps e JOIN dependents d ON e.depends_on = d.id) "
+                         "UPDATE tasks SET state = 'failed', lease_expires_ms = NULL, error = ?2, updated_ms = ?3 "
+                         "WHERE id IN (SELECT id FROM dependents) AND state IN ('queued', 'leased')"));
+  MVBRDF_RETURN_IF_ERROR(fail.BindText(1, failed.id));
+  MVBRDF_RETURN_IF_ERROR(
+      fail.BindText(2, absl::StrCat("dependency ", failed.kind, " '", failed.key, "' (", failed.id, ") failed")));
+  MVBRDF_RETURN_IF_ERROR(fail.BindInt64(3, now_ms));
+  return fail.Run();
 }
 
 absl::StatusOr<Task> JobStore::GetLeasedTaskOf(absl::string_view task_id, absl::string_view worker,
@@ -434,6 +575,7 @@ absl::Status JobStore::FailExpiredLeases(int64_t now_ms) {
     MVBRDF_RETURN_IF_ERROR(fail.BindText(2, error));
     MVBRDF_RETURN_IF_ERROR(fail.BindInt64(3, now_ms));
     MVBRDF_RETURN_IF_ERROR(fail.Run());
+    MVBRDF_RETURN_IF_ERROR(FailDependents(task, now_ms));
     MVBRDF_RETURN_IF_ERROR(FailJobLocked(task.job_id, error, now_ms));
   }
   return absl::OkStatus();
@@ -455,7 +597,7 @@ absl::Status JobStore::RefreshJobState(absl::string_view job_id, int64_t now_ms)
   const int64_t done = count.ColumnInt64(1);
   const int64_t started = count.ColumnInt64(2);
   JobState state = JobState::kQueued;
-  if (total > 0 && done == total) {
+  if (job.sealed && total > 0 && done == total) {
     state = JobState::kSucceeded;
   } else if (started > 0) {
     state = JobState::kRunning;

@@ -1,8 +1,14 @@
 // Jobs and their tasks, with leases, in SQLite (issue #5).
 //
 // A job is one client request (the serialized request proto is opaque here);
-// its stages are tasks in a graph: a task may depend on one other task of the
-// same job and is not leased before that task is done. Workers lease tasks for
+// its stages are tasks in a graph: a task may depend on any number of earlier
+// tasks of the same job and is not leased before all of them are done (a
+// sweep fans out as one task per configuration; a "choose" task depending on
+// all of them fans in). The graph grows in two ways: the server adds tasks
+// (AddTask) and then seals the job (SealJob) once it has added all it will;
+// and the worker completing a task may add follow-up tasks in the same
+// transaction (CompleteTask with follow_ups), also after sealing — e.g. the
+// per-texel tasks once "choose" knows the best configuration. Workers lease tasks for
 // a time and renew the lease while they work; a task whose lease expires is
 // leased again to any worker (at-least-once: tasks must be idempotent), and
 // every lease counts an attempt.
@@ -12,9 +18,11 @@
 //                  |        |                   lease expired at max_attempts)
 //                  +--------+ (FailTask below max_attempts; lease expiry)
 //               queued/leased -> cancelled     (CancelJob, or the job failed)
-// Job states: queued until a task is leased, then running; succeeded when
-// every task is done; failed when a task fails for good; cancelled by
-// CancelJob. The last three are final.
+// A task failing for good fails the tasks that depend on it, directly or not
+// (their error names it), and cancels the job's other queued/leased tasks.
+// Job states: queued until a task is leased, then running; succeeded when it
+// is sealed and every task is done; failed when a task fails for good;
+// cancelled by CancelJob. The last three are final.
 //
 // Time is always passed in (unix ms): the store has no clock, so tests are
 // deterministic and the server decides what "now" is.
@@ -28,6 +36,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <initializer_list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -58,16 +67,38 @@ struct Job {
   std::string scene_hash;  // SHA-256 hex of the sequence bundle
   std::string request;     // opaque bytes (the serialized request message)
   std::string error;       // why it failed; empty otherwise
+  bool sealed = false;     // SealJob was called: no more AddTask
   int64_t created_ms = 0;
   int64_t updated_ms = 0;
 };
+
+// Task ids a new task depends on: none, one or many. Converts from the forms
+// callers have at hand (nullopt, one id, an optional id, a vector, a braced
+// list), so that NewTask{job, kind, key, dependency, 0} keeps compiling.
+class TaskIds : public std::vector<std::string> {
+ public:
+  TaskIds() = default;
+  TaskIds(std::nullopt_t) {}                                                 // NOLINT: implicit
+  TaskIds(std::string id) { push_back(std::move(id)); }                      // NOLINT: implicit
+  TaskIds(const char* id) { emplace_back(id); }                              // NOLINT: implicit
+  TaskIds(std::optional<std::string> id) {                                   // NOLINT: implicit
+    if (id.has_value()) push_back(std::move(*id));
+  }
+  TaskIds(std::vector<std::string> ids) : std::vector<std::string>(std::move(ids)) {}  // NOLINT: implicit
+  TaskIds(std::initializer_list<std::string> ids) : std::vector<std::string>(ids) {}
+};
+
+// In CompleteTask's follow_ups, a dependency on the follow-up at `index` of
+// the same call (whose id is not known yet); index < the dependent's own.
+std::string FollowUpRef(int index);
 
 struct Task {
   std::string id;  // 32 hex digits
   std::string job_id;
   std::string kind;  // the stage, e.g. "sweep", "texel"
   std::string key;   // what the stage runs on, e.g. the light configuration
-  std::optional<std::string> depends_on;  // a task of the same job
+  std::vector<std::string> depends_on;  // tasks of the same job, in the order given
+  std::optional<std::string> added_by;  // the task whose completion added this one
   TaskState state = TaskState::kQueued;
   int attempts = 0;  // leases handed out so far
   int max_attempts = 0;
@@ -88,10 +119,13 @@ struct NewJob {
 };
 
 struct NewTask {
+  // In CompleteTask's follow_ups, empty means the completed task's job.
   std::string job_id;
   std::string kind;
   std::string key;
-  std::optional<std::string> depends_on;
+  // Tasks of the same job (duplicates are ignored); in follow_ups also
+  // FollowUpRef(i) for an earlier follow-up of the same call.
+  TaskIds depends_on;
   // 0: JobStoreOptions::default_max_attempts.
   int max_attempts = 0;
 };
@@ -112,12 +146,18 @@ class JobStore {
 
   // A queued job without tasks; returns its id.
   absl::StatusOr<std::string> CreateJob(const NewJob& job, int64_t now_ms);
-  // Adds a queued task to a job that is not final; returns its id.
-  // INVALID_ARGUMENT when depends_on is not a task of the same job.
+  // Adds a queued task to a job that is neither final nor sealed; returns its
+  // id. INVALID_ARGUMENT when a dependency is not a task of the same job;
+  // FAILED_PRECONDITION when the job is final or sealed.
   absl::StatusOr<std::string> AddTask(const NewTask& task, int64_t now_ms);
+  // The server has added every task it will add (completions may still add
+  // follow-ups): the job succeeds once all its tasks are done — at once when
+  // they already are. Sealing again is OK. FAILED_PRECONDITION when the job
+  // has no tasks (it could never finish) or is failed or cancelled.
+  absl::Status SealJob(absl::string_view job_id, int64_t now_ms);
 
   // Atomically leases the oldest task (by creation) that is either queued
-  // with its dependency done, or leased with an expired lease, whose kind is
+  // with all its dependencies done, or leased with an expired lease, whose kind is
   // in `kinds` (empty: any kind) and whose job is not final. Bumps attempts.
   // nullopt when there is nothing to do. Tasks whose lease expired at
   // max_attempts fail here (and fail their job).
@@ -126,12 +166,20 @@ class JobStore {
   // Extends the lease to now + lease_ms. FAILED_PRECONDITION unless the task
   // is leased by `worker` (another worker may have taken over an expired lease).
   absl::Status RenewLease(absl::string_view task_id, absl::string_view worker, int64_t now_ms, int64_t lease_ms);
-  // Marks the task done with its result; the job succeeds when it was the
-  // last task. Only the lease owner may complete; completing again with the
-  // same result is OK (a retried RPC), with a different result
+  // Marks the task done with its result; the job succeeds when it is sealed
+  // and this was the last task. Only the lease owner may complete; completing
+  // again with the same result is OK (a retried RPC), with a different result
   // FAILED_PRECONDITION.
   absl::Status CompleteTask(absl::string_view task_id, absl::string_view worker, absl::string_view result,
                             int64_t now_ms);
+  // The same, and adds `follow_ups` to the task's job in the same
+  // transaction (allowed on a sealed job: the job cannot have succeeded while
+  // this task was leased). Returns the follow-ups' ids in order; a retried
+  // completion adds nothing again and returns the ids of the first. A bad
+  // follow-up (INVALID_ARGUMENT) leaves the task leased and adds nothing.
+  absl::StatusOr<std::vector<std::string>> CompleteTask(absl::string_view task_id, absl::string_view worker,
+                                                        absl::string_view result, int64_t now_ms,
+                                                        const std::vector<NewTask>& follow_ups);
   // The owner reports a failure: the task is queued again while attempts <
   // max_attempts, else it fails, its job fails with `error`, and the job's
   // other queued/leased tasks are cancelled.
@@ -155,6 +203,15 @@ class JobStore {
   // Helpers run with mu_ held, inside a transaction where they write.
   absl::StatusOr<Job> GetJobLocked(absl::string_view job_id);
   absl::StatusOr<Task> GetTaskLocked(absl::string_view task_id);
+  // Fills task.depends_on from task_deps.
+  absl::Status LoadDependencies(Task& task);
+  // Inserts a queued task (job checked by the caller). `batch` holds the ids
+  // of the follow-ups added so far in the same call, for FollowUpRef.
+  absl::StatusOr<std::string> InsertTaskLocked(const NewTask& task, const std::optional<std::string>& added_by,
+                                               const std::vector<std::string>& batch, int64_t now_ms);
+  // Fails, with an error naming `failed`, the tasks depending on it
+  // (transitively) that are not finished yet.
+  absl::Status FailDependents(const Task& failed, int64_t now_ms);
   absl::StatusOr<Task> GetLeasedTaskOf(absl::string_view task_id, absl::string_view worker,
                                        absl::string_view operation);
   absl::Status SetJobState(absl::string_view job_id, JobState state, absl::string_view error, int64_t now_ms);

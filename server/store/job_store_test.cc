@@ -96,6 +96,8 @@ TEST(JobStoreTest, JobSurvivesRestart) {
   EXPECT_EQ((*tasks)[0].lease_owner, "w1");
   // The lease still holds after the restart; the owner finishes the job.
   EXPECT_TRUE(store->CompleteTask(task, "w1", "result", kT0 + 10).ok());
+  EXPECT_EQ(StateOf(*store, job), JobState::kRunning);  // not sealed yet
+  ASSERT_TRUE(store->SealJob(job, kT0 + 11).ok());
   EXPECT_EQ(StateOf(*store, job), JobState::kSucceeded);
   auto jobs = store->ListJobs("alice");
   ASSERT_TRUE(jobs.ok());
@@ -114,6 +116,7 @@ TEST(JobStoreTest, ExpiredLeaseGoesToAnotherWorker) {
   auto store = OpenOrDie(dir.db());
   const std::string job = CreateJobOrDie(*store);
   const std::string task = AddTaskOrDie(*store, job, "sweep", "key");
+  ASSERT_TRUE(store->SealJob(job, kT0).ok());
   Task first = LeaseOrDie(*store, "w1", kT0);
   EXPECT_EQ(first.attempts, 1);
   EXPECT_EQ(first.lease_expires_ms, kT0 + kLeaseMs);
@@ -266,6 +269,7 @@ TEST(JobStoreTest, CancelJob) {
   // A finished job cannot be cancelled.
   const std::string done_job = CreateJobOrDie(*store);
   const std::string only = AddTaskOrDie(*store, done_job, "sweep", "a", std::nullopt, kT0 + 6);
+  ASSERT_TRUE(store->SealJob(done_job, kT0 + 6).ok());
   LeaseOrDie(*store, "w1", kT0 + 7);
   ASSERT_TRUE(store->CompleteTask(only, "w1", "", kT0 + 8).ok());
   EXPECT_EQ(store->CancelJob(done_job, kT0 + 9).code(), absl::StatusCode::kFailedPrecondition);
@@ -328,6 +332,282 @@ TEST(JobStoreTest, ConcurrentLeasesFromTwoStoresNeverShareATask) {
   a.reset();
   b.reset();
   ExpectIntegrityOk(dir.db());
+}
+
+// --- Task graphs (schema version 2) ------------------------------------------
+
+std::optional<Task> TryLease(JobStore& store, const std::string& worker, int64_t now_ms) {
+  auto task = store.LeaseTask(worker, now_ms, kLeaseMs);
+  EXPECT_TRUE(task.ok()) << task.status();
+  return task.ok() ? *task : std::nullopt;
+}
+
+TEST(JobStoreGraphTest, SweepFansOutChooseFansInThenTexel) {
+  constexpr int kSweeps = 8;
+  TestDir dir;
+  std::string job;
+  std::vector<std::string> sweeps;
+  std::string choose;
+  {
+    auto setup = OpenOrDie(dir.db());
+    job = CreateJobOrDie(*setup);
+    for (int i = 0; i < kSweeps; ++i) {
+      sweeps.push_back(AddTaskOrDie(*setup, job, "sweep", "config" + std::to_string(i)));
+    }
+    auto added = setup->AddTask(NewTask{job, "choose", "best", TaskIds(sweeps), 0}, kT0 + 1);
+    ASSERT_TRUE(added.ok()) << added.status();
+    choose = *added;
+    auto got = setup->GetTask(choose);
+    ASSERT_TRUE(got.ok());
+    EXPECT_EQ(got->depends_on, sweeps);  // in the order given
+    // The whole graph is known except what "choose" will add: seal.
+    ASSERT_TRUE(setup->SealJob(job, kT0 + 1).ok());
+    ASSERT_TRUE(setup->SealJob(job, kT0 + 1).ok());  // idempotent
+    EXPECT_EQ(setup->AddTask(NewTask{job, "sweep", "late", std::nullopt, 0}, kT0 + 2).status().code(),
+              absl::StatusCode::kFailedPrecondition);
+  }
+
+  // Two workers (two stores on the file) share the sweep; "choose" is never
+  // handed out while a sweep row is unfinished.
+  auto a = OpenOrDie(dir.db());
+  auto b = OpenOrDie(dir.db());
+  std::mutex mu;
+  std::map<std::string, int> leased;  // sweep task id -> leases
+  std::string chosen_by;              // the worker that leased "choose"
+  std::atomic<bool> failed{false};
+  auto work = [&](JobStore& store, const std::string& worker) {
+    while (true) {
+      auto task = store.LeaseTask(worker, kT0 + 10, kLeaseMs, {"sweep", "choose"});
+      if (!task.ok()) {
+        ADD_FAILURE() << task.status();
+        failed = true;
+        return;
+      }
+      if (!task->has_value()) return;
+      if ((*task)->kind == "choose") {
+        // Handed out only once every sweep row is done.
+        auto tasks = store.TasksOfJob(job);
+        EXPECT_TRUE(tasks.ok());
+        int done = 0;
+        for (const Task& t : tasks.ok() ? *tasks : std::vector<Task>{}) {
+          done += t.kind == "sweep" && t.state == TaskState::kDone;
+        }
+        EXPECT_EQ(done, kSweeps) << "choose leased early";
+        std::lock_guard<std::mutex> lock(mu);
+        chosen_by = worker;
+        return;
+      }
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        ++leased[(*task)->id];
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      // This row is not done, so "choose" must not go out.
+      auto early = store.LeaseTask(worker + "-probe", kT0 + 10, kLeaseMs, {"choose"});
+      EXPECT_TRUE(early.ok() && !early->has_value()) << "choose leased before every sweep row was done";
+      absl::Status done = store.CompleteTask((*task)->id, worker, "error=" + (*task)->key, kT0 + 11);
+      if (!done.ok()) {
+        ADD_FAILURE() << done;
+        failed = true;
+        return;
+      }
+    }
+  };
+  std::thread t1(work, std::ref(*a), "w1");
+  std::thread t2(work, std::ref(*b), "w2");
+  t1.join();
+  t2.join();
+  ASSERT_FALSE(failed);
+  ASSERT_EQ(leased.size(), static_cast<size_t>(kSweeps));
+  for (const std::string& id : sweeps) EXPECT_EQ(leased[id], 1) << id;
+  RecordProperty("choose_leased_by", chosen_by);
+  ASSERT_FALSE(chosen_by.empty()) << "nobody leased choose after the sweep";
+  EXPECT_EQ(StateOf(*a, job), JobState::kRunning);
+
+  // "choose" went out once all rows were done; its completion adds the
+  // per-texel tasks (they need the best configuration, known only now).
+  auto follow_ups = a->CompleteTask(
+      choose, chosen_by, "best=config3", kT0 + 21,
+      {NewTask{"", "texel", "config3 tile0", TaskIds(choose), 0},
+       NewTask{"", "texel", "config3 tile1", TaskIds{choose}, 0},
+       NewTask{job, "assemble", "atlas", TaskIds{FollowUpRef(0), FollowUpRef(1)}, 0}});
+  ASSERT_TRUE(follow_ups.ok()) << follow_ups.status();
+  ASSERT_EQ(follow_ups->size(), 3u);
+  // A retried completion adds nothing again and names the same tasks.
+  auto retried = a->CompleteTask(choose, chosen_by, "best=config3", kT0 + 22, {NewTask{"", "texel", "dup", {}, 0}});
+  ASSERT_TRUE(retried.ok()) << retried.status();
+  EXPECT_EQ(*retried, *follow_ups);
+  EXPECT_EQ(StateOf(*a, job), JobState::kRunning);  // sealed, but the follow-ups are not done
+
+  auto assemble = a->GetTask((*follow_ups)[2]);
+  ASSERT_TRUE(assemble.ok());
+  EXPECT_EQ(assemble->depends_on, std::vector<std::string>({(*follow_ups)[0], (*follow_ups)[1]}));
+  EXPECT_EQ(assemble->added_by, std::optional<std::string>(choose));
+
+  Task tile0 = LeaseOrDie(*b, "w2", kT0 + 30);
+  Task tile1 = LeaseOrDie(*a, "w1", kT0 + 30);
+  EXPECT_EQ(tile0.id, (*follow_ups)[0]);
+  EXPECT_EQ(tile1.id, (*follow_ups)[1]);
+  EXPECT_FALSE(TryLease(*a, "w3", kT0 + 30).has_value());  // assemble waits for both tiles
+  ASSERT_TRUE(b->CompleteTask(tile0.id, "w2", "t0", kT0 + 31).ok());
+  EXPECT_FALSE(TryLease(*a, "w3", kT0 + 31).has_value());
+  ASSERT_TRUE(a->CompleteTask(tile1.id, "w1", "t1", kT0 + 32).ok());
+  Task last = LeaseOrDie(*a, "w3", kT0 + 33);
+  EXPECT_EQ(last.id, (*follow_ups)[2]);
+  EXPECT_EQ(StateOf(*a, job), JobState::kRunning);
+  ASSERT_TRUE(a->CompleteTask(last.id, "w3", "atlas", kT0 + 34).ok());
+  EXPECT_EQ(StateOf(*a, job), JobState::kSucceeded);
+  a.reset();
+  b.reset();
+  ExpectIntegrityOk(dir.db());
+}
+
+TEST(JobStoreGraphTest, SealingAJobWhoseTasksAreDoneSucceedsIt) {
+  TestDir dir;
+  auto store = OpenOrDie(dir.db());
+  const std::string job = CreateJobOrDie(*store);
+  EXPECT_EQ(store->SealJob(job, kT0).code(), absl::StatusCode::kFailedPrecondition);  // no tasks
+  EXPECT_EQ(store->SealJob("nope", kT0).code(), absl::StatusCode::kNotFound);
+  const std::string first = AddTaskOrDie(*store, job, "sweep", "a");
+  const std::string second = AddTaskOrDie(*store, job, "sweep", "b", std::nullopt, kT0 + 1);
+  for (int i = 0; i < 2; ++i) {
+    Task task = LeaseOrDie(*store, "w1", kT0 + 2);
+    ASSERT_TRUE(store->CompleteTask(task.id, "w1", "r", kT0 + 3).ok());
+  }
+  EXPECT_EQ(StateOf(*store, job), JobState::kRunning);  // the server may still add tasks
+  // The server adds the follow-up itself, then seals.
+  const std::string third = AddTaskOrDie(*store, job, "choose", "best", std::optional<std::string>(first), kT0 + 4);
+  ASSERT_TRUE(store->SealJob(job, kT0 + 5).ok());
+  EXPECT_EQ(StateOf(*store, job), JobState::kRunning);
+  EXPECT_EQ(LeaseOrDie(*store, "w1", kT0 + 6).id, third);
+  ASSERT_TRUE(store->CompleteTask(third, "w1", "r", kT0 + 7).ok());
+  EXPECT_EQ(StateOf(*store, job), JobState::kSucceeded);
+
+  // All done first, sealed afterwards: succeeded by SealJob.
+  const std::string late = CreateJobOrDie(*store);
+  const std::string only = AddTaskOrDie(*store, late, "sweep", "a", std::nullopt, kT0 + 8);
+  LeaseOrDie(*store, "w1", kT0 + 9);
+  ASSERT_TRUE(store->CompleteTask(only, "w1", "r", kT0 + 10).ok());
+  EXPECT_EQ(StateOf(*store, late), JobState::kRunning);
+  ASSERT_TRUE(store->SealJob(late, kT0 + 11).ok());
+  EXPECT_EQ(StateOf(*store, late), JobState::kSucceeded);
+  auto sealed = store->GetJob(late);
+  ASSERT_TRUE(sealed.ok());
+  EXPECT_TRUE(sealed->sealed);
+  (void)second;
+}
+
+TEST(JobStoreGraphTest, BadFollowUpsAddNothingAndKeepTheLease) {
+  TestDir dir;
+  auto store = OpenOrDie(dir.db());
+  const std::string job = CreateJobOrDie(*store);
+  const std::string other_job = CreateJobOrDie(*store);
+  const std::string foreign = AddTaskOrDie(*store, other_job, "sweep", "x");
+  const std::string task = AddTaskOrDie(*store, job, "choose", "best", std::nullopt, kT0 + 1);
+  ASSERT_TRUE(store->SealJob(job, kT0 + 1).ok());
+  EXPECT_EQ(LeaseOrDie(*store, "w1", kT0 + 2).id, foreign);
+  EXPECT_EQ(LeaseOrDie(*store, "w1", kT0 + 2).id, task);
+  for (const NewTask& bad : {NewTask{other_job, "texel", "t", {}, 0}, NewTask{"", "texel", "t", foreign, 0},
+                             NewTask{"", "texel", "t", FollowUpRef(0), 0}, NewTask{"", "texel", "t", "unknown", 0}}) {
+    auto refused = store->CompleteTask(task, "w1", "r", kT0 + 3, {bad});
+    EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument) << refused.status();
+  }
+  auto still = store->GetTask(task);
+  ASSERT_TRUE(still.ok());
+  EXPECT_EQ(still->state, TaskState::kLeased);
+  auto tasks = store->TasksOfJob(job);
+  ASSERT_TRUE(tasks.ok());
+  EXPECT_EQ(tasks->size(), 1u);
+  auto added = store->CompleteTask(task, "w1", "r", kT0 + 4, {NewTask{"", "texel", "t", TaskIds{task, task}, 0}});
+  ASSERT_TRUE(added.ok()) << added.status();
+  auto texel = store->GetTask(added->at(0));
+  ASSERT_TRUE(texel.ok());
+  EXPECT_EQ(texel->depends_on, std::vector<std::string>{task});  // duplicates ignored
+}
+
+TEST(JobStoreGraphTest, AFailedDependencyFailsItsDependents) {
+  TestDir dir;
+  auto store = OpenOrDie(dir.db(), JobStoreOptions{/*default_max_attempts=*/1});
+  const std::string job = CreateJobOrDie(*store);
+  const std::string bad = AddTaskOrDie(*store, job, "sweep", "a");
+  const std::string good = AddTaskOrDie(*store, job, "sweep", "b", std::nullopt, kT0 + 1);
+  auto choose = store->AddTask(NewTask{job, "choose", "best", TaskIds{bad, good}, 0}, kT0 + 2);
+  ASSERT_TRUE(choose.ok());
+  const std::string texel = AddTaskOrDie(*store, job, "texel", "t", *choose, kT0 + 3);
+  const std::string unrelated = AddTaskOrDie(*store, job, "sweep", "c", std::nullopt, kT0 + 4);
+  ASSERT_TRUE(store->SealJob(job, kT0 + 4).ok());
+  EXPECT_EQ(LeaseOrDie(*store, "w1", kT0 + 5).id, bad);
+  ASSERT_TRUE(store->FailTask(bad, "w1", "GL_OUT_OF_MEMORY", kT0 + 6).ok());
+  EXPECT_EQ(StateOf(*store, job), JobState::kFailed);
+  for (const std::string& id : {*choose, texel}) {
+    auto dependent = store->GetTask(id);
+    ASSERT_TRUE(dependent.ok());
+    EXPECT_EQ(dependent->state, TaskState::kFailed) << dependent->key;
+    EXPECT_NE(dependent->error.find(bad), std::string::npos) << dependent->error;
+  }
+  for (const std::string& id : {good, unrelated}) {
+    auto rest = store->GetTask(id);
+    ASSERT_TRUE(rest.ok());
+    EXPECT_EQ(rest->state, TaskState::kCancelled) << rest->key;
+  }
+  store.reset();
+  ExpectIntegrityOk(dir.db());
+}
+
+TEST(JobStoreGraphTest, VersionOneDatabaseUpgradesInPlace) {
+  TestDir dir;
+  {
+    auto db = SqliteDb::Open(dir.db());
+    ASSERT_TRUE(db.ok()) << db.status();
+    ASSERT_TRUE(ApplyMigrationsUpTo(**db, 1).ok());
+    auto version = SchemaVersion(**db);
+    ASSERT_TRUE(version.ok());
+    ASSERT_EQ(*version, 1);
+    // What a version 1 server left behind: a running job (sweep done, texel
+    // depending on it, queued), a finished one, and one without tasks yet.
+    ASSERT_TRUE((*db)->Exec(R"sql(
+INSERT INTO jobs (id, client, state, scene_hash, request, created_ms, updated_ms) VALUES
+  ('j1', 'alice', 'running', 'h', x'00', 1, 1),
+  ('j2', 'alice', 'succeeded', 'h', x'00', 1, 1),
+  ('j3', 'bob', 'queued', 'h', x'00', 1, 1);
+INSERT INTO tasks (id, job_id, kind, key, depends_on, state, attempts, max_attempts, lease_owner, result,
+                   created_ms, updated_ms) VALUES
+  ('s1', 'j1', 'sweep', 'all', NULL, 'done', 1, 3, 'w1', x'72', 1, 1),
+  ('x1', 'j1', 'texel', 'best', 's1', 'queued', 0, 3, NULL, NULL, 2, 2),
+  ('s2', 'j2', 'sweep', 'all', NULL, 'done', 1, 3, 'w1', x'72', 1, 1),
+  ('x2', 'j2', 'texel', 'best', 's2', 'done', 1, 3, 'w1', x'72', 2, 2);
+)sql").ok());
+  }
+  auto store = OpenOrDie(dir.db());
+  {
+    auto db = SqliteDb::Open(dir.db());
+    ASSERT_TRUE(db.ok());
+    auto version = SchemaVersion(**db);
+    ASSERT_TRUE(version.ok());
+    EXPECT_EQ(*version, kSchemaVersion);
+  }
+  auto texel = store->GetTask("x1");
+  ASSERT_TRUE(texel.ok()) << texel.status();
+  EXPECT_EQ(texel->depends_on, std::vector<std::string>{"s1"});
+  EXPECT_FALSE(texel->added_by.has_value());
+  auto j1 = store->GetJob("j1");
+  auto j2 = store->GetJob("j2");
+  auto j3 = store->GetJob("j3");
+  ASSERT_TRUE(j1.ok() && j2.ok() && j3.ok());
+  EXPECT_TRUE(j1->sealed);
+  EXPECT_TRUE(j2->sealed);
+  EXPECT_FALSE(j3->sealed);  // its server was about to add tasks
+  EXPECT_EQ(j2->state, JobState::kSucceeded);
+  // The version 1 job carries on with its version 1 meaning.
+  Task leased = LeaseOrDie(*store, "w2", kT0);
+  EXPECT_EQ(leased.id, "x1");
+  ASSERT_TRUE(store->CompleteTask("x1", "w2", "done", kT0 + 1).ok());
+  EXPECT_EQ(StateOf(*store, "j1"), JobState::kSucceeded);
+  EXPECT_TRUE(AddTaskOrDie(*store, "j3", "sweep", "a", std::nullopt, kT0 + 2).size() == 32u);
+  store.reset();
+  ExpectIntegrityOk(dir.db());
+  auto reopened = OpenOrDie(dir.db());  // nothing re-applied
+  ASSERT_NE(reopened, nullptr);
 }
 
 }  // namespace

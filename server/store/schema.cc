@@ -68,6 +68,28 @@ CREATE TABLE artifacts (
 );
 CREATE INDEX artifacts_by_sha256 ON artifacts (sha256);
 )sql",
+    // 1 -> 2: many dependencies per task, sealed jobs, follow-up tasks.
+    R"sql(
+CREATE TABLE task_deps (
+  task_id     TEXT NOT NULL REFERENCES tasks (id) ON DELETE CASCADE,
+  depends_on  TEXT NOT NULL REFERENCES tasks (id) ON DELETE CASCADE,
+  UNIQUE (task_id, depends_on)
+);
+CREATE INDEX task_deps_by_depends_on ON task_deps (depends_on);
+INSERT INTO task_deps (task_id, depends_on)
+  SELECT id, depends_on FROM tasks WHERE depends_on IS NOT NULL ORDER BY created_ms, rowid;
+UPDATE tasks SET depends_on = NULL;
+
+ALTER TABLE tasks ADD COLUMN added_by TEXT REFERENCES tasks (id);
+CREATE INDEX tasks_by_added_by ON tasks (added_by);
+
+ALTER TABLE jobs ADD COLUMN sealed INTEGER NOT NULL DEFAULT 0 CHECK (sealed IN (0, 1));
+-- A version 1 job succeeded once its tasks were done: its graph was complete
+-- as far as the store knew, so it is sealed. Only a job without tasks yet is
+-- left open (its server was about to add them).
+UPDATE jobs SET sealed = 1
+  WHERE state <> 'queued' OR EXISTS (SELECT 1 FROM tasks WHERE tasks.job_id = jobs.id);
+)sql",
 };
 static_assert(sizeof(kMigrations) / sizeof(kMigrations[0]) == kSchemaVersion,
               "one migration per schema version");
@@ -81,7 +103,13 @@ absl::StatusOr<int> SchemaVersion(SqliteDb& db) {
   return static_cast<int>(query.ColumnInt64(0));
 }
 
-absl::Status ApplyMigrations(SqliteDb& db) {
+absl::Status ApplyMigrations(SqliteDb& db) { return ApplyMigrationsUpTo(db, kSchemaVersion); }
+
+absl::Status ApplyMigrationsUpTo(SqliteDb& db, int target_version) {
+  if (target_version < 0 || target_version > kSchemaVersion) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("ApplyMigrationsUpTo: target version ", target_version, " is not in [0, ", kSchemaVersion, "]"));
+  }
   // Inside the write lock, so two processes opening a new file at once
   // cannot both create the tables.
   MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(db));
@@ -94,7 +122,7 @@ absl::Status ApplyMigrations(SqliteDb& db) {
   if (version < 0) {
     return absl::DataLossError(absl::StrCat(db.path().string(), ": invalid schema version ", version));
   }
-  for (int v = version; v < kSchemaVersion; ++v) {
+  for (int v = version; v < target_version; ++v) {
     MVBRDF_RETURN_IF_ERROR(db.Exec(kMigrations[v]));
     // PRAGMA takes no bound parameters; the value is our own integer.
     MVBRDF_RETURN_IF_ERROR(db.Exec(absl::StrCat("PRAGMA user_version = ", v + 1)));

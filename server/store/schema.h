@@ -11,6 +11,14 @@
 //                data (zlib), raw_size, stored_size, sha256 (of the raw
 //                bytes), created_ms, last_used_ms)
 //   artifacts(job_id, name, sha256, size, created_ms)
+// Version 2 (a job's tasks form a graph):
+//   task_deps(task_id -> tasks, depends_on -> tasks), one row per dependency,
+//     in the order given; the rows of tasks.depends_on move here and the
+//     column stays NULL from then on
+//   tasks.added_by -> tasks: the task whose completion added this one
+//   jobs.sealed (0/1): the server has added every task it will add; only a
+//     sealed job succeeds. Version 1 jobs with tasks (or past queued) are
+//     sealed by the migration, which keeps their version 1 meaning.
 // Times are unix milliseconds.
 #ifndef MVBRDF_SERVER_STORE_SCHEMA_H_
 #define MVBRDF_SERVER_STORE_SCHEMA_H_
@@ -25,11 +33,14 @@
 namespace mvbrdf::store {
 
 // The newest schema this build knows.
-constexpr int kSchemaVersion = 1;
+constexpr int kSchemaVersion = 2;
 
 // Brings the database up to kSchemaVersion. FAILED_PRECONDITION when the file
 // was written by a newer build (its version is above kSchemaVersion).
 absl::Status ApplyMigrations(SqliteDb& db);
+// Brings the database up to `target_version` only (tests build old files
+// with it). A database already past it is left alone.
+absl::Status ApplyMigrationsUpTo(SqliteDb& db, int target_version);
 
 // The version recorded in the file (0 for a new file).
 absl::StatusOr<int> SchemaVersion(SqliteDb& db);
