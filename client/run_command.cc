@@ -4,6 +4,7 @@
 #include "absl/strings/str_split.h"
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/progress.h"
 #include "core/gl/egl_context.h"
 #include "core/pipeline/reconstruct_stage.h"
 #include "core/scene/sequence.h"
@@ -82,6 +83,8 @@ int RunRun(const std::vector<std::string>& args) {
     std::fprintf(stderr, "mvbrdf run: error: %s\n", std::string(context.status().message()).c_str());
     return kExitEnvironment;
   }
+  ProgressPrinter progress(stderr);
+  o.progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
   auto report = pipeline::RunReconstruction(*sequence, **context, o);
   if (!report.ok()) return ReportFailure(report.status());
 

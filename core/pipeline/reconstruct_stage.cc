@@ -31,7 +31,9 @@ using Clock = std::chrono::steady_clock;
 
 double Since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-void AddStage(v1::RunReport* report, const char* name, double seconds) {
+void AddStage(v1::RunReport* report, const char* name, double seconds,
+              const std::function<void(const std::string&, int, int)>& progress) {
+  if (progress) progress(name, 1, 1);
   v1::StageRow* row = report->add_stages();
   row->set_name(name);
   row->set_seconds(seconds);
@@ -250,7 +252,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   SetAtlasFigures(atlas, Since(t0), report.mutable_atlas());
   MVBRDF_RETURN_IF_ERROR(scene::WriteObj(out / "atlas" / "mesh.obj", atlas.topology, sequence.rest_positions));
   MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "triangle_id.exr", atlas.triangle_id));
-  AddStage(&report, "atlas", Since(t0));
+  AddStage(&report, "atlas", Since(t0), options.progress);
   const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
   const bool reflectance = plan.Has(Stage::kTexelPass);
 
@@ -276,6 +278,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
     const bool sweep = plan.Has(Stage::kLightSweep);
     for (int t = 0; t < sequence.num_frames; ++t) {
+      if (options.progress) options.progress("gather_samples", t, sequence.num_frames);
       const bool sweep_frame = sweep && t % std::max(options.sweep_frame_stride, 1) == 0;
       if (!sweep_frame && !reflectance) continue;
       MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
@@ -309,7 +312,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
   }
   if (!g.rest_position.empty()) MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "rest_position.exr", g.rest_position));
-  AddStage(&report, "gather_samples", Since(t0));
+  AddStage(&report, "gather_samples", Since(t0), options.progress);
 
   // The light configuration.
   t0 = Clock::now();
@@ -348,7 +351,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       report.set_configuration_warning(absl::StrCat("E_a prefers ", best_e_a->name, " (", best_e_a->e_a, " vs ",
                                                     best.e_a, "); the choice by E_d may be ambiguous"));
     }
-    AddStage(&report, "light_sweep", Since(t0));
+    AddStage(&report, "light_sweep", Since(t0), options.progress);
   } else if (chosen.empty()) {
     for (size_t k = 0; k < sequence.lights.size(); ++k) mask |= 1u << k;
     chosen = "all lights";
@@ -414,7 +417,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     texel_cluster[seen_texels[i]] = static_cast<int32_t>(clusters.assignment[i]);
     cluster_texels[clusters.assignment[i]].push_back(seen_texels[i]);
   }
-  AddStage(&report, "clustering", Since(t0));
+  AddStage(&report, "clustering", Since(t0), options.progress);
 
   // One BRDF per cluster.
   t0 = Clock::now();
@@ -452,7 +455,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
   }
   g.reservoir.reset();
-  AddStage(&report, "cluster_fit", Since(t0));
+  AddStage(&report, "cluster_fit", Since(t0), options.progress);
 
   // Pass 2: per-texel kd, observed diffuse per frame, camera errors.
   t0 = Clock::now();
@@ -477,6 +480,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     std::vector<uint16_t> frame_count(num_texels);
     std::vector<cv::Mat> frame_atlases(static_cast<size_t>(num_cameras));
     for (int t = 0; t < sequence.num_frames; ++t) {
+      if (options.progress) options.progress("texel_pass", t, sequence.num_frames);
       MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
       if (correction || camera_errors) {
         std::fill(frame_sum.begin(), frame_sum.end(), glm::vec3(0.0f));
@@ -576,7 +580,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   fit::DiffuseOptions texel_diffuse = options.diffuse;
   texel_diffuse.prior_weight = options.kd_prior_weight;
   const fit::DiffuseSolution kd = diffuse.Solve(texel_diffuse, fallback);
-  AddStage(&report, "texel_pass", Since(t0));
+  AddStage(&report, "texel_pass", Since(t0), options.progress);
 
   // Table 7.1.
   if (camera_errors) {
@@ -662,7 +666,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   }
   std::error_code ec;
   std::filesystem::remove_all(observed_dir, ec);
-  AddStage(&report, "write_atlases", Since(t0));
+  AddStage(&report, "write_atlases", Since(t0), options.progress);
 
   report.set_seconds(Since(start));
   report.set_peak_rss_bytes(PeakRssBytes());

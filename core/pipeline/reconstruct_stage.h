@@ -23,6 +23,8 @@
 #define MVBRDF_CORE_PIPELINE_RECONSTRUCT_STAGE_H_
 
 #include <filesystem>
+#include <functional>
+#include <string>
 
 #include "absl/status/statusor.h"
 #include "core/atlas/atlas.h"
@@ -65,6 +67,10 @@ struct ReconstructOptions {
   size_t sweep_fit_samples = 100000;
   int threads = 2;
   std::filesystem::path out_dir;
+  // Called on the calling thread as the job advances: the stage's name (as in
+  // result.json's stages), units done and the total (frames for the passes;
+  // 1 of 1 for the other stages when they finish). May be empty.
+  std::function<void(const std::string& stage, int done, int total)> progress;
 };
 
 absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
