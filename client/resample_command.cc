@@ -3,6 +3,7 @@
 
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/progress.h"
 #include "core/gl/egl_context.h"
 #include "core/pipeline/resample_stage.h"
 #include "core/scene/sequence.h"
@@ -72,6 +73,8 @@ int RunResample(const std::vector<std::string>& args) {
     std::fprintf(stderr, "mvbrdf resample: error: %s\n", std::string(context.status().message()).c_str());
     return kExitEnvironment;
   }
+  ProgressPrinter progress(stderr);
+  o.progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
   auto report = pipeline::RunResampleStage(*sequence, **context, o);
   if (!report.ok()) return ReportFailure(report.status());
 

@@ -100,6 +100,7 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
 
   std::vector<evaluate::ResampleTally> tallies(sequence.cameras.size());
   for (int t = 0; t < sequence.num_frames; ++t) {
+    if (options.progress) options.progress("resample", t, sequence.num_frames);
     const bool save = options.save == SaveFrames::kAll || (options.save == SaveFrames::kFirst && t == 0);
     char frame_name[32];
     std::snprintf(frame_name, sizeof(frame_name), "%04d", static_cast<int>(sequence.scene.frames().first()) + t);
@@ -172,6 +173,7 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
     }
   }
 
+  if (options.progress) options.progress("resample", sequence.num_frames, sequence.num_frames);
   evaluate::ResampleTally overall;
   for (size_t c = 0; c < tallies.size(); ++c) {
     v1::CameraFigures* f = report.add_cameras();

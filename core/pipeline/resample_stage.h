@@ -17,6 +17,8 @@
 #define MVBRDF_CORE_PIPELINE_RESAMPLE_STAGE_H_
 
 #include <filesystem>
+#include <functional>
+#include <string>
 
 #include "absl/status/statusor.h"
 #include "core/atlas/atlas.h"
@@ -41,6 +43,8 @@ struct ResampleStageOptions {
   // Compare with ground_truth/truth.json beside the scene when it exists.
   bool evaluate = true;
   std::filesystem::path out_dir;
+  // Called on the calling thread with frames done and the total; may be empty.
+  std::function<void(const std::string& stage, int done, int total)> progress;
 };
 
 absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& sequence, gl::EglContext& context,
