@@ -1,0 +1,105 @@
+#include "server/clients_api/job_graph.h"
+
+#include <set>
+
+#include "absl/strings/str_cat.h"
+
+namespace mvbrdf::clients_api {
+namespace {
+
+bool SceneHasConfiguration(const v1::Scene& scene, const std::string& name) {
+  for (const auto& c : scene.light_configurations()) {
+    if (c.name() == name) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene::Sequence& sequence) {
+  pipeline::RunRequest run;
+  if (request.outputs_size() > 0) {
+    run.light_table = run.brdf_atlases = run.correction = run.camera_errors = false;
+    for (int i = 0; i < request.outputs_size(); ++i) {
+      switch (request.outputs(i)) {
+        case v1::OUTPUT_LIGHT_TABLE: run.light_table = true; break;
+        case v1::OUTPUT_BRDF_ATLASES: run.brdf_atlases = true; break;
+        case v1::OUTPUT_CORRECTION: run.correction = true; break;
+        case v1::OUTPUT_CAMERA_ERRORS: run.camera_errors = true; break;
+        default:
+          return absl::InvalidArgumentError(
+              absl::StrCat("outputs[", i, "]: unknown output ", static_cast<int>(request.outputs(i))));
+      }
+    }
+  }
+  run.compare_solvers = request.options().compare_solvers();
+
+  const v1::Scene& scene = sequence.scene;
+  std::vector<std::string> candidates;
+  std::set<std::string> seen;
+  for (int i = 0; i < request.configurations_size(); ++i) {
+    const std::string& name = request.configurations(i);
+    if (!SceneHasConfiguration(scene, name)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("configurations[", i, "]: the scene has no light configuration \"", name, "\""));
+    }
+    if (!seen.insert(name).second) {
+      return absl::InvalidArgumentError(absl::StrCat("configurations[", i, "]: \"", name, "\" is listed twice"));
+    }
+    candidates.push_back(name);
+  }
+  if (!request.configuration().empty()) {
+    if (!SceneHasConfiguration(scene, request.configuration())) {
+      return absl::InvalidArgumentError(absl::StrCat("configuration: the scene has no light configuration \"",
+                                                     request.configuration(), "\""));
+    }
+    if (!candidates.empty()) {
+      return absl::InvalidArgumentError("configuration: give either a known configuration or candidates to sweep");
+    }
+    run.configuration = request.configuration();
+  } else if (candidates.size() == 1) {
+    run.configuration = candidates[0];
+  }
+  if (candidates.empty()) {
+    for (const auto& c : scene.light_configurations()) candidates.push_back(c.name());
+  }
+
+  absl::StatusOr<pipeline::Plan> plan = pipeline::MakePlan(sequence, run);
+  if (!plan.ok()) return plan.status();
+  JobPlan job_plan;
+  job_plan.plan = *std::move(plan);
+  if (job_plan.plan.Has(pipeline::Stage::kLightSweep)) job_plan.candidates = std::move(candidates);
+  return job_plan;
+}
+
+absl::StatusOr<std::vector<std::string>> AddJobTasks(store::JobStore& jobs, const std::string& job_id,
+                                                     const JobPlan& job_plan, int64_t now_ms) {
+  std::vector<std::string> ids;
+  const auto add = [&](const char* kind, const std::string& key, store::TaskIds deps) -> absl::StatusOr<std::string> {
+    absl::StatusOr<std::string> id = jobs.AddTask({job_id, kind, key, std::move(deps), 0}, now_ms);
+    if (id.ok()) ids.push_back(*id);
+    return id;
+  };
+  absl::StatusOr<std::string> gather = add("gather", "", {});
+  if (!gather.ok()) return gather.status();
+  std::string before_reflectance = *gather;
+  if (!job_plan.candidates.empty()) {
+    std::vector<std::string> sweeps;
+    for (const std::string& configuration : job_plan.candidates) {
+      absl::StatusOr<std::string> sweep = add("sweep", configuration, *gather);
+      if (!sweep.ok()) return sweep.status();
+      sweeps.push_back(*sweep);
+    }
+    absl::StatusOr<std::string> choose = add("choose", "", sweeps);
+    if (!choose.ok()) return choose.status();
+    before_reflectance = *choose;
+  }
+  if (job_plan.plan.Has(pipeline::Stage::kTexelPass)) {
+    absl::StatusOr<std::string> reflectance =
+        add("reflectance", job_plan.candidates.empty() ? job_plan.plan.fixed_configuration : "", before_reflectance);
+    if (!reflectance.ok()) return reflectance.status();
+  }
+  return ids;
+}
+
+}  // namespace mvbrdf::clients_api

@@ -1,0 +1,72 @@
+// WatchJob's server side: the streams of job events to clients.
+//
+// Each watch is a ServerWriteReactor (one per RPC, owned by gRPC until
+// OnDone). It first replays the job's current state (its state, a
+// StageFinished for every task done so far, the reason when failed), then
+// follows the job: one poller thread (owned here) reads the store every
+// `poll_interval` for every watched job and sends a JobState event when the
+// state changed and a StageFinished per newly done task; other parts of the
+// server forward progress events with Push. A stream ends after a final state
+// (succeeded, failed, cancelled). A client cancelling its watch only ends the
+// stream, never the job.
+//
+// Threading: Watch and Push may be called from any thread. The reactors'
+// callbacks run on gRPC's threads. The poller never holds a lock while it
+// reads the store.
+#ifndef MVBRDF_SERVER_CLIENTS_API_JOB_WATCHERS_H_
+#define MVBRDF_SERVER_CLIENTS_API_JOB_WATCHERS_H_
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <set>
+#include <string>
+#include <thread>
+
+#include <grpcpp/support/server_callback.h>
+
+#include "mvbrdf/v1/service.pb.h"
+#include "server/store/job_store.h"
+
+namespace mvbrdf::clients_api {
+
+class JobWatch;
+
+class JobWatchers {
+ public:
+  // `jobs` and `clock` (unix ms, for event times) must outlive this object.
+  JobWatchers(store::JobStore& jobs, std::function<int64_t()> clock, std::chrono::milliseconds poll_interval);
+  // Stops the poller. The gRPC server must be shut down first (its watches
+  // are then finished).
+  ~JobWatchers();
+  JobWatchers(const JobWatchers&) = delete;
+  JobWatchers& operator=(const JobWatchers&) = delete;
+
+  // The reactor of one WatchJob call (NOT_FOUND for an unknown job).
+  grpc::ServerWriteReactor<v1::JobEvent>* Watch(const std::string& job_id);
+  // Sends `event` to the current watchers of event.job_id.
+  void Push(const v1::JobEvent& event);
+
+ private:
+  friend class JobWatch;
+  void Remove(JobWatch* watch);
+  void PollLoop();
+  void PollOnce();
+
+  store::JobStore& jobs_;
+  const std::function<int64_t()> clock_;
+  const std::chrono::milliseconds poll_interval_;
+
+  std::mutex mu_;
+  std::condition_variable wake_;
+  bool stop_ = false;                                  // guarded by mu_
+  std::map<std::string, std::set<JobWatch*>> watches_;  // by job id; guarded by mu_
+  std::thread poller_;
+};
+
+}  // namespace mvbrdf::clients_api
+
+#endif  // MVBRDF_SERVER_CLIENTS_API_JOB_WATCHERS_H_
