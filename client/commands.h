@@ -28,6 +28,8 @@ int RunResample(const std::vector<std::string>& args);
 int RunRun(const std::vector<std::string>& args);
 int RunEvaluate(const std::vector<std::string>& args);
 int RunRender(const std::vector<std::string>& args);
+int RunServer(const std::vector<std::string>& args);
+int RunJobs(const std::vector<std::string>& args);
 
 }  // namespace mvbrdf::client
 

@@ -18,6 +18,8 @@ constexpr char kUsage[] =
     "  run        reconstruct the BRDF: light sweep, clustering, fitting, atlases, errors\n"
     "  render     draw a reconstruction from any camera under any lights\n"
     "  evaluate   compare a reconstruction with the synthetic generator's ground truth\n"
+    "  server     run the job server (gRPC; state in --data)\n"
+    "  jobs       list jobs on a server\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files)\n";
@@ -38,6 +40,8 @@ int main(int argc, char** argv) {
   if (command == "run") return mvbrdf::client::RunRun(args);
   if (command == "render") return mvbrdf::client::RunRender(args);
   if (command == "evaluate") return mvbrdf::client::RunEvaluate(args);
+  if (command == "server") return mvbrdf::client::RunServer(args);
+  if (command == "jobs") return mvbrdf::client::RunJobs(args);
   std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", command.c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }

@@ -1,0 +1,79 @@
+// `mvbrdf jobs --server HOST:PORT [--json]`: the caller's jobs.
+#include <cstdio>
+
+#include <grpcpp/grpcpp.h>
+
+#include "client/commands.h"
+#include "client/flags.h"
+#include "core/base/proto_json.h"
+#include "mvbrdf/v1/service.grpc.pb.h"
+
+namespace mvbrdf::client {
+namespace {
+
+const char* StateName(v1::JobState state) {
+  switch (state) {
+    case v1::QUEUED: return "queued";
+    case v1::RUNNING: return "running";
+    case v1::SUCCEEDED: return "succeeded";
+    case v1::FAILED: return "failed";
+    case v1::CANCELLED: return "cancelled";
+    default: return "?";
+  }
+}
+
+}  // namespace
+
+int RunJobs(const std::vector<std::string>& args) {
+  std::string address, client_name = "anonymous";
+  bool json = false;
+  int limit = 100;
+  FlagParser flags("jobs", "Lists the caller's jobs on a server, newest last, with each task's worker and run time.");
+  flags.AddString("--server", &address, "the server, host:port (required)");
+  flags.AddString("--client", &client_name, "the client name jobs were submitted as");
+  flags.AddInt("--limit", &limit, "jobs to list, at most");
+  flags.AddBool("--json", &json, "print the ListJobsResponse as JSON");
+  if (absl::Status s = flags.Parse(args); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf jobs: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
+  if (flags.help_requested()) {
+    std::fputs(flags.Usage().c_str(), stdout);
+    return kExitOk;
+  }
+  if (address.empty() || limit < 1) {
+    std::fprintf(stderr, "mvbrdf jobs: %s\n", address.empty() ? "--server: required" : "--limit: must be >= 1");
+    return kExitUsage;
+  }
+  auto stub = v1::Mvbrdf::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  context.AddMetadata("x-mvbrdf-client", client_name);
+  v1::ListJobsRequest request;
+  request.set_limit(static_cast<uint32_t>(limit));
+  v1::ListJobsResponse response;
+  const grpc::Status status = stub->ListJobs(&context, request, &response);
+  if (!status.ok()) {
+    std::fprintf(stderr, "mvbrdf jobs: error: %s: %s\n", address.c_str(), status.error_message().c_str());
+    return status.error_code() == grpc::StatusCode::UNAVAILABLE ||
+                   status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED
+               ? kExitEnvironment
+               : kExitInternal;
+  }
+  if (json) {
+    std::printf("%s\n", MessageToJson(response).c_str());
+    return kExitOk;
+  }
+  if (response.jobs_size() == 0) std::printf("no jobs\n");
+  for (const v1::Job& job : response.jobs()) {
+    std::printf("%s  %-9s  %d tasks%s%s\n", job.id().c_str(), StateName(job.state()), job.tasks_size(),
+                job.error().empty() ? "" : "  ", job.error().c_str());
+    for (const v1::TaskInfo& t : job.tasks()) {
+      std::printf("    %-12s %-28s %-9s %-16s %6.1f s%s\n", t.kind().c_str(), t.key().c_str(), t.state().c_str(),
+                  t.worker().empty() ? "-" : t.worker().c_str(), t.seconds(), t.samples_from_cache() ? "  (cache)" : "");
+    }
+  }
+  return kExitOk;
+}
+
+}  // namespace mvbrdf::client
