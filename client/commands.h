@@ -16,7 +16,9 @@ enum ExitCode : int {
   kExitInternal = 1,      // a bug or an unexpected failure
   kExitUsage = 2,         // bad command line
   kExitInvalidInput = 3,  // the scene or its files are not valid
-  kExitEnvironment = 4,   // EGL/GL, codecs or the file system are not usable
+  kExitEnvironment = 4,   // EGL/GL, codecs or the file system are not usable; the server is unreachable
+  kExitJobFailed = 5,     // `watch` (and `submit --watch`): the job failed (its reason is printed)
+  kExitJobCancelled = 6,  // `watch` (and `submit --watch`): the job was cancelled
 };
 
 // Maps a Status to an exit code and prints its one-line reason on stderr.
@@ -30,6 +32,22 @@ int RunEvaluate(const std::vector<std::string>& args);
 int RunRender(const std::vector<std::string>& args);
 int RunServer(const std::vector<std::string>& args);
 int RunJobs(const std::vector<std::string>& args);
+int RunSubmit(const std::vector<std::string>& args);
+int RunWatch(const std::vector<std::string>& args);
+int RunFetch(const std::vector<std::string>& args);
+int RunCancel(const std::vector<std::string>& args);
+
+// The exit code of a failed RPC, from its grpc::StatusCode (as an int):
+// kExitInvalidInput for INVALID_ARGUMENT, NOT_FOUND and FAILED_PRECONDITION,
+// kExitEnvironment for UNAVAILABLE and DEADLINE_EXCEEDED, else kExitInternal.
+int ExitCodeForRpc(int grpc_code);
+
+// Follows job `job_id` on `address` until its event stream ends, printing each
+// event (one JSON object per line when `json`); errors are prefixed with
+// "mvbrdf <command>:". Returns kExitOk, kExitJobFailed, kExitJobCancelled or
+// an RPC failure's code (watch_command.cc; also `submit --watch`).
+int WatchJobEvents(const std::string& command, const std::string& address, const std::string& client_name,
+                   const std::string& job_id, bool json);
 
 }  // namespace mvbrdf::client
 

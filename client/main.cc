@@ -20,9 +20,14 @@ constexpr char kUsage[] =
     "  evaluate   compare a reconstruction with the synthetic generator's ground truth\n"
     "  server     run the job server (gRPC; state in --data)\n"
     "  jobs       list jobs on a server\n"
+    "  submit     upload a scene's bundle to a server and queue a job\n"
+    "  watch      follow a job's events until it ends\n"
+    "  fetch      download a job's artifacts\n"
+    "  cancel     cancel a job\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
-    "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files)\n";
+    "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
+    "  server unreachable), 5 the watched job failed, 6 the watched job was cancelled\n";
 
 }  // namespace
 
@@ -42,6 +47,10 @@ int main(int argc, char** argv) {
   if (command == "evaluate") return mvbrdf::client::RunEvaluate(args);
   if (command == "server") return mvbrdf::client::RunServer(args);
   if (command == "jobs") return mvbrdf::client::RunJobs(args);
+  if (command == "submit") return mvbrdf::client::RunSubmit(args);
+  if (command == "watch") return mvbrdf::client::RunWatch(args);
+  if (command == "fetch") return mvbrdf::client::RunFetch(args);
+  if (command == "cancel") return mvbrdf::client::RunCancel(args);
   std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", command.c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }

@@ -1,0 +1,59 @@
+// `mvbrdf cancel JOB --server HOST:PORT [--json]`: cancels a job and prints
+// its state.
+#include <chrono>
+#include <cstdio>
+
+#include <grpcpp/grpcpp.h>
+
+#include "client/commands.h"
+#include "client/flags.h"
+#include "core/base/proto_json.h"
+#include "mvbrdf/v1/service.grpc.pb.h"
+
+namespace mvbrdf::client {
+
+int RunCancel(const std::vector<std::string>& args) {
+  std::string job_id, address, client_name = "anonymous";
+  bool json = false;
+  FlagParser flags("cancel",
+                   "Cancels a job (its unfinished tasks are not run; a finished job keeps its state) and prints the "
+                   "job's state. Exit code 3 when there is no such job.");
+  flags.AddPositional("JOB", &job_id, true, "the job id");
+  flags.AddString("--server", &address, "the server, host:port (required)");
+  flags.AddString("--client", &client_name, "the client name sent to the server");
+  flags.AddBool("--json", &json, "print the Job as JSON");
+  if (absl::Status s = flags.Parse(args); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf cancel: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
+  if (flags.help_requested()) {
+    std::fputs(flags.Usage().c_str(), stdout);
+    return kExitOk;
+  }
+  if (address.empty()) {
+    std::fprintf(stderr, "mvbrdf cancel: --server: required\n");
+    return kExitUsage;
+  }
+  auto stub = v1::Mvbrdf::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  context.AddMetadata("x-mvbrdf-client", client_name);
+  v1::CancelJobRequest request;
+  request.set_job_id(job_id);
+  v1::Job job;
+  const grpc::Status status = stub->CancelJob(&context, request, &job);
+  if (!status.ok()) {
+    std::fprintf(stderr, "mvbrdf cancel: error: %s: %s\n", job_id.c_str(), status.error_message().c_str());
+    return ExitCodeForRpc(status.error_code());
+  }
+  if (json) {
+    std::printf("%s\n", MessageToJson(job).c_str());
+    return kExitOk;
+  }
+  std::string state = v1::JobState_Name(job.state());
+  for (char& c : state) c = static_cast<char>(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
+  std::printf("%s  %s\n", job.id().c_str(), state.c_str());
+  return kExitOk;
+}
+
+}  // namespace mvbrdf::client
