@@ -21,8 +21,11 @@ enum ExitCode : int {
   kExitJobCancelled = 6,  // `watch` (and `submit --watch`): the job was cancelled
 };
 
-// Maps a Status to an exit code and prints its one-line reason on stderr.
-int ReportFailure(const absl::Status& status);
+// The exit code of a failed Status (kExitInvalidInput, kExitEnvironment or
+// kExitInternal).
+int ExitCodeFor(const absl::Status& status);
+// Prints "<command>: error: <reason>" on stderr and returns ExitCodeFor(status).
+int ReportFailure(const absl::Status& status, const std::string& command = "mvbrdf");
 
 int RunSynth(const std::vector<std::string>& args);
 int RunValidate(const std::vector<std::string>& args);
@@ -39,7 +42,8 @@ int RunCancel(const std::vector<std::string>& args);
 
 // The exit code of a failed RPC, from its grpc::StatusCode (as an int):
 // kExitInvalidInput for INVALID_ARGUMENT, NOT_FOUND and FAILED_PRECONDITION,
-// kExitEnvironment for UNAVAILABLE and DEADLINE_EXCEEDED, else kExitInternal.
+// kExitEnvironment for UNAVAILABLE and DEADLINE_EXCEEDED, else kExitInternal
+// (report_failure.cc).
 int ExitCodeForRpc(int grpc_code);
 
 // Follows job `job_id` on `address` until its event stream ends, printing each

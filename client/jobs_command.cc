@@ -55,10 +55,7 @@ int RunJobs(const std::vector<std::string>& args) {
   const grpc::Status status = stub->ListJobs(&context, request, &response);
   if (!status.ok()) {
     std::fprintf(stderr, "mvbrdf jobs: error: %s: %s\n", address.c_str(), status.error_message().c_str());
-    return status.error_code() == grpc::StatusCode::UNAVAILABLE ||
-                   status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED
-               ? kExitEnvironment
-               : kExitInternal;
+    return ExitCodeForRpc(status.error_code());
   }
   if (json) {
     std::printf("%s\n", MessageToJson(response).c_str());

@@ -1,11 +1,13 @@
+// Exit codes of failures, in one place: local Status failures and RPCs.
 #include <cstdio>
+
+#include <grpcpp/support/status.h>
 
 #include "client/commands.h"
 
 namespace mvbrdf::client {
 
-int ReportFailure(const absl::Status& status) {
-  std::fprintf(stderr, "mvbrdf: error: %s\n", std::string(status.message()).c_str());
+int ExitCodeFor(const absl::Status& status) {
   switch (status.code()) {
     case absl::StatusCode::kInvalidArgument:
     case absl::StatusCode::kNotFound:
@@ -16,6 +18,25 @@ int ReportFailure(const absl::Status& status) {
     case absl::StatusCode::kUnavailable:
     case absl::StatusCode::kPermissionDenied:
     case absl::StatusCode::kResourceExhausted:
+      return kExitEnvironment;
+    default:
+      return kExitInternal;
+  }
+}
+
+int ReportFailure(const absl::Status& status, const std::string& command) {
+  std::fprintf(stderr, "%s: error: %s\n", command.c_str(), std::string(status.message()).c_str());
+  return ExitCodeFor(status);
+}
+
+int ExitCodeForRpc(int grpc_code) {
+  switch (static_cast<grpc::StatusCode>(grpc_code)) {
+    case grpc::StatusCode::INVALID_ARGUMENT:
+    case grpc::StatusCode::NOT_FOUND:
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      return kExitInvalidInput;
+    case grpc::StatusCode::UNAVAILABLE:
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
       return kExitEnvironment;
     default:
       return kExitInternal;

@@ -42,23 +42,7 @@ class TempFile {
   std::filesystem::path path_;
 };
 
-int LocalFailure(const absl::Status& status) {
-  std::fprintf(stderr, "mvbrdf submit: error: %s\n", std::string(status.message()).c_str());
-  switch (status.code()) {
-    case absl::StatusCode::kInvalidArgument:
-    case absl::StatusCode::kNotFound:
-    case absl::StatusCode::kFailedPrecondition:
-    case absl::StatusCode::kOutOfRange:
-    case absl::StatusCode::kDataLoss:
-      return kExitInvalidInput;
-    case absl::StatusCode::kUnavailable:
-    case absl::StatusCode::kPermissionDenied:
-    case absl::StatusCode::kResourceExhausted:
-      return kExitEnvironment;
-    default:
-      return kExitInternal;
-  }
-}
+int LocalFailure(const absl::Status& status) { return ReportFailure(status, "mvbrdf submit"); }
 
 int RpcFailure(const std::string& what, const std::string& address, const grpc::Status& status) {
   std::fprintf(stderr, "mvbrdf submit: error: %s %s: %s\n", what.c_str(), address.c_str(),

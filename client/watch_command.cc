@@ -122,20 +122,6 @@ class EventPrinter {
 
 }  // namespace
 
-int ExitCodeForRpc(int grpc_code) {
-  switch (static_cast<grpc::StatusCode>(grpc_code)) {
-    case grpc::StatusCode::INVALID_ARGUMENT:
-    case grpc::StatusCode::NOT_FOUND:
-    case grpc::StatusCode::FAILED_PRECONDITION:
-      return kExitInvalidInput;
-    case grpc::StatusCode::UNAVAILABLE:
-    case grpc::StatusCode::DEADLINE_EXCEEDED:
-      return kExitEnvironment;
-    default:
-      return kExitInternal;
-  }
-}
-
 int WatchJobEvents(const std::string& command, const std::string& address, const std::string& client_name,
                    const std::string& job_id, bool json) {
   auto stub = v1::Mvbrdf::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));

@@ -10,18 +10,6 @@ rm -rf "$work"
 mkdir -p "$work"
 source "$(dirname "$0")/lib.sh"
 
-start_server() {  # start_server LOG: starts a server, sets $pid and $address
-  "$bin" server --listen 127.0.0.1:0 --data "$work/data" > "$1" 2>&1 &
-  pid=$!
-  address=""
-  for _ in $(seq 1 100); do
-    address=$(grep -o 'listening on [0-9.:]*' "$1" | awk '{print $3}')
-    [ -n "$address" ] && return 0
-    sleep 0.1
-  done
-  return 1
-}
-
 check "server help" 0 "--listen" -- "$bin" server --help
 check "server needs --data" 2 "--data: required" -- "$bin" server --listen 127.0.0.1:0
 check "server rejects a bad address" 2 "--listen: expected host:port" -- "$bin" server --listen nowhere --data "$work/x"

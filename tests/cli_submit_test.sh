@@ -9,18 +9,6 @@ rm -rf "$work"
 mkdir -p "$work"
 source "$(dirname "$0")/lib.sh"
 
-start_server() {  # start_server LOG: starts a server, sets $pid and $address
-  "$bin" server --listen 127.0.0.1:0 --data "$work/data" > "$1" 2>&1 &
-  pid=$!
-  address=""
-  for _ in $(seq 1 100); do
-    address=$(grep -o 'listening on [0-9.:]*' "$1" | awk '{print $3}')
-    [ -n "$address" ] && return 0
-    sleep 0.1
-  done
-  return 1
-}
-
 check "generate a tiny sequence" 0 "" -- "$bin" synth --cameras 2 --frames 2 --width 64 --height 48 \
   --actor-segments 8 --out "$work/b"
 check "submit needs --server" 2 "--server: required" -- "$bin" submit "$work/b/scene.json"

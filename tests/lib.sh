@@ -26,6 +26,20 @@ expect() {
   if "$@"; then echo "ok   $name"; passes=$((passes + 1)); else echo "FAIL $name"; failures=$((failures + 1)); fi
 }
 
+# start_server LOG: starts `$bin server` on a loopback port the OS picks, with
+# its state in $work/data; sets $pid and $address once it prints its address.
+start_server() {
+  "$bin" server --listen 127.0.0.1:0 --data "$work/data" > "$1" 2>&1 &
+  pid=$!
+  address=""
+  for _ in $(seq 1 100); do
+    address=$(grep -o 'listening on [0-9.:]*' "$1" | awk '{print $3}')
+    [ -n "$address" ] && return 0
+    sleep 0.1
+  done
+  return 1
+}
+
 summary() {
   echo "$passes passed, $failures failed"
   [ "$failures" -eq 0 ]

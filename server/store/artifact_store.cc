@@ -237,12 +237,11 @@ absl::StatusOr<std::vector<Artifact>> ArtifactStore::ArtifactsOfJob(absl::string
                          "ORDER BY name"));
   MVBRDF_RETURN_IF_ERROR(select.BindText(1, job_id));
   std::vector<Artifact> artifacts;
-  while (true) {
-    MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
-    if (step == StepResult::kDone) break;
+  MVBRDF_RETURN_IF_ERROR(select.ForEachRow([&]() -> absl::Status {
     artifacts.push_back(Artifact{select.ColumnText(0), select.ColumnText(1), select.ColumnText(2),
                                  select.ColumnInt64(3), select.ColumnInt64(4)});
-  }
+    return absl::OkStatus();
+  }));
   return artifacts;
 }
 

@@ -273,11 +273,10 @@ absl::StatusOr<std::vector<std::string>> JobStore::CompleteTask(absl::string_vie
         Statement::Prepare(*db_, "SELECT id FROM tasks WHERE added_by = ?1 ORDER BY created_ms, rowid"));
     MVBRDF_RETURN_IF_ERROR(select.BindText(1, task_id));
     std::vector<std::string> added;
-    while (true) {
-      MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
-      if (step == StepResult::kDone) break;
+    MVBRDF_RETURN_IF_ERROR(select.ForEachRow([&]() -> absl::Status {
       added.push_back(select.ColumnText(0));
-    }
+      return absl::OkStatus();
+    }));
     return added;
   }
   MVBRDF_RETURN_IF_ERROR(GetLeasedTaskOf(task_id, worker, "CompleteTask").status());
@@ -366,12 +365,11 @@ absl::StatusOr<std::vector<Job>> JobStore::ListJobs(absl::string_view client) {
                                             " FROM jobs WHERE client = ?1 ORDER BY created_ms, rowid")));
   MVBRDF_RETURN_IF_ERROR(select.BindText(1, client));
   std::vector<Job> jobs;
-  while (true) {
-    MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
-    if (step == StepResult::kDone) break;
+  MVBRDF_RETURN_IF_ERROR(select.ForEachRow([&]() -> absl::Status {
     MVBRDF_ASSIGN_OR_RETURN(Job job, ReadJob(select));
     jobs.push_back(std::move(job));
-  }
+    return absl::OkStatus();
+  }));
   return jobs;
 }
 
@@ -383,12 +381,11 @@ absl::StatusOr<std::vector<Task>> JobStore::TasksOfJob(absl::string_view job_id)
                                             " FROM tasks WHERE job_id = ?1 ORDER BY created_ms, rowid")));
   MVBRDF_RETURN_IF_ERROR(select.BindText(1, job_id));
   std::vector<Task> tasks;
-  while (true) {
-    MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
-    if (step == StepResult::kDone) break;
+  MVBRDF_RETURN_IF_ERROR(select.ForEachRow([&]() -> absl::Status {
     MVBRDF_ASSIGN_OR_RETURN(Task task, ReadTask(select));
     tasks.push_back(std::move(task));
-  }
+    return absl::OkStatus();
+  }));
   for (Task& task : tasks) MVBRDF_RETURN_IF_ERROR(LoadDependencies(task));
   return tasks;
 }
@@ -421,11 +418,10 @@ absl::Status JobStore::LoadDependencies(Task& task) {
       Statement::Prepare(*db_, "SELECT depends_on FROM task_deps WHERE task_id = ?1 ORDER BY rowid"));
   MVBRDF_RETURN_IF_ERROR(select.BindText(1, task.id));
   task.depends_on.clear();
-  while (true) {
-    MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
-    if (step == StepResult::kDone) break;
+  MVBRDF_RETURN_IF_ERROR(select.ForEachRow([&]() -> absl::Status {
     task.depends_on.push_back(select.ColumnText(0));
-  }
+    return absl::OkStatus();
+  }));
   return absl::OkStatus();
 }
 
@@ -557,12 +553,11 @@ absl::Status JobStore::FailExpiredLeases(int64_t now_ms) {
                                             "AND attempts >= max_attempts")));
   MVBRDF_RETURN_IF_ERROR(select.BindInt64(1, now_ms));
   std::vector<Task> expired;
-  while (true) {
-    MVBRDF_ASSIGN_OR_RETURN(StepResult step, select.Step());
-    if (step == StepResult::kDone) break;
+  MVBRDF_RETURN_IF_ERROR(select.ForEachRow([&]() -> absl::Status {
     MVBRDF_ASSIGN_OR_RETURN(Task task, ReadTask(select));
     expired.push_back(std::move(task));
-  }
+    return absl::OkStatus();
+  }));
   for (const Task& task : expired) {
     const std::string error = absl::StrCat("task ", task.kind, " '", task.key, "': lease of '", task.lease_owner,
                                            "' expired on the last of ", task.attempts, " attempts");

@@ -135,6 +135,14 @@ absl::Status Statement::BindBlob(int index, absl::string_view bytes) {
 
 absl::Status Statement::BindNull(int index) { return CheckBind(sqlite3_bind_null(stmt_, index), index); }
 
+absl::Status Statement::ForEachRow(const std::function<absl::Status()>& row) {
+  while (true) {
+    MVBRDF_ASSIGN_OR_RETURN(const StepResult step, Step());
+    if (step == StepResult::kDone) return absl::OkStatus();
+    MVBRDF_RETURN_IF_ERROR(row());
+  }
+}
+
 absl::StatusOr<StepResult> Statement::Step() {
   const int code = sqlite3_step(stmt_);
   if (code == SQLITE_ROW) return StepResult::kRow;

@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -80,6 +81,9 @@ class Statement {
 
   // One step: kRow when a row is available through the column getters.
   absl::StatusOr<StepResult> Step();
+  // Steps through every row, calling `row` on each (it reads the columns);
+  // stops at the first error, from SQLite or from `row`.
+  absl::Status ForEachRow(const std::function<absl::Status()>& row);
   // Steps until done (for statements that return no rows).
   absl::Status Run();
   // Ready to step again with new bindings (bindings are cleared).
