@@ -18,7 +18,7 @@ constexpr const char* kJobColumns =
 // tasks.depends_on is unused since schema version 2 (see task_deps).
 constexpr const char* kTaskColumns =
     "id, job_id, kind, key, added_by, state, attempts, max_attempts, lease_owner, lease_expires_ms, result, "
-    "error, created_ms, updated_ms";
+    "error, created_ms, updated_ms, started_ms, samples_from_cache";
 constexpr absl::string_view kFollowUpRefPrefix = "follow_up:";
 
 absl::StatusOr<Job> ReadJob(const Statement& row) {
@@ -51,6 +51,8 @@ absl::StatusOr<Task> ReadTask(const Statement& row) {
   task.error = row.ColumnText(11);
   task.created_ms = row.ColumnInt64(12);
   task.updated_ms = row.ColumnInt64(13);
+  task.started_ms = row.ColumnInt64(14);
+  task.samples_from_cache = row.ColumnInt64(15) != 0;
   return task;
 }
 
@@ -219,7 +221,7 @@ absl::StatusOr<std::optional<Task>> JobStore::LeaseTask(absl::string_view worker
       Statement lease,
       Statement::Prepare(*db_,
                          "UPDATE tasks SET state = 'leased', lease_owner = ?2, lease_expires_ms = ?3, "
-                         "attempts = attempts + 1, updated_ms = ?4 WHERE id = ?1"));
+                         "attempts = attempts + 1, started_ms = ?4, updated_ms = ?4 WHERE id = ?1"));
   MVBRDF_RETURN_IF_ERROR(lease.BindText(1, task_id));
   MVBRDF_RETURN_IF_ERROR(lease.BindText(2, worker));
   MVBRDF_RETURN_IF_ERROR(lease.BindInt64(3, now_ms + lease_ms));
@@ -345,6 +347,17 @@ absl::Status JobStore::CancelJob(absl::string_view job_id, int64_t now_ms) {
   }
   MVBRDF_RETURN_IF_ERROR(SetJobState(job_id, JobState::kCancelled, "", now_ms));
   return transaction.Commit();
+}
+
+absl::Status JobStore::SetSamplesFromCache(absl::string_view task_id, bool from_cache) {
+  std::lock_guard<std::mutex> lock(mu_);
+  MVBRDF_ASSIGN_OR_RETURN(Statement update,
+                          Statement::Prepare(*db_, "UPDATE tasks SET samples_from_cache = ?2 WHERE id = ?1"));
+  MVBRDF_RETURN_IF_ERROR(update.BindText(1, task_id));
+  MVBRDF_RETURN_IF_ERROR(update.BindInt64(2, from_cache ? 1 : 0));
+  MVBRDF_RETURN_IF_ERROR(update.Run());
+  if (db_->Changes() == 0) return absl::NotFoundError(absl::StrCat("task ", task_id, ": no such task"));
+  return absl::OkStatus();
 }
 
 absl::StatusOr<Job> JobStore::GetJob(absl::string_view job_id) {

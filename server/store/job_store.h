@@ -106,6 +106,11 @@ struct Task {
   // so that reports can say who ran it.
   std::string lease_owner;
   int64_t lease_expires_ms = 0;  // 0 when not leased
+  // When the current (or last) lease was handed out (unix ms); 0 before the
+  // first lease. With updated_ms of a done or failed task: how long it ran.
+  int64_t started_ms = 0;
+  // The task ran on Samples the Sample cache already held (SetSamplesFromCache).
+  bool samples_from_cache = false;
   std::optional<std::string> result;  // set when done
   std::string error;                  // the last failure reported
   int64_t created_ms = 0;
@@ -189,6 +194,11 @@ class JobStore {
   // lease learns it when its next renew/complete fails). Cancelling a
   // cancelled job is OK; a succeeded or failed one is FAILED_PRECONDITION.
   absl::Status CancelJob(absl::string_view job_id, int64_t now_ms);
+
+  // Records whether the task's Samples came from the Sample cache (shown in
+  // job reports). Any state; NOT_FOUND for an unknown task. Does not touch
+  // updated_ms (it times the task).
+  absl::Status SetSamplesFromCache(absl::string_view task_id, bool from_cache);
 
   absl::StatusOr<Job> GetJob(absl::string_view job_id);
   // The client's jobs, oldest first.

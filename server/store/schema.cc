@@ -90,6 +90,11 @@ ALTER TABLE jobs ADD COLUMN sealed INTEGER NOT NULL DEFAULT 0 CHECK (sealed IN (
 UPDATE jobs SET sealed = 1
   WHERE state <> 'queued' OR EXISTS (SELECT 1 FROM tasks WHERE tasks.job_id = jobs.id);
 )sql",
+    // 2 -> 3: when a lease began; whether a task's Samples came from the cache.
+    R"sql(
+ALTER TABLE tasks ADD COLUMN started_ms INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE tasks ADD COLUMN samples_from_cache INTEGER NOT NULL DEFAULT 0 CHECK (samples_from_cache IN (0, 1));
+)sql",
 };
 static_assert(sizeof(kMigrations) / sizeof(kMigrations[0]) == kSchemaVersion,
               "one migration per schema version");

@@ -19,6 +19,11 @@
 //   jobs.sealed (0/1): the server has added every task it will add; only a
 //     sealed job succeeds. Version 1 jobs with tasks (or past queued) are
 //     sealed by the migration, which keeps their version 1 meaning.
+// Version 3 (task timing and the Sample cache in reports):
+//   tasks.started_ms: when the current (or last) lease was handed out, 0
+//     before the first lease (and for tasks leased by a version 2 server)
+//   tasks.samples_from_cache (0/1): the task ran on (or, for gather, was
+//     answered from) Samples the Sample cache already held
 // Times are unix milliseconds.
 #ifndef MVBRDF_SERVER_STORE_SCHEMA_H_
 #define MVBRDF_SERVER_STORE_SCHEMA_H_
@@ -33,7 +38,7 @@
 namespace mvbrdf::store {
 
 // The newest schema this build knows.
-constexpr int kSchemaVersion = 2;
+constexpr int kSchemaVersion = 3;
 
 // Brings the database up to kSchemaVersion. FAILED_PRECONDITION when the file
 // was written by a newer build (its version is above kSchemaVersion).
