@@ -8,7 +8,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
+#include "core/samples/sample_set.h"
 #include "server/store/digest.h"
+#include "server/workers_api/chunk_stream.h"
+#include "server/workers_api/sample_key.h"
 
 namespace mvbrdf::server {
 namespace {
@@ -18,6 +21,11 @@ constexpr size_t kMaxWorkerNameChars = 128;
 // most per lease attempt (each failure bumps the task's attempts, so a bad
 // job fails for good after max_attempts anyway).
 constexpr int kMaxSkippedTasksPerLease = 16;
+// FetchBundle and FetchSamples chunks: well below gRPC's default 4 MiB
+// message limit.
+constexpr int64_t kFetchChunkBytes = int64_t{1} << 20;
+constexpr char kGatherKind[] = "gather";
+constexpr char kSweepKind[] = "sweep";
 
 // absl and gRPC share the canonical status codes and their numbers.
 grpc::Status ToGrpc(const absl::Status& status) {
@@ -36,6 +44,9 @@ absl::Status WorkersServiceOptions::Check() const {
   }
   if (max_artifact_bytes <= 0) {
     return absl::InvalidArgumentError(absl::StrCat("max_artifact_bytes: must be > 0, got ", max_artifact_bytes));
+  }
+  if (max_samples_bytes <= 0) {
+    return absl::InvalidArgumentError(absl::StrCat("max_samples_bytes: must be > 0, got ", max_samples_bytes));
   }
   if (poll_interval_ms <= 0) {
     return absl::InvalidArgumentError(absl::StrCat("poll_interval_ms: must be > 0, got ", poll_interval_ms));
@@ -104,6 +115,12 @@ class WorkersService::ReportReactor final : public grpc::ServerReadReactor<v1::T
   absl::StatusOr<Step> Apply(const v1::TaskUpdate& update);
   absl::StatusOr<Step> EndOfStream() const;
   absl::Status AddChunk(const std::string& name, const v1::ArtifactChunk& chunk);
+  // A chunk of the encoded triangle Samples (gather tasks); the same rules
+  // as artifact chunks, kept in samples_ until the result.
+  absl::Status AddSamplesChunk(const v1::ArtifactChunk& chunk);
+  // A gather result: checks it against the Samples received and puts them
+  // in the Sample cache.
+  absl::Status CacheGatheredSamples(const std::string& result, int64_t now_ms);
 
   WorkersService* const service_;
   v1::TaskUpdateAck* const ack_;
@@ -112,7 +129,10 @@ class WorkersService::ReportReactor final : public grpc::ServerReadReactor<v1::T
   std::string worker_id_;
   std::string task_id_;
   std::string job_id_;
+  std::string task_kind_;
   std::map<std::string, PartialArtifact> partial_;  // by artifact name
+  std::optional<PartialArtifact> samples_;          // since the first samples chunk
+  bool samples_complete_ = false;                   // and its sha256 verified
 };
 
 absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReactor::Apply(
@@ -133,6 +153,7 @@ absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReacto
   if (!task.ok()) return task.status();
   if (task->state != store::TaskState::kLeased || task->lease_owner != worker_id_) return Step::kLeaseLost;
   job_id_ = task->job_id;
+  task_kind_ = task->kind;
 
   const int64_t now_ms = service_->clock_();
   v1::JobEvent event;
@@ -152,11 +173,25 @@ absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReacto
       if (!added.ok()) return added;
       return Step::kNext;
     }
+    case v1::TaskUpdate::kSamples: {
+      absl::Status added = AddSamplesChunk(update.samples());
+      if (!added.ok()) return added;
+      return Step::kNext;
+    }
     case v1::TaskUpdate::kResult: {
       if (!partial_.empty()) {
         const auto& [name, partial] = *partial_.begin();
         return absl::InvalidArgumentError(absl::StrCat("result: artifact '", name, "' is incomplete (",
                                                        partial.bytes.size(), " of ", partial.total_size, " bytes)"));
+      }
+      if (samples_.has_value() && !samples_complete_) {
+        return absl::InvalidArgumentError(absl::StrCat("result: the samples are incomplete (",
+                                                       samples_->bytes.size(), " of ", samples_->total_size,
+                                                       " bytes)"));
+      }
+      if (task_kind_ == kGatherKind) {
+        absl::Status cached = CacheGatheredSamples(update.result(), now_ms);
+        if (!cached.ok()) return cached;
       }
       absl::Status completed = service_->jobs_.CompleteTask(task_id_, worker_id_, update.result(), now_ms);
       if (absl::IsFailedPrecondition(completed)) return Step::kLeaseLost;
@@ -178,7 +213,7 @@ absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReacto
       break;
   }
   return absl::InvalidArgumentError(
-      "update: one of progress, stage_finished, artifact, result or failed is required");
+      "update: one of progress, stage_finished, artifact, samples, result or failed is required");
 }
 
 absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReactor::EndOfStream() const {
@@ -188,7 +223,92 @@ absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReacto
     return absl::InvalidArgumentError(absl::StrCat("artifact '", name, "': the stream ended after ",
                                                    partial.bytes.size(), " of ", partial.total_size, " bytes"));
   }
+  if (samples_.has_value() && !samples_complete_) {
+    return absl::InvalidArgumentError(absl::StrCat("samples: the stream ended after ", samples_->bytes.size(),
+                                                   " of ", samples_->total_size, " bytes"));
+  }
   return Step::kAccepted;
+}
+
+absl::Status WorkersService::ReportReactor::AddSamplesChunk(const v1::ArtifactChunk& chunk) {
+  if (task_kind_ != kGatherKind) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("samples: only a gather task sends Samples; task ", task_id_, " is a ", task_kind_, " task"));
+  }
+  if (samples_complete_) {
+    return absl::InvalidArgumentError("samples: already complete; a stream sends the Samples once");
+  }
+  if (!samples_.has_value()) {
+    if (chunk.offset() != 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("samples.offset: the first chunk must start at 0, got ", chunk.offset()));
+    }
+    if (chunk.total_size() > static_cast<uint64_t>(service_->options_.max_samples_bytes)) {
+      return absl::ResourceExhaustedError(absl::StrCat("samples.total_size: ", chunk.total_size(),
+                                                       " bytes exceed the limit of ",
+                                                       service_->options_.max_samples_bytes));
+    }
+    if (!store::IsSha256Hex(chunk.sha256())) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "samples.sha256: the first chunk needs 64 lowercase hex digits, got '", chunk.sha256(), "'"));
+    }
+    PartialArtifact partial;
+    partial.total_size = chunk.total_size();
+    partial.sha256 = chunk.sha256();
+    partial.bytes.reserve(partial.total_size);
+    samples_ = std::move(partial);
+  } else if (chunk.offset() != samples_->bytes.size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("samples.offset: expected ", samples_->bytes.size(), ", got ", chunk.offset()));
+  }
+  PartialArtifact& partial = *samples_;
+  if (partial.bytes.size() + chunk.data().size() > partial.total_size) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("samples.data: would exceed total_size of ", partial.total_size, " bytes"));
+  }
+  partial.bytes.append(chunk.data());
+  if (partial.bytes.size() < partial.total_size) return absl::OkStatus();
+  const std::string sha256 = store::Sha256Hex(partial.bytes);
+  if (sha256 != partial.sha256) {
+    samples_.reset();
+    return absl::DataLossError(
+        absl::StrCat("samples: sha256 is ", sha256, ", the first chunk said ", partial.sha256));
+  }
+  samples_complete_ = true;
+  return absl::OkStatus();
+}
+
+absl::Status WorkersService::ReportReactor::CacheGatheredSamples(const std::string& result, int64_t now_ms) {
+  if (!samples_complete_) {
+    return absl::InvalidArgumentError("samples: a gather result needs the encoded Samples first");
+  }
+  v1::GatherResult gathered;
+  if (!gathered.ParseFromString(result)) {
+    return absl::InvalidArgumentError("result: a gather result must be an encoded mvbrdf.v1.GatherResult");
+  }
+  if (gathered.samples_sha256() != samples_->sha256) {
+    return absl::InvalidArgumentError(absl::StrCat("result.samples_sha256: '", gathered.samples_sha256(),
+                                                   "' is not the sha256 of the Samples sent (",
+                                                   samples_->sha256, ")"));
+  }
+  MVBRDF_ASSIGN_OR_RETURN(store::Job job, service_->jobs_.GetJob(job_id_));
+  MVBRDF_ASSIGN_OR_RETURN(v1::SubmitJobRequest request, RequestOf(job));
+  const store::SampleKey key = TriangleSampleKey(job.scene_hash, request);
+  absl::Status put = service_->samples_.Put(key, samples_->bytes, now_ms);
+  if (absl::IsResourceExhausted(put)) {
+    // No sweep could fetch them: the task cannot succeed on any worker
+    // until the cache is made larger. Fail this attempt now (rather than
+    // let the lease run out) and tell the worker why.
+    const std::string reason =
+        absl::StrCat("samples: ", samples_->bytes.size(),
+                     " bytes of triangle Samples do not fit in the Sample cache (raise sample_cache_max_bytes): ",
+                     put.message());
+    (void)service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms);
+    service_->NotifyWork();
+    service_->EmitFinalState(job_id_);
+    return absl::ResourceExhaustedError(reason);
+  }
+  return put;
 }
 
 absl::Status WorkersService::ReportReactor::AddChunk(const std::string& name, const v1::ArtifactChunk& chunk) {
@@ -247,16 +367,22 @@ absl::Status WorkersService::ReportReactor::AddChunk(const std::string& name, co
 
 // ---------------------------------------------------------------- service
 
-WorkersService::WorkersService(store::JobStore& jobs, store::ArtifactStore& artifacts, Clock clock,
-                               WorkersServiceOptions options, JobEventSink on_event)
+WorkersService::WorkersService(store::JobStore& jobs, store::ArtifactStore& artifacts, store::SampleCache& samples,
+                               BundlePath bundle_path, Clock clock, WorkersServiceOptions options,
+                               JobEventSink on_event)
     : jobs_(jobs),
       artifacts_(artifacts),
+      samples_(samples),
+      bundle_path_(std::move(bundle_path)),
       clock_(std::move(clock)),
       options_(options),
       on_event_(std::move(on_event)) {
-  if (absl::Status valid = options_.Check(); !valid.ok() || !clock_) {
+  absl::Status valid = options_.Check();
+  if (valid.ok() && !clock_) valid = absl::InvalidArgumentError("clock: required");
+  if (valid.ok() && !bundle_path_) valid = absl::InvalidArgumentError("bundle_path: required");
+  if (!valid.ok()) {
     // A programmer error: options come from validated flags or config.
-    std::fprintf(stderr, "WorkersService: %s\n", valid.ok() ? "clock: required" : valid.ToString().c_str());
+    std::fprintf(stderr, "WorkersService: %s\n", valid.ToString().c_str());
     std::abort();
   }
   poller_ = std::thread([this] { ServeParkedPolls(); });
@@ -408,8 +534,120 @@ grpc::ServerReadReactor<v1::TaskUpdate>* WorkersService::ReportTask(grpc::Callba
   return new ReportReactor(this, ack);
 }
 
+grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchBundle(grpc::CallbackServerContext* /*context*/,
+                                                                          const v1::FetchBundleRequest* request) {
+  if (absl::Status known = CheckWorker(request->worker_id()); !known.ok()) return ChunkStream::Failed(known);
+  if (!store::IsSha256Hex(request->sha256())) {
+    return ChunkStream::Failed(absl::InvalidArgumentError(absl::StrCat(
+        "sha256: must be 64 lowercase hex digits (a SHA-256), got \"", request->sha256().substr(0, 80), "\"")));
+  }
+  const std::filesystem::path path = bundle_path_(request->sha256());
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return ChunkStream::Failed(absl::NotFoundError(
+        absl::StrCat("sha256: the server has no complete bundle ", request->sha256(), " (upload it first)")));
+  }
+  // The file was renamed into place only after its hash was verified, so
+  // its name is its digest: no need to hash gigabytes again here.
+  return ChunkStream::FromFile(path, request->sha256(), kFetchChunkBytes);
+}
+
+grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchSamples(grpc::CallbackServerContext* /*context*/,
+                                                                           const v1::FetchSamplesRequest* request) {
+  if (absl::Status known = CheckWorker(request->worker_id()); !known.ok()) return ChunkStream::Failed(known);
+  if (request->task_id().empty()) return ChunkStream::Failed(absl::InvalidArgumentError("task_id: required"));
+  absl::StatusOr<store::Task> task = jobs_.GetTask(request->task_id());
+  if (!task.ok()) return ChunkStream::Failed(task.status());
+  absl::StatusOr<store::Job> job = jobs_.GetJob(task->job_id);
+  if (!job.ok()) return ChunkStream::Failed(job.status());
+  if (store::IsFinal(job->state)) {
+    return ChunkStream::Failed(absl::FailedPreconditionError(
+        absl::StrCat("task_id: job ", job->id, " of task ", task->id, " is ", store::JobStateName(job->state))));
+  }
+  absl::StatusOr<v1::SubmitJobRequest> parsed = RequestOf(*job);
+  if (!parsed.ok()) return ChunkStream::Failed(parsed.status());
+  const store::SampleKey key = TriangleSampleKey(job->scene_hash, *parsed);
+  absl::StatusOr<std::optional<std::string>> bytes = samples_.Get(key, clock_());
+  if (!bytes.ok()) return ChunkStream::Failed(bytes.status());
+  if (!bytes->has_value()) {
+    return ChunkStream::Failed(absl::NotFoundError(absl::StrCat("no cached Samples for ", key.ToString())));
+  }
+  return ChunkStream::FromBytes(std::move(**bytes), kFetchChunkBytes);
+}
+
+absl::StatusOr<v1::SubmitJobRequest> WorkersService::RequestOf(const store::Job& job) {
+  v1::SubmitJobRequest request;
+  if (!request.ParseFromString(job.request)) {
+    return absl::InternalError(
+        absl::StrCat("job ", job.id, ": its stored request is not a valid mvbrdf.v1.SubmitJobRequest"));
+  }
+  return request;
+}
+
+absl::Status WorkersService::FillInputs(const store::Task& task, v1::Task& out) {
+  for (const std::string& dependency_id : task.depends_on) {
+    MVBRDF_ASSIGN_OR_RETURN(store::Task dependency, jobs_.GetTask(dependency_id));
+    v1::TaskInput* input = out.add_inputs();
+    input->set_task_id(dependency.id);
+    input->set_kind(dependency.kind);
+    input->set_key(dependency.key);
+    // Leasable means every dependency is done, so each has its result.
+    input->set_result(dependency.result.value_or(""));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<bool> WorkersService::AnswerGatherFromCache(const store::Task& task, const std::string& worker_id,
+                                                           const store::Job& job,
+                                                           const v1::SubmitJobRequest& request) {
+  const int64_t now_ms = clock_();
+  const store::SampleKey key = TriangleSampleKey(job.scene_hash, request);
+  // DATA_LOSS: the entry was corrupt and is gone. Any other cache error: the
+  // cache is an optimisation, the worker can always resample.
+  absl::StatusOr<std::optional<std::string>> bytes = samples_.Get(key, now_ms);
+  if (!bytes.ok() || !bytes->has_value()) return false;
+  absl::StatusOr<samples::SampleSet> decoded = samples::DecodeSampleSet(**bytes);
+  if (!decoded.ok()) {
+    // Intact bytes (the checksum held) of a foreign or outdated encoding:
+    // useless to every sweep, so drop them and resample.
+    (void)samples_.Erase(key);
+    return false;
+  }
+  v1::GatherResult result;
+  result.set_samples_sha256(store::Sha256Hex(**bytes));
+  result.set_samples(decoded->size());
+  result.set_encoded_bytes((*bytes)->size());
+  result.set_from_cache(true);
+  result.set_seconds(0.0);
+  absl::Status completed = jobs_.CompleteTask(task.id, worker_id, result.SerializeAsString(), now_ms);
+  if (absl::IsFailedPrecondition(completed)) return true;  // cancelled meanwhile: nothing left to run
+  MVBRDF_RETURN_IF_ERROR(completed);
+  MVBRDF_RETURN_IF_ERROR(jobs_.SetSamplesFromCache(task.id, true));
+
+  v1::JobEvent event;
+  event.set_job_id(task.job_id);
+  event.set_unix_ms(now_ms);
+  v1::StageStarted* started = event.mutable_stage_started();
+  started->set_stage(kGatherKind);
+  started->set_task_id(task.id);
+  started->set_worker(worker_id);
+  Emit(event);
+  event.clear_stage_started();
+  v1::StageFinished* finished = event.mutable_stage_finished();
+  finished->set_stage(kGatherKind);
+  finished->set_seconds(0.0);
+  (*finished->mutable_metrics())["samples_from_cache"] = 1.0;
+  Emit(std::move(event));
+  NotifyWork();  // the sweeps are leasable now
+  EmitFinalState(task.job_id);
+  return true;
+}
+
 absl::StatusOr<std::optional<v1::Task>> WorkersService::TryLease(const std::string& worker_id) {
-  for (int skipped = 0; skipped < kMaxSkippedTasksPerLease; ++skipped) {
+  // Skips are bounded; cache answers are not: each completes a task, so the
+  // loop ends when the store runs out of leasable tasks.
+  int skipped = 0;
+  while (skipped < kMaxSkippedTasksPerLease) {
     const int64_t now_ms = clock_();
     absl::StatusOr<std::optional<store::Task>> leased = jobs_.LeaseTask(worker_id, now_ms, lease_ms());
     if (!leased.ok()) return leased.status();
@@ -418,23 +656,38 @@ absl::StatusOr<std::optional<v1::Task>> WorkersService::TryLease(const std::stri
 
     absl::StatusOr<store::Job> job = jobs_.GetJob(task.job_id);
     if (!job.ok()) return job.status();
-    v1::Task out;
-    if (!out.mutable_request()->ParseFromString(job->request)) {
+    absl::StatusOr<v1::SubmitJobRequest> request = RequestOf(*job);
+    if (!request.ok()) {
       // Not the worker's fault, and no worker could run it: fail the task
       // (its job fails for good at max_attempts) and look for another.
-      const std::string reason =
-          absl::StrCat("job ", job->id, ": its stored request is not a valid mvbrdf.v1.SubmitJobRequest");
-      absl::Status failed = jobs_.FailTask(task.id, worker_id, reason, now_ms);
+      absl::Status failed = jobs_.FailTask(task.id, worker_id, request.status().message(), now_ms);
       if (!failed.ok()) return failed;
       EmitFinalState(task.job_id);
+      ++skipped;
       continue;
     }
+    if (task.kind == kGatherKind) {
+      MVBRDF_ASSIGN_OR_RETURN(bool answered, AnswerGatherFromCache(task, worker_id, *job, *request));
+      if (answered) continue;
+    }
+
+    v1::Task out;
+    *out.mutable_request() = *std::move(request);
     out.set_id(task.id);
     out.set_job_id(task.job_id);
     out.set_kind(task.kind);
     out.set_key(task.key);
     out.set_bundle_sha256(job->scene_hash);
     out.set_lease_expires_unix_ms(task.lease_expires_ms);
+    MVBRDF_RETURN_IF_ERROR(FillInputs(task, out));
+    if (task.kind == kSweepKind) {
+      for (const v1::TaskInput& input : out.inputs()) {
+        v1::GatherResult gathered;
+        if (input.kind() == kGatherKind && gathered.ParseFromString(input.result()) && gathered.from_cache()) {
+          MVBRDF_RETURN_IF_ERROR(jobs_.SetSamplesFromCache(task.id, true));
+        }
+      }
+    }
 
     v1::JobEvent event;
     event.set_job_id(task.job_id);

@@ -1,7 +1,18 @@
 // The worker-facing gRPC service (issue #5): workers register, lease tasks
 // with a long poll, renew their leases and stream progress, artifacts and the
 // result (or a failure) of each task back. Jobs, tasks and leases live in
-// store::JobStore; artifacts in store::ArtifactStore.
+// store::JobStore; artifacts in store::ArtifactStore; triangle Samples in
+// store::SampleCache (under TriangleSampleKey, sample_key.h).
+//
+// The task protocol (docs/service.md): a leased v1::Task carries the results
+// of its dependencies (Task.inputs). A `gather` task whose triangle Samples
+// are already cached is completed here, on the worker's behalf, with a
+// GatherResult{from_cache = true} (the task is marked samples_from_cache, a
+// stage started and a stage finished event say so) and the worker gets the
+// next task instead. Otherwise the worker resamples and streams the encoded
+// Samples (TaskUpdate.samples) before its GatherResult; the server puts them
+// in the cache. Workers download bundles with FetchBundle and the cached
+// Samples with FetchSamples.
 //
 // Long polls: a LeaseTask call that finds nothing to do is parked (its
 // ServerUnaryReactor kept in a queue) instead of blocking a gRPC thread. One
@@ -18,7 +29,9 @@
 // Threading: every public method may be called from any thread. The RPC
 // handlers run on gRPC's callback threads; they do short SQLite operations
 // and, for the final chunk of an artifact, one file write (bounded by
-// max_artifact_bytes).
+// max_artifact_bytes), for a gather result one Sample cache Put (bounded by
+// max_samples_bytes). A cache hit in a lease decodes the cached Samples on
+// the poller thread (once per gather task).
 //
 // Lifetime: the service must outlive the grpc::Server it is registered with.
 // grpc::Server::Shutdown() without a deadline waits for in-flight calls, so
@@ -31,6 +44,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <mutex>
@@ -47,6 +61,7 @@
 #include "mvbrdf/v1/service.grpc.pb.h"
 #include "server/store/artifact_store.h"
 #include "server/store/job_store.h"
+#include "server/store/sample_cache.h"
 
 namespace mvbrdf::server {
 
@@ -59,6 +74,9 @@ struct WorkersServiceOptions {
   // memory, so this also bounds the memory of one ReportTask stream per
   // artifact in flight.
   int64_t max_artifact_bytes = int64_t{256} << 20;
+  // Largest encoded triangle SampleSet a worker may send with a gather task
+  // (bytes); held in memory like an artifact until it is complete.
+  int64_t max_samples_bytes = int64_t{1} << 30;
   // How often parked long polls ask the store again without being woken (ms):
   // the latency of picking up an expired lease.
   int poll_interval_ms = 250;
@@ -86,9 +104,15 @@ class WorkersService final : public v1::Workers::CallbackService {
   // threads, possibly at once, without the service's locks held; may be empty.
   using JobEventSink = std::function<void(const v1::JobEvent&)>;
 
-  // `jobs` and `artifacts` must outlive the service. CHECKs options.Check().
-  WorkersService(store::JobStore& jobs, store::ArtifactStore& artifacts, Clock clock,
-                 WorkersServiceOptions options = {}, JobEventSink on_event = {});
+  // The path of the complete (hash-verified) bundle `sha256` (a validated
+  // digest); the file need not exist. Called from gRPC threads.
+  using BundlePath = std::function<std::filesystem::path(absl::string_view sha256)>;
+
+  // `jobs`, `artifacts` and `samples` must outlive the service. Aborts on
+  // invalid options or a missing clock or bundle_path (programmer errors).
+  WorkersService(store::JobStore& jobs, store::ArtifactStore& artifacts, store::SampleCache& samples,
+                 BundlePath bundle_path, Clock clock, WorkersServiceOptions options = {},
+                 JobEventSink on_event = {});
   // Stops the poller (see Stop()).
   ~WorkersService() override;
   WorkersService(const WorkersService&) = delete;
@@ -122,6 +146,17 @@ class WorkersService final : public v1::Workers::CallbackService {
                                        v1::RenewLeaseResponse* response) override;
   grpc::ServerReadReactor<v1::TaskUpdate>* ReportTask(grpc::CallbackServerContext* context,
                                                       v1::TaskUpdateAck* ack) override;
+  // The complete bundle in 1 MiB chunks. FAILED_PRECONDITION for an
+  // unregistered worker, INVALID_ARGUMENT for a malformed digest, NOT_FOUND
+  // when the server has no complete bundle of that digest.
+  grpc::ServerWriteReactor<v1::ArtifactChunk>* FetchBundle(grpc::CallbackServerContext* context,
+                                                           const v1::FetchBundleRequest* request) override;
+  // The cached triangle Samples of the task's job in 1 MiB chunks. NOT_FOUND
+  // for an unknown task or when the cache has no entry ("no cached Samples
+  // for <key>"); FAILED_PRECONDITION when the job is final; DATA_LOSS when
+  // the entry was corrupt (it is dropped: the job's gather must run again).
+  grpc::ServerWriteReactor<v1::ArtifactChunk>* FetchSamples(grpc::CallbackServerContext* context,
+                                                            const v1::FetchSamplesRequest* request) override;
 
  private:
   class LeasePoll;
@@ -135,10 +170,20 @@ class WorkersService final : public v1::Workers::CallbackService {
 
   absl::Status CheckWorker(absl::string_view worker_id) const;
   int64_t lease_ms() const { return int64_t{options_.lease_seconds} * 1000; }
-  // Leases the oldest leasable task for `worker_id` as a v1::Task. A task
-  // whose job's request cannot be parsed is failed with the reason and the
-  // next one tried.
+  // Leases the oldest leasable task for `worker_id` as a v1::Task with its
+  // inputs. A task whose job's request cannot be parsed is failed with the
+  // reason and the next one tried; a gather task answered from the Sample
+  // cache is completed (AnswerGatherFromCache) and the next one tried.
   absl::StatusOr<std::optional<v1::Task>> TryLease(const std::string& worker_id);
+  // The results of `task`'s dependencies, in its depends_on order.
+  absl::Status FillInputs(const store::Task& task, v1::Task& out);
+  // Completes a leased gather task from the Sample cache when its Samples
+  // are there: true when it did. A corrupt entry (dropped) or a cache error
+  // is a miss: the worker resamples.
+  absl::StatusOr<bool> AnswerGatherFromCache(const store::Task& task, const std::string& worker_id,
+                                             const store::Job& job, const v1::SubmitJobRequest& request);
+  // The stored request of `job`; INTERNAL naming the job when it does not parse.
+  static absl::StatusOr<v1::SubmitJobRequest> RequestOf(const store::Job& job);
   // The poller thread's loop.
   void ServeParkedPolls();
   // Records `event` (see RecordedEvents) and passes it to the sink.
@@ -148,6 +193,8 @@ class WorkersService final : public v1::Workers::CallbackService {
 
   store::JobStore& jobs_;
   store::ArtifactStore& artifacts_;
+  store::SampleCache& samples_;
+  const BundlePath bundle_path_;
   const Clock clock_;
   const WorkersServiceOptions options_;
   const JobEventSink on_event_;

@@ -5,18 +5,24 @@
 
 #include <atomic>
 #include <chrono>
+#include <filesystem>
+#include <fstream>
 #include <future>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include "core/samples/sample_set.h"
 #include "server/store/digest.h"
+#include "server/store/sqlite_db.h"
 #include "server/store/test_dir.h"
+#include "server/workers_api/sample_key.h"
 
 namespace mvbrdf::server {
 namespace {
@@ -39,8 +45,12 @@ class WorkersServiceTest : public ::testing::Test {
     auto artifacts = store::ArtifactStore::Open(dir_.db(), dir_.path() / "artifacts");
     ASSERT_TRUE(artifacts.ok()) << artifacts.status();
     artifacts_ = std::move(*artifacts);
+    auto samples = store::SampleCache::Open(dir_.db());
+    ASSERT_TRUE(samples.ok()) << samples.status();
+    samples_ = std::move(*samples);
     service_ = std::make_unique<WorkersService>(
-        *jobs_, *artifacts_, [this] { return now_ms_.load(); }, options, [this](const v1::JobEvent& event) {
+        *jobs_, *artifacts_, *samples_, [this](absl::string_view sha256) { return BundlePath(sha256); },
+        [this] { return now_ms_.load(); }, options, [this](const v1::JobEvent& event) {
           std::lock_guard<std::mutex> lock(events_mu_);
           events_.push_back(event);
         });
@@ -142,10 +152,113 @@ class WorkersServiceTest : public ::testing::Test {
     return events_;
   }
 
+  std::filesystem::path BundlePath(absl::string_view sha256) const {
+    return dir_.path() / "bundles" / (std::string(sha256) + ".tar");
+  }
+
+  // A sealed job of the real graph's shape: gather, then one sweep on it.
+  // Returns {job, gather, sweep}.
+  std::tuple<std::string, std::string, std::string> AddGatherJob(const std::string& bundle = std::string(64, 'a')) {
+    v1::SubmitJobRequest request = SampleRequest();
+    request.set_bundle_sha256(bundle);
+    auto job = jobs_->CreateJob(store::NewJob{"alice", bundle, request.SerializeAsString()}, now_ms_);
+    EXPECT_TRUE(job.ok()) << job.status();
+    auto gather = jobs_->AddTask(store::NewTask{*job, "gather", "", std::nullopt, 0}, now_ms_);
+    EXPECT_TRUE(gather.ok()) << gather.status();
+    auto sweep = jobs_->AddTask(store::NewTask{*job, "sweep", "key+fill", *gather, 0}, now_ms_);
+    EXPECT_TRUE(sweep.ok()) << sweep.status();
+    EXPECT_TRUE(jobs_->SealJob(*job, now_ms_).ok());
+    return {*job, *gather, *sweep};
+  }
+
+  // An encoded triangle SampleSet with `count` samples and two lights.
+  static std::string EncodedSamples(int count) {
+    samples::SampleSet set;
+    set.light_names = {"key", "fill"};
+    set.light_intensity = {glm::vec3(1.0f), glm::vec3(0.5f)};
+    for (int i = 0; i < count; ++i) {
+      const float g[2] = {0.25f, 0.5f};
+      const float h[2] = {0.125f, 0.0f};
+      set.Add(static_cast<uint32_t>(i), i % 3, 0, glm::vec3(0.1f * static_cast<float>(i % 7)), g, h);
+    }
+    return samples::EncodeSampleSet(set);
+  }
+
+  // The updates of a gather task: the Samples in chunks of `chunk` bytes,
+  // then a GatherResult naming `claimed_sha256`.
+  static std::vector<v1::TaskUpdate> GatherUpdates(const std::string& worker, const std::string& task,
+                                                   const std::string& encoded, size_t chunk,
+                                                   const std::string& claimed_sha256) {
+    std::vector<v1::TaskUpdate> updates;
+    for (size_t offset = 0; offset < encoded.size(); offset += chunk) {
+      v1::TaskUpdate update = Update(worker, task);
+      update.mutable_samples()->set_offset(offset);
+      update.mutable_samples()->set_data(encoded.substr(offset, chunk));
+      if (offset == 0) {
+        update.mutable_samples()->set_total_size(encoded.size());
+        update.mutable_samples()->set_sha256(store::Sha256Hex(encoded));
+      }
+      updates.push_back(update);
+    }
+    v1::GatherResult gathered;
+    gathered.set_samples_sha256(claimed_sha256);
+    gathered.set_samples(3);
+    gathered.set_encoded_bytes(encoded.size());
+    v1::TaskUpdate result = Update(worker, task);
+    result.set_result(gathered.SerializeAsString());
+    updates.push_back(result);
+    return updates;
+  }
+
+  struct Fetched {
+    grpc::Status status;
+    std::string bytes;
+    std::string sha256;  // of the first chunk
+    uint64_t total_size = 0;
+    int chunks = 0;
+  };
+
+  static Fetched ReadAll(grpc::ClientReaderInterface<v1::ArtifactChunk>& reader) {
+    Fetched fetched;
+    v1::ArtifactChunk chunk;
+    while (reader.Read(&chunk)) {
+      if (fetched.chunks == 0) {
+        fetched.sha256 = chunk.sha256();
+        fetched.total_size = chunk.total_size();
+      }
+      EXPECT_EQ(chunk.offset(), fetched.bytes.size());
+      fetched.bytes += chunk.data();
+      ++fetched.chunks;
+    }
+    fetched.status = reader.Finish();
+    return fetched;
+  }
+
+  Fetched FetchBundle(const std::string& worker, const std::string& sha256) {
+    grpc::ClientContext context;
+    SetDeadline(context);
+    v1::FetchBundleRequest request;
+    request.set_worker_id(worker);
+    request.set_sha256(sha256);
+    auto reader = stub_->FetchBundle(&context, request);
+    return ReadAll(*reader);
+  }
+
+  Fetched FetchSamples(const std::string& worker, const std::string& task) {
+    grpc::ClientContext context;
+    SetDeadline(context);
+    v1::FetchSamplesRequest request;
+    request.set_worker_id(worker);
+    request.set_task_id(task);
+    auto reader = stub_->FetchSamples(&context, request);
+    return ReadAll(*reader);
+  }
+
   store::TestDir dir_;
   std::atomic<int64_t> now_ms_{kT0};
   std::unique_ptr<store::JobStore> jobs_;
   std::unique_ptr<store::ArtifactStore> artifacts_;
+  std::unique_ptr<store::SampleCache> samples_;
   std::unique_ptr<WorkersService> service_;
   std::unique_ptr<grpc::Server> server_;
   std::unique_ptr<v1::Workers::Stub> stub_;
@@ -461,6 +574,222 @@ TEST_F(WorkersServiceTest, StopAnswersParkedPolls) {
   EXPECT_TRUE(status.ok()) << status.error_message();
   EXPECT_FALSE(response.has_task());
   EXPECT_LT(steady_clock::now() - start, std::chrono::seconds(2));
+}
+
+TEST_F(WorkersServiceTest, LeasedTaskCarriesItsDependenciesResultsAndStartedMs) {
+  Start();
+  const std::string worker = Register("w");
+  auto job = jobs_->CreateJob(store::NewJob{"alice", std::string(64, 'a'), SampleRequest().SerializeAsString()},
+                              now_ms_);
+  ASSERT_TRUE(job.ok());
+  auto key = jobs_->AddTask(store::NewTask{*job, "sweep", "key", std::nullopt, 0}, now_ms_);
+  auto fill = jobs_->AddTask(store::NewTask{*job, "sweep", "key+fill", std::nullopt, 0}, now_ms_);
+  ASSERT_TRUE(key.ok() && fill.ok());
+  auto choose = jobs_->AddTask(store::NewTask{*job, "choose", "", store::TaskIds{*fill, *key}, 0}, now_ms_);
+  ASSERT_TRUE(choose.ok());
+  ASSERT_TRUE(jobs_->SealJob(*job, now_ms_).ok());
+
+  for (const auto& [task, row] : {std::pair{*key, "row-key"}, std::pair{*fill, "row-fill"}}) {
+    now_ms_ += 1000;
+    v1::LeaseTaskResponse leased;
+    ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+    ASSERT_TRUE(leased.has_task());
+    EXPECT_EQ(leased.task().id(), task);
+    EXPECT_EQ(leased.task().inputs_size(), 0);
+    EXPECT_EQ(jobs_->GetTask(task)->started_ms, now_ms_.load());
+    now_ms_ += 2500;
+    v1::TaskUpdate result = Update(worker, task);
+    result.set_result(row);
+    v1::TaskUpdateAck ack;
+    ASSERT_TRUE(Report({result}, &ack).ok());
+    ASSERT_TRUE(ack.accepted());
+    auto done = jobs_->GetTask(task);
+    EXPECT_EQ(done->updated_ms - done->started_ms, 2500);
+  }
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_TRUE(leased.has_task());
+  EXPECT_EQ(leased.task().id(), *choose);
+  // In dependency order, not completion order.
+  ASSERT_EQ(leased.task().inputs_size(), 2);
+  EXPECT_EQ(leased.task().inputs(0).task_id(), *fill);
+  EXPECT_EQ(leased.task().inputs(0).kind(), "sweep");
+  EXPECT_EQ(leased.task().inputs(0).key(), "key+fill");
+  EXPECT_EQ(leased.task().inputs(0).result(), "row-fill");
+  EXPECT_EQ(leased.task().inputs(1).task_id(), *key);
+  EXPECT_EQ(leased.task().inputs(1).result(), "row-key");
+}
+
+TEST_F(WorkersServiceTest, GatheredSamplesAreCachedAndAnswerTheNextJobOnTheSameBundle) {
+  Start();
+  const std::string worker = Register("w");
+  const auto [job1, gather1, sweep1] = AddGatherJob();
+
+  // First job: a miss, the worker resamples and sends the Samples.
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_TRUE(leased.has_task());
+  EXPECT_EQ(leased.task().id(), gather1);
+  EXPECT_EQ(leased.task().inputs_size(), 0);
+  const std::string encoded = EncodedSamples(100);
+  const std::string sha256 = store::Sha256Hex(encoded);
+  v1::TaskUpdateAck ack;
+  grpc::Status status = Report(GatherUpdates(worker, gather1, encoded, 700, sha256), &ack);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_TRUE(ack.accepted());
+  EXPECT_FALSE(jobs_->GetTask(gather1)->samples_from_cache);
+  const store::SampleKey key = TriangleSampleKey(std::string(64, 'a'), SampleRequest());
+  auto cached = samples_->Get(key, now_ms_);
+  ASSERT_TRUE(cached.ok()) << cached.status();
+  ASSERT_TRUE(cached->has_value());
+  EXPECT_EQ(**cached, encoded);
+
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_TRUE(leased.has_task());
+  EXPECT_EQ(leased.task().id(), sweep1);
+  ASSERT_EQ(leased.task().inputs_size(), 1);
+  EXPECT_EQ(leased.task().inputs(0).kind(), "gather");
+  v1::GatherResult first;
+  ASSERT_TRUE(first.ParseFromString(leased.task().inputs(0).result()));
+  EXPECT_EQ(first.samples_sha256(), sha256);
+  EXPECT_FALSE(first.from_cache());
+  EXPECT_FALSE(jobs_->GetTask(sweep1)->samples_from_cache);
+  const Fetched fetched = FetchSamples(worker, sweep1);
+  ASSERT_TRUE(fetched.status.ok()) << fetched.status.error_message();
+  EXPECT_EQ(fetched.bytes, encoded);
+  EXPECT_EQ(fetched.sha256, sha256);
+  EXPECT_EQ(fetched.total_size, encoded.size());
+
+  // Second job on the same bundle: its gather is answered from the cache
+  // and the worker gets the sweep right away.
+  const auto [job2, gather2, sweep2] = AddGatherJob();
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_TRUE(leased.has_task());
+  EXPECT_EQ(leased.task().id(), sweep2);
+  ASSERT_EQ(leased.task().inputs_size(), 1);
+  v1::GatherResult second;
+  ASSERT_TRUE(second.ParseFromString(leased.task().inputs(0).result()));
+  EXPECT_TRUE(second.from_cache());
+  EXPECT_EQ(second.samples_sha256(), sha256);
+  EXPECT_EQ(second.samples(), 100u);
+  EXPECT_EQ(second.encoded_bytes(), encoded.size());
+  auto gather2_row = jobs_->GetTask(gather2);
+  ASSERT_TRUE(gather2_row.ok());
+  EXPECT_EQ(gather2_row->state, store::TaskState::kDone);
+  EXPECT_EQ(gather2_row->lease_owner, worker);
+  EXPECT_TRUE(gather2_row->samples_from_cache);
+  EXPECT_TRUE(jobs_->GetTask(sweep2)->samples_from_cache);
+
+  const std::vector<v1::JobEvent> events = service_->RecordedEvents(job2);
+  ASSERT_EQ(events.size(), 3u);
+  EXPECT_EQ(events[0].stage_started().stage(), "gather");
+  EXPECT_EQ(events[0].stage_started().task_id(), gather2);
+  EXPECT_EQ(events[1].stage_finished().stage(), "gather");
+  EXPECT_DOUBLE_EQ(events[1].stage_finished().metrics().at("samples_from_cache"), 1.0);
+  EXPECT_EQ(events[2].stage_started().task_id(), sweep2);
+}
+
+TEST_F(WorkersServiceTest, CorruptCacheEntryIsAMissAndTheWorkerResamples) {
+  Start();
+  const std::string worker = Register("w");
+  const store::SampleKey key = TriangleSampleKey(std::string(64, 'a'), SampleRequest());
+  ASSERT_TRUE(samples_->Put(key, EncodedSamples(10), now_ms_).ok());
+  {
+    auto db = store::SqliteDb::Open(dir_.db());
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE((*db)->Exec("UPDATE sample_cache SET data = x'00112233'").ok());
+  }
+  const auto [job, gather, sweep] = AddGatherJob();
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_TRUE(leased.has_task());
+  EXPECT_EQ(leased.task().id(), gather);
+  EXPECT_FALSE(jobs_->GetTask(gather)->samples_from_cache);
+  auto gone = samples_->Get(key, now_ms_);
+  ASSERT_TRUE(gone.ok()) << gone.status();
+  EXPECT_FALSE(gone->has_value());  // dropped
+}
+
+TEST_F(WorkersServiceTest, GatherResultNeedsTheSamplesWithTheirSha256) {
+  Start();
+  const std::string worker = Register("w");
+  const auto [job, gather, sweep] = AddGatherJob();
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_EQ(leased.task().id(), gather);
+  const std::string encoded = EncodedSamples(20);
+
+  // The result alone.
+  std::vector<v1::TaskUpdate> updates = GatherUpdates(worker, gather, encoded, encoded.size(), "");
+  v1::TaskUpdateAck ack;
+  grpc::Status status = Report({updates.back()}, &ack);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("samples: a gather result needs the encoded Samples first"),
+            std::string::npos)
+      << status.error_message();
+
+  // A result naming other Samples.
+  status = Report(GatherUpdates(worker, gather, encoded, 64, std::string(64, 'f')), &ack);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("samples_sha256"), std::string::npos) << status.error_message();
+
+  // Samples that do not hash to what their first chunk said.
+  updates = GatherUpdates(worker, gather, encoded, 64, store::Sha256Hex(encoded));
+  updates[0].mutable_samples()->set_sha256(std::string(64, '0'));
+  status = Report(updates, &ack);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::DATA_LOSS);
+
+  // Samples from a task that is not a gather.
+  const auto [other_job, other_sweep] = AddJob(SampleRequest().SerializeAsString());
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_EQ(leased.task().id(), other_sweep);
+  updates = GatherUpdates(worker, other_sweep, encoded, 64, store::Sha256Hex(encoded));
+  status = Report({updates[0]}, &ack);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("only a gather task"), std::string::npos) << status.error_message();
+
+  auto row = jobs_->GetTask(gather);
+  EXPECT_EQ(row->state, store::TaskState::kLeased);  // nothing accepted
+  auto missing = samples_->Get(TriangleSampleKey(std::string(64, 'a'), SampleRequest()), now_ms_);
+  ASSERT_TRUE(missing.ok());
+  EXPECT_FALSE(missing->has_value());
+}
+
+TEST_F(WorkersServiceTest, FetchBundleStreamsTheCompleteBundle) {
+  Start();
+  const std::string worker = Register("w");
+  std::string bundle((int64_t{5} << 19) + 123, '\0');  // 2.5 MiB + 123: three chunks
+  for (size_t i = 0; i < bundle.size(); ++i) bundle[i] = static_cast<char>(i * 31 % 253);
+  const std::string sha256 = store::Sha256Hex(bundle);
+  std::filesystem::create_directories(dir_.path() / "bundles");
+  {
+    std::ofstream out(BundlePath(sha256), std::ios::binary);
+    out.write(bundle.data(), static_cast<std::streamsize>(bundle.size()));
+  }
+  const Fetched fetched = FetchBundle(worker, sha256);
+  ASSERT_TRUE(fetched.status.ok()) << fetched.status.error_message();
+  EXPECT_EQ(fetched.chunks, 3);
+  EXPECT_EQ(fetched.sha256, sha256);
+  EXPECT_EQ(fetched.total_size, bundle.size());
+  EXPECT_TRUE(fetched.bytes == bundle);
+
+  EXPECT_EQ(FetchBundle(worker, std::string(64, 'e')).status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(FetchBundle(worker, "../../etc/passwd").status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(FetchBundle("nobody", sha256).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+}
+
+TEST_F(WorkersServiceTest, FetchSamplesIsNotFoundOnAMiss) {
+  Start();
+  const std::string worker = Register("w");
+  const auto [job, gather, sweep] = AddGatherJob();
+  Fetched fetched = FetchSamples(worker, sweep);
+  EXPECT_EQ(fetched.status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_NE(fetched.status.error_message().find("no cached Samples for"), std::string::npos)
+      << fetched.status.error_message();
+  EXPECT_EQ(FetchSamples(worker, "no-such-task").status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(FetchSamples("nobody", sweep).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  ASSERT_TRUE(jobs_->CancelJob(job, now_ms_).ok());
+  EXPECT_EQ(FetchSamples(worker, sweep).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
 }
 
 }  // namespace

@@ -1,0 +1,42 @@
+#include "server/workers_api/sample_key.h"
+
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "server/store/digest.h"
+
+namespace mvbrdf::server {
+namespace {
+
+const std::string kBundle(64, 'b');
+
+TEST(TriangleSampleKeyTest, OneEntryPerBundleAndAtlasSizeForEveryConfiguration) {
+  v1::SubmitJobRequest request;
+  request.set_bundle_sha256(kBundle);
+  request.add_configurations("key+fill");
+  const store::SampleKey key = TriangleSampleKey(kBundle, request);
+  EXPECT_EQ(key.sequence_hash, kBundle);
+  EXPECT_EQ(key.configuration, "*");
+  EXPECT_EQ(key.sample_level, 0);
+  // atlas_size 0 means the default, 512.
+  EXPECT_EQ(TriangleSampleOptions(request), "triangle-samples/v1;atlas_size=512");
+  EXPECT_EQ(key.options_hash, store::Sha256Hex("triangle-samples/v1;atlas_size=512"));
+
+  // Other configurations and fitting options that do not change the
+  // Samples: the same entry.
+  v1::SubmitJobRequest other = request;
+  other.clear_configurations();
+  other.set_configuration("key");
+  other.mutable_options()->set_atlas_size(512);
+  other.mutable_options()->set_max_iterations(7);
+  EXPECT_EQ(TriangleSampleKey(kBundle, other).ToString(), key.ToString());
+
+  // Another atlas size or bundle: another entry.
+  other.mutable_options()->set_atlas_size(256);
+  EXPECT_EQ(TriangleSampleKey(kBundle, other).options_hash, store::Sha256Hex("triangle-samples/v1;atlas_size=256"));
+  EXPECT_NE(TriangleSampleKey(std::string(64, 'c'), request).ToString(), key.ToString());
+}
+
+}  // namespace
+}  // namespace mvbrdf::server
