@@ -6,12 +6,15 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 
 namespace mvbrdf::bundle {
 
 // Lowercase hex digest (64 characters). NOT_FOUND when the file does not
 // exist, INTERNAL for read errors.
 absl::StatusOr<std::string> Sha256File(const std::filesystem::path& path);
+// Lowercase hex digest of bytes in memory.
+std::string Sha256Bytes(absl::string_view bytes);
 
 }  // namespace mvbrdf::bundle
 

@@ -142,11 +142,13 @@ absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, s
     }
     const SweepRow& row = result.rows[i];
     const SweepRow& best = result.rows[result.best];
-    const bool better =
-        NearlyEqual(row.e_d, best.e_d) ? row.e_a < best.e_a && !NearlyEqual(row.e_a, best.e_a) : row.e_d < best.e_d;
-    if (better) result.best = static_cast<int>(i);
+    if (PreferConfiguration(row.e_d, row.e_a, best.e_d, best.e_a)) result.best = static_cast<int>(i);
   }
   return result;
+}
+
+bool PreferConfiguration(double e_d, double e_a, double best_e_d, double best_e_a) {
+  return NearlyEqual(e_d, best_e_d) ? e_a < best_e_a && !NearlyEqual(e_a, best_e_a) : e_d < best_e_d;
 }
 
 }  // namespace mvbrdf::fit

@@ -52,6 +52,11 @@ absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, s
                                                 const DiffuseOptions& diffuse_options, int threads = 1,
                                                 size_t max_fit_samples = 0);
 
+// The rule: true when a configuration with errors (e_d, e_a) beats the best
+// so far (best_e_d, best_e_a). Rows are compared in the order given, so the
+// first of equals wins. The service's `choose` task applies the same rule.
+bool PreferConfiguration(double e_d, double e_a, double best_e_d, double best_e_a);
+
 }  // namespace mvbrdf::fit
 
 #endif  // MVBRDF_CORE_FIT_LIGHT_SWEEP_H_

@@ -18,6 +18,8 @@
 #include "core/fit/light_sweep.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
+#include "core/pipeline/frame_stream.h"
+#include "core/pipeline/light_table.h"
 #include "core/pipeline/texel_reservoir.h"
 #include "core/resample/atlas_ops.h"
 #include "core/samples/sample_set.h"
@@ -151,59 +153,6 @@ struct Gathered {
   cv::Mat rest_position;              // geometry atlas of frame 0 (CV_32FC4)
 };
 
-// Resamples frame t of every camera; calls visit(camera, resampled) with the
-// frame's geometry and shadow atlases already current.
-class FrameStream {
- public:
-  static absl::StatusOr<std::unique_ptr<FrameStream>> Open(const scene::Sequence& sequence, gl::EglContext& context,
-                                                           const atlas::Atlas& atlas,
-                                                           const resample::ResamplerOptions& options) {
-    auto s = std::unique_ptr<FrameStream>(new FrameStream(sequence));
-    MVBRDF_ASSIGN_OR_RETURN(s->resampler_, resample::Resampler::Create(context, atlas, sequence.cameras,
-                                                                       sequence.lights, options));
-    for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
-      MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
-                                                                   static_cast<int>(sequence.scene.frames().first()),
-                                                                   absl::StrCat("scene.cameras[", c, "]")));
-      s->videos_.push_back(std::move(video));
-    }
-    return s;
-  }
-
-  // Loads frame t: pose, geometry and shadow atlases.
-  absl::Status SetFrame(int t) {
-    MVBRDF_ASSIGN_OR_RETURN(positions_, sequence_.LoadFrame(t));
-    MVBRDF_RETURN_IF_ERROR(resampler_->SetFrame(positions_));
-    MVBRDF_ASSIGN_OR_RETURN(shadows_, resampler_->ShadowAtlas());
-    MVBRDF_ASSIGN_OR_RETURN(geometry_, resampler_->Geometry());
-    frame_ = t;
-    return absl::OkStatus();
-  }
-
-  // Reads camera `camera`'s video frame (kept as last_frame()) and resamples it.
-  absl::StatusOr<cv::Mat> Resample(int camera) {
-    MVBRDF_ASSIGN_OR_RETURN(last_frame_, videos_[static_cast<size_t>(camera)]->ReadFrame(frame_));
-    return resampler_->ResampleCamera(camera, last_frame_);
-  }
-  absl::StatusOr<resample::CameraSurface> Surface(int camera) { return resampler_->Surface(camera); }
-  const cv::Mat& last_frame() const { return last_frame_; }
-
-  const scene::FramePositions& positions() const { return positions_; }
-  const cv::Mat& shadows() const { return shadows_; }
-  const resample::GeometryAtlas& geometry() const { return geometry_; }
-
- private:
-  explicit FrameStream(const scene::Sequence& sequence) : sequence_(sequence) {}
-  const scene::Sequence& sequence_;
-  std::unique_ptr<resample::Resampler> resampler_;
-  std::vector<std::unique_ptr<scene::VideoSource>> videos_;
-  scene::FramePositions positions_;
-  cv::Mat shadows_;
-  resample::GeometryAtlas geometry_;
-  cv::Mat last_frame_;
-  int frame_ = 0;
-};
-
 // Sum of I_k a_k h_k^ke over the lights in `mask`, channel c (a: the
 // fall-off row, all 1 without fall-off).
 inline float SpecularSum(const float* h, const float* a, const std::vector<glm::vec3>& intensity,
@@ -225,6 +174,11 @@ inline glm::vec3 IlluminationOf(const float* g, const std::vector<glm::vec3>& in
 }
 
 }  // namespace
+
+absl::Status CheckCancelled(const ReconstructOptions& options) {
+  if (options.cancelled && options.cancelled()) return absl::CancelledError("the task was cancelled");
+  return absl::OkStatus();
+}
 
 absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
                                                 const ReconstructOptions& options) {
@@ -276,9 +230,10 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   for (const scene::CameraModel& cam : sequence.cameras) camera_centers.push_back(glm::vec3(cam.CenterInWorld()));
   {
     MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
-    const bool sweep = plan.Has(Stage::kLightSweep);
+    const bool sweep = plan.Has(Stage::kLightSweep) && !options.light_table.has_value();
     for (int t = 0; t < sequence.num_frames; ++t) {
       if (options.progress) options.progress("gather_samples", t, sequence.num_frames);
+      MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
       const bool sweep_frame = sweep && t % std::max(options.sweep_frame_stride, 1) == 0;
       if (!sweep_frame && !reflectance) continue;
       MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
@@ -318,7 +273,14 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   t0 = Clock::now();
   samples::LightMask mask = 0;
   std::string chosen = plan.fixed_configuration;
-  if (plan.Has(Stage::kLightSweep)) {
+  if (options.light_table.has_value()) {
+    // Swept elsewhere (the service's sweep and choose tasks).
+    report.mutable_light_configurations()->CopyFrom(options.light_table->light_configurations());
+    for (const v1::StageRow& stage : options.light_table->stages()) *report.add_stages() = stage;
+    report.set_configuration_margin(options.light_table->configuration_margin());
+    report.set_configuration_warning(options.light_table->configuration_warning());
+    chosen = options.light_table->chosen_configuration();
+  } else if (plan.Has(Stage::kLightSweep)) {
     std::vector<fit::LightConfiguration> configs;
     for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
       configs.push_back({c.name(), {c.lights().begin(), c.lights().end()}});
@@ -327,38 +289,24 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
                             fit::SweepConfigurations(g.triangle_samples, atlas.topology.triangles.size(), configs,
                                                      options.fit, options.diffuse, options.threads,
                                                      options.sweep_fit_samples));
-    for (const fit::SweepRow& row : sweep.rows) {
-      v1::LightConfigurationRow* r = report.add_light_configurations();
-      r->set_name(row.name);
-      for (const std::string& l : row.lights) r->add_lights(l);
-      r->set_lit_triangles(row.lit_triangles);
-      r->set_e_a(row.e_a);
-      r->set_e_d(row.e_d);
-      r->set_seconds(row.seconds);
-    }
-    if (sweep.best < 0) return absl::FailedPreconditionError("light sweep: no configuration could be fitted");
-    chosen = sweep.rows[static_cast<size_t>(sweep.best)].name;
-    mask = sweep.rows[static_cast<size_t>(sweep.best)].mask;
-    const fit::SweepRow& best = sweep.rows[static_cast<size_t>(sweep.best)];
-    double runner_up = -1.0;
-    const fit::SweepRow* best_e_a = &best;
-    for (const fit::SweepRow& row : sweep.rows) {
-      if (&row != &best && (runner_up < 0.0 || row.e_d < runner_up)) runner_up = row.e_d;
-      if (row.e_a < best_e_a->e_a) best_e_a = &row;
-    }
-    if (runner_up >= 0.0 && best.e_d > 0.0) report.set_configuration_margin(runner_up / best.e_d - 1.0);
-    if (best_e_a != &best) {
-      report.set_configuration_warning(absl::StrCat("E_a prefers ", best_e_a->name, " (", best_e_a->e_a, " vs ",
-                                                    best.e_a, "); the choice by E_d may be ambiguous"));
-    }
+    for (const fit::SweepRow& row : sweep.rows) SweepRowToProto(row, report.add_light_configurations());
+    MVBRDF_RETURN_IF_ERROR(ChooseConfiguration(&report));
+    chosen = report.chosen_configuration();
     AddStage(&report, "light_sweep", Since(t0), options.progress);
-  } else if (chosen.empty()) {
+  }
+  if (chosen.empty()) {
     for (size_t k = 0; k < sequence.lights.size(); ++k) mask |= 1u << k;
     chosen = "all lights";
   } else {
+    bool found = false;
     for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
       if (c.name() != chosen) continue;
       MVBRDF_ASSIGN_OR_RETURN(mask, g.triangle_samples.MaskOf({c.lights().begin(), c.lights().end()}));
+      found = true;
+    }
+    if (!found) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("light configuration \"", chosen, "\": the scene has no such configuration"));
     }
   }
   report.set_chosen_configuration(chosen);
@@ -481,6 +429,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     std::vector<cv::Mat> frame_atlases(static_cast<size_t>(num_cameras));
     for (int t = 0; t < sequence.num_frames; ++t) {
       if (options.progress) options.progress("texel_pass", t, sequence.num_frames);
+      MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
       MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
       if (correction || camera_errors) {
         std::fill(frame_sum.begin(), frame_sum.end(), glm::vec3(0.0f));

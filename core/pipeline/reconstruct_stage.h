@@ -24,6 +24,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -66,12 +67,23 @@ struct ReconstructOptions {
   // Samples (E_a and E_d still use all of them); 0 = all.
   size_t sweep_fit_samples = 100000;
   int threads = 2;
+  // The light sweep's outcome when it ran elsewhere (the service's `choose`
+  // task): its light_configurations, chosen_configuration, margin, warning
+  // and stages go into the report; no triangle Samples are gathered and no
+  // sweep runs. The plan is still made from `request` (it says the sweep ran).
+  std::optional<v1::RunReport> light_table;
   std::filesystem::path out_dir;
   // Called on the calling thread as the job advances: the stage's name (as in
   // result.json's stages), units done and the total (frames for the passes;
   // 1 of 1 for the other stages when they finish). May be empty.
   std::function<void(const std::string& stage, int done, int total)> progress;
+  // Asked once per frame of each pass; true stops the run with CANCELLED
+  // (a worker whose lease was lost or whose job was cancelled). May be empty.
+  std::function<bool()> cancelled;
 };
+
+// CANCELLED when options.cancelled says so.
+absl::Status CheckCancelled(const ReconstructOptions& options);
 
 absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
                                                 const ReconstructOptions& options);

@@ -1,0 +1,37 @@
+#include "core/pipeline/frame_stream.h"
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+
+namespace mvbrdf::pipeline {
+
+absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequence& sequence,
+                                                               gl::EglContext& context, const atlas::Atlas& atlas,
+                                                               const resample::ResamplerOptions& options) {
+  auto s = std::unique_ptr<FrameStream>(new FrameStream(sequence));
+  MVBRDF_ASSIGN_OR_RETURN(s->resampler_,
+                          resample::Resampler::Create(context, atlas, sequence.cameras, sequence.lights, options));
+  for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
+    MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
+                                                                 static_cast<int>(sequence.scene.frames().first()),
+                                                                 absl::StrCat("scene.cameras[", c, "]")));
+    s->videos_.push_back(std::move(video));
+  }
+  return s;
+}
+
+absl::Status FrameStream::SetFrame(int t) {
+  MVBRDF_ASSIGN_OR_RETURN(positions_, sequence_.LoadFrame(t));
+  MVBRDF_RETURN_IF_ERROR(resampler_->SetFrame(positions_));
+  MVBRDF_ASSIGN_OR_RETURN(shadows_, resampler_->ShadowAtlas());
+  MVBRDF_ASSIGN_OR_RETURN(geometry_, resampler_->Geometry());
+  frame_ = t;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<cv::Mat> FrameStream::Resample(int camera) {
+  MVBRDF_ASSIGN_OR_RETURN(last_frame_, videos_[static_cast<size_t>(camera)]->ReadFrame(frame_));
+  return resampler_->ResampleCamera(camera, last_frame_);
+}
+
+}  // namespace mvbrdf::pipeline

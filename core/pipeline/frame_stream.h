@@ -1,0 +1,57 @@
+// One pass over a sequence's frames on the GPU: per frame the pose, the
+// geometry and shadow atlases (SetFrame), then each camera's video frame
+// resampled into the atlas (Resample) and the surface under its pixels
+// (Surface). The reconstruction's passes and the service's gather task read
+// frames through it.
+#ifndef MVBRDF_CORE_PIPELINE_FRAME_STREAM_H_
+#define MVBRDF_CORE_PIPELINE_FRAME_STREAM_H_
+
+#include <memory>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/atlas/atlas.h"
+#include "core/gl/egl_context.h"
+#include "core/resample/resampler.h"
+#include "core/scene/sequence.h"
+#include "core/scene/video_source.h"
+
+namespace mvbrdf::pipeline {
+
+class FrameStream {
+ public:
+  // The resampler and every camera's video.
+  static absl::StatusOr<std::unique_ptr<FrameStream>> Open(const scene::Sequence& sequence, gl::EglContext& context,
+                                                           const atlas::Atlas& atlas,
+                                                           const resample::ResamplerOptions& options);
+
+  // Loads frame t: pose, geometry and shadow atlases.
+  absl::Status SetFrame(int t);
+
+  // Reads camera `camera`'s video frame (kept as last_frame()) and resamples it.
+  absl::StatusOr<cv::Mat> Resample(int camera);
+  absl::StatusOr<resample::CameraSurface> Surface(int camera) { return resampler_->Surface(camera); }
+  const cv::Mat& last_frame() const { return last_frame_; }
+
+  const scene::FramePositions& positions() const { return positions_; }
+  const cv::Mat& shadows() const { return shadows_; }
+  const resample::GeometryAtlas& geometry() const { return geometry_; }
+
+ private:
+  explicit FrameStream(const scene::Sequence& sequence) : sequence_(sequence) {}
+  const scene::Sequence& sequence_;
+  std::unique_ptr<resample::Resampler> resampler_;
+  std::vector<std::unique_ptr<scene::VideoSource>> videos_;
+  scene::FramePositions positions_;
+  cv::Mat shadows_;
+  resample::GeometryAtlas geometry_;
+  cv::Mat last_frame_;
+  int frame_ = 0;
+};
+
+}  // namespace mvbrdf::pipeline
+
+#endif  // MVBRDF_CORE_PIPELINE_FRAME_STREAM_H_

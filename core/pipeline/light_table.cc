@@ -1,0 +1,42 @@
+#include "core/pipeline/light_table.h"
+
+#include "absl/strings/str_cat.h"
+
+namespace mvbrdf::pipeline {
+
+void SweepRowToProto(const fit::SweepRow& row, v1::LightConfigurationRow* out) {
+  out->set_name(row.name);
+  out->clear_lights();
+  for (const std::string& l : row.lights) out->add_lights(l);
+  out->set_lit_triangles(row.lit_triangles);
+  out->set_e_a(row.e_a);
+  out->set_e_d(row.e_d);
+  out->set_seconds(row.seconds);
+}
+
+absl::Status ChooseConfiguration(v1::RunReport* report) {
+  const auto& rows = report->light_configurations();
+  if (rows.empty()) return absl::FailedPreconditionError("light sweep: no configuration could be fitted");
+  int best = 0;
+  for (int i = 1; i < rows.size(); ++i) {
+    if (fit::PreferConfiguration(rows[i].e_d(), rows[i].e_a(), rows[best].e_d(), rows[best].e_a())) best = i;
+  }
+  const v1::LightConfigurationRow& chosen = rows[best];
+  report->set_chosen_configuration(chosen.name());
+  double runner_up = -1.0;
+  int best_e_a = best;
+  for (int i = 0; i < rows.size(); ++i) {
+    if (i != best && (runner_up < 0.0 || rows[i].e_d() < runner_up)) runner_up = rows[i].e_d();
+    if (rows[i].e_a() < rows[best_e_a].e_a()) best_e_a = i;
+  }
+  report->clear_configuration_margin();
+  report->clear_configuration_warning();
+  if (runner_up >= 0.0 && chosen.e_d() > 0.0) report->set_configuration_margin(runner_up / chosen.e_d() - 1.0);
+  if (best_e_a != best) {
+    report->set_configuration_warning(absl::StrCat("E_a prefers ", rows[best_e_a].name(), " (", rows[best_e_a].e_a(),
+                                                   " vs ", chosen.e_a(), "); the choice by E_d may be ambiguous"));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace mvbrdf::pipeline
