@@ -25,6 +25,7 @@ absl::Status ServerOptions::Check() const {
   }
   if (data_dir.empty()) return absl::InvalidArgumentError("--data: required (the server's state directory)");
   MVBRDF_RETURN_IF_ERROR(limits.Check());
+  MVBRDF_RETURN_IF_ERROR(sample_cache.Check());
   return workers.Check();
 }
 
@@ -40,12 +41,17 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& optio
   const std::filesystem::path db = options.data_dir / "state.db";
   MVBRDF_ASSIGN_OR_RETURN(s->jobs_, store::JobStore::Open(db));
   MVBRDF_ASSIGN_OR_RETURN(s->artifacts_, store::ArtifactStore::Open(db, options.data_dir / "artifacts"));
+  MVBRDF_ASSIGN_OR_RETURN(s->sample_cache_, store::SampleCache::Open(db, options.sample_cache));
+  // The same layout the clients service uploads into.
+  s->bundles_ = std::make_unique<clients_api::BundleArea>(options.data_dir);
   // Progress the workers report goes to the clients watching the job.
   Server* self = s.get();
-  s->workers_ = std::make_unique<WorkersService>(*s->jobs_, *s->artifacts_, NowMs, options.workers,
-                                                 [self](const v1::JobEvent& event) {
-                                                   if (self->clients_ != nullptr) self->clients_->PushEvent(event);
-                                                 });
+  s->workers_ = std::make_unique<WorkersService>(
+      *s->jobs_, *s->artifacts_, *s->sample_cache_,
+      [self](absl::string_view sha256) { return self->bundles_->BundlePath(sha256); }, NowMs, options.workers,
+      [self](const v1::JobEvent& event) {
+        if (self->clients_ != nullptr) self->clients_->PushEvent(event);
+      });
   s->clients_ = std::make_unique<clients_api::MvbrdfService>(*s->jobs_, *s->artifacts_, options.data_dir, NowMs,
                                                              options.limits,
                                                              [self] { self->workers_->NotifyWork(); });

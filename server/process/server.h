@@ -14,6 +14,9 @@
 
 #include "absl/status/statusor.h"
 #include "server/clients_api/mvbrdf_service.h"
+#include "server/store/artifact_store.h"
+#include "server/store/job_store.h"
+#include "server/store/sample_cache.h"
 #include "server/workers_api/workers_service.h"
 
 namespace mvbrdf::server {
@@ -23,6 +26,8 @@ struct ServerOptions {
   std::filesystem::path data_dir;              // required: state.db, bundles/, artifacts/
   clients_api::ServiceLimits limits;
   WorkersServiceOptions workers;
+  // The Sample cache in state.db (triangle Samples per bundle and options).
+  store::SampleCacheOptions sample_cache;
 
   absl::Status Check() const;
 };
@@ -44,10 +49,21 @@ class Server {
   // `grace_seconds` for calls in flight.
   void Shutdown(double grace_seconds = 5.0);
 
+  // For in-process embedding (`mvbrdf run` starts a Server and reads its
+  // artifacts directly): the stores and services, alive as long as the
+  // Server. Any thread (the stores and services are thread-safe).
+  store::JobStore& jobs() { return *jobs_; }
+  store::ArtifactStore& artifacts() { return *artifacts_; }
+  store::SampleCache& sample_cache() { return *sample_cache_; }
+  WorkersService& workers() { return *workers_; }
+  clients_api::MvbrdfService& clients() { return *clients_; }
+
  private:
   Server() = default;
   std::unique_ptr<store::JobStore> jobs_;
   std::unique_ptr<store::ArtifactStore> artifacts_;
+  std::unique_ptr<store::SampleCache> sample_cache_;
+  std::unique_ptr<clients_api::BundleArea> bundles_;  // paths only (FetchBundle)
   std::unique_ptr<WorkersService> workers_;
   std::unique_ptr<clients_api::MvbrdfService> clients_;
   std::unique_ptr<grpc::Server> grpc_server_;

@@ -1,5 +1,6 @@
 #include "server/process/server.h"
 
+#include <fstream>
 #include <future>
 
 #include <grpcpp/generic/generic_stub.h>
@@ -8,6 +9,7 @@
 #include <unistd.h>
 
 #include "mvbrdf/v1/service.grpc.pb.h"
+#include "server/store/digest.h"
 
 namespace mvbrdf::server {
 namespace {
@@ -76,6 +78,55 @@ TEST(ServerTest, ServesBothServicesAndHealthAndKeepsStateAcrossRestarts) {
   auto restarted = Server::Start(options);
   ASSERT_TRUE(restarted.ok()) << restarted.status();
   EXPECT_TRUE(std::filesystem::exists(options.data_dir / "state.db"));
+  std::filesystem::remove_all(options.data_dir);
+}
+
+// Workers fetch bundles from where the clients service put them, and an
+// embedding process reaches the stores through the accessors.
+TEST(ServerTest, WorkersFetchUploadedBundlesAndTheStoresAreReachableInProcess) {
+  ServerOptions options;
+  options.data_dir = TempDataDir();
+  options.sample_cache.max_stored_bytes = 1 << 20;
+  auto server = Server::Start(options);
+  ASSERT_TRUE(server.ok()) << server.status();
+  const std::string bundle = "not really a tar, but bytes all the same";
+  const std::string sha256 = store::Sha256Hex(bundle);
+  std::filesystem::create_directories(options.data_dir / "bundles");
+  {
+    std::ofstream out(options.data_dir / "bundles" / (sha256 + ".tar"), std::ios::binary);
+    out << bundle;
+  }
+  auto channel = grpc::CreateChannel((*server)->address(), grpc::InsecureChannelCredentials());
+  auto workers = v1::Workers::NewStub(channel);
+  grpc::ClientContext register_context;
+  v1::RegisterWorkerRequest worker;
+  worker.set_name("test-worker");
+  v1::RegisterWorkerResponse registered;
+  ASSERT_TRUE(workers->RegisterWorker(&register_context, worker, &registered).ok());
+
+  grpc::ClientContext fetch_context;
+  v1::FetchBundleRequest fetch;
+  fetch.set_worker_id(registered.worker_id());
+  fetch.set_sha256(sha256);
+  auto reader = workers->FetchBundle(&fetch_context, fetch);
+  std::string received;
+  v1::ArtifactChunk chunk;
+  while (reader->Read(&chunk)) received += chunk.data();
+  const grpc::Status fetched = reader->Finish();
+  ASSERT_TRUE(fetched.ok()) << fetched.error_message();
+  EXPECT_EQ(received, bundle);
+
+  auto jobs = (*server)->jobs().ListJobs("anonymous");
+  ASSERT_TRUE(jobs.ok()) << jobs.status();
+  EXPECT_TRUE(jobs->empty());
+  auto artifacts = (*server)->artifacts().ArtifactsOfJob("none");
+  ASSERT_TRUE(artifacts.ok()) << artifacts.status();
+  EXPECT_TRUE((*server)->workers().FindWorker(registered.worker_id()).has_value());
+  auto stats = (*server)->sample_cache().Stats();
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_EQ(stats->entries, 0);
+  (*server)->clients().PushEvent(v1::JobEvent());  // no watchers: a no-op
+  server->reset();
   std::filesystem::remove_all(options.data_dir);
 }
 
