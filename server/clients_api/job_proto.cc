@@ -2,6 +2,9 @@
 
 #include <string>
 
+#include "absl/strings/str_cat.h"
+#include "core/base/proto_json.h"
+
 namespace mvbrdf::clients_api {
 
 v1::JobState ToProto(store::JobState state) {
@@ -23,6 +26,11 @@ v1::TaskInfo ToProto(const store::Task& task) {
   info.set_state(std::string(store::TaskStateName(task.state)));
   info.set_worker(task.lease_owner);
   info.set_attempts(static_cast<uint32_t>(task.attempts));
+  const bool finished = task.state == store::TaskState::kDone || task.state == store::TaskState::kFailed;
+  if (finished && task.started_ms > 0 && task.updated_ms >= task.started_ms) {
+    info.set_seconds(static_cast<double>(task.updated_ms - task.started_ms) / 1000.0);
+  }
+  info.set_samples_from_cache(task.samples_from_cache);
   return info;
 }
 
@@ -37,6 +45,22 @@ v1::Job ToProto(const store::Job& job, const std::vector<store::Task>& tasks) {
   out.set_error(job.error);
   for (const store::Task& task : tasks) *out.add_tasks() = ToProto(task);
   return out;
+}
+
+void AttachReport(store::ArtifactStore& artifacts, v1::Job& job) {
+  if (job.state() != v1::SUCCEEDED) return;
+  absl::StatusOr<std::vector<store::Artifact>> listed = artifacts.ArtifactsOfJob(job.id());
+  if (!listed.ok()) return;
+  for (const store::Artifact& artifact : *listed) {
+    if (artifact.name != kReportArtifact) continue;
+    absl::StatusOr<std::string> json = artifacts.Read(artifact.sha256);
+    if (!json.ok()) return;
+    v1::RunReport report;
+    if (JsonToMessage(*json, absl::StrCat("job ", job.id(), ": ", kReportArtifact), &report).ok()) {
+      *job.mutable_report() = std::move(report);
+    }
+    return;
+  }
 }
 
 grpc::Status ToGrpc(const absl::Status& status) {

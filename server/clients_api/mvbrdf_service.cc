@@ -264,7 +264,9 @@ absl::StatusOr<v1::Job> MvbrdfService::JobMessage(const std::string& job_id) {
   if (!job.ok()) return job.status();
   absl::StatusOr<std::vector<store::Task>> tasks = jobs_.TasksOfJob(job_id);
   if (!tasks.ok()) return tasks.status();
-  return ToProto(*job, *tasks);
+  v1::Job message = ToProto(*job, *tasks);
+  AttachReport(artifacts_, message);
+  return message;
 }
 
 absl::Status MvbrdfService::Submit(const std::string& client, const v1::SubmitJobRequest& request, v1::Job* job) {
@@ -363,7 +365,10 @@ grpc::ServerUnaryReactor* MvbrdfService::ListJobs(grpc::CallbackServerContext* c
     for (size_t i = first; i < jobs->size() && status.ok(); ++i) {
       absl::StatusOr<std::vector<store::Task>> tasks = jobs_.TasksOfJob((*jobs)[i].id);
       status = tasks.status();
-      if (tasks.ok()) *response->add_jobs() = ToProto((*jobs)[i], *tasks);
+      if (!tasks.ok()) continue;
+      v1::Job* job = response->add_jobs();
+      *job = ToProto((*jobs)[i], *tasks);
+      AttachReport(artifacts_, *job);
     }
   }
   reactor->Finish(ToGrpc(status));
