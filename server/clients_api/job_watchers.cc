@@ -44,9 +44,11 @@ std::vector<v1::JobEvent> Diff(Seen& seen, const Snapshot& now, bool initial, in
   };
   for (const store::Task& task : now.tasks) {
     if (task.state != store::TaskState::kDone || !seen.done_tasks.insert(task.id).second) continue;
-    // Seconds stay 0: the store does not keep when the lease began; workers
-    // forward their own StageFinished (with times and metrics) via Push.
-    event().mutable_stage_finished()->set_stage(task.key.empty() ? task.kind : task.kind + "[" + task.key + "]");
+    // The time of the last lease; workers forward their own StageFinished
+    // (with their times and metrics) via Push.
+    v1::StageFinished* finished = event().mutable_stage_finished();
+    finished->set_stage(task.key.empty() ? task.kind : task.kind + "[" + task.key + "]");
+    finished->set_seconds(ToProto(task).seconds());
   }
   if (initial || now.job.state != seen.state) {
     event().set_state(ToProto(now.job.state));
