@@ -34,6 +34,7 @@ int RunRun(const std::vector<std::string>& args);
 int RunEvaluate(const std::vector<std::string>& args);
 int RunRender(const std::vector<std::string>& args);
 int RunServer(const std::vector<std::string>& args);
+int RunWorker(const std::vector<std::string>& args);
 int RunJobs(const std::vector<std::string>& args);
 int RunSubmit(const std::vector<std::string>& args);
 int RunWatch(const std::vector<std::string>& args);

@@ -19,6 +19,7 @@ constexpr char kUsage[] =
     "  render     draw a reconstruction from any camera under any lights\n"
     "  evaluate   compare a reconstruction with the synthetic generator's ground truth\n"
     "  server     run the job server (gRPC; state in --data)\n"
+    "  worker     run an EGL-headless worker for a server\n"
     "  jobs       list jobs on a server\n"
     "  submit     upload a scene's bundle to a server and queue a job\n"
     "  watch      follow a job's events until it ends\n"
@@ -46,6 +47,7 @@ int main(int argc, char** argv) {
   if (command == "render") return mvbrdf::client::RunRender(args);
   if (command == "evaluate") return mvbrdf::client::RunEvaluate(args);
   if (command == "server") return mvbrdf::client::RunServer(args);
+  if (command == "worker") return mvbrdf::client::RunWorker(args);
   if (command == "jobs") return mvbrdf::client::RunJobs(args);
   if (command == "submit") return mvbrdf::client::RunSubmit(args);
   if (command == "watch") return mvbrdf::client::RunWatch(args);

@@ -1,0 +1,77 @@
+#include "worker/bundle_cache.h"
+
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "core/bundle/bundle.h"
+
+namespace mvbrdf::worker {
+namespace fs = std::filesystem;
+
+namespace {
+
+bool IsDigest(const std::string& s) {
+  if (s.size() != 64) return false;
+  for (char c : s) {
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+absl::StatusOr<fs::path> BundleCache::Unpacked(const std::string& sha256) {
+  if (!IsDigest(sha256)) {
+    return absl::InvalidArgumentError(absl::StrCat("bundle_sha256: expected 64 lowercase hex digits, got \"", sha256, "\""));
+  }
+  const fs::path dir = dir_ / sha256;
+  const fs::path done = dir_ / (sha256 + ".ok");
+  if (fs::exists(done) && fs::is_directory(dir)) return dir;
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (ec) return absl::FailedPreconditionError(absl::StrCat(dir_.string(), ": cannot create: ", ec.message()));
+  const fs::path archive = dir_ / (sha256 + ".tar");
+  MVBRDF_RETURN_IF_ERROR(fetch_(sha256, archive));
+  ++downloads_;
+  fs::remove_all(dir, ec);
+  bundle::UnpackOptions unpack;  // checks the hash before extracting
+  unpack.expected_sha256 = sha256;
+  absl::StatusOr<fs::path> scene = bundle::UnpackBundle(archive, dir, unpack);
+  fs::remove(archive, ec);
+  if (!scene.ok()) return scene.status();
+  // The marker last: a crash before it leaves a directory that is unpacked again.
+  if (FILE* f = std::fopen(done.c_str(), "w"); f != nullptr) std::fclose(f);
+  return dir;
+}
+
+absl::StatusOr<std::shared_ptr<const scene::Sequence>> BundleCache::Sequence(const std::string& sha256,
+                                                                             const std::string& scene_path) {
+  const std::string key = sha256 + "/" + scene_path;
+  if (loaded_ != nullptr && loaded_key_ == key) return loaded_;
+  if (!scene_path.empty()) {
+    const fs::path relative(scene_path);
+    bool parent = false;
+    for (const fs::path& part : relative) parent = parent || part == "..";
+    if (relative.is_absolute() || parent || relative.lexically_normal() != relative) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "scene_path: must be a relative, normalised path inside the bundle without \"..\", got \"", scene_path,
+          "\""));
+    }
+  }
+  MVBRDF_ASSIGN_OR_RETURN(const fs::path dir, Unpacked(sha256));
+  fs::path scene_file = dir / (scene_path.empty() ? "scene.json" : scene_path);
+  if (scene_path.empty() && !fs::exists(scene_file)) {
+    for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
+      if (e.is_regular_file() && e.path().extension() == ".json") scene_file = e.path();
+    }
+  }
+  scene::LoadOptions load;
+  load.check_all_frames = false;  // each frame is checked when it is read
+  MVBRDF_ASSIGN_OR_RETURN(scene::Sequence sequence, scene::LoadSequence(scene_file, load));
+  loaded_ = std::make_shared<const scene::Sequence>(std::move(sequence));
+  loaded_key_ = key;
+  return loaded_;
+}
+
+}  // namespace mvbrdf::worker

@@ -1,0 +1,50 @@
+// A worker's local cache of sequence bundles: each bundle is downloaded once
+// (verified against its SHA-256), unpacked strictly into
+// <dir>/<sha256>/ and reused by every later task on it, across jobs and
+// worker restarts. The scene loaded from it is kept too (the last one), so a
+// worker running a sweep's tasks loads its sequence once.
+//
+// Threading: one worker thread uses it.
+#ifndef MVBRDF_WORKER_BUNDLE_CACHE_H_
+#define MVBRDF_WORKER_BUNDLE_CACHE_H_
+
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/scene/sequence.h"
+
+namespace mvbrdf::worker {
+
+class BundleCache {
+ public:
+  // Writes bundle `sha256` to the file `dest` (the cache verifies it).
+  using Fetch = std::function<absl::Status(const std::string& sha256, const std::filesystem::path& dest)>;
+
+  BundleCache(std::filesystem::path dir, Fetch fetch) : dir_(std::move(dir)), fetch_(std::move(fetch)) {}
+
+  // The sequence of bundle `sha256` with its scene file at `scene_path`
+  // inside the bundle (empty: the bundle's default, see bundle::UnpackBundle).
+  // INVALID_ARGUMENT naming scene_path for a path leaving the bundle, or when
+  // the download does not match its hash.
+  absl::StatusOr<std::shared_ptr<const scene::Sequence>> Sequence(const std::string& sha256,
+                                                                  const std::string& scene_path);
+
+  int downloads() const { return downloads_; }
+
+ private:
+  absl::StatusOr<std::filesystem::path> Unpacked(const std::string& sha256);
+
+  const std::filesystem::path dir_;
+  const Fetch fetch_;
+  int downloads_ = 0;
+  std::string loaded_key_;
+  std::shared_ptr<const scene::Sequence> loaded_;
+};
+
+}  // namespace mvbrdf::worker
+
+#endif  // MVBRDF_WORKER_BUNDLE_CACHE_H_

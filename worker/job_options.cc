@@ -1,0 +1,52 @@
+#include "worker/job_options.h"
+
+#include "absl/strings/str_cat.h"
+
+namespace mvbrdf::worker {
+
+absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequest& request, int threads) {
+  pipeline::ReconstructOptions o;
+  pipeline::RunRequest& run = o.request;
+  if (request.outputs_size() > 0) {
+    run.light_table = run.brdf_atlases = run.correction = run.camera_errors = false;
+    for (int i = 0; i < request.outputs_size(); ++i) {
+      switch (request.outputs(i)) {
+        case v1::OUTPUT_LIGHT_TABLE: run.light_table = true; break;
+        case v1::OUTPUT_BRDF_ATLASES: run.brdf_atlases = true; break;
+        case v1::OUTPUT_CORRECTION: run.correction = true; break;
+        case v1::OUTPUT_CAMERA_ERRORS: run.camera_errors = true; break;
+        default:
+          return absl::InvalidArgumentError(
+              absl::StrCat("outputs[", i, "]: unknown output ", static_cast<int>(request.outputs(i))));
+      }
+    }
+  }
+  run.compare_solvers = request.options().compare_solvers();
+  if (!request.configuration().empty()) {
+    run.configuration = request.configuration();
+  } else if (request.configurations_size() == 1) {
+    run.configuration = request.configurations(0);
+  }
+  const v1::FittingOptions& f = request.options();
+  if (f.atlas_size() != 0) {
+    if (f.atlas_size() < 16 || f.atlas_size() > 16384) {
+      return absl::InvalidArgumentError(absl::StrCat("options.atlas_size: must be in [16, 16384], got ", f.atlas_size()));
+    }
+    o.atlas.size = static_cast<int>(f.atlas_size());
+  }
+  if (f.max_iterations() != 0) o.fit.max_iterations = static_cast<int>(f.max_iterations());
+  if (f.max_cluster_samples() != 0) {
+    if (f.max_cluster_samples() < 10) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("options.max_cluster_samples: must be >= 10, got ", f.max_cluster_samples()));
+    }
+    o.max_cluster_samples = static_cast<size_t>(f.max_cluster_samples());
+  }
+  if (f.sweep_frame_stride() != 0) o.sweep_frame_stride = static_cast<int>(f.sweep_frame_stride());
+  if (f.has_grow_iterations()) o.grow_iterations = static_cast<int>(f.grow_iterations());
+  if (absl::Status s = o.fit.Check(); !s.ok()) return absl::InvalidArgumentError(absl::StrCat("options.", s.message()));
+  o.threads = threads;
+  return o;
+}
+
+}  // namespace mvbrdf::worker

@@ -1,0 +1,172 @@
+#include "worker/task_runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/bundle/sha256.h"
+#include "core/fit/light_sweep.h"
+#include "core/pipeline/gather_stage.h"
+#include "core/pipeline/light_table.h"
+#include "core/pipeline/plan.h"
+#include "core/pipeline/reconstruct_stage.h"
+#include "worker/job_options.h"
+
+namespace mvbrdf::worker {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+absl::StatusOr<pipeline::ReconstructOptions> OptionsOf(const v1::Task& task, const TaskEnvironment& env) {
+  MVBRDF_ASSIGN_OR_RETURN(pipeline::ReconstructOptions o, ReconstructOptionsFor(task.request(), env.threads));
+  o.progress = env.progress;
+  o.cancelled = env.cancelled;
+  return o;
+}
+
+// Every regular file under `dir`, as (relative name, path), sorted by name.
+std::vector<std::pair<std::string, fs::path>> FilesUnder(const fs::path& dir) {
+  std::vector<std::pair<std::string, fs::path>> files;
+  for (const fs::directory_entry& e : fs::recursive_directory_iterator(dir)) {
+    if (e.is_regular_file()) files.emplace_back(fs::relative(e.path(), dir).generic_string(), e.path());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
+  MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
+  const auto start = Clock::now();
+  MVBRDF_ASSIGN_OR_RETURN(const samples::SampleSet set, pipeline::GatherTriangleSamples(sequence, *env.gl, o));
+  TaskOutput out;
+  out.samples = samples::EncodeSampleSet(set, /*compact=*/false);
+  v1::GatherResult result;
+  result.set_samples(set.size());
+  result.set_encoded_bytes(out.samples.size());
+  result.set_seconds(Since(start));
+  result.set_samples_sha256(bundle::Sha256Bytes(out.samples));
+  result.SerializeToString(&out.result);
+  out.metrics["samples"] = static_cast<double>(set.size());
+  return out;
+}
+
+absl::StatusOr<TaskOutput> Sweep(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
+  MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
+  if (task.inputs_size() != 1 || task.inputs(0).kind() != "gather") {
+    return absl::InvalidArgumentError("inputs: a sweep task depends on exactly one gather task");
+  }
+  v1::GatherResult gathered;
+  if (!gathered.ParseFromString(task.inputs(0).result())) {
+    return absl::InvalidArgumentError("inputs[0].result: not a GatherResult");
+  }
+  const v1::LightConfiguration* config = nullptr;
+  for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
+    if (c.name() == task.key()) config = &c;
+  }
+  if (config == nullptr) {
+    return absl::InvalidArgumentError(absl::StrCat("key: the scene has no light configuration \"", task.key(), "\""));
+  }
+  if (!env.samples) return absl::FailedPreconditionError("sweep: this worker cannot fetch Samples");
+  MVBRDF_ASSIGN_OR_RETURN(const std::shared_ptr<const samples::SampleSet> set, env.samples(gathered));
+  MVBRDF_ASSIGN_OR_RETURN(
+      const fit::SweepResult sweep,
+      fit::SweepConfigurations(*set, sequence.topology.triangles.size(),
+                               {{config->name(), {config->lights().begin(), config->lights().end()}}}, o.fit,
+                               o.diffuse, 1, o.sweep_fit_samples));
+  v1::LightConfigurationRow row;
+  pipeline::SweepRowToProto(sweep.rows.at(0), &row);
+  TaskOutput out;
+  row.SerializeToString(&out.result);
+  out.metrics["E_a"] = row.e_a();
+  out.metrics["E_d"] = row.e_d();
+  out.samples_from_cache = gathered.from_cache();
+  return out;
+}
+
+// The report a one-process run starts with.
+absl::StatusOr<v1::RunReport> ReportHeader(const scene::Sequence& sequence, const pipeline::RunRequest& request) {
+  v1::RunReport report;
+  report.set_scene(sequence.scene_file.string());
+  report.set_frames(static_cast<uint32_t>(sequence.num_frames));
+  report.set_configuration_rule("lowest E_d; E_a breaks ties");
+  MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, request));
+  plan.ToProto(report.mutable_plan());
+  return report;
+}
+
+absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
+  MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
+  MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, ReportHeader(sequence, o.request));
+  if (env.gl != nullptr) report.set_gl_renderer(env.gl->Describe());
+  double seconds = 0.0;
+  for (int i = 0; i < task.inputs_size(); ++i) {
+    v1::LightConfigurationRow* row = report.add_light_configurations();
+    if (task.inputs(i).kind() != "sweep" || !row->ParseFromString(task.inputs(i).result())) {
+      return absl::InvalidArgumentError(absl::StrCat("inputs[", i, "]: expected a sweep task's row"));
+    }
+    seconds += row->seconds();
+  }
+  MVBRDF_RETURN_IF_ERROR(pipeline::ChooseConfiguration(&report));
+  // The sweep's stage: its configurations' fitting time, whichever workers ran them.
+  v1::StageRow* stage = report.add_stages();
+  stage->set_name("light_sweep");
+  stage->set_seconds(seconds);
+  TaskOutput out;
+  out.metrics["configurations"] = report.light_configurations_size();
+  out.metrics["configuration_margin"] = report.configuration_margin();
+  MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
+  if (!plan.Has(pipeline::Stage::kTexelPass)) {
+    // The job ends here: its result.json.
+    const fs::path file = env.scratch_dir / "result.json";
+    std::error_code ec;
+    fs::create_directories(env.scratch_dir, ec);
+    MVBRDF_RETURN_IF_ERROR(WriteJsonFile(file, report));
+    out.artifacts.emplace_back("result.json", file);
+  }
+  report.SerializeToString(&out.result);
+  return out;
+}
+
+absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequence& sequence,
+                                       const TaskEnvironment& env) {
+  MVBRDF_ASSIGN_OR_RETURN(pipeline::ReconstructOptions o, OptionsOf(task, env));
+  if (task.inputs_size() == 1 && task.inputs(0).kind() == "choose") {
+    v1::RunReport table;
+    if (!table.ParseFromString(task.inputs(0).result())) {
+      return absl::InvalidArgumentError("inputs[0].result: not the choose task's RunReport");
+    }
+    o.light_table = std::move(table);
+  } else {
+    // No sweep: the key is the known configuration (empty: every light on).
+    o.request.configuration = task.key();
+  }
+  o.out_dir = env.scratch_dir;
+  MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport report, pipeline::RunReconstruction(sequence, *env.gl, o));
+  TaskOutput out;
+  report.SerializeToString(&out.result);
+  out.artifacts = FilesUnder(env.scratch_dir);
+  for (const v1::CameraErrorRow& c : report.cameras()) {
+    out.metrics[absl::StrCat("mse_brdf/", c.name())] = c.mse_brdf();
+    out.metrics[absl::StrCat("mse_correction/", c.name())] = c.mse_correction();
+  }
+  return out;
+}
+
+}  // namespace
+
+absl::StatusOr<TaskOutput> RunTask(const v1::Task& task, const scene::Sequence& sequence,
+                                   const TaskEnvironment& environment) {
+  if (task.kind() == "gather") return Gather(task, sequence, environment);
+  if (task.kind() == "sweep") return Sweep(task, sequence, environment);
+  if (task.kind() == "choose") return Choose(task, sequence, environment);
+  if (task.kind() == "reflectance") return Reflectance(task, sequence, environment);
+  return absl::InvalidArgumentError(absl::StrCat("kind: unknown task kind \"", task.kind(), "\""));
+}
+
+}  // namespace mvbrdf::worker

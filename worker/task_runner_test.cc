@@ -1,0 +1,243 @@
+// The service's task chain (gather, sweep per configuration, choose,
+// reflectance) run through RunTask gives exactly the outputs of one
+// RunReconstruction with the same options.
+#include "worker/task_runner.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <opencv2/core.hpp>
+
+#include "core/image/exr.h"
+#include "core/pipeline/reconstruct_stage.h"
+#include "core/synth/synthesizer.h"
+#include "worker/job_options.h"
+
+namespace mvbrdf::worker {
+namespace {
+
+namespace fs = std::filesystem;
+
+class TaskRunnerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    auto context = gl::EglContext::Create(gl::EglPlatform::kSurfaceless);
+    ASSERT_TRUE(context.ok()) << context.status();
+    context_ = context->release();
+    dir_ = fs::temp_directory_path() / ("mvbrdf_task_runner_test_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    synth::SynthOptions so;
+    so.num_cameras = 4;
+    so.num_frames = 3;
+    so.out_dir = dir_ / "bundle";
+    auto synthesized = synth::Synthesize(so, *context_);
+    ASSERT_TRUE(synthesized.ok()) << synthesized.status();
+    auto sequence = scene::LoadSequence(dir_ / "bundle" / "scene.json");
+    ASSERT_TRUE(sequence.ok()) << sequence.status();
+    sequence_ = new scene::Sequence(*std::move(sequence));
+  }
+  static void TearDownTestSuite() {
+    delete sequence_;
+    delete context_;
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  TaskEnvironment Environment(const std::string& scratch) {
+    TaskEnvironment env;
+    env.gl = context_;
+    env.threads = 2;
+    env.scratch_dir = dir_ / scratch;
+    return env;
+  }
+
+  static v1::SubmitJobRequest Request() {
+    v1::SubmitJobRequest request;
+    request.mutable_options()->set_atlas_size(256);
+    request.mutable_options()->set_compare_solvers(false);
+    return request;
+  }
+
+  static gl::EglContext* context_;
+  static scene::Sequence* sequence_;
+  static fs::path dir_;
+};
+
+gl::EglContext* TaskRunnerTest::context_ = nullptr;
+scene::Sequence* TaskRunnerTest::sequence_ = nullptr;
+fs::path TaskRunnerTest::dir_;
+
+cv::Mat ReadAtlas(const fs::path& file) {
+  auto image = image::ReadExr(file);
+  EXPECT_TRUE(image.ok()) << image.status();
+  return image.ok() ? image->image : cv::Mat();
+}
+
+TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
+  // The direct library run.
+  auto options = ReconstructOptionsFor(Request(), 2);
+  ASSERT_TRUE(options.ok()) << options.status();
+  options->out_dir = dir_ / "direct";
+  auto direct = pipeline::RunReconstruction(*sequence_, *context_, *options);
+  ASSERT_TRUE(direct.ok()) << direct.status();
+
+  // The same job as tasks.
+  v1::Task gather;
+  gather.set_id("g");
+  gather.set_kind("gather");
+  *gather.mutable_request() = Request();
+  auto gathered = RunTask(gather, *sequence_, Environment("gather"));
+  ASSERT_TRUE(gathered.ok()) << gathered.status();
+  v1::GatherResult gather_result;
+  ASSERT_TRUE(gather_result.ParseFromString(gathered->result));
+  EXPECT_GT(gather_result.samples(), 1000u);
+  EXPECT_EQ(gather_result.encoded_bytes(), gathered->samples.size());
+  auto decoded = samples::DecodeSampleSet(gathered->samples);
+  ASSERT_TRUE(decoded.ok()) << decoded.status();
+  auto shared = std::make_shared<const samples::SampleSet>(*std::move(decoded));
+
+  v1::Task choose;
+  choose.set_id("c");
+  choose.set_kind("choose");
+  *choose.mutable_request() = Request();
+  for (const v1::LightConfiguration& c : sequence_->scene.light_configurations()) {
+    v1::Task sweep;
+    sweep.set_id("s-" + c.name());
+    sweep.set_kind("sweep");
+    sweep.set_key(c.name());
+    *sweep.mutable_request() = Request();
+    v1::TaskInput* in = sweep.add_inputs();
+    in->set_kind("gather");
+    in->set_result(gathered->result);
+    TaskEnvironment env = Environment("sweep");
+    env.samples = [&](const v1::GatherResult& g) -> absl::StatusOr<std::shared_ptr<const samples::SampleSet>> {
+      EXPECT_EQ(g.samples_sha256(), gather_result.samples_sha256());
+      return shared;
+    };
+    auto swept = RunTask(sweep, *sequence_, env);
+    ASSERT_TRUE(swept.ok()) << swept.status();
+    v1::TaskInput* row = choose.add_inputs();
+    row->set_kind("sweep");
+    row->set_key(c.name());
+    row->set_result(swept->result);
+  }
+  auto chosen = RunTask(choose, *sequence_, Environment("choose"));
+  ASSERT_TRUE(chosen.ok()) << chosen.status();
+  EXPECT_TRUE(chosen->artifacts.empty());  // the job goes on to reflectance
+
+  v1::Task reflectance;
+  reflectance.set_id("r");
+  reflectance.set_kind("reflectance");
+  *reflectance.mutable_request() = Request();
+  v1::TaskInput* in = reflectance.add_inputs();
+  in->set_kind("choose");
+  in->set_result(chosen->result);
+  auto reflected = RunTask(reflectance, *sequence_, Environment("reflectance"));
+  ASSERT_TRUE(reflected.ok()) << reflected.status();
+  v1::RunReport report;
+  ASSERT_TRUE(report.ParseFromString(reflected->result));
+
+  // Table 6.1, the choice and Table 7.1 are the same numbers.
+  ASSERT_EQ(report.light_configurations_size(), direct->light_configurations_size());
+  for (int i = 0; i < report.light_configurations_size(); ++i) {
+    EXPECT_EQ(report.light_configurations(i).name(), direct->light_configurations(i).name());
+    EXPECT_EQ(report.light_configurations(i).e_a(), direct->light_configurations(i).e_a());
+    EXPECT_EQ(report.light_configurations(i).e_d(), direct->light_configurations(i).e_d());
+    EXPECT_EQ(report.light_configurations(i).lit_triangles(), direct->light_configurations(i).lit_triangles());
+  }
+  EXPECT_EQ(report.chosen_configuration(), direct->chosen_configuration());
+  EXPECT_EQ(report.configuration_margin(), direct->configuration_margin());
+  EXPECT_EQ(report.plan().DebugString(), direct->plan().DebugString());
+  ASSERT_EQ(report.cameras_size(), direct->cameras_size());
+  for (int i = 0; i < report.cameras_size(); ++i) {
+    EXPECT_EQ(report.cameras(i).mse_brdf(), direct->cameras(i).mse_brdf());
+    EXPECT_EQ(report.cameras(i).mse_correction(), direct->cameras(i).mse_correction());
+  }
+  // The same files, and the same atlases texel for texel.
+  std::vector<std::string> names;
+  for (const auto& [name, path] : reflected->artifacts) names.push_back(name);
+  std::vector<std::string> direct_names;
+  for (const fs::directory_entry& e : fs::recursive_directory_iterator(dir_ / "direct")) {
+    if (e.is_regular_file()) direct_names.push_back(fs::relative(e.path(), dir_ / "direct").generic_string());
+  }
+  std::sort(direct_names.begin(), direct_names.end());
+  EXPECT_EQ(names, direct_names);
+  for (const char* atlas : {"atlases/kd.exr", "atlases/ks.exr", "atlases/ke.exr", "atlases/cluster.exr"}) {
+    const cv::Mat a = ReadAtlas(dir_ / "direct" / atlas);
+    const cv::Mat b = ReadAtlas(dir_ / "reflectance" / atlas);
+    ASSERT_FALSE(a.empty()) << atlas;
+    ASSERT_EQ(a.size(), b.size()) << atlas;
+    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << atlas;
+  }
+}
+
+TEST_F(TaskRunnerTest, LightTableOnlyEndsWithChoose) {
+  v1::SubmitJobRequest request = Request();
+  request.add_outputs(v1::OUTPUT_LIGHT_TABLE);
+  v1::Task choose;
+  choose.set_kind("choose");
+  *choose.mutable_request() = request;
+  v1::LightConfigurationRow a, b;
+  a.set_name("A");
+  a.set_e_d(2.0);
+  a.set_e_a(1.0);
+  b.set_name("B");
+  b.set_e_d(1.0);
+  b.set_e_a(3.0);
+  for (const auto* row : {&a, &b}) {
+    v1::TaskInput* in = choose.add_inputs();
+    in->set_kind("sweep");
+    row->SerializeToString(in->mutable_result());
+  }
+  auto chosen = RunTask(choose, *sequence_, Environment("choose-only"));
+  ASSERT_TRUE(chosen.ok()) << chosen.status();
+  v1::RunReport report;
+  ASSERT_TRUE(report.ParseFromString(chosen->result));
+  EXPECT_EQ(report.chosen_configuration(), "B");
+  EXPECT_DOUBLE_EQ(report.configuration_margin(), 1.0);
+  EXPECT_NE(report.configuration_warning().find("E_a prefers A"), std::string::npos);
+  ASSERT_EQ(chosen->artifacts.size(), 1u);
+  EXPECT_EQ(chosen->artifacts[0].first, "result.json");
+  EXPECT_TRUE(fs::exists(chosen->artifacts[0].second));
+}
+
+TEST_F(TaskRunnerTest, BadTasksAreRejectedNamingTheField) {
+  v1::Task task;
+  task.set_kind("paint");
+  auto r = RunTask(task, *sequence_, Environment("bad"));
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(r.status().message().find("kind"), std::string::npos);
+
+  task.set_kind("sweep");
+  task.set_key("NE,NW,SE,SW");
+  r = RunTask(task, *sequence_, Environment("bad"));
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(r.status().message().find("inputs"), std::string::npos);
+
+  v1::TaskInput* in = task.add_inputs();
+  in->set_kind("gather");
+  task.set_key("no such configuration");
+  r = RunTask(task, *sequence_, Environment("bad"));
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(r.status().message().find("key"), std::string::npos);
+
+  v1::SubmitJobRequest request;
+  request.mutable_options()->set_atlas_size(5);
+  EXPECT_NE(ReconstructOptionsFor(request, 2).status().message().find("options.atlas_size"), std::string::npos);
+  request = v1::SubmitJobRequest();
+  request.add_outputs(static_cast<v1::Output>(42));
+  EXPECT_NE(ReconstructOptionsFor(request, 2).status().message().find("outputs[0]"), std::string::npos);
+}
+
+TEST_F(TaskRunnerTest, CancelledGatherStops) {
+  v1::Task gather;
+  gather.set_kind("gather");
+  *gather.mutable_request() = Request();
+  TaskEnvironment env = Environment("cancel");
+  env.cancelled = [] { return true; };
+  auto r = RunTask(gather, *sequence_, env);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kCancelled);
+}
+
+}  // namespace
+}  // namespace mvbrdf::worker

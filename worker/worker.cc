@@ -1,0 +1,400 @@
+#include "worker/worker.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <fstream>
+#include <system_error>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+#include "core/bundle/sha256.h"
+#include "worker/bundle_cache.h"
+#include "worker/task_runner.h"
+
+namespace mvbrdf::worker {
+namespace {
+
+namespace fs = std::filesystem;
+using SteadyClock = std::chrono::steady_clock;
+
+constexpr size_t kChunkBytes = size_t{1} << 20;
+
+absl::Status FromGrpc(const grpc::Status& status, absl::string_view what) {
+  if (status.ok()) return absl::OkStatus();
+  return absl::Status(static_cast<absl::StatusCode>(status.error_code()),
+                      absl::StrCat(what, ": ", status.error_message()));
+}
+
+// Reads a server stream of ArtifactChunks into `sink`; checks offsets, the
+// total size and the SHA-256 the first chunk names.
+template <typename Sink>
+absl::Status ReadChunks(grpc::ClientReader<v1::ArtifactChunk>& reader, absl::string_view what, Sink sink) {
+  v1::ArtifactChunk chunk;
+  uint64_t received = 0, total = 0;
+  std::string sha256;
+  bool first = true;
+  while (reader.Read(&chunk)) {
+    if (first) {
+      total = chunk.total_size();
+      sha256 = chunk.sha256();
+      first = false;
+    }
+    if (chunk.offset() != received) {
+      return absl::DataLossError(absl::StrCat(what, ": chunk at offset ", chunk.offset(), ", expected ", received));
+    }
+    MVBRDF_RETURN_IF_ERROR(sink(chunk.data()));
+    received += chunk.data().size();
+  }
+  MVBRDF_RETURN_IF_ERROR(FromGrpc(reader.Finish(), what));
+  if (received != total) {
+    return absl::DataLossError(absl::StrCat(what, ": received ", received, " of ", total, " bytes"));
+  }
+  return absl::OkStatus();
+}
+
+// Sends `bytes` (or the file at `path`) as chunks of `field` of TaskUpdate.
+class UpdateWriter {
+ public:
+  UpdateWriter(grpc::ClientWriter<v1::TaskUpdate>& writer, const std::string& worker_id, const std::string& task_id)
+      : writer_(writer), worker_id_(worker_id), task_id_(task_id) {}
+
+  bool Write(v1::TaskUpdate update) {
+    update.set_worker_id(worker_id_);
+    update.set_task_id(task_id_);
+    return writer_.Write(update);
+  }
+
+  // Chunks of `bytes` into the samples field (samples = true) or an artifact.
+  bool WriteBytes(absl::string_view bytes, bool samples, const std::string& name) {
+    const std::string sha256 = bundle::Sha256Bytes(bytes);
+    size_t offset = 0;
+    do {
+      v1::TaskUpdate update;
+      v1::ArtifactChunk* chunk = samples ? update.mutable_samples() : update.mutable_artifact();
+      if (!samples) update.set_artifact_name(name);
+      const size_t n = std::min(kChunkBytes, bytes.size() - offset);
+      chunk->set_offset(offset);
+      chunk->set_data(bytes.data() + offset, n);
+      if (offset == 0) {
+        chunk->set_total_size(bytes.size());
+        chunk->set_sha256(sha256);
+      }
+      if (!Write(std::move(update))) return false;
+      offset += n;
+    } while (offset < bytes.size());
+    return true;
+  }
+
+ private:
+  grpc::ClientWriter<v1::TaskUpdate>& writer_;
+  const std::string& worker_id_;
+  const std::string& task_id_;
+};
+
+absl::StatusOr<std::string> ReadWholeFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return absl::NotFoundError(absl::StrCat(path.string(), ": cannot open"));
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// Renews a lease every `period` until stopped; `lost` is set when the server
+// refuses (the lease went to another worker, or the job ended).
+class LeaseRenewer {
+ public:
+  LeaseRenewer(v1::Workers::Stub& stub, std::string worker_id, std::string task_id, std::chrono::milliseconds period)
+      : thread_([this, &stub, worker_id, task_id, period] {
+          std::unique_lock<std::mutex> lock(mu_);
+          while (!cv_.wait_for(lock, period, [this] { return done_; })) {
+            lock.unlock();
+            grpc::ClientContext context;
+            context.set_deadline(std::chrono::system_clock::now() + period);
+            v1::RenewLeaseRequest request;
+            request.set_worker_id(worker_id);
+            request.set_task_id(task_id);
+            v1::RenewLeaseResponse response;
+            const grpc::Status status = stub.RenewLease(&context, request, &response);
+            // Unreachable for a moment: try again next period; refused: lost.
+            if (!status.ok() && status.error_code() != grpc::StatusCode::UNAVAILABLE &&
+                status.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED) {
+              lost_ = true;
+            }
+            lock.lock();
+          }
+        }) {}
+  ~LeaseRenewer() {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      done_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  bool lost() const { return lost_; }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  bool done_ = false;
+  std::atomic<bool> lost_{false};
+  std::thread thread_;  // last: starts after the members above exist
+};
+
+// Turns the pipeline's (stage, done, total) calls into Progress updates with
+// an ETA, at most every 250 ms per stage.
+class ProgressReporter {
+ public:
+  explicit ProgressReporter(std::function<void(const v1::Progress&)> send) : send_(std::move(send)) {}
+  void Update(const std::string& stage, int done, int total) {
+    const auto now = SteadyClock::now();
+    if (stage != stage_) {
+      stage_ = stage;
+      start_ = now;
+      last_ = SteadyClock::time_point();
+    }
+    if (done < total && now - last_ < std::chrono::milliseconds(250)) return;
+    last_ = now;
+    v1::Progress p;
+    p.set_stage(stage);
+    p.set_fraction(total > 0 ? static_cast<double>(done) / total : 1.0);
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    p.set_eta_seconds(done > 0 ? elapsed * (total - done) / done : -1.0);
+    send_(p);
+  }
+
+ private:
+  std::function<void(const v1::Progress&)> send_;
+  std::string stage_;
+  SteadyClock::time_point start_, last_;
+};
+
+}  // namespace
+
+std::string Worker::id() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return id_;
+}
+
+void Worker::Log(const std::string& line) const {
+  if (options_.log) options_.log(line);
+}
+
+void Worker::Stop() {
+  stop_ = true;
+  std::lock_guard<std::mutex> lock(mu_);
+  if (poll_ != nullptr) poll_->TryCancel();
+}
+
+absl::Status Worker::Register(v1::Workers::Stub& stub, const gl::EglContext& context) {
+  v1::RegisterWorkerRequest request;
+  request.set_name(options_.name);
+  request.set_gl_renderer(context.Describe());
+  request.set_threads(static_cast<uint32_t>(options_.threads));
+  for (int attempt = 0;; ++attempt) {
+    grpc::ClientContext rpc;
+    rpc.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    v1::RegisterWorkerResponse response;
+    const grpc::Status status = stub.RegisterWorker(&rpc, request, &response);
+    if (status.ok()) {
+      std::lock_guard<std::mutex> lock(mu_);
+      id_ = response.worker_id();
+      lease_seconds_ = std::max<int>(1, static_cast<int>(response.lease_seconds()));
+      break;
+    }
+    if (status.error_code() != grpc::StatusCode::UNAVAILABLE || stop_) return FromGrpc(status, "RegisterWorker");
+    if (attempt % 10 == 0) Log(absl::StrCat("server unavailable (", status.error_message(), "); retrying"));
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+  Log(absl::StrCat("registered as ", id(), " (", context.Describe(), ")"));
+  return absl::OkStatus();
+}
+
+absl::Status Worker::Run() {
+  if (options_.channel == nullptr) return absl::InvalidArgumentError("worker: no channel to the server");
+  MVBRDF_ASSIGN_OR_RETURN(std::unique_ptr<gl::EglContext> context, gl::EglContext::Create(options_.egl));
+  std::error_code ec;
+  fs::create_directories(options_.cache_dir, ec);
+  if (ec) return absl::FailedPreconditionError(absl::StrCat(options_.cache_dir.string(), ": cannot create: ", ec.message()));
+  std::unique_ptr<v1::Workers::Stub> stub = v1::Workers::NewStub(options_.channel);
+  MVBRDF_RETURN_IF_ERROR(Register(*stub, *context));
+  BundleCache cache(options_.cache_dir / "bundles", [this, &stub](const std::string& sha256, const fs::path& dest) {
+    grpc::ClientContext rpc;
+    v1::FetchBundleRequest request;
+    request.set_worker_id(id());
+    request.set_sha256(sha256);
+    std::unique_ptr<grpc::ClientReader<v1::ArtifactChunk>> reader = stub->FetchBundle(&rpc, request);
+    std::ofstream out(dest, std::ios::binary | std::ios::trunc);
+    if (!out) return absl::FailedPreconditionError(absl::StrCat(dest.string(), ": cannot write"));
+    absl::Status read = ReadChunks(*reader, absl::StrCat("FetchBundle ", sha256), [&out](const std::string& data) {
+      out.write(data.data(), static_cast<std::streamsize>(data.size()));
+      return out ? absl::OkStatus() : absl::ResourceExhaustedError("cannot write the bundle (disk full?)");
+    });
+    ++bundle_downloads_;
+    return read;
+  });
+
+  while (!stop_) {
+    grpc::ClientContext rpc;
+    rpc.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(options_.wait_seconds + 30));
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (stop_) break;
+      poll_ = &rpc;
+    }
+    v1::LeaseTaskRequest request;
+    request.set_worker_id(id());
+    request.set_wait_seconds(static_cast<uint32_t>(options_.wait_seconds));
+    v1::LeaseTaskResponse response;
+    const grpc::Status status = stub->LeaseTask(&rpc, request, &response);
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      poll_ = nullptr;
+    }
+    if (stop_) break;
+    if (!status.ok()) {
+      if (status.error_code() == grpc::StatusCode::NOT_FOUND ||
+          status.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {
+        // A restarted server forgot us: register again.
+        MVBRDF_RETURN_IF_ERROR(Register(*stub, *context));
+        continue;
+      }
+      if (status.error_code() != grpc::StatusCode::UNAVAILABLE &&
+          status.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED &&
+          status.error_code() != grpc::StatusCode::CANCELLED) {
+        return FromGrpc(status, "LeaseTask");
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      continue;
+    }
+    if (!response.has_task()) continue;
+    const v1::Task& task = response.task();
+    Log(absl::StrCat("leased ", task.kind(), task.key().empty() ? "" : absl::StrCat("[", task.key(), "]"), " of job ",
+                     task.job_id()));
+    const auto start = SteadyClock::now();
+    const absl::Status ran = RunLeased(*stub, task, *context, cache);
+    const double seconds = std::chrono::duration<double>(SteadyClock::now() - start).count();
+    if (ran.ok()) {
+      Log(absl::StrCat(task.kind(), " done in ", seconds, " s"));
+    } else {
+      Log(absl::StrCat(task.kind(), " ended: ", ran.message()));
+    }
+    ++tasks_run_;
+    if (options_.max_tasks > 0 && tasks_run_ >= options_.max_tasks) break;
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::shared_ptr<const samples::SampleSet>> Worker::FetchSamples(v1::Workers::Stub& stub,
+                                                                               const v1::Task& task,
+                                                                               const v1::GatherResult& gathered) {
+  if (samples_ != nullptr && !gathered.samples_sha256().empty() && gathered.samples_sha256() == samples_sha256_) {
+    return samples_;
+  }
+  grpc::ClientContext rpc;
+  v1::FetchSamplesRequest request;
+  request.set_worker_id(id());
+  request.set_task_id(task.id());
+  std::unique_ptr<grpc::ClientReader<v1::ArtifactChunk>> reader = stub.FetchSamples(&rpc, request);
+  std::string bytes;
+  MVBRDF_RETURN_IF_ERROR(ReadChunks(*reader, "FetchSamples", [&bytes](const std::string& data) {
+    bytes += data;
+    return absl::OkStatus();
+  }));
+  ++samples_downloads_;
+  const std::string sha256 = bundle::Sha256Bytes(bytes);
+  if (!gathered.samples_sha256().empty() && sha256 != gathered.samples_sha256()) {
+    return absl::DataLossError(absl::StrCat("FetchSamples: SHA-256 ", sha256, ", the gather task reported ",
+                                            gathered.samples_sha256()));
+  }
+  MVBRDF_ASSIGN_OR_RETURN(samples::SampleSet set, samples::DecodeSampleSet(bytes));
+  samples_ = std::make_shared<const samples::SampleSet>(std::move(set));
+  samples_sha256_ = sha256;
+  return samples_;
+}
+
+absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl::EglContext& context,
+                               BundleCache& cache) {
+  const std::string worker_id = id();
+  LeaseRenewer renewer(stub, worker_id, task.id(), std::chrono::milliseconds(lease_seconds_ * 1000 / 3));
+  grpc::ClientContext rpc;
+  v1::TaskUpdateAck ack;
+  std::unique_ptr<grpc::ClientWriter<v1::TaskUpdate>> stream = stub.ReportTask(&rpc, &ack);
+  UpdateWriter writer(*stream, worker_id, task.id());
+  bool stream_ok = true;
+  ProgressReporter progress([&](const v1::Progress& p) {
+    v1::TaskUpdate update;
+    *update.mutable_progress() = p;
+    stream_ok = stream_ok && writer.Write(std::move(update));
+  });
+
+  const fs::path scratch = options_.cache_dir / "tasks" / task.id();
+  std::error_code ec;
+  fs::remove_all(scratch, ec);
+  fs::create_directories(scratch, ec);
+  TaskEnvironment env;
+  env.gl = &context;
+  env.threads = options_.threads;
+  env.scratch_dir = scratch;
+  env.progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
+  env.cancelled = [&renewer, &stream_ok] { return renewer.lost() || !stream_ok; };
+  env.samples = [this, &stub, &task](const v1::GatherResult& gathered) { return FetchSamples(stub, task, gathered); };
+
+  const auto start = SteadyClock::now();
+  absl::StatusOr<TaskOutput> output = [&]() -> absl::StatusOr<TaskOutput> {
+    MVBRDF_ASSIGN_OR_RETURN(std::shared_ptr<const scene::Sequence> sequence,
+                            cache.Sequence(task.bundle_sha256(), task.request().scene_path()));
+    return RunTask(task, *sequence, env);
+  }();
+  const double seconds = std::chrono::duration<double>(SteadyClock::now() - start).count();
+
+  absl::Status outcome = absl::OkStatus();
+  if (renewer.lost()) {
+    outcome = absl::AbortedError("the lease was lost (the task went to another worker or its job ended)");
+  } else if (!output.ok()) {
+    v1::TaskUpdate update;
+    update.set_failed(std::string(output.status().message()));
+    writer.Write(std::move(update));
+    outcome = output.status();
+  } else {
+    bool ok = stream_ok;
+    if (ok && !output->samples.empty()) ok = writer.WriteBytes(output->samples, /*samples=*/true, "");
+    for (const auto& [name, path] : output->artifacts) {
+      if (!ok) break;
+      absl::StatusOr<std::string> bytes = ReadWholeFile(path);
+      if (!bytes.ok()) {
+        outcome = bytes.status();
+        break;
+      }
+      ok = writer.WriteBytes(*bytes, /*samples=*/false, name);
+    }
+    if (ok && outcome.ok()) {
+      v1::TaskUpdate finished;
+      v1::StageFinished* stage = finished.mutable_stage_finished();
+      stage->set_stage(task.kind());
+      stage->set_seconds(seconds);
+      for (const auto& [key, value] : output->metrics) (*stage->mutable_metrics())[key] = value;
+      if (output->samples_from_cache) (*stage->mutable_metrics())["samples_from_cache"] = 1.0;
+      ok = writer.Write(std::move(finished));
+      v1::TaskUpdate result;
+      result.set_result(output->result);
+      ok = ok && writer.Write(std::move(result));
+    }
+    if (!outcome.ok()) {
+      v1::TaskUpdate update;
+      update.set_failed(std::string(outcome.message()));
+      writer.Write(std::move(update));
+    }
+  }
+  stream->WritesDone();
+  const grpc::Status finished = stream->Finish();
+  fs::remove_all(scratch, ec);
+  if (!outcome.ok()) return outcome;
+  if (!finished.ok()) return FromGrpc(finished, "ReportTask");
+  if (!ack.accepted()) return absl::AbortedError("the server did not accept the result (the lease was lost)");
+  return absl::OkStatus();
+}
+
+}  // namespace mvbrdf::worker

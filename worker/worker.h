@@ -1,0 +1,90 @@
+// The worker process's loop (issue #5, docs/service.md "Worker loop"): one
+// EGL context, registered with the server; leases a task (long poll), runs it
+// (worker/task_runner.h) while a second thread renews the lease, and streams
+// progress, the stage's metrics, Samples, artifacts and the result back over
+// one ReportTask call; then the next task. Bundles are downloaded once into
+// a local cache (worker/bundle_cache.h); the triangle Samples of a sweep are
+// downloaded once per job and kept for the next sweep task.
+//
+// A lost lease (renewal refused: the task was leased again, or its job was
+// cancelled or failed) stops the task at its next frame; the server has
+// already given it to someone else, so nothing is reported.
+//
+// Threading: Run() on one thread (the EGL context is created current on it);
+// Stop() from any thread.
+#ifndef MVBRDF_WORKER_WORKER_H_
+#define MVBRDF_WORKER_WORKER_H_
+
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <grpcpp/grpcpp.h>
+
+#include "absl/status/status.h"
+#include "core/gl/egl_context.h"
+#include "core/samples/sample_set.h"
+#include "mvbrdf/v1/service.grpc.pb.h"
+
+namespace mvbrdf::worker {
+
+struct WorkerOptions {
+  // The server's Workers service.
+  std::shared_ptr<grpc::Channel> channel;
+  std::string name;                   // for people: who ran a task
+  std::filesystem::path cache_dir;    // bundles and scratch space
+  gl::EglPlatform egl = gl::EglPlatform::kAuto;
+  int threads = 2;
+  int wait_seconds = 5;               // long poll per LeaseTask call
+  // One line per event (registered, task leased, done, failed); may be empty.
+  std::function<void(const std::string&)> log;
+  // Stop after this many tasks (0: never); for tests and one-shot workers.
+  int max_tasks = 0;
+};
+
+class Worker {
+ public:
+  explicit Worker(WorkerOptions options) : options_(std::move(options)) {}
+
+  // Creates the EGL context, registers, and leases and runs tasks until
+  // Stop() (then OK, after the task in hand is finished). UNAVAILABLE while
+  // the server is unreachable is retried; other errors of the worker's own
+  // (EGL, cache directory) are returned.
+  absl::Status Run();
+  // Ends Run() after the current task (a waiting long poll is cancelled).
+  void Stop();
+
+  std::string id() const;
+  int tasks_run() const { return tasks_run_; }
+  int bundle_downloads() const { return bundle_downloads_; }
+  int samples_downloads() const { return samples_downloads_; }
+
+ private:
+  absl::Status Register(v1::Workers::Stub& stub, const gl::EglContext& context);
+  absl::Status RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl::EglContext& context,
+                         class BundleCache& cache);
+  absl::StatusOr<std::shared_ptr<const samples::SampleSet>> FetchSamples(v1::Workers::Stub& stub,
+                                                                         const v1::Task& task,
+                                                                         const v1::GatherResult& gathered);
+  void Log(const std::string& line) const;
+
+  const WorkerOptions options_;
+  std::atomic<bool> stop_{false};
+  mutable std::mutex mu_;
+  std::string id_;                           // guarded by mu_
+  grpc::ClientContext* poll_ = nullptr;      // guarded by mu_: the long poll in flight
+  int lease_seconds_ = 30;
+  std::atomic<int> tasks_run_{0};
+  std::atomic<int> bundle_downloads_{0};
+  std::atomic<int> samples_downloads_{0};
+  // The last job's triangle Samples, by the SHA-256 of their encoding.
+  std::string samples_sha256_;
+  std::shared_ptr<const samples::SampleSet> samples_;
+};
+
+}  // namespace mvbrdf::worker
+
+#endif  // MVBRDF_WORKER_WORKER_H_
