@@ -1,11 +1,18 @@
-// `mvbrdf server --data DIR [--listen HOST:PORT]`: the job server.
+// `mvbrdf server [--config FILE] [--data DIR] [--listen HOST:PORT] ...`: the
+// job server. Settings come from built-in defaults, then the config file
+// (proto/mvbrdf/v1/server_config.proto as JSON), then the flags.
 #include <csignal>
 #include <cstdio>
+#include <functional>
+#include <string>
 #include <thread>
+#include <vector>
 
+#include "absl/strings/match.h"
 #include "client/commands.h"
 #include "client/flags.h"
 #include "server/process/server.h"
+#include "server/process/server_config.h"
 
 namespace mvbrdf::client {
 namespace {
@@ -13,44 +20,132 @@ namespace {
 volatile std::sig_atomic_t g_stop = 0;
 void OnSignal(int) { g_stop = 1; }
 
+// The value of --config in `args` (empty when absent): the file is read
+// before the flags are parsed, so that the flags' defaults are its values.
+std::string ConfigPathIn(const std::vector<std::string>& args) {
+  std::string path;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--config" && i + 1 < args.size()) {
+      path = args[i + 1];
+    } else if (absl::StartsWith(args[i], "--config=")) {
+      path = args[i].substr(9);
+    }
+  }
+  return path;
+}
+
+int UsageError(const absl::Status& status) {
+  std::fprintf(stderr, "mvbrdf server: %s\n", std::string(status.message()).c_str());
+  return kExitUsage;
+}
+
 }  // namespace
 
 int RunServer(const std::vector<std::string>& args) {
   server::ServerOptions o;
-  std::string data_dir;
+  std::string config_path = ConfigPathIn(args);
+  if (!config_path.empty()) {
+    if (absl::Status s = server::LoadServerConfig(config_path, o); !s.ok()) return UsageError(s);
+  }
+
+  // Each flag starts at the value the file (or the default) gave; a flag
+  // whose value changed overrides it, through the same checks as the file.
+  std::string listen = o.listen_address;
+  std::string data_dir = o.data_dir.string();
+  int lease_seconds = o.workers.lease_seconds;
+  int max_wait_seconds = o.workers.max_wait_seconds;
+  int poll_interval_ms = o.workers.poll_interval_ms;
+  int max_artifact_mib = static_cast<int>(o.workers.max_artifact_bytes >> 20);
+  int max_samples_mib = static_cast<int>(o.workers.max_samples_bytes >> 20);
+  int sample_cache_mib = static_cast<int>(o.sample_cache.max_stored_bytes >> 20);
+  int compression_level = o.sample_cache.compression_level;
   int max_bundle_mib = static_cast<int>(o.limits.max_bundle_bytes >> 20);
-  int max_jobs = static_cast<int>(o.limits.max_jobs_per_client);
-  int lease_seconds = static_cast<int>(o.workers.lease_seconds);
+  int max_jobs = o.limits.max_jobs_per_client;
+  int max_message_mib = static_cast<int>(o.limits.max_message_bytes >> 20);
+  int watch_poll_ms = o.limits.watch_poll_ms;
+  const std::string listen0 = listen, data_dir0 = data_dir;
+  const std::vector<int> ints0 = {lease_seconds,  max_wait_seconds,  poll_interval_ms, max_artifact_mib,
+                                  max_samples_mib, sample_cache_mib, compression_level, max_bundle_mib,
+                                  max_jobs,        max_message_mib,  watch_poll_ms};
+
   FlagParser flags("server",
                    "Runs the mvbrdf job server: clients upload sequence bundles and submit jobs, workers lease\n"
-                   "their tasks. State (SQLite database, bundles, artifacts) lives in --data and survives restarts.\n"
-                   "Prints 'listening on HOST:PORT' once ready; stops cleanly on SIGINT/SIGTERM.");
-  flags.AddString("--listen", &o.listen_address, "address to listen on, host:port (port 0: any free port)");
-  flags.AddString("--data", &data_dir, "the server's state directory (required)");
+                   "their tasks. State (SQLite database, bundles, artifacts, the Sample cache) lives in --data and\n"
+                   "survives restarts. Settings: defaults, then --config FILE (JSON, mvbrdf.v1.ServerConfig), then\n"
+                   "the flags. Prints 'listening on HOST:PORT' once ready; stops cleanly on SIGINT/SIGTERM.");
+  flags.AddString("--config", &config_path, "JSON config file (mvbrdf.v1.ServerConfig); flags override it");
+  flags.AddString("--listen", &listen, "address to listen on, host:port (port 0: any free port)");
+  flags.AddString("--data", &data_dir, "the server's state directory (required, here or in the config)");
+  flags.AddInt("--lease-seconds", &lease_seconds, "how long a worker's task lease lasts without renewal");
+  flags.AddInt("--max-wait-seconds", &max_wait_seconds, "longest long poll of a worker asking for a task, s");
+  flags.AddInt("--poll-interval-ms", &poll_interval_ms, "how often waiting workers' polls re-check the store");
+  flags.AddInt("--max-artifact-mib", &max_artifact_mib, "largest artifact a worker may send, MiB");
+  flags.AddInt("--max-samples-mib", &max_samples_mib, "largest encoded Samples a gather task may send, MiB");
+  flags.AddInt("--sample-cache-mib", &sample_cache_mib, "Sample cache size (compressed), MiB (0: unlimited)");
+  flags.AddInt("--sample-cache-compression", &compression_level, "Sample cache zlib level, 1 (fast) .. 9 (small)");
   flags.AddInt("--max-bundle-mib", &max_bundle_mib, "largest accepted bundle, MiB");
   flags.AddInt("--max-jobs-per-client", &max_jobs, "unfinished jobs per client, at most (0: no limit)");
-  flags.AddInt("--lease-seconds", &lease_seconds, "how long a worker's task lease lasts without renewal");
-  if (absl::Status s = flags.Parse(args); !s.ok()) {
-    std::fprintf(stderr, "mvbrdf server: %s\n", std::string(s.message()).c_str());
-    return kExitUsage;
-  }
+  flags.AddInt("--max-message-mib", &max_message_mib, "largest gRPC message, MiB");
+  flags.AddInt("--watch-poll-ms", &watch_poll_ms, "how often job watches re-read the store, ms");
+  if (absl::Status s = flags.Parse(args); !s.ok()) return UsageError(s);
   if (flags.help_requested()) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
-  o.data_dir = data_dir;
-  o.limits.max_bundle_bytes = static_cast<int64_t>(max_bundle_mib) << 20;
-  o.limits.max_jobs_per_client = max_jobs;
-  o.workers.lease_seconds = lease_seconds;
-  if (absl::Status s = o.Check(); !s.ok()) {
-    std::fprintf(stderr, "mvbrdf server: %s\n", std::string(s.message()).c_str());
-    return kExitUsage;
+
+  // One layer per changed flag, so that an error names the flag:
+  // "--lease-seconds: lease_seconds: must be in [1, ...], got 0".
+  struct Override {
+    std::string flag;
+    v1::ServerConfig config;
+  };
+  std::vector<Override> overrides;
+  auto changed = [&overrides](const char* flag) -> v1::ServerConfig& {
+    return overrides.emplace_back(Override{flag, {}}).config;
+  };
+  if (listen != listen0) changed("--listen").set_listen_address(listen);
+  if (data_dir != data_dir0) changed("--data").set_data_dir(data_dir);
+  struct IntFlag {
+    const char* name;
+    int value;
+    std::function<void(v1::ServerConfig&, uint64_t)> set;
+  };
+  const std::vector<IntFlag> ints = {
+      {"--lease-seconds", lease_seconds, [](v1::ServerConfig& c, uint64_t v) { c.set_lease_seconds(v); }},
+      {"--max-wait-seconds", max_wait_seconds, [](v1::ServerConfig& c, uint64_t v) { c.set_max_wait_seconds(v); }},
+      {"--poll-interval-ms", poll_interval_ms, [](v1::ServerConfig& c, uint64_t v) { c.set_poll_interval_ms(v); }},
+      {"--max-artifact-mib", max_artifact_mib,
+       [](v1::ServerConfig& c, uint64_t v) { c.set_max_artifact_bytes(v << 20); }},
+      {"--max-samples-mib", max_samples_mib,
+       [](v1::ServerConfig& c, uint64_t v) { c.set_max_samples_bytes(v << 20); }},
+      {"--sample-cache-mib", sample_cache_mib,
+       [](v1::ServerConfig& c, uint64_t v) { c.set_sample_cache_max_bytes(v << 20); }},
+      {"--sample-cache-compression", compression_level,
+       [](v1::ServerConfig& c, uint64_t v) { c.set_sample_cache_compression_level(v); }},
+      {"--max-bundle-mib", max_bundle_mib, [](v1::ServerConfig& c, uint64_t v) { c.set_max_bundle_bytes(v << 20); }},
+      {"--max-jobs-per-client", max_jobs, [](v1::ServerConfig& c, uint64_t v) { c.set_max_jobs_per_client(v); }},
+      {"--max-message-mib", max_message_mib,
+       [](v1::ServerConfig& c, uint64_t v) { c.set_max_message_bytes(v << 20); }},
+      {"--watch-poll-ms", watch_poll_ms, [](v1::ServerConfig& c, uint64_t v) { c.set_watch_poll_ms(v); }},
+  };
+  for (size_t i = 0; i < ints.size(); ++i) {
+    if (ints[i].value == ints0[i]) continue;
+    if (ints[i].value < 0) {
+      return UsageError(absl::InvalidArgumentError(
+          std::string(ints[i].name) + ": must be >= 0, got " + std::to_string(ints[i].value)));
+    }
+    ints[i].set(changed(ints[i].name), static_cast<uint64_t>(ints[i].value));
   }
+  for (const Override& layer : overrides) {
+    if (absl::Status s = server::ApplyServerConfig(layer.config, layer.flag, "", o); !s.ok()) return UsageError(s);
+  }
+  if (absl::Status s = o.Check(); !s.ok()) return UsageError(s);
+
   auto server = server::Server::Start(o);
   if (!server.ok()) return ReportFailure(server.status());
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
-  std::printf("listening on %s (data in %s)\n", (*server)->address().c_str(), data_dir.c_str());
+  std::printf("listening on %s (data in %s)\n", (*server)->address().c_str(), o.data_dir.string().c_str());
   std::fflush(stdout);
   while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   std::printf("shutting down\n");
