@@ -1,39 +1,220 @@
 // `mvbrdf run SCENE --out DIR`: the whole reconstruction (thesis ch. 5-7).
-#include <cstdio>
+// The embedded default: an in-process server and worker(s) run the job as
+// the service would (docs/service.md); --direct runs the library in this
+// thread instead. Both write the same DIR/result.json and DIR/atlases/.
+#include <stdlib.h>
+#include <unistd.h>
 
-#include "absl/strings/str_split.h"
+#include <chrono>
+#include <cstdio>
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+#include "client/bundle_upload.h"
 #include "client/commands.h"
+#include "client/embedded_service.h"
 #include "client/flags.h"
+#include "client/job_flags.h"
 #include "client/progress.h"
+#include "core/base/process_stats.h"
+#include "core/base/proto_json.h"
+#include "core/bundle/bundle.h"
 #include "core/gl/egl_context.h"
 #include "core/pipeline/reconstruct_stage.h"
 #include "core/scene/sequence.h"
+#include "worker/job_options.h"
 
 namespace mvbrdf::client {
+namespace {
+
+namespace fs = std::filesystem;
+
+void PrintReport(const v1::RunReport& report, const std::string& out) {
+  if (report.light_configurations_size() > 0) {
+    std::printf("\n%-32s %9s %11s %11s %8s\n", "configuration", "triangles", "E_a", "E_d", "seconds");
+    for (const auto& r : report.light_configurations()) {
+      std::printf("%-32s %9u %11.6f %11.6f %8.2f%s\n", r.name().c_str(), r.lit_triangles(), r.e_a(), r.e_d(),
+                  r.seconds(), r.name() == report.chosen_configuration() ? "  <- chosen" : "");
+    }
+  }
+  std::printf("\nconfiguration: %s", report.chosen_configuration().c_str());
+  if (report.light_configurations_size() > 1) {
+    std::printf(" (the next best E_d is %.1f %% higher)", 100.0 * report.configuration_margin());
+  }
+  std::printf("\n");
+  if (!report.configuration_warning().empty()) std::printf("warning: %s\n", report.configuration_warning().c_str());
+  if (report.solvers_size() > 0) {
+    std::printf("\n%-10s %-20s %-26s %-26s %-26s %12s %8s\n", "cluster", "solver", "kd (RGB)", "ks (RGB)", "ke (RGB)",
+                "cost", "seconds");
+    for (const auto& s : report.solvers()) {
+      std::printf("%-10s %-20s %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %8.2f %8.2f %8.2f %12.6g %8.3f\n",
+                  s.cluster().c_str(), s.solver().c_str(), s.kd(0), s.kd(1), s.kd(2), s.ks(0), s.ks(1), s.ks(2),
+                  s.ke(0), s.ke(1), s.ke(2), s.final_cost(), s.seconds());
+    }
+  }
+  if (report.cameras_size() > 0) {
+    std::printf("\n%-10s %12s %16s\n", "camera", "BRDF atlas", "correction atlas");
+    for (const auto& c : report.cameras()) {
+      std::printf("%-10s %12.6f %16.6f\n", c.name().c_str(), c.mse_brdf(), c.mse_correction());
+    }
+  }
+  std::printf("\n%u frames in %.1f s, peak memory %.0f MiB; wrote %s/result.json\n", report.frames(), report.seconds(),
+              report.peak_rss_bytes() / 1048576.0, out.c_str());
+}
+
+// Removes a temporary directory on every path out.
+class TempDir {
+ public:
+  explicit TempDir(fs::path path) : path_(std::move(path)) {}
+  ~TempDir() {
+    std::error_code ec;
+    if (!path_.empty()) fs::remove_all(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+int RunDirect(const scene::Sequence& sequence, const v1::SubmitJobRequest& request, gl::EglPlatform platform,
+              int threads, const std::string& out) {
+  absl::StatusOr<pipeline::ReconstructOptions> o = worker::ReconstructOptionsFor(request, threads);
+  if (!o.ok()) return ReportFailure(o.status(), "mvbrdf run");
+  o->out_dir = out;
+  auto context = gl::EglContext::Create(platform);
+  if (!context.ok()) return ReportFailure(context.status(), "mvbrdf run");
+  ProgressPrinter progress(stderr);
+  o->progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
+  auto report = pipeline::RunReconstruction(sequence, **context, *o);
+  if (!report.ok()) return ReportFailure(report.status(), "mvbrdf run");
+  PrintReport(*report, out);
+  return kExitOk;
+}
+
+// Follows the job's events to its end; progress on stderr. Returns the final state.
+absl::StatusOr<v1::JobState> FollowJob(v1::Mvbrdf::Stub& stub, const std::string& job_id, std::string* error) {
+  grpc::ClientContext context;
+  v1::WatchJobRequest request;
+  request.set_job_id(job_id);
+  std::unique_ptr<grpc::ClientReader<v1::JobEvent>> reader = stub.WatchJob(&context, request);
+  ProgressPrinter progress(stderr);
+  v1::JobEvent event;
+  v1::JobState state = v1::QUEUED;
+  while (reader->Read(&event)) {
+    if (event.has_progress()) {
+      progress.Update(event.progress().stage(), static_cast<int>(event.progress().fraction() * 100.0 + 0.5), 100);
+    } else if (event.has_state()) {
+      state = event.state();
+    } else if (event.has_failed()) {
+      *error = event.failed();
+    }
+    if (state == v1::SUCCEEDED || state == v1::FAILED || state == v1::CANCELLED) {
+      context.TryCancel();
+      break;
+    }
+  }
+  reader->Finish();
+  return state;
+}
+
+int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base, gl::EglPlatform platform,
+                int threads, int workers, const std::string& data_flag, const std::string& out) {
+  const auto start = std::chrono::steady_clock::now();
+  // The server's state: --data keeps it (and its Sample cache) across runs.
+  std::string temp_template = (fs::temp_directory_path() / "mvbrdf-run-XXXXXX").string();
+  fs::path data_dir = data_flag;
+  std::unique_ptr<TempDir> temp;
+  if (data_dir.empty()) {
+    if (mkdtemp(temp_template.data()) == nullptr) {
+      return ReportFailure(absl::UnavailableError("cannot create a temporary directory in " +
+                                                  fs::temp_directory_path().string()), "mvbrdf run");
+    }
+    data_dir = temp_template;
+    temp = std::make_unique<TempDir>(data_dir);
+  }
+  EmbeddedOptions eo;
+  eo.data_dir = data_dir;
+  eo.workers = workers;
+  eo.egl = platform;
+  eo.threads_per_worker = threads;
+  if (std::getenv("MVBRDF_VERBOSE") != nullptr) {
+    eo.log = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  }
+  auto service = EmbeddedService::Start(eo);
+  if (!service.ok()) return ReportFailure(service.status(), "mvbrdf run");
+  auto stub = v1::Mvbrdf::NewStub((*service)->channel());
+
+  v1::SubmitJobRequest request = base;
+  const fs::path archive = data_dir / "run-bundle.tar";
+  {
+    absl::StatusOr<bundle::BundleInfo> info = bundle::PackBundle(scene_file, archive);
+    if (!info.ok()) return ReportFailure(info.status(), "mvbrdf run");
+    UploadOutcome outcome;
+    absl::Status uploaded = UploadBundleFile(*stub, "run", archive, info->sha256, static_cast<uint64_t>(info->size),
+                                             nullptr, &outcome);
+    std::error_code ec;
+    fs::remove(archive, ec);
+    if (!uploaded.ok()) return ReportFailure(uploaded, "mvbrdf run");
+    request.set_bundle_sha256(info->sha256);
+    request.set_scene_path(fs::path(scene_file).filename().string());
+  }
+  v1::SubmitJobResponse submitted;
+  {
+    grpc::ClientContext context;
+    context.AddMetadata("x-mvbrdf-client", "run");
+    const grpc::Status status = stub->SubmitJob(&context, request, &submitted);
+    if (!status.ok()) {
+      std::fprintf(stderr, "mvbrdf run: error: %s\n", status.error_message().c_str());
+      return ExitCodeForRpc(status.error_code());
+    }
+  }
+  std::string error;
+  absl::StatusOr<v1::JobState> state = FollowJob(*stub, submitted.job().id(), &error);
+  if (!state.ok()) return ReportFailure(state.status(), "mvbrdf run");
+  if (*state != v1::SUCCEEDED) {
+    std::fprintf(stderr, "mvbrdf run: error: %s\n", error.empty() ? "the job did not succeed" : error.c_str());
+    return *state == v1::CANCELLED ? kExitJobCancelled : kExitJobFailed;
+  }
+  absl::StatusOr<std::vector<std::string>> copied = (*service)->CopyArtifacts(submitted.job().id(), out);
+  if (!copied.ok()) return ReportFailure(copied.status(), "mvbrdf run");
+  // result.json as a one-process run writes it: the user's scene path, the
+  // whole run's time and memory.
+  v1::RunReport report;
+  if (absl::Status s = ReadJsonFile(fs::path(out) / "result.json", &report); !s.ok()) {
+    return ReportFailure(s, "mvbrdf run");
+  }
+  report.set_scene(scene_file);
+  report.set_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  report.set_peak_rss_bytes(PeakRssBytes());
+  if (absl::Status s = WriteJsonFile(fs::path(out) / "result.json", report); !s.ok()) {
+    return ReportFailure(s, "mvbrdf run");
+  }
+  PrintReport(report, out);
+  return kExitOk;
+}
+
+}  // namespace
 
 int RunRun(const std::vector<std::string>& args) {
-  std::string scene_file, out, egl = "auto", outputs = "light,brdf,correction,errors";
-  pipeline::ReconstructOptions o;
-  bool no_powell = false;
-  int cluster_samples = static_cast<int>(o.max_cluster_samples);
+  std::string scene_file, out, egl = "auto", data_dir;
+  JobFlags job;
+  int threads = 2, workers = 1;
+  bool direct = false;
   FlagParser flags("run",
                    "Reconstructs a spatially varying Phong BRDF from the scene: resamples every frame into the\n"
                    "texture atlas, sweeps the candidate light configurations (Table 6.1), clusters texels into\n"
                    "materials and fits one BRDF per cluster (Table 6.2), solves kd per texel, writes kd/ks/ke,\n"
                    "cluster, confidence and per-frame correction atlases and the per-camera errors (Table 7.1)\n"
                    "to DIR/result.json and DIR/atlases/. Only the stages the scene and --outputs need run; the\n"
-                   "plan says which were skipped and why.");
+                   "plan says which were skipped and why. Runs as the service would, on an in-process server\n"
+                   "and --workers workers (no set-up); --direct runs the pipeline in one thread instead.");
   flags.AddPositional("SCENE", &scene_file, true, "the scene JSON file");
   flags.AddString("--out", &out, "output directory (required)");
-  flags.AddString("--outputs", &outputs, "comma-separated: light (Table 6.1), brdf (atlases), correction, errors");
-  flags.AddString("--config", &o.request.configuration, "a known light configuration: skips the sweep");
-  flags.AddBool("--no-powell", &no_powell, "skip the Powell comparison (Table 6.2)");
-  flags.AddInt("--atlas", &o.atlas.size, "atlas resolution in texels per side");
-  flags.AddInt("--cluster-samples", &cluster_samples, "Samples per cluster fit, at most");
-  flags.AddInt("--sweep-frame-stride", &o.sweep_frame_stride, "use every n-th frame for the light sweep");
-  flags.AddInt("--max-iterations", &o.fit.max_iterations, "iterations of each BRDF fit, at most");
-  flags.AddInt("--grow", &o.grow_iterations, "dilation iterations of the written atlases");
-  flags.AddInt("--threads", &o.threads, "threads for the light sweep");
+  AddJobFlags(flags, &job);
+  flags.AddInt("--threads", &threads, "threads per worker (light sweep)");
+  flags.AddInt("--workers", &workers, "in-process workers, each with its own EGL context");
+  flags.AddString("--data", &data_dir, "keep the in-process server's state (and Sample cache) here (default: temporary)");
+  flags.AddBool("--direct", &direct, "run the pipeline directly, without the in-process service");
   flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf run: %s\n", std::string(s.message()).c_str());
@@ -43,84 +224,30 @@ int RunRun(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
-  o.request.light_table = o.request.brdf_atlases = o.request.correction = o.request.camera_errors = false;
-  absl::Status usage = absl::OkStatus();
-  for (absl::string_view part : absl::StrSplit(outputs, ',', absl::SkipEmpty())) {
-    if (part == "light") o.request.light_table = true;
-    else if (part == "brdf") o.request.brdf_atlases = true;
-    else if (part == "correction") o.request.correction = true;
-    else if (part == "errors") o.request.camera_errors = true;
-    else usage = absl::InvalidArgumentError("--outputs: expected light, brdf, correction or errors, got \"" +
-                                            std::string(part) + "\"");
-  }
-  o.request.compare_solvers = !no_powell;
+  v1::SubmitJobRequest request;
+  absl::Status usage = ToSubmitRequest(job, &request);
   auto platform = gl::ParseEglPlatform(egl);
   if (usage.ok()) usage = platform.status();
   if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");
-  if (usage.ok() && (o.atlas.size < 16 || o.atlas.size > 16384)) {
-    usage = absl::InvalidArgumentError("--atlas: must be in [16, 16384], got " + std::to_string(o.atlas.size));
-  }
-  if (usage.ok() && cluster_samples < 10) usage = absl::InvalidArgumentError("--cluster-samples: must be >= 10");
-  if (usage.ok() && o.sweep_frame_stride < 1) usage = absl::InvalidArgumentError("--sweep-frame-stride: must be >= 1");
-  if (usage.ok() && (o.threads < 1 || o.threads > 64)) usage = absl::InvalidArgumentError("--threads: must be in [1, 64]");
-  if (usage.ok()) usage = o.fit.Check();
+  if (usage.ok() && (threads < 1 || threads > 64)) usage = absl::InvalidArgumentError("--threads: must be in [1, 64]");
+  if (usage.ok() && (workers < 1 || workers > 16)) usage = absl::InvalidArgumentError("--workers: must be in [1, 16]");
   if (!usage.ok()) {
     std::fprintf(stderr, "mvbrdf run: %s\n", std::string(usage.message()).c_str());
     return kExitUsage;
   }
-  o.max_cluster_samples = static_cast<size_t>(cluster_samples);
-  o.out_dir = out;
 
   scene::LoadOptions load;
   load.check_all_frames = false;  // each frame is checked when it is read
   auto sequence = scene::LoadSequence(scene_file, load);
   if (!sequence.ok()) return ReportFailure(sequence.status());
-  auto plan = pipeline::MakePlan(*sequence, o.request);
+  auto options = worker::ReconstructOptionsFor(request, threads);
+  if (!options.ok()) return ReportFailure(options.status());
+  auto plan = pipeline::MakePlan(*sequence, options->request);
   if (!plan.ok()) return ReportFailure(plan.status());
   std::fputs(plan->Describe().c_str(), stdout);
-  auto context = gl::EglContext::Create(*platform);
-  if (!context.ok()) {
-    std::fprintf(stderr, "mvbrdf run: error: %s\n", std::string(context.status().message()).c_str());
-    return kExitEnvironment;
-  }
-  ProgressPrinter progress(stderr);
-  o.progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
-  auto report = pipeline::RunReconstruction(*sequence, **context, o);
-  if (!report.ok()) return ReportFailure(report.status());
-
-  if (report->light_configurations_size() > 0) {
-    std::printf("\n%-32s %9s %11s %11s %8s\n", "configuration", "triangles", "E_a", "E_d", "seconds");
-    for (const auto& r : report->light_configurations()) {
-      std::printf("%-32s %9u %11.6f %11.6f %8.2f%s\n", r.name().c_str(), r.lit_triangles(), r.e_a(), r.e_d(),
-                  r.seconds(), r.name() == report->chosen_configuration() ? "  <- chosen" : "");
-    }
-  }
-  std::printf("\nconfiguration: %s", report->chosen_configuration().c_str());
-  if (report->light_configurations_size() > 1) {
-    std::printf(" (the next best E_d is %.1f %% higher)", 100.0 * report->configuration_margin());
-  }
-  std::printf("\n");
-  if (!report->configuration_warning().empty()) {
-    std::printf("warning: %s\n", report->configuration_warning().c_str());
-  }
-  if (report->solvers_size() > 0) {
-    std::printf("\n%-10s %-20s %-26s %-26s %-26s %12s %8s\n", "cluster", "solver", "kd (RGB)", "ks (RGB)", "ke (RGB)",
-                "cost", "seconds");
-    for (const auto& s : report->solvers()) {
-      std::printf("%-10s %-20s %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %8.2f %8.2f %8.2f %12.6g %8.3f\n",
-                  s.cluster().c_str(), s.solver().c_str(), s.kd(0), s.kd(1), s.kd(2), s.ks(0), s.ks(1), s.ks(2),
-                  s.ke(0), s.ke(1), s.ke(2), s.final_cost(), s.seconds());
-    }
-  }
-  if (report->cameras_size() > 0) {
-    std::printf("\n%-10s %12s %16s\n", "camera", "BRDF atlas", "correction atlas");
-    for (const auto& c : report->cameras()) {
-      std::printf("%-10s %12.6f %16.6f\n", c.name().c_str(), c.mse_brdf(), c.mse_correction());
-    }
-  }
-  std::printf("\n%u frames in %.1f s, peak memory %.0f MiB; wrote %s/result.json\n", report->frames(),
-              report->seconds(), report->peak_rss_bytes() / 1048576.0, out.c_str());
-  return kExitOk;
+  std::fflush(stdout);
+  if (direct) return RunDirect(*sequence, request, *platform, threads, out);
+  return RunEmbedded(scene_file, request, *platform, threads, workers, data_dir, out);
 }
 
 }  // namespace mvbrdf::client

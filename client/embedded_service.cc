@@ -1,0 +1,83 @@
+#include "client/embedded_service.h"
+
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
+
+namespace mvbrdf::client {
+
+namespace fs = std::filesystem;
+
+std::shared_ptr<grpc::Channel> ServiceChannel(const std::string& address) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(16 << 20);
+  return grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+}
+
+absl::StatusOr<std::unique_ptr<EmbeddedService>> EmbeddedService::Start(const EmbeddedOptions& options) {
+  if (options.workers < 0 || options.workers > 64) {
+    return absl::InvalidArgumentError(absl::StrCat("workers: must be in [0, 64], got ", options.workers));
+  }
+  auto service = std::unique_ptr<EmbeddedService>(new EmbeddedService());
+  service->options_ = options;
+  server::ServerOptions so = options.server;
+  so.listen_address = "127.0.0.1:0";
+  so.data_dir = options.data_dir;
+  MVBRDF_ASSIGN_OR_RETURN(service->server_, server::Server::Start(so));
+  service->channel_ = ServiceChannel(service->server_->address());
+  for (int i = 0; i < options.workers; ++i) service->AddWorker();
+  return service;
+}
+
+void EmbeddedService::AddWorker() {
+  const int i = static_cast<int>(workers_.size());
+  worker::WorkerOptions wo;
+  wo.channel = channel_;
+  wo.name = absl::StrCat("in-process-", i);
+  wo.cache_dir = options_.data_dir / absl::StrCat("worker-", i);
+  wo.egl = options_.egl;
+  wo.threads = options_.threads_per_worker;
+  wo.wait_seconds = 2;
+  if (options_.log) {
+    wo.log = [log = options_.log, name = wo.name](const std::string& line) { log(absl::StrCat("worker ", name, ": ", line)); };
+  }
+  workers_.push_back(std::make_unique<worker::Worker>(wo));
+  worker::Worker* w = workers_.back().get();
+  auto log = options_.log;
+  threads_.emplace_back([w, log, name = wo.name] {
+    const absl::Status ran = w->Run();
+    if (!ran.ok() && log) log(absl::StrCat("worker ", name, " stopped: ", ran.message()));
+  });
+}
+
+EmbeddedService::~EmbeddedService() {
+  for (auto& w : workers_) w->Stop();
+  for (std::thread& t : threads_) t.join();
+  if (server_ != nullptr) server_->Shutdown(2.0);
+}
+
+absl::StatusOr<std::vector<std::string>> EmbeddedService::CopyArtifacts(const std::string& job_id,
+                                                                        const fs::path& out_dir) {
+  MVBRDF_ASSIGN_OR_RETURN(const std::vector<store::Artifact> artifacts,
+                          server_->artifacts().ArtifactsOfJob(job_id));
+  std::vector<std::string> names;
+  for (const store::Artifact& a : artifacts) {
+    const fs::path name(a.name);
+    bool parent = false;
+    for (const fs::path& part : name) parent = parent || part == "..";
+    if (a.name.empty() || name.has_root_path() || parent) {
+      return absl::InvalidArgumentError(absl::StrCat("artifact \"", a.name, "\": not a relative path inside the output"));
+    }
+    MVBRDF_ASSIGN_OR_RETURN(const fs::path source, server_->artifacts().OpenVerified(a.sha256));
+    const fs::path target = out_dir / a.name;
+    std::error_code ec;
+    fs::create_directories(target.parent_path(), ec);
+    fs::copy_file(source, target, fs::copy_options::overwrite_existing, ec);
+    if (ec) return absl::FailedPreconditionError(absl::StrCat(target.string(), ": cannot write: ", ec.message()));
+    names.push_back(a.name);
+  }
+  return names;
+}
+
+}  // namespace mvbrdf::client

@@ -1,0 +1,66 @@
+#include "client/job_flags.h"
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+
+namespace mvbrdf::client {
+
+void AddJobFlags(FlagParser& flags, JobFlags* job) {
+  flags.AddString("--outputs", &job->outputs, "comma-separated: light (Table 6.1), brdf (atlases), correction, errors");
+  flags.AddString("--config", &job->configuration, "a known light configuration: skips the sweep");
+  flags.AddString("--candidates", &job->candidates,
+                  "configurations to sweep, separated by ';' (default: every configuration of the scene)");
+  flags.AddBool("--no-powell", &job->no_powell, "skip the Powell comparison (Table 6.2)");
+  flags.AddInt("--atlas", &job->atlas, "atlas resolution in texels per side");
+  flags.AddInt("--cluster-samples", &job->cluster_samples, "Samples per cluster fit, at most");
+  flags.AddInt("--max-iterations", &job->max_iterations, "iterations of each BRDF fit, at most");
+  flags.AddInt("--sweep-frame-stride", &job->sweep_frame_stride, "use every n-th frame for the light sweep");
+  flags.AddInt("--grow", &job->grow, "dilation iterations of the written atlases");
+}
+
+absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request) {
+  request->clear_outputs();
+  for (absl::string_view part : absl::StrSplit(job.outputs, ',', absl::SkipEmpty())) {
+    if (part == "light") request->add_outputs(v1::OUTPUT_LIGHT_TABLE);
+    else if (part == "brdf") request->add_outputs(v1::OUTPUT_BRDF_ATLASES);
+    else if (part == "correction") request->add_outputs(v1::OUTPUT_CORRECTION);
+    else if (part == "errors") request->add_outputs(v1::OUTPUT_CAMERA_ERRORS);
+    else {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--outputs: expected light, brdf, correction or errors, got \"", part, "\""));
+    }
+  }
+  if (request->outputs_size() == 0) return absl::InvalidArgumentError("--outputs: name at least one output");
+  // Configuration names contain commas ("NE,NW,SE,SW"), so candidates are
+  // separated by semicolons.
+  request->clear_configurations();
+  for (absl::string_view name : absl::StrSplit(job.candidates, ';', absl::SkipEmpty())) {
+    request->add_configurations(std::string(name));
+  }
+  request->set_configuration(job.configuration);
+  if (job.atlas < 16 || job.atlas > 16384) {
+    return absl::InvalidArgumentError(absl::StrCat("--atlas: must be in [16, 16384], got ", job.atlas));
+  }
+  if (job.cluster_samples < 10) {
+    return absl::InvalidArgumentError(absl::StrCat("--cluster-samples: must be >= 10, got ", job.cluster_samples));
+  }
+  if (job.max_iterations < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("--max-iterations: must be >= 1, got ", job.max_iterations));
+  }
+  if (job.sweep_frame_stride < 1) {
+    return absl::InvalidArgumentError(absl::StrCat("--sweep-frame-stride: must be >= 1, got ", job.sweep_frame_stride));
+  }
+  if (job.grow < 0 || job.grow > 1000) {
+    return absl::InvalidArgumentError(absl::StrCat("--grow: must be in [0, 1000], got ", job.grow));
+  }
+  v1::FittingOptions* o = request->mutable_options();
+  o->set_atlas_size(static_cast<uint32_t>(job.atlas));
+  o->set_max_cluster_samples(static_cast<uint64_t>(job.cluster_samples));
+  o->set_max_iterations(static_cast<uint32_t>(job.max_iterations));
+  o->set_compare_solvers(!job.no_powell);
+  o->set_sweep_frame_stride(static_cast<uint32_t>(job.sweep_frame_stride));
+  o->set_grow_iterations(static_cast<uint32_t>(job.grow));
+  return absl::OkStatus();
+}
+
+}  // namespace mvbrdf::client

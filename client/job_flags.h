@@ -1,0 +1,34 @@
+// The flags that describe a job (what to compute and how), shared by
+// `mvbrdf run` and `mvbrdf submit`, and the v1::SubmitJobRequest they make.
+#ifndef MVBRDF_CLIENT_JOB_FLAGS_H_
+#define MVBRDF_CLIENT_JOB_FLAGS_H_
+
+#include <string>
+
+#include "absl/status/status.h"
+#include "client/flags.h"
+#include "mvbrdf/v1/service.pb.h"
+
+namespace mvbrdf::client {
+
+struct JobFlags {
+  std::string outputs = "light,brdf,correction,errors";
+  std::string configuration;   // --config: a known configuration, no sweep
+  std::string candidates;      // --candidates: comma-separated configurations to sweep
+  bool no_powell = false;
+  int atlas = 512;
+  int cluster_samples = 100000;
+  int max_iterations = 100;
+  int sweep_frame_stride = 1;
+  int grow = 2;
+};
+
+void AddJobFlags(FlagParser& flags, JobFlags* job);
+
+// INVALID_ARGUMENT naming the flag for a value out of range or an unknown
+// output. Sets everything but bundle_sha256 and scene_path.
+absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request);
+
+}  // namespace mvbrdf::client
+
+#endif  // MVBRDF_CLIENT_JOB_FLAGS_H_
