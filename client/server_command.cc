@@ -103,8 +103,9 @@ int RunServer(const std::vector<std::string>& args) {
   auto changed = [&overrides](const char* flag) -> v1::ServerConfig& {
     return overrides.emplace_back(Override{flag, {}}).config;
   };
-  if (listen != listen0) changed("--listen").set_listen_address(listen);
-  if (data_dir != data_dir0) changed("--data").set_data_dir(data_dir);
+  // Strings need no range checks: ServerOptions::Check names the flag.
+  if (listen != listen0) o.listen_address = listen;
+  if (data_dir != data_dir0) o.data_dir = data_dir;
   struct IntFlag {
     const char* name;
     int value;
