@@ -6,8 +6,16 @@
 namespace mvbrdf::server {
 
 std::string TriangleSampleOptions(const v1::SubmitJobRequest& request) {
-  const unsigned atlas_size = request.options().atlas_size() == 0 ? kDefaultAtlasSize : request.options().atlas_size();
-  return absl::StrCat("triangle-samples/v1;atlas_size=", atlas_size);
+  const v1::FittingOptions& options = request.options();
+  const unsigned atlas_size = options.atlas_size() == 0 ? kDefaultAtlasSize : options.atlas_size();
+  std::string text = absl::StrCat("triangle-samples/v1;atlas_size=", atlas_size);
+  // Only non-default values are named, so the common key stays the short one.
+  if (options.sweep_frame_stride() > 1) absl::StrAppend(&text, ";sweep_frame_stride=", options.sweep_frame_stride());
+  // Empty and "scene.json" name the same file (BundleArea::UnpackedScene).
+  if (!request.scene_path().empty() && request.scene_path() != "scene.json") {
+    absl::StrAppend(&text, ";scene_path=", request.scene_path());
+  }
+  return text;
 }
 
 store::SampleKey TriangleSampleKey(const std::string& bundle_sha256, const v1::SubmitJobRequest& request) {

@@ -3,9 +3,11 @@
 //
 // A gather task resamples every candidate light of the scene at once, so one
 // entry serves every light configuration of the sweep: the configuration part
-// of the key is "*". The options part hashes exactly the request options that
-// change the triangle Samples (today the atlas size); adding one means a new
-// "triangle-samples/vN" prefix, so old entries are never misread.
+// of the key is "*". The options part hashes exactly the request fields that
+// change the triangle Samples (pipeline::GatherTriangleSamples): the atlas
+// size, the sweep frame stride and the scene file inside the bundle. Adding
+// one that changes existing keys means a new "triangle-samples/vN" prefix,
+// so old entries are never misread.
 #ifndef MVBRDF_SERVER_WORKERS_API_SAMPLE_KEY_H_
 #define MVBRDF_SERVER_WORKERS_API_SAMPLE_KEY_H_
 
@@ -24,7 +26,9 @@ inline constexpr int kTriangleSampleLevel = 0;
 inline constexpr unsigned kDefaultAtlasSize = 512;
 
 // The text whose SHA-256 is SampleKey::options_hash:
-// "triangle-samples/v1;atlas_size=N".
+// "triangle-samples/v1;atlas_size=N" (N: 512 for 0), then
+// ";sweep_frame_stride=S" when S > 1 and ";scene_path=P" when P is neither
+// empty nor "scene.json".
 std::string TriangleSampleOptions(const v1::SubmitJobRequest& request);
 
 // The cache key of the triangle Samples of `bundle_sha256` under `request`.

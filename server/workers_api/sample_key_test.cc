@@ -38,5 +38,18 @@ TEST(TriangleSampleKeyTest, OneEntryPerBundleAndAtlasSizeForEveryConfiguration) 
   EXPECT_NE(TriangleSampleKey(std::string(64, 'c'), request).ToString(), key.ToString());
 }
 
+TEST(TriangleSampleKeyTest, FrameStrideAndSceneFileChangeTheKey) {
+  v1::SubmitJobRequest request;
+  request.set_scene_path("scene.json");  // the default file, named
+  request.mutable_options()->set_sweep_frame_stride(1);
+  EXPECT_EQ(TriangleSampleOptions(request), "triangle-samples/v1;atlas_size=512");
+  request.mutable_options()->set_sweep_frame_stride(4);
+  EXPECT_EQ(TriangleSampleOptions(request), "triangle-samples/v1;atlas_size=512;sweep_frame_stride=4");
+  request.set_scene_path("takes/b.json");
+  EXPECT_EQ(TriangleSampleOptions(request),
+            "triangle-samples/v1;atlas_size=512;sweep_frame_stride=4;scene_path=takes/b.json");
+  EXPECT_EQ(TriangleSampleKey(kBundle, request).options_hash, store::Sha256Hex(TriangleSampleOptions(request)));
+}
+
 }  // namespace
 }  // namespace mvbrdf::server
