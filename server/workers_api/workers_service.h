@@ -14,6 +14,13 @@
 // in the cache. Workers download bundles with FetchBundle and the cached
 // Samples with FetchSamples.
 //
+// A gather result is refused (INVALID_ARGUMENT, the lease kept) unless the
+// complete Samples came first on the same stream and GatherResult.
+// samples_sha256 is their digest. Samples larger than the whole Sample cache
+// (Put's RESOURCE_EXHAUSTED) fail the attempt at once (FailTask with a reason
+// naming sample_cache_max_bytes) and the report answers RESOURCE_EXHAUSTED:
+// completing the gather would only let every sweep fail on FetchSamples.
+//
 // Long polls: a LeaseTask call that finds nothing to do is parked (its
 // ServerUnaryReactor kept in a queue) instead of blocking a gRPC thread. One
 // background "poller" thread owned by the service serves every parked call in
