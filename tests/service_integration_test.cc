@@ -172,8 +172,8 @@ TEST_F(ServiceIntegrationTest, SubmitWatchFetchEqualsADirectLibraryRun) {
     if (e.has_artifact()) ++artifacts;
     if (e.has_progress()) ++progress;
   }
-  // 8 sweeps, choose, reflectance, and gather unless it was leased before the watch began.
-  EXPECT_GE(started, 8 + 1 + 1);
+  // gather (replayed when it was leased before the watch began), 8 sweeps, choose, reflectance.
+  EXPECT_EQ(started, 1 + 8 + 1 + 1);
   EXPECT_GE(finished, 11);
   EXPECT_GT(progress, 0);
   EXPECT_GT(artifacts, 5);

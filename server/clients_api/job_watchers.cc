@@ -13,6 +13,7 @@ namespace {
 struct Seen {
   store::JobState state = store::JobState::kQueued;
   std::set<std::string> done_tasks;
+  std::set<std::string> started_tasks;
 };
 
 struct Snapshot {
@@ -32,7 +33,8 @@ absl::StatusOr<Snapshot> TakeSnapshot(store::JobStore& jobs, const std::string& 
 }
 
 // The events that take a client from `seen` to `now` (updating `seen`):
-// a StageFinished per newly done task, then the state when it changed (and
+// (initial only) a StageStarted per task leased so far, a StageFinished per
+// newly done task, then the state when it changed (and
 // the reason after FAILED). `initial`: the state is sent even if unchanged.
 std::vector<v1::JobEvent> Diff(Seen& seen, const Snapshot& now, bool initial, int64_t now_ms) {
   std::vector<v1::JobEvent> events;
@@ -43,6 +45,14 @@ std::vector<v1::JobEvent> Diff(Seen& seen, const Snapshot& now, bool initial, in
     return e;
   };
   for (const store::Task& task : now.tasks) {
+    // A watch that joins late learns which tasks started, and on which
+    // worker; later starts arrive from the workers' service via Push.
+    if (initial && !task.lease_owner.empty() && seen.started_tasks.insert(task.id).second) {
+      v1::StageStarted* started = event().mutable_stage_started();
+      started->set_stage(task.kind);
+      started->set_task_id(task.id);
+      started->set_worker(task.lease_owner);
+    }
     if (task.state != store::TaskState::kDone || !seen.done_tasks.insert(task.id).second) continue;
     // The time of the last lease; workers forward their own StageFinished
     // (with their times and metrics) via Push.

@@ -2,6 +2,7 @@
 //
 // Each watch is a ServerWriteReactor (one per RPC, owned by gRPC until
 // OnDone). It first replays the job's current state (its state, a
+// StageStarted naming the worker for every task leased so far, a
 // StageFinished for every task done so far, the reason when failed), then
 // follows the job: one poller thread (owned here) reads the store every
 // `poll_interval` for every watched job and sends a JobState event when the
