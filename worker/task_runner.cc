@@ -78,7 +78,7 @@ absl::StatusOr<TaskOutput> Sweep(const v1::Task& task, const scene::Sequence& se
       const fit::SweepResult sweep,
       fit::SweepConfigurations(*set, sequence.topology.triangles.size(),
                                {{config->name(), {config->lights().begin(), config->lights().end()}}}, o.fit,
-                               o.diffuse, 1, o.sweep_fit_samples));
+                               o.diffuse, env.threads, o.sweep_fit_samples));
   v1::LightConfigurationRow row;
   pipeline::SweepRowToProto(sweep.rows.at(0), &row);
   TaskOutput out;
@@ -104,19 +104,27 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
   MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, ReportHeader(sequence, o.request));
   if (env.gl != nullptr) report.set_gl_renderer(env.gl->Describe());
-  double seconds = 0.0;
+  // The sweep's wall time: from the first sweep task's start to the last
+  // one's end, whichever workers ran them (the sum of the rows' seconds when
+  // the inputs carry no times).
+  double sum = 0.0;
+  int64_t first_start = 0, last_end = 0;
   for (int i = 0; i < task.inputs_size(); ++i) {
+    const v1::TaskInput& input = task.inputs(i);
     v1::LightConfigurationRow* row = report.add_light_configurations();
-    if (task.inputs(i).kind() != "sweep" || !row->ParseFromString(task.inputs(i).result())) {
+    if (input.kind() != "sweep" || !row->ParseFromString(input.result())) {
       return absl::InvalidArgumentError(absl::StrCat("inputs[", i, "]: expected a sweep task's row"));
     }
-    seconds += row->seconds();
+    sum += row->seconds();
+    if (input.started_unix_ms() > 0 && (first_start == 0 || input.started_unix_ms() < first_start)) {
+      first_start = input.started_unix_ms();
+    }
+    last_end = std::max(last_end, input.finished_unix_ms());
   }
   MVBRDF_RETURN_IF_ERROR(pipeline::ChooseConfiguration(&report));
-  // The sweep's stage: its configurations' fitting time, whichever workers ran them.
   v1::StageRow* stage = report.add_stages();
   stage->set_name("light_sweep");
-  stage->set_seconds(seconds);
+  stage->set_seconds(first_start > 0 && last_end >= first_start ? (last_end - first_start) / 1000.0 : sum);
   TaskOutput out;
   out.metrics["configurations"] = report.light_configurations_size();
   out.metrics["configuration_margin"] = report.configuration_margin();

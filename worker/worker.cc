@@ -23,6 +23,9 @@ using SteadyClock = std::chrono::steady_clock;
 
 constexpr size_t kChunkBytes = size_t{1} << 20;
 
+// Tasks that render or resample need the EGL context; the others are CPU only.
+bool UsesGl(const std::string& kind) { return kind != "sweep" && kind != "choose"; }
+
 absl::Status FromGrpc(const grpc::Status& status, absl::string_view what) {
   if (status.ok()) return absl::OkStatus();
   return absl::Status(static_cast<absl::StatusCode>(status.error_code()),
@@ -236,7 +239,50 @@ absl::Status Worker::Run() {
     return read;
   });
 
+  // GL tasks (gather, reflectance) run here, on the context's thread, one at
+  // a time; CPU-only tasks (sweep, choose) run on their own threads, up to
+  // `threads` at once, so one worker sweeps configurations in parallel.
+  const int max_cpu_tasks = std::max(1, options_.threads);
+  std::mutex slots_mu;
+  std::condition_variable slots_cv;
+  int running_cpu_tasks = 0;  // guarded by slots_mu
+  struct CpuTask {
+    std::thread thread;
+    std::shared_ptr<std::atomic<bool>> done;
+  };
+  std::vector<CpuTask> cpu_tasks;
+  const auto join_finished = [&cpu_tasks](bool all) {
+    for (auto it = cpu_tasks.begin(); it != cpu_tasks.end();) {
+      if (all || *it->done) {
+        it->thread.join();
+        it = cpu_tasks.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  };
+  const auto run_one = [this, &stub, &cache](const v1::Task& task, gl::EglContext& gl) {
+    Log(absl::StrCat("leased ", task.kind(), task.key().empty() ? "" : absl::StrCat("[", task.key(), "]"),
+                     " of job ", task.job_id()));
+    const auto start = SteadyClock::now();
+    const absl::Status ran = RunLeased(*stub, task, gl, cache);
+    const double seconds = std::chrono::duration<double>(SteadyClock::now() - start).count();
+    if (ran.ok()) {
+      Log(absl::StrCat(task.kind(), " done in ", seconds, " s"));
+    } else {
+      Log(absl::StrCat(task.kind(), " ended: ", ran.message()));
+    }
+    ++tasks_run_;
+  };
+
   while (!stop_) {
+    join_finished(false);
+    {
+      std::unique_lock<std::mutex> lock(slots_mu);
+      slots_cv.wait(lock, [&] { return running_cpu_tasks < max_cpu_tasks || stop_; });
+      if (options_.max_tasks > 0 && tasks_run_ + running_cpu_tasks >= options_.max_tasks) break;
+    }
+    if (stop_) break;
     grpc::ClientContext rpc;
     rpc.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(options_.wait_seconds + 30));
     {
@@ -253,7 +299,10 @@ absl::Status Worker::Run() {
       std::lock_guard<std::mutex> lock(mu_);
       poll_ = nullptr;
     }
-    if (stop_) break;
+    if (stop_) {
+      // A task leased as we stopped goes back when its lease expires.
+      break;
+    }
     if (!status.ok()) {
       if (status.error_code() == grpc::StatusCode::NOT_FOUND ||
           status.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {
@@ -264,6 +313,7 @@ absl::Status Worker::Run() {
       if (status.error_code() != grpc::StatusCode::UNAVAILABLE &&
           status.error_code() != grpc::StatusCode::DEADLINE_EXCEEDED &&
           status.error_code() != grpc::StatusCode::CANCELLED) {
+        join_finished(true);
         return FromGrpc(status, "LeaseTask");
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -271,25 +321,36 @@ absl::Status Worker::Run() {
     }
     if (!response.has_task()) continue;
     const v1::Task& task = response.task();
-    Log(absl::StrCat("leased ", task.kind(), task.key().empty() ? "" : absl::StrCat("[", task.key(), "]"), " of job ",
-                     task.job_id()));
-    const auto start = SteadyClock::now();
-    const absl::Status ran = RunLeased(*stub, task, *context, cache);
-    const double seconds = std::chrono::duration<double>(SteadyClock::now() - start).count();
-    if (ran.ok()) {
-      Log(absl::StrCat(task.kind(), " done in ", seconds, " s"));
-    } else {
-      Log(absl::StrCat(task.kind(), " ended: ", ran.message()));
+    if (!UsesGl(task.kind())) {
+      {
+        std::lock_guard<std::mutex> lock(slots_mu);
+        ++running_cpu_tasks;
+      }
+      auto done = std::make_shared<std::atomic<bool>>(false);
+      cpu_tasks.push_back({std::thread([&, task, done] {
+                             run_one(task, *context);
+                             {
+                               std::lock_guard<std::mutex> lock(slots_mu);
+                               --running_cpu_tasks;
+                             }
+                             *done = true;
+                             slots_cv.notify_all();
+                           }),
+                           done});
+      continue;
     }
-    ++tasks_run_;
-    if (options_.max_tasks > 0 && tasks_run_ >= options_.max_tasks) break;
+    run_one(task, *context);
   }
+  join_finished(true);
   return absl::OkStatus();
 }
 
 absl::StatusOr<std::shared_ptr<const samples::SampleSet>> Worker::FetchSamples(v1::Workers::Stub& stub,
                                                                                const v1::Task& task,
                                                                                const v1::GatherResult& gathered) {
+  // One download at a time: concurrent sweeps of a job wait for the first
+  // and share its Samples.
+  std::lock_guard<std::mutex> lock(samples_mu_);
   if (samples_ != nullptr && !gathered.samples_sha256().empty() && gathered.samples_sha256() == samples_sha256_) {
     return samples_;
   }
@@ -344,8 +405,11 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
 
   const auto start = SteadyClock::now();
   absl::StatusOr<TaskOutput> output = [&]() -> absl::StatusOr<TaskOutput> {
-    MVBRDF_ASSIGN_OR_RETURN(std::shared_ptr<const scene::Sequence> sequence,
-                            cache.Sequence(task.bundle_sha256(), task.request().scene_path()));
+    std::shared_ptr<const scene::Sequence> sequence;
+    {
+      std::lock_guard<std::mutex> lock(cache_mu_);
+      MVBRDF_ASSIGN_OR_RETURN(sequence, cache.Sequence(task.bundle_sha256(), task.request().scene_path()));
+    }
     return RunTask(task, *sequence, env);
   }();
   const double seconds = std::chrono::duration<double>(SteadyClock::now() - start).count();

@@ -10,6 +10,11 @@
 // cancelled or failed) stops the task at its next frame; the server has
 // already given it to someone else, so nothing is reported.
 //
+// GL tasks (gather, reflectance) run one at a time on Run()'s thread, which
+// owns the EGL context; CPU-only tasks (sweep, choose) run beside each other
+// on their own threads, up to `threads` at once, so a worker sweeps several
+// configurations in parallel.
+//
 // Threading: Run() on one thread (the EGL context is created current on it);
 // Stop() from any thread.
 #ifndef MVBRDF_WORKER_WORKER_H_
@@ -37,7 +42,7 @@ struct WorkerOptions {
   std::string name;                   // for people: who ran a task
   std::filesystem::path cache_dir;    // bundles and scratch space
   gl::EglPlatform egl = gl::EglPlatform::kAuto;
-  int threads = 2;
+  int threads = 2;                    // CPU-only tasks at once
   int wait_seconds = 5;               // long poll per LeaseTask call
   // One line per event (registered, task leased, done, failed); may be empty.
   std::function<void(const std::string&)> log;
@@ -81,8 +86,10 @@ class Worker {
   std::atomic<int> bundle_downloads_{0};
   std::atomic<int> samples_downloads_{0};
   // The last job's triangle Samples, by the SHA-256 of their encoding.
-  std::string samples_sha256_;
-  std::shared_ptr<const samples::SampleSet> samples_;
+  std::mutex samples_mu_;
+  std::string samples_sha256_;                         // guarded by samples_mu_
+  std::shared_ptr<const samples::SampleSet> samples_;  // guarded by samples_mu_
+  std::mutex cache_mu_;  // the bundle cache, shared by concurrent tasks
 };
 
 }  // namespace mvbrdf::worker

@@ -11,6 +11,9 @@
 #include "core/fit/diffuse.h"
 
 #include <algorithm>
+#include <thread>
+
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -93,7 +96,7 @@ DiffuseSolution DiffuseAccumulator::Solve(const DiffuseOptions& options, const s
 }
 
 DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& specular,
-                             size_t num_elements, const DiffuseOptions& options) {
+                             size_t num_elements, const DiffuseOptions& options, int threads) {
   const int num_lights = set.num_lights();
   std::vector<int> lights;
   for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
@@ -101,38 +104,51 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask m
   }
   DiffuseAccumulator accumulator(num_elements);
   const bool same_exponent = specular[0].ke == specular[1].ke && specular[0].ke == specular[2].ke;
-  for (size_t i = 0; i < set.size(); ++i) {
-    const uint32_t element = set.element[i];
-    if (element >= num_elements) continue;  // not part of this solve
-    const glm::vec3& r = set.reflectance[i];
-    if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z)) continue;
-    const float* g_row = set.g.data() + i * num_lights;
-    const float* h_row = set.h.data() + i * num_lights;
-    glm::dvec3 illumination(0.0), spec(0.0);
-    bool finite = true;
-    for (int k : lights) {
-      if (!std::isfinite(g_row[k]) || !std::isfinite(h_row[k])) {
-        finite = false;
-        break;
-      }
-      const double g = internal::ClampedCosine(g_row[k]);
-      if (g == 0.0) continue;
-      const double h = internal::ClampedHighlight(g, h_row[k]);
-      const glm::dvec3 intensity(set.light_intensity[k]);
-      illumination += intensity * g;
-      if (h > 0.0) {
-        // Fall-off is folded into g but not into h (SampleSet::falloff).
-        const double a = set.Falloff(i, k);
-        if (same_exponent) {
-          spec += a * intensity * internal::SpecularPower(h, specular[0].ke);
-        } else {
-          for (int c = 0; c < 3; ++c) spec[c] += a * intensity[c] * internal::SpecularPower(h, specular[c].ke);
+  const glm::dvec3 ks(specular[0].ks, specular[1].ks, specular[2].ks);
+  // Thread t takes the elements e with e % threads == t, each element's
+  // Samples in their order: the sums, and so the solution, are those of one
+  // thread bit for bit.
+  const auto work = [&](uint32_t part, uint32_t parts) {
+    for (size_t i = 0; i < set.size(); ++i) {
+      const uint32_t element = set.element[i];
+      if (element >= num_elements || element % parts != part) continue;  // not part of this solve / thread
+      const glm::vec3& r = set.reflectance[i];
+      if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z)) continue;
+      const float* g_row = set.g.data() + i * num_lights;
+      const float* h_row = set.h.data() + i * num_lights;
+      glm::dvec3 illumination(0.0), spec(0.0);
+      bool finite = true;
+      for (int k : lights) {
+        if (!std::isfinite(g_row[k]) || !std::isfinite(h_row[k])) {
+          finite = false;
+          break;
+        }
+        const double g = internal::ClampedCosine(g_row[k]);
+        if (g == 0.0) continue;
+        const double h = internal::ClampedHighlight(g, h_row[k]);
+        const glm::dvec3 intensity(set.light_intensity[k]);
+        illumination += intensity * g;
+        if (h > 0.0) {
+          // Fall-off is folded into g but not into h (SampleSet::falloff).
+          const double a = set.Falloff(i, k);
+          if (same_exponent) {
+            spec += a * intensity * internal::SpecularPower(h, specular[0].ke);
+          } else {
+            for (int c = 0; c < 3; ++c) spec[c] += a * intensity[c] * internal::SpecularPower(h, specular[c].ke);
+          }
         }
       }
+      if (!finite) continue;
+      accumulator.Add(element, glm::vec3(glm::dvec3(r) - ks * spec), glm::vec3(illumination));
     }
-    if (!finite) continue;
-    const glm::dvec3 ks(specular[0].ks, specular[1].ks, specular[2].ks);
-    accumulator.Add(element, glm::vec3(glm::dvec3(r) - ks * spec), glm::vec3(illumination));
+  };
+  const uint32_t parts = static_cast<uint32_t>(std::clamp(threads, 1, 64));
+  if (parts == 1) {
+    work(0, 1);
+  } else {
+    std::vector<std::thread> pool;
+    for (uint32_t t = 0; t < parts; ++t) pool.emplace_back(work, t, parts);
+    for (std::thread& t : pool) t.join();
   }
   return accumulator.Solve(options);
 }

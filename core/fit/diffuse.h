@@ -64,9 +64,11 @@ class DiffuseAccumulator {
 };
 
 // Convenience over a SampleSet: the specular part of `specular` (its ks, ke;
-// kd ignored) removed, per-element kd solved for the lights in `mask`.
+// kd ignored) removed, per-element kd solved for the lights in `mask`. With
+// `threads` > 1 the elements are split among threads; the result is the same
+// bit for bit.
 DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& specular,
-                             size_t num_elements, const DiffuseOptions& options);
+                             size_t num_elements, const DiffuseOptions& options, int threads = 1);
 
 }  // namespace mvbrdf::fit
 

@@ -158,6 +158,15 @@ TEST(SolveDiffuseTest, RecoversPerElementKdWithSpecularRemoved) {
   EXPECT_LT(solution.mean_element_mse, 1e-12);
   EXPECT_EQ(solution.elements_with_samples, kElements);
   EXPECT_EQ(solution.samples[0] + solution.samples[1], 2 * (3000 / kElements) - 2);
+  // Threads split the elements; every number stays the same bit for bit.
+  for (int threads : {2, 7}) {
+    const DiffuseSolution split = SolveDiffuse(set, 0xF, truth, kElements, DiffuseOptions(), threads);
+    EXPECT_EQ(split.mean_element_mse, solution.mean_element_mse) << threads;
+    for (uint32_t e = 0; e < kElements; ++e) {
+      EXPECT_EQ(split.kd[e], solution.kd[e]) << e;
+      EXPECT_EQ(split.samples[e], solution.samples[e]) << e;
+    }
+  }
 }
 
 TEST(DiffuseAccumulatorTest, PriorPullsPoorlyLitElementsTowardsTheFallback) {

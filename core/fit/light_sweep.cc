@@ -43,25 +43,49 @@ uint32_t CountLitTriangles(const samples::SampleSet& set, samples::LightMask mas
 }
 
 // E_a (Eq. 6.7) over every finite Sample: mean over Samples and channels.
-double MeanSquaredError(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& params) {
+// Summed in fixed chunks of Samples, then the chunks in order, so the value
+// does not depend on how many threads computed the chunks.
+double MeanSquaredError(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& params, int threads) {
+  constexpr size_t kChunk = size_t{1} << 16;
+  const size_t chunks = (set.size() + kChunk - 1) / kChunk;
+  std::vector<double> sums(chunks, 0.0);
+  std::vector<size_t> counts(chunks, 0);
+  std::atomic<size_t> next{0};
+  const auto work = [&]() {
+    for (size_t chunk = next++; chunk < chunks; chunk = next++) {
+      const size_t end = std::min(set.size(), (chunk + 1) * kChunk);
+      for (size_t i = chunk * kChunk; i < end; ++i) {
+        double sq = 0.0;
+        for (int c = 0; c < 3; ++c) {
+          const double d = set.reflectance[i][c] - EvaluateSample(set, i, mask, params[c], c);
+          sq += d * d;
+        }
+        if (!std::isfinite(sq)) continue;
+        sums[chunk] += sq;
+        ++counts[chunk];
+      }
+    }
+  };
+  const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), std::max<size_t>(chunks, 1));
+  if (workers <= 1) {
+    work();
+  } else {
+    std::vector<std::thread> pool;
+    for (size_t w = 0; w < workers; ++w) pool.emplace_back(work);
+    for (std::thread& t : pool) t.join();
+  }
   double sum = 0.0;
   size_t n = 0;
-  for (size_t i = 0; i < set.size(); ++i) {
-    double sq = 0.0;
-    for (int c = 0; c < 3; ++c) {
-      const double d = set.reflectance[i][c] - EvaluateSample(set, i, mask, params[c], c);
-      sq += d * d;
-    }
-    if (!std::isfinite(sq)) continue;
-    sum += sq;
-    ++n;
+  for (size_t chunk = 0; chunk < chunks; ++chunk) {
+    sum += sums[chunk];
+    n += counts[chunk];
   }
   return n > 0 ? sum / (3.0 * static_cast<double>(n)) : 0.0;
 }
 
 absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_triangles,
                                    const PhongFitOptions& fit_options, const DiffuseOptions& diffuse_options,
-                                   size_t max_fit_samples, SweepRow* row) {
+                                   size_t max_fit_samples, int threads, SweepRow* row) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<uint32_t> subsample;
   if (max_fit_samples > 0 && set.size() > max_fit_samples) {
@@ -80,8 +104,9 @@ absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_tri
   absl::StatusOr<PhongFitResult> fit = FitPhong(set, subsample, row->mask, fit_options);
   if (!fit.ok()) return fit.status();
   row->fit = *std::move(fit);
-  row->e_a = subsample.empty() ? row->fit.mse : MeanSquaredError(set, row->mask, row->fit.params);
-  const DiffuseSolution diffuse = SolveDiffuse(set, row->mask, row->fit.params, num_triangles, diffuse_options);
+  row->e_a = subsample.empty() ? row->fit.mse : MeanSquaredError(set, row->mask, row->fit.params, threads);
+  const DiffuseSolution diffuse =
+      SolveDiffuse(set, row->mask, row->fit.params, num_triangles, diffuse_options, threads);
   row->e_d = diffuse.mean_element_mse;
   row->lit_triangles = CountLitTriangles(set, row->mask, num_triangles);
   row->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -111,15 +136,19 @@ absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, s
 
   // Each configuration is independent and deterministic; workers take the
   // next one from a shared counter, so the rows do not depend on `threads`.
+  // Threads left over (fewer configurations than threads, e.g. the service's
+  // one-configuration sweep tasks) work inside each configuration.
+  const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), configurations.size());
+  const int inner_threads = std::max(1, threads / static_cast<int>(std::max<size_t>(workers, 1)));
   std::vector<absl::Status> statuses(configurations.size());
   std::atomic<size_t> next{0};
   auto work = [&]() {
     for (size_t i = next++; i < configurations.size(); i = next++) {
       statuses[i] =
-          EvaluateConfiguration(set, num_triangles, fit_options, diffuse_options, max_fit_samples, &result.rows[i]);
+          EvaluateConfiguration(set, num_triangles, fit_options, diffuse_options, max_fit_samples, inner_threads,
+                                &result.rows[i]);
     }
   };
-  const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), configurations.size());
   if (workers <= 1) {
     work();
   } else {

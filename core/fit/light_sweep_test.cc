@@ -85,6 +85,28 @@ TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
   }
 }
 
+// One configuration at a time (the service's sweep tasks) with threads
+// working inside it gives the rows of a sweep over all of them — also with a
+// subsampled fit, where E_a is summed over every Sample in chunks.
+TEST(LightSweepTest, OneConfigurationPerCallWithInnerThreadsGivesTheSameRows) {
+  const samples::SampleSet set = MakeSweepSamples();
+  for (size_t fit_samples : {size_t{0}, size_t{500}}) {
+    absl::StatusOr<SweepResult> all = SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(),
+                                                          DiffuseOptions(), 1, fit_samples);
+    ASSERT_TRUE(all.ok());
+    for (size_t i = 0; i < kConfigurations.size(); ++i) {
+      for (int threads : {1, 3}) {
+        absl::StatusOr<SweepResult> one = SweepConfigurations(set, kTriangles, {kConfigurations[i]},
+                                                              PhongFitOptions(), DiffuseOptions(), threads, fit_samples);
+        ASSERT_TRUE(one.ok());
+        EXPECT_EQ(one->rows[0].e_a, all->rows[i].e_a) << i << " threads " << threads;
+        EXPECT_EQ(one->rows[0].e_d, all->rows[i].e_d) << i << " threads " << threads;
+        EXPECT_EQ(one->rows[0].lit_triangles, all->rows[i].lit_triangles);
+      }
+    }
+  }
+}
+
 // Fitting the average BRDF on a subsample: the same choice, E_a over every
 // Sample, and errors within a few percent of the full fit.
 TEST(LightSweepTest, SubsampledFitKeepsTheChoiceAndTheErrors) {

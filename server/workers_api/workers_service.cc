@@ -593,6 +593,8 @@ absl::Status WorkersService::FillInputs(const store::Task& task, v1::Task& out) 
     input->set_key(dependency.key);
     // Leasable means every dependency is done, so each has its result.
     input->set_result(dependency.result.value_or(""));
+    input->set_started_unix_ms(dependency.started_ms);
+    input->set_finished_unix_ms(dependency.updated_ms);
   }
   return absl::OkStatus();
 }
