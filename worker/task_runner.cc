@@ -43,7 +43,7 @@ std::vector<std::pair<std::string, fs::path>> FilesUnder(const fs::path& dir) {
 absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
   const auto start = Clock::now();
-  MVBRDF_ASSIGN_OR_RETURN(const samples::SampleSet set, pipeline::GatherTriangleSamples(sequence, *env.gl, o));
+  MVBRDF_ASSIGN_OR_RETURN(samples::SampleSet set, pipeline::GatherTriangleSamples(sequence, *env.gl, o));
   TaskOutput out;
   out.samples = samples::EncodeSampleSet(set, /*compact=*/false);
   v1::GatherResult result;
@@ -53,6 +53,7 @@ absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& s
   result.set_samples_sha256(bundle::Sha256Bytes(out.samples));
   result.SerializeToString(&out.result);
   out.metrics["samples"] = static_cast<double>(set.size());
+  out.sample_set = std::make_shared<const samples::SampleSet>(std::move(set));
   return out;
 }
 

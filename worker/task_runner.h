@@ -49,6 +49,9 @@ struct TaskEnvironment {
 struct TaskOutput {
   std::string result;   // TaskUpdate.result
   std::string samples;  // gather: the encoded triangle Samples
+  // gather: the same Samples decoded, so the worker's own sweeps need not
+  // download them again.
+  std::shared_ptr<const samples::SampleSet> sample_set;
   // (artifact name, file) in the order written; names are relative paths
   // such as "atlases/kd.exr".
   std::vector<std::pair<std::string, std::filesystem::path>> artifacts;

@@ -72,8 +72,9 @@ class UpdateWriter {
   }
 
   // Chunks of `bytes` into the samples field (samples = true) or an artifact.
-  bool WriteBytes(absl::string_view bytes, bool samples, const std::string& name) {
-    const std::string sha256 = bundle::Sha256Bytes(bytes);
+  // `sha256`: of `bytes` when known (computed otherwise).
+  bool WriteBytes(absl::string_view bytes, bool samples, const std::string& name, std::string sha256 = "") {
+    if (sha256.empty()) sha256 = bundle::Sha256Bytes(bytes);
     size_t offset = 0;
     do {
       v1::TaskUpdate update;
@@ -403,6 +404,13 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
   env.cancelled = [&renewer, &stream_ok] { return renewer.lost() || !stream_ok; };
   env.samples = [this, &stub, &task](const v1::GatherResult& gathered) { return FetchSamples(stub, task, gathered); };
 
+  if (UsesGl(task.kind())) {
+    // A new resampling pass: the last job's triangle Samples are not needed
+    // by this worker any more (running sweeps hold their own reference).
+    std::lock_guard<std::mutex> lock(samples_mu_);
+    samples_.reset();
+    samples_sha256_.clear();
+  }
   const auto start = SteadyClock::now();
   absl::StatusOr<TaskOutput> output = [&]() -> absl::StatusOr<TaskOutput> {
     std::shared_ptr<const scene::Sequence> sequence;
@@ -424,7 +432,17 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
     outcome = output.status();
   } else {
     bool ok = stream_ok;
-    if (ok && !output->samples.empty()) ok = writer.WriteBytes(output->samples, /*samples=*/true, "");
+    if (ok && !output->samples.empty()) {
+      v1::GatherResult gathered;
+      gathered.ParseFromString(output->result);
+      const std::string sha256 = gathered.samples_sha256();
+      ok = writer.WriteBytes(output->samples, /*samples=*/true, "", sha256);
+      std::string().swap(output->samples);  // sent: release the encoding
+      // Keep the decoded Samples for this worker's sweeps of the job.
+      std::lock_guard<std::mutex> lock(samples_mu_);
+      samples_ = output->sample_set;
+      samples_sha256_ = sha256;
+    }
     for (const auto& [name, path] : output->artifacts) {
       if (!ok) break;
       absl::StatusOr<std::string> bytes = ReadWholeFile(path);

@@ -90,11 +90,17 @@ TEST(SampleCacheTest, CorruptEntryIsDataLossAndRemoved) {
     // Flip one byte in the middle of the stored blob behind the cache's back.
     auto db = SqliteDb::Open(dir.db());
     ASSERT_TRUE(db.ok());
-    ASSERT_TRUE((*db)
-                    ->Exec("UPDATE sample_cache SET data = substr(data, 1, length(data) / 2) || "
-                           "CAST(char((unicode(substr(data, length(data) / 2 + 1, 1)) + 1) % 128) AS BLOB) || "
-                           "substr(data, length(data) / 2 + 2)")
-                    .ok());
+    auto read = Statement::Prepare(**db, "SELECT data FROM sample_cache");
+    ASSERT_TRUE(read.ok());
+    auto step = read->Step();
+    ASSERT_TRUE(step.ok());
+    std::string data = read->ColumnBlob(0);
+    ASSERT_FALSE(data.empty());
+    data[data.size() / 2] = static_cast<char>(data[data.size() / 2] ^ 0x5a);
+    auto write = Statement::Prepare(**db, "UPDATE sample_cache SET data = ?1");
+    ASSERT_TRUE(write.ok());
+    ASSERT_TRUE(write->BindBlob(1, data).ok());
+    ASSERT_TRUE(write->Run().ok());
   }
   auto corrupt = cache->Get(Key("key"), kT0 + 1);
   ASSERT_FALSE(corrupt.ok());
