@@ -39,6 +39,8 @@ void EmbeddedService::AddWorker() {
   wo.egl = options_.egl;
   wo.threads = options_.threads_per_worker;
   wo.wait_seconds = 2;
+  // One worker runs the job's reflectance after its gather: one pass.
+  wo.gather_texel_statistics = options_.workers == 1;
   if (options_.log) {
     wo.log = [log = options_.log, name = wo.name](const std::string& line) { log(absl::StrCat("worker ", name, ": ", line)); };
   }

@@ -56,6 +56,8 @@ int RunWorker(const std::vector<std::string>& args) {
   flags.AddInt("--threads", &o.threads, "threads for fitting");
   flags.AddInt("--wait", &o.wait_seconds, "long-poll seconds per lease request");
   flags.AddInt("--max-tasks", &o.max_tasks, "exit after this many tasks (0: run until stopped)");
+  flags.AddBool("--gather-texels", &o.gather_texel_statistics,
+                "keep a job's texel statistics from its gather for its reflectance (a lone worker: one pass, not two)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf worker: %s\n", std::string(s.message()).c_str());
     return kExitUsage;

@@ -43,7 +43,12 @@ std::vector<std::pair<std::string, fs::path>> FilesUnder(const fs::path& dir) {
 absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
   const auto start = Clock::now();
-  MVBRDF_ASSIGN_OR_RETURN(samples::SampleSet set, pipeline::GatherTriangleSamples(sequence, *env.gl, o));
+  MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
+  const bool texels = env.gather_texel_statistics && plan.Has(pipeline::Stage::kTexelPass);
+  MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas,
+                          atlas::BuildAtlas(sequence.topology, sequence.rest_positions, o.atlas));
+  MVBRDF_ASSIGN_OR_RETURN(pipeline::Gathered gathered, pipeline::GatherPass(sequence, *env.gl, atlas, o, true, texels));
+  samples::SampleSet& set = gathered.triangle_samples;
   TaskOutput out;
   out.samples = samples::EncodeSampleSet(set, /*compact=*/false);
   v1::GatherResult result;
@@ -54,6 +59,7 @@ absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& s
   result.SerializeToString(&out.result);
   out.metrics["samples"] = static_cast<double>(set.size());
   out.sample_set = std::make_shared<const samples::SampleSet>(std::move(set));
+  out.texel_statistics = std::move(gathered.texels);
   return out;
 }
 
@@ -142,8 +148,7 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
   return out;
 }
 
-absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequence& sequence,
-                                       const TaskEnvironment& env) {
+absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequence& sequence, TaskEnvironment& env) {
   MVBRDF_ASSIGN_OR_RETURN(pipeline::ReconstructOptions o, OptionsOf(task, env));
   if (task.inputs_size() == 1 && task.inputs(0).kind() == "choose") {
     v1::RunReport table;
@@ -156,6 +161,7 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
     o.request.configuration = task.key();
   }
   o.out_dir = env.scratch_dir;
+  o.texel_statistics = std::move(env.texel_statistics);  // consumed: freed as soon as the fits are done
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport report, pipeline::RunReconstruction(sequence, *env.gl, o));
   TaskOutput out;
   report.SerializeToString(&out.result);
@@ -170,7 +176,7 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
 }  // namespace
 
 absl::StatusOr<TaskOutput> RunTask(const v1::Task& task, const scene::Sequence& sequence,
-                                   const TaskEnvironment& environment) {
+                                   TaskEnvironment environment) {
   if (task.kind() == "gather") return Gather(task, sequence, environment);
   if (task.kind() == "sweep") return Sweep(task, sequence, environment);
   if (task.kind() == "choose") return Choose(task, sequence, environment);

@@ -27,6 +27,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/texel_statistics.h"
 #include "core/samples/sample_set.h"
 #include "core/scene/sequence.h"
 #include "mvbrdf/v1/service.pb.h"
@@ -42,6 +43,13 @@ struct TaskEnvironment {
   std::function<void(const std::string& stage, int done, int total)> progress;
   // True stops the task with CANCELLED. May be empty.
   std::function<bool()> cancelled;
+  // gather: also gather the texel statistics of the job's reflectance task
+  // in the same pass (returned in TaskOutput::texel_statistics), for a worker
+  // that will run that task itself.
+  bool gather_texel_statistics = false;
+  // reflectance: pass 1's texel statistics from this worker's gather of the
+  // same job, or null (then the task gathers them).
+  std::shared_ptr<pipeline::TexelStatistics> texel_statistics;
   // The job's triangle Samples (sweep tasks), given its gather's result.
   std::function<absl::StatusOr<std::shared_ptr<const samples::SampleSet>>(const v1::GatherResult&)> samples;
 };
@@ -52,6 +60,8 @@ struct TaskOutput {
   // gather: the same Samples decoded, so the worker's own sweeps need not
   // download them again.
   std::shared_ptr<const samples::SampleSet> sample_set;
+  // gather with gather_texel_statistics: for the job's reflectance task.
+  std::shared_ptr<pipeline::TexelStatistics> texel_statistics;
   // (artifact name, file) in the order written; names are relative paths
   // such as "atlases/kd.exr".
   std::vector<std::pair<std::string, std::filesystem::path>> artifacts;
@@ -62,7 +72,7 @@ struct TaskOutput {
 // INVALID_ARGUMENT for an unknown kind or malformed inputs; the pipeline's
 // errors otherwise.
 absl::StatusOr<TaskOutput> RunTask(const v1::Task& task, const scene::Sequence& sequence,
-                                   const TaskEnvironment& environment);
+                                   TaskEnvironment environment);
 
 }  // namespace mvbrdf::worker
 

@@ -86,8 +86,11 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
   gather.set_id("g");
   gather.set_kind("gather");
   *gather.mutable_request() = Request();
-  auto gathered = RunTask(gather, *sequence_, Environment("gather"));
+  TaskEnvironment gather_env = Environment("gather");
+  gather_env.gather_texel_statistics = true;  // for the first reflectance below
+  auto gathered = RunTask(gather, *sequence_, gather_env);
   ASSERT_TRUE(gathered.ok()) << gathered.status();
+  ASSERT_NE(gathered->texel_statistics, nullptr);
   v1::GatherResult gather_result;
   ASSERT_TRUE(gather_result.ParseFromString(gathered->result));
   EXPECT_GT(gather_result.samples(), 1000u);
@@ -132,8 +135,14 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
   v1::TaskInput* in = reflectance.add_inputs();
   in->set_kind("choose");
   in->set_result(chosen->result);
-  auto reflected = RunTask(reflectance, *sequence_, Environment("reflectance"));
+  // With the texel statistics of the gather pass (one worker), and without
+  // them (the task gathers them itself): the same outputs either way.
+  TaskEnvironment with_texels = Environment("reflectance");
+  with_texels.texel_statistics = gathered->texel_statistics;
+  auto reflected = RunTask(reflectance, *sequence_, with_texels);
   ASSERT_TRUE(reflected.ok()) << reflected.status();
+  auto reflected_alone = RunTask(reflectance, *sequence_, Environment("reflectance_alone"));
+  ASSERT_TRUE(reflected_alone.ok()) << reflected_alone.status();
   v1::RunReport report;
   ASSERT_TRUE(report.ParseFromString(reflected->result));
 
@@ -165,9 +174,12 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
   for (const char* atlas : {"atlases/kd.exr", "atlases/ks.exr", "atlases/ke.exr", "atlases/cluster.exr"}) {
     const cv::Mat a = ReadAtlas(dir_ / "direct" / atlas);
     const cv::Mat b = ReadAtlas(dir_ / "reflectance" / atlas);
+    const cv::Mat c = ReadAtlas(dir_ / "reflectance_alone" / atlas);
     ASSERT_FALSE(a.empty()) << atlas;
     ASSERT_EQ(a.size(), b.size()) << atlas;
+    ASSERT_EQ(a.size(), c.size()) << atlas;
     EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << atlas;
+    EXPECT_EQ(cv::norm(a, c, cv::NORM_INF), 0.0) << atlas;
   }
 }
 

@@ -403,6 +403,16 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
   env.progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
   env.cancelled = [&renewer, &stream_ok] { return renewer.lost() || !stream_ok; };
   env.samples = [this, &stub, &task](const v1::GatherResult& gathered) { return FetchSamples(stub, task, gathered); };
+  env.gather_texel_statistics = options_.gather_texel_statistics;
+  {
+    // Pass 1's texel statistics from this worker's gather of the same job.
+    std::lock_guard<std::mutex> lock(texels_mu_);
+    if (task.kind() == "reflectance" && texels_job_ == task.job_id()) env.texel_statistics = std::move(texels_);
+    if (UsesGl(task.kind())) {
+      texels_.reset();
+      texels_job_.clear();
+    }
+  }
 
   if (UsesGl(task.kind())) {
     // A new resampling pass: the last job's triangle Samples are not needed
@@ -418,7 +428,7 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
       std::lock_guard<std::mutex> lock(cache_mu_);
       MVBRDF_ASSIGN_OR_RETURN(sequence, cache.Sequence(task.bundle_sha256(), task.request().scene_path()));
     }
-    return RunTask(task, *sequence, env);
+    return RunTask(task, *sequence, std::move(env));
   }();
   const double seconds = std::chrono::duration<double>(SteadyClock::now() - start).count();
 
@@ -442,6 +452,11 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
       std::lock_guard<std::mutex> lock(samples_mu_);
       samples_ = output->sample_set;
       samples_sha256_ = sha256;
+    }
+    if (output->texel_statistics != nullptr) {
+      std::lock_guard<std::mutex> lock(texels_mu_);
+      texels_ = std::move(output->texel_statistics);
+      texels_job_ = task.job_id();
     }
     for (const auto& [name, path] : output->artifacts) {
       if (!ok) break;

@@ -31,6 +31,7 @@
 
 #include "absl/status/status.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/texel_statistics.h"
 #include "core/samples/sample_set.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
@@ -48,6 +49,11 @@ struct WorkerOptions {
   std::function<void(const std::string&)> log;
   // Stop after this many tasks (0: never); for tests and one-shot workers.
   int max_tasks = 0;
+  // A gather also collects the texel statistics of its job's reflectance
+  // task, kept here for when this worker leases that task (one pass over
+  // the frames instead of two). Worth it when this worker will likely run
+  // the reflectance too: a single worker (mvbrdf run's default).
+  bool gather_texel_statistics = false;
 };
 
 class Worker {
@@ -90,6 +96,9 @@ class Worker {
   std::string samples_sha256_;                         // guarded by samples_mu_
   std::shared_ptr<const samples::SampleSet> samples_;  // guarded by samples_mu_
   std::mutex cache_mu_;  // the bundle cache, shared by concurrent tasks
+  std::mutex texels_mu_;
+  std::string texels_job_;                             // guarded by texels_mu_
+  std::shared_ptr<pipeline::TexelStatistics> texels_;  // guarded by texels_mu_
 };
 
 }  // namespace mvbrdf::worker

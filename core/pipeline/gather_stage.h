@@ -1,21 +1,38 @@
-// The service's `gather` task (docs/service.md): pass 1 of the
-// reconstruction reduced to what the light sweep needs — the triangle Samples
-// (triangle-averaged atlases, every scene light) of every sweep frame. The
-// Samples equal those RunReconstruction gathers for its own sweep with the
-// same options, so a sweep over them chooses alike.
+// Pass 1 of the reconstruction: every frame resampled into the atlas once,
+// for the triangle Samples of the light sweep (triangle-averaged atlases,
+// every scene light) and the per-texel statistics of clustering and the
+// cluster fits. RunReconstruction runs it; so does the service's `gather`
+// task (docs/service.md), whose Samples are therefore those a one-process
+// run sweeps over.
 #ifndef MVBRDF_CORE_PIPELINE_GATHER_STAGE_H_
 #define MVBRDF_CORE_PIPELINE_GATHER_STAGE_H_
 
 #include "absl/status/statusor.h"
+#include "core/atlas/atlas.h"
 #include "core/gl/egl_context.h"
 #include "core/pipeline/reconstruct_stage.h"
+#include "core/pipeline/texel_statistics.h"
 #include "core/samples/sample_set.h"
 #include "core/scene/sequence.h"
 
 namespace mvbrdf::pipeline {
 
-// Uses options.atlas, resampler, assemble, min_valid_fraction,
-// sweep_frame_stride and progress (stage "gather_samples").
+struct Gathered {
+  samples::SampleSet triangle_samples;         // empty unless `triangles`
+  std::shared_ptr<TexelStatistics> texels;     // null unless `texels`
+  cv::Mat rest_position;                       // geometry atlas of frame 0 when it was read
+};
+
+// Pass 1 over the frames on `atlas` (built with options.atlas): the triangle
+// Samples of every sweep frame when `triangles`, the texel statistics over
+// every frame when `texels`. RunReconstruction's pass 1 is this call. Uses
+// options.resampler, assemble, min_valid_fraction, sweep_frame_stride,
+// reservoir_*, progress (stage "gather_samples") and cancelled.
+absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglContext& context,
+                                    const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
+                                    bool texels);
+
+// The atlas of options.atlas, then GatherPass for the triangle Samples only.
 absl::StatusOr<samples::SampleSet> GatherTriangleSamples(const scene::Sequence& sequence, gl::EglContext& context,
                                                          const ReconstructOptions& options);
 

@@ -19,6 +19,7 @@
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
 #include "core/pipeline/frame_stream.h"
+#include "core/pipeline/gather_stage.h"
 #include "core/pipeline/light_table.h"
 #include "core/pipeline/texel_reservoir.h"
 #include "core/resample/atlas_ops.h"
@@ -140,19 +141,6 @@ absl::Status WriteRgbAtlas(const std::filesystem::path& stem, const cv::Mat& rgb
   return image::WritePngPreview(stem.string() + ".png", rgba, preview_gain);
 }
 
-// Everything pass 1 produces.
-struct Gathered {
-  samples::SampleSet triangle_samples;
-  std::vector<glm::dvec3> texel_sum;  // per texel, sum of observed reflectance
-  std::vector<uint32_t> texel_count;
-  // Per texel and light: sum of g_k over the texel's observations, so that
-  // once the configuration is known each texel's albedo estimate is
-  // sum r / sum_k I_k sum g_k (clustering runs on it).
-  std::vector<float> texel_g_sum;
-  std::unique_ptr<TexelReservoir> reservoir;
-  cv::Mat rest_position;              // geometry atlas of frame 0 (CV_32FC4)
-};
-
 // Sum of I_k a_k h_k^ke over the lights in `mask`, channel c (a: the
 // fall-off row, all 1 without fall-off).
 inline float SpecularSum(const float* h, const float* a, const std::vector<glm::vec3>& intensity,
@@ -212,61 +200,26 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
 
   // Pass 1: triangle Samples, texel means and kept texel Samples.
   t0 = Clock::now();
-  Gathered g;
-  g.triangle_samples = samples::MakeSampleSet(sequence.lights);
-  g.texel_sum.assign(num_texels, glm::dvec3(0.0));
-  g.texel_count.assign(num_texels, 0);
   const size_t num_lights = sequence.lights.size();
-  g.texel_g_sum.assign(num_texels * num_lights, 0.0f);
-  if (reflectance) {
-    g.reservoir = std::make_unique<TexelReservoir>(num_texels, static_cast<int>(sequence.lights.size()),
-                                                   options.reservoir_uniform, options.reservoir_highlight,
-                                                   assemble.inverse_square_falloff);
+  const bool gather_triangles = plan.Has(Stage::kLightSweep) && !options.light_table.has_value();
+  const bool gather_texels = reflectance && options.texel_statistics == nullptr;
+  Gathered g;
+  if (gather_triangles || gather_texels) {
+    MVBRDF_ASSIGN_OR_RETURN(g, GatherPass(sequence, context, atlas, options, gather_triangles, gather_texels));
+  } else {
+    g.triangle_samples = samples::MakeSampleSet(sequence.lights);
+  }
+  if (reflectance && !gather_texels) {
+    g.texels = options.texel_statistics;  // gathered by an earlier task
+    g.rest_position = g.texels->rest_position;
   }
   // A copy: the triangle Samples are released after the sweep.
   const std::vector<glm::vec3> intensity = g.triangle_samples.light_intensity;
-  const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
   std::vector<glm::vec3> camera_centers;
   for (const scene::CameraModel& cam : sequence.cameras) camera_centers.push_back(glm::vec3(cam.CenterInWorld()));
-  {
-    MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
-    const bool sweep = plan.Has(Stage::kLightSweep) && !options.light_table.has_value();
-    for (int t = 0; t < sequence.num_frames; ++t) {
-      if (options.progress) options.progress("gather_samples", t, sequence.num_frames);
-      MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
-      const bool sweep_frame = sweep && t % std::max(options.sweep_frame_stride, 1) == 0;
-      if (!sweep_frame && !reflectance) continue;
-      MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
-      if (t == 0) g.rest_position = stream->geometry().position.clone();
-      for (int c = 0; c < num_cameras; ++c) {
-        MVBRDF_ASSIGN_OR_RETURN(const cv::Mat resampled, stream->Resample(c));
-        if (sweep_frame) {
-          const auto means = resample::AverageTriangles(resampled, atlas, options.min_valid_fraction);
-          samples::AppendTriangleSamples(means, atlas, stream->positions(), stream->shadows(), sequence.cameras[c],
-                                         c, t, sequence.lights, assemble, &g.triangle_samples);
-        }
-        if (!reflectance) continue;
-        samples::ForEachTexelSample(resampled, stream->geometry(), stream->shadows(), sequence.cameras[c],
-                                    sequence.lights, assemble,
-                                    [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float*) {
-                                      g.texel_sum[texel] += glm::dvec3(rgb);
-                                      ++g.texel_count[texel];
-                                      float* gs = g.texel_g_sum.data() + static_cast<size_t>(texel) * num_lights;
-                                      for (size_t k = 0; k < num_lights; ++k) gs[k] += gr[k];
-                                    });
-        // The cluster fits take per-pixel Samples: the video's own pixels at
-        // the exact surface points they show, so highlights reach ks and ke
-        // without the atlas's bilinear blur (measured: the blur alone made
-        // ke come out ~50 % low on 320x240 video).
-        MVBRDF_ASSIGN_OR_RETURN(const resample::CameraSurface surface, stream->Surface(c));
-        samples::ForEachPixelSample(stream->last_frame(), surface, stream->shadows(), sequence.cameras[c],
-                                    sequence.lights, assemble, min_cos_view,
-                                    [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr,
-                                        const float* ar) { g.reservoir->Offer(texel, t, c, rgb, gr, hr, ar); });
-      }
-    }
+  if (!g.rest_position.empty()) {
+    MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "rest_position.exr", g.rest_position));
   }
-  if (!g.rest_position.empty()) MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "rest_position.exr", g.rest_position));
   AddStage(&report, "gather_samples", Since(t0), options.progress);
 
   // The light configuration.
@@ -327,18 +280,18 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   cluster::KMeansInput km_input;
   std::vector<uint32_t> seen_texels;
   for (size_t i = 0; i < num_texels; ++i) {
-    if (g.texel_count[i] == 0) continue;
+    if (g.texels->texel_count[i] == 0) continue;
     glm::dvec3 illumination(0.0);
-    const float* gs = g.texel_g_sum.data() + i * num_lights;
+    const float* gs = g.texels->texel_g_sum.data() + i * num_lights;
     for (size_t k = 0; k < num_lights; ++k) {
       if (mask & (1u << k)) illumination += glm::dvec3(intensity[k]) * static_cast<double>(gs[k]);
     }
     if (!(illumination.x > 0.0 && illumination.y > 0.0 && illumination.z > 0.0)) continue;  // never lit
     seen_texels.push_back(static_cast<uint32_t>(i));
-    km_input.points.push_back(glm::vec3(g.texel_sum[i] / illumination));
+    km_input.points.push_back(glm::vec3(g.texels->texel_sum[i] / illumination));
     km_input.weights.push_back(static_cast<float>((illumination.x + illumination.y + illumination.z) / 3.0));
   }
-  g.texel_g_sum = {};
+  g.texels->texel_g_sum = {};
   if (seen_texels.empty()) return absl::FailedPreconditionError("no texel was seen lit by any camera");
   cluster::KMeansOptions km_options;
   for (const v1::MaterialSeed& seed : sequence.scene.material_seeds()) {
@@ -381,7 +334,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       for (size_t i = 0; i < texels.size(); i += stride) kept.push_back(texels[i]);
       texels.swap(kept);
     }
-    g.reservoir->Collect(texels, options.max_cluster_samples, &set);
+    g.texels->reservoir->Collect(texels, options.max_cluster_samples, &set);
     fit::PhongFitOptions lm = options.fit;
     lm.solver = fit::Solver::kLevenbergMarquardt;
     MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, mask, lm));
@@ -402,7 +355,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       row->add_ke(cluster_brdf[k][c].ke);
     }
   }
-  g.reservoir.reset();
+  g.texels.reset();
   AddStage(&report, "cluster_fit", Since(t0), options.progress);
 
   // Pass 2: per-texel kd, observed diffuse per frame, camera errors.

@@ -24,6 +24,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -33,6 +34,7 @@
 #include "core/fit/phong_fit.h"
 #include "core/gl/egl_context.h"
 #include "core/pipeline/plan.h"
+#include "core/pipeline/texel_statistics.h"
 #include "core/resample/resampler.h"
 #include "core/samples/assemble.h"
 #include "core/scene/sequence.h"
@@ -72,6 +74,10 @@ struct ReconstructOptions {
   // and stages go into the report; no triangle Samples are gathered and no
   // sweep runs. The plan is still made from `request` (it says the sweep ran).
   std::optional<v1::RunReport> light_table;
+  // Pass 1's texel statistics when they were gathered already with the same
+  // options (the service's gather task on this worker); consumed. Without
+  // them pass 1 gathers them itself.
+  std::shared_ptr<TexelStatistics> texel_statistics;
   std::filesystem::path out_dir;
   // Called on the calling thread as the job advances: the stage's name (as in
   // result.json's stages), units done and the total (frames for the passes;

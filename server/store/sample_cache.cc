@@ -72,9 +72,10 @@ absl::StatusOr<std::unique_ptr<SampleCache>> SampleCache::Open(const std::filesy
   return std::unique_ptr<SampleCache>(new SampleCache(std::move(db), options));
 }
 
-absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms) {
+absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms,
+                              absl::string_view known_sha256) {
   // Hashing and compressing outside the lock: they are the slow part.
-  const std::string sha256 = Sha256Hex(bytes);
+  const std::string sha256 = known_sha256.empty() ? Sha256Hex(bytes) : std::string(known_sha256);
   MVBRDF_ASSIGN_OR_RETURN(std::string stored, Compress(bytes, options_.compression_level));
   const auto stored_size = static_cast<int64_t>(stored.size());
   if (options_.max_stored_bytes > 0 && stored_size > options_.max_stored_bytes) {
@@ -91,7 +92,7 @@ absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int
                          "options_hash, data, raw_size, stored_size, sha256, created_ms, last_used_ms) "
                          "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?9)"));
   MVBRDF_RETURN_IF_ERROR(BindKey(insert, key));
-  MVBRDF_RETURN_IF_ERROR(insert.BindBlob(5, stored));
+  MVBRDF_RETURN_IF_ERROR(insert.BindBlobNoCopy(5, stored));  // `stored` outlives the insert
   MVBRDF_RETURN_IF_ERROR(insert.BindInt64(6, static_cast<int64_t>(bytes.size())));
   MVBRDF_RETURN_IF_ERROR(insert.BindInt64(7, stored_size));
   MVBRDF_RETURN_IF_ERROR(insert.BindText(8, sha256));

@@ -67,7 +67,10 @@ class SampleCache {
   // Stores (or replaces) the entry, then evicts least recently used entries
   // until the total fits. RESOURCE_EXHAUSTED when the entry alone is larger
   // than the limit (nothing stored).
-  absl::Status Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms);
+  // `known_sha256`: the SHA-256 of `bytes` when the caller has verified it
+  // already (saves hashing large entries twice); computed when empty.
+  absl::Status Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms,
+                   absl::string_view known_sha256 = {});
   // The bytes given to Put, or nullopt on a miss. DATA_LOSS naming the key
   // when the stored entry is corrupt; the entry is then gone.
   absl::StatusOr<std::optional<std::string>> Get(const SampleKey& key, int64_t now_ms);

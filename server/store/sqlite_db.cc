@@ -133,6 +133,12 @@ absl::Status Statement::BindBlob(int index, absl::string_view bytes) {
   return CheckBind(sqlite3_bind_blob64(stmt_, index, data, bytes.size(), SQLITE_TRANSIENT), index);
 }
 
+absl::Status Statement::BindBlobNoCopy(int index, absl::string_view bytes) {
+  static const char kEmpty = 0;
+  const void* data = bytes.empty() ? &kEmpty : bytes.data();
+  return CheckBind(sqlite3_bind_blob64(stmt_, index, data, bytes.size(), SQLITE_STATIC), index);
+}
+
 absl::Status Statement::BindNull(int index) { return CheckBind(sqlite3_bind_null(stmt_, index), index); }
 
 absl::Status Statement::ForEachRow(const std::function<absl::Status()>& row) {

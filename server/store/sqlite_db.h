@@ -77,6 +77,9 @@ class Statement {
   absl::Status BindDouble(int index, double value);
   absl::Status BindText(int index, absl::string_view value);  // copied by SQLite
   absl::Status BindBlob(int index, absl::string_view bytes);  // copied by SQLite
+  // Not copied: `bytes` must stay alive and unchanged until the statement is
+  // reset or finalized (large blobs, where a copy would double the memory).
+  absl::Status BindBlobNoCopy(int index, absl::string_view bytes);
   absl::Status BindNull(int index);
 
   // One step: kRow when a row is available through the column getters.

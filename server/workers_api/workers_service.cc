@@ -294,7 +294,7 @@ absl::Status WorkersService::ReportReactor::CacheGatheredSamples(const std::stri
   MVBRDF_ASSIGN_OR_RETURN(store::Job job, service_->jobs_.GetJob(job_id_));
   MVBRDF_ASSIGN_OR_RETURN(v1::SubmitJobRequest request, RequestOf(job));
   const store::SampleKey key = TriangleSampleKey(job.scene_hash, request);
-  absl::Status put = service_->samples_.Put(key, samples_->bytes, now_ms);
+  absl::Status put = service_->samples_.Put(key, samples_->bytes, now_ms, samples_->sha256);  // verified above
   if (absl::IsResourceExhausted(put)) {
     // No sweep could fetch them: the task cannot succeed on any worker
     // until the cache is made larger. Fail this attempt now (rather than

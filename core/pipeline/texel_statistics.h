@@ -1,0 +1,33 @@
+// What pass 1 of the reconstruction gathers per texel besides the triangle
+// Samples: the sums that clustering needs and a few kept per-pixel Samples
+// for the cluster fits. Gathered by RunReconstruction itself, or earlier by
+// the service's gather task on the same worker (pipeline::GatherPass) and
+// handed over through ReconstructOptions::texel_statistics.
+#ifndef MVBRDF_CORE_PIPELINE_TEXEL_STATISTICS_H_
+#define MVBRDF_CORE_PIPELINE_TEXEL_STATISTICS_H_
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <glm/glm.hpp>
+#include <opencv2/core.hpp>
+
+#include "core/pipeline/texel_reservoir.h"
+
+namespace mvbrdf::pipeline {
+
+struct TexelStatistics {
+  std::vector<glm::dvec3> texel_sum;  // per texel, sum of observed reflectance
+  std::vector<uint32_t> texel_count;
+  // Per texel and light: sum of g_k over the texel's observations, so that
+  // once the configuration is known each texel's albedo estimate is
+  // sum r / sum_k I_k sum g_k (clustering runs on it).
+  std::vector<float> texel_g_sum;
+  std::unique_ptr<TexelReservoir> reservoir;
+  cv::Mat rest_position;  // geometry atlas of frame 0 (CV_32FC4)
+};
+
+}  // namespace mvbrdf::pipeline
+
+#endif  // MVBRDF_CORE_PIPELINE_TEXEL_STATISTICS_H_
