@@ -1,8 +1,8 @@
 // Benchmark of the service's light sweep (issue #5): wall time of a
 // light-table job (gather, one sweep task per configuration, choose) on an
-// in-process server with 1 and 2 workers, cold (the triangle Samples are
-// computed) and warm (the same job again: gather is answered from the Sample
-// cache). Prints one JSON object; scripts/bench-service writes it to
+// in-process server with 1 and 2 single-threaded workers and with 1 worker
+// running 2 sweeps at once, cold (the triangle Samples are computed) and warm
+// (the same job again: gather is answered from the Sample cache). Prints one JSON object; scripts/bench-service writes it to
 // out/bench/service.json. Usage: service_bench SCENE [REPETITIONS]
 #include <unistd.h>
 
@@ -93,16 +93,20 @@ int Main(int argc, char** argv) {
     return 1;
   }
   std::string rows;
-  std::vector<double> cold_median(3), sweep_median(3), warm_median(3);
-  for (int workers = 1; workers <= 2; ++workers) {
+  // (workers, threads per worker): one or two single-threaded workers, and
+  // one worker running two CPU-only tasks (sweeps) at once.
+  const std::vector<std::pair<int, int>> setups = {{1, 1}, {2, 1}, {1, 2}};
+  std::vector<double> cold_median(setups.size()), sweep_median(setups.size()), warm_median(setups.size());
+  for (size_t setup = 0; setup < setups.size(); ++setup) {
+    const int workers = setups[setup].first, threads = setups[setup].second;
     std::vector<double> cold, sweep, warm, gather;
     int used = 0;
     for (int r = 0; r < repetitions; ++r) {
       EmbeddedOptions eo;
-      eo.data_dir = base / absl::StrCat("data-", workers, "-", r);
+      eo.data_dir = base / absl::StrCat("data-", setup, "-", r);
       eo.workers = workers;
       eo.egl = gl::EglPlatform::kSurfaceless;
-      eo.threads_per_worker = 1;
+      eo.threads_per_worker = threads;
       auto service = EmbeddedService::Start(eo);
       if (!service.ok()) return 1;
       auto stub = v1::Mvbrdf::NewStub((*service)->channel());
@@ -131,22 +135,24 @@ int Main(int argc, char** argv) {
       sweep.push_back(first->sweep_wall);
       warm.push_back(second->wall);
       used = std::max(used, first->workers_used);
-      std::fprintf(stderr, "workers %d rep %d: cold %.2f s (gather %.2f, sweep %.2f), warm %.2f s\n", workers, r,
-                   first->wall, first->gather, first->sweep_wall, second->wall);
+      std::fprintf(stderr, "workers %d x %d threads, rep %d: cold %.2f s (gather %.2f, sweep %.2f), warm %.2f s\n",
+                   workers, threads, r, first->wall, first->gather, first->sweep_wall, second->wall);
     }
-    cold_median[workers] = Median(cold);
-    sweep_median[workers] = Median(sweep);
-    warm_median[workers] = Median(warm);
-    absl::StrAppend(&rows, rows.empty() ? "" : ",\n", "    {\"workers\": ", workers, ", \"repetitions\": ", repetitions,
-                    ", \"workers_that_swept\": ", used, ", \"cold_job_seconds\": ", cold_median[workers],
-                    ", \"gather_seconds\": ", Median(gather), ", \"sweep_seconds\": ", sweep_median[workers],
-                    ", \"warm_job_seconds\": ", warm_median[workers], "}");
+    cold_median[setup] = Median(cold);
+    sweep_median[setup] = Median(sweep);
+    warm_median[setup] = Median(warm);
+    absl::StrAppend(&rows, rows.empty() ? "" : ",\n", "    {\"workers\": ", workers, ", \"threads_per_worker\": ", threads,
+                    ", \"repetitions\": ", repetitions,
+                    ", \"workers_that_swept\": ", used, ", \"cold_job_seconds\": ", cold_median[setup],
+                    ", \"gather_seconds\": ", Median(gather), ", \"sweep_seconds\": ", sweep_median[setup],
+                    ", \"warm_job_seconds\": ", warm_median[setup], "}");
   }
   std::printf("{\n  \"scene\": \"%s\",\n  \"job\": \"light table (gather, 1 sweep task per configuration, choose)\",\n"
               "  \"medians\": [\n%s\n  ],\n  \"sweep_speedup_2_workers\": %.3f,\n  \"job_speedup_2_workers\": %.3f,\n"
+              "  \"sweep_speedup_1_worker_2_threads\": %.3f,\n"
               "  \"warm_cache_speedup_1_worker\": %.3f,\n  \"warm_cache_speedup_2_workers\": %.3f\n}\n",
-              scene.string().c_str(), rows.c_str(), sweep_median[1] / sweep_median[2], cold_median[1] / cold_median[2],
-              cold_median[1] / warm_median[1], cold_median[2] / warm_median[2]);
+              scene.string().c_str(), rows.c_str(), sweep_median[0] / sweep_median[1], cold_median[0] / cold_median[1],
+              sweep_median[0] / sweep_median[2], cold_median[0] / warm_median[0], cold_median[1] / warm_median[1]);
   fs::remove_all(base);
   return 0;
 }
