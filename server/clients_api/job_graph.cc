@@ -3,6 +3,7 @@
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "worker/job_options.h"
 
 namespace mvbrdf::clients_api {
 namespace {
@@ -17,22 +18,11 @@ bool SceneHasConfiguration(const v1::Scene& scene, const std::string& name) {
 }  // namespace
 
 absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene::Sequence& sequence) {
-  pipeline::RunRequest run;
-  if (request.outputs_size() > 0) {
-    run.light_table = run.brdf_atlases = run.correction = run.camera_errors = false;
-    for (int i = 0; i < request.outputs_size(); ++i) {
-      switch (request.outputs(i)) {
-        case v1::OUTPUT_LIGHT_TABLE: run.light_table = true; break;
-        case v1::OUTPUT_BRDF_ATLASES: run.brdf_atlases = true; break;
-        case v1::OUTPUT_CORRECTION: run.correction = true; break;
-        case v1::OUTPUT_CAMERA_ERRORS: run.camera_errors = true; break;
-        default:
-          return absl::InvalidArgumentError(
-              absl::StrCat("outputs[", i, "]: unknown output ", static_cast<int>(request.outputs(i))));
-      }
-    }
-  }
-  run.compare_solvers = request.options().compare_solvers();
+  // Outputs and options as every worker will read them (one function for both).
+  absl::StatusOr<pipeline::ReconstructOptions> options = worker::ReconstructOptionsFor(request, 1);
+  if (!options.ok()) return options.status();
+  pipeline::RunRequest run = options->request;
+  run.configuration.clear();  // decided below, with the candidates checked
 
   const v1::Scene& scene = sequence.scene;
   std::vector<std::string> candidates;
