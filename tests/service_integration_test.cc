@@ -305,5 +305,43 @@ TEST_F(ServiceIntegrationTest, JobSubmittedTwiceRunsTwiceWithTheSameResults) {
   for (const auto& w : service_->workers()) EXPECT_LE(w->bundle_downloads(), 1);
 }
 
+TEST_F(ServiceIntegrationTest, AnInterruptedUploadResumesWhereItStopped) {
+  // 3 MiB of bytes (the server checks the hash, not the contents, until a
+  // job names the bundle).
+  const fs::path file = dir_ / "resumable.bin";
+  {
+    std::ofstream out(file, std::ios::binary);
+    for (int i = 0; i < 3 * 1024 * 1024; ++i) out.put(static_cast<char>((i * 2654435761u) >> 24));
+  }
+  auto sha256 = bundle::Sha256File(file);
+  ASSERT_TRUE(sha256.ok());
+  const std::string bytes = ReadFile(file);
+  {
+    // The first MiB, then the client goes away.
+    grpc::ClientContext context;
+    v1::UploadStatus status;
+    auto writer = stub_->UploadBundle(&context, &status);
+    v1::UploadChunk chunk;
+    chunk.set_sha256(*sha256);
+    chunk.set_total_size(bytes.size());
+    chunk.set_offset(0);
+    chunk.set_data(bytes.substr(0, 1 << 20));
+    ASSERT_TRUE(writer->Write(chunk));
+    writer->WritesDone();
+    writer->Finish();
+    EXPECT_FALSE(status.complete());
+    EXPECT_EQ(status.received_bytes(), 1u << 20);
+  }
+  client::UploadOutcome outcome;
+  const absl::Status uploaded =
+      client::UploadBundleFile(*stub_, "tests", file, *sha256, bytes.size(), nullptr, &outcome);
+  ASSERT_TRUE(uploaded.ok()) << uploaded;
+  EXPECT_FALSE(outcome.already_there);
+  EXPECT_EQ(outcome.resumed_at, 1u << 20);
+  client::UploadOutcome again;
+  ASSERT_TRUE(client::UploadBundleFile(*stub_, "tests", file, *sha256, bytes.size(), nullptr, &again).ok());
+  EXPECT_TRUE(again.already_there);
+}
+
 }  // namespace
 }  // namespace mvbrdf

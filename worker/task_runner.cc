@@ -56,6 +56,7 @@ absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& s
   result.set_encoded_bytes(out.samples.size());
   result.set_seconds(Since(start));
   result.set_samples_sha256(bundle::Sha256Bytes(out.samples));
+  result.set_texel_statistics(texels);
   result.SerializeToString(&out.result);
   out.metrics["samples"] = static_cast<double>(set.size());
   out.sample_set = std::make_shared<const samples::SampleSet>(std::move(set));
@@ -111,6 +112,7 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
   MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, ReportHeader(sequence, o.request));
   if (env.gl != nullptr) report.set_gl_renderer(env.gl->Describe());
+  MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
   // The sweep's wall time: from the first sweep task's start to the last
   // one's end, whichever workers ran them (the sum of the rows' seconds when
   // the inputs carry no times).
@@ -118,6 +120,20 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
   int64_t first_start = 0, last_end = 0;
   for (int i = 0; i < task.inputs_size(); ++i) {
     const v1::TaskInput& input = task.inputs(i);
+    if (input.kind() == "gather") {
+      // Pass 1's time, as a one-process run reports it: "gather_samples"
+      // when the pass gathered the texel statistics too, else the light
+      // Samples only (the reflectance task then reports its own pass).
+      v1::GatherResult gathered;
+      if (!gathered.ParseFromString(input.result())) {
+        return absl::InvalidArgumentError(absl::StrCat("inputs[", i, "].result: not a GatherResult"));
+      }
+      v1::StageRow* stage = report.add_stages();
+      stage->set_name(gathered.texel_statistics() || !plan.Has(pipeline::Stage::kTexelPass) ? "gather_samples"
+                                                                                              : "gather_light_samples");
+      stage->set_seconds(gathered.seconds());
+      continue;
+    }
     v1::LightConfigurationRow* row = report.add_light_configurations();
     if (input.kind() != "sweep" || !row->ParseFromString(input.result())) {
       return absl::InvalidArgumentError(absl::StrCat("inputs[", i, "]: expected a sweep task's row"));
@@ -135,7 +151,6 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
   TaskOutput out;
   out.metrics["configurations"] = report.light_configurations_size();
   out.metrics["configuration_margin"] = report.configuration_margin();
-  MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
   if (!plan.Has(pipeline::Stage::kTexelPass)) {
     // The job ends here: its result.json.
     const fs::path file = env.scratch_dir / "result.json";

@@ -103,6 +103,9 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
   choose.set_id("c");
   choose.set_kind("choose");
   *choose.mutable_request() = Request();
+  v1::TaskInput* gather_input = choose.add_inputs();
+  gather_input->set_kind("gather");
+  gather_input->set_result(gathered->result);
   for (const v1::LightConfiguration& c : sequence_->scene.light_configurations()) {
     v1::Task sweep;
     sweep.set_id("s-" + c.name());
@@ -157,6 +160,14 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
   EXPECT_EQ(report.chosen_configuration(), direct->chosen_configuration());
   EXPECT_EQ(report.configuration_margin(), direct->configuration_margin());
   EXPECT_EQ(report.plan().DebugString(), direct->plan().DebugString());
+  // The same stages: pass 1 reported once (by the gather, which gathered the
+  // texel statistics too), the sweep, the fits, pass 2, the atlases.
+  std::vector<std::string> stages, direct_stages;
+  for (const auto& s : report.stages()) stages.push_back(s.name());
+  for (const auto& s : direct->stages()) direct_stages.push_back(s.name());
+  std::sort(stages.begin(), stages.end());
+  std::sort(direct_stages.begin(), direct_stages.end());
+  EXPECT_EQ(stages, direct_stages);
   ASSERT_EQ(report.cameras_size(), direct->cameras_size());
   for (int i = 0; i < report.cameras_size(); ++i) {
     EXPECT_EQ(report.cameras(i).mse_brdf(), direct->cameras(i).mse_brdf());

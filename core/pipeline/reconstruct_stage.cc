@@ -220,7 +220,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   if (!g.rest_position.empty()) {
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "rest_position.exr", g.rest_position));
   }
-  AddStage(&report, "gather_samples", Since(t0), options.progress);
+  // (No stage when another task gathered everything: its report has it.)
+  if (gather_triangles || gather_texels) AddStage(&report, "gather_samples", Since(t0), options.progress);
 
   // The light configuration.
   t0 = Clock::now();

@@ -80,7 +80,10 @@ absl::StatusOr<std::vector<std::string>> AddJobTasks(store::JobStore& jobs, cons
       if (!sweep.ok()) return sweep.status();
       sweeps.push_back(*sweep);
     }
-    absl::StatusOr<std::string> choose = add("choose", "", sweeps);
+    // choose also reads gather's result: the report's gather stage.
+    std::vector<std::string> choose_deps = {*gather};
+    choose_deps.insert(choose_deps.end(), sweeps.begin(), sweeps.end());
+    absl::StatusOr<std::string> choose = add("choose", "", choose_deps);
     if (!choose.ok()) return choose.status();
     before_reflectance = *choose;
   }

@@ -3,6 +3,7 @@
 //   gather ──▶ sweep[c1] ─┐
 //          ──▶ sweep[c2] ─┼──▶ choose ──▶ reflectance
 //          ──▶ ...       ─┘
+//          ──────────────────▶ choose (for gather's time in the report)
 //
 // `sweep` (one per candidate configuration, key = its name) and `choose`
 // exist only when the plan runs the light sweep; `reflectance` only when it

@@ -201,7 +201,14 @@ void JobWatchers::Push(const v1::JobEvent& event) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = watches_.find(event.job_id());
   if (it == watches_.end()) return;
-  for (JobWatch* watch : it->second) watch->Enqueue({event}, /*last=*/false);
+  for (JobWatch* watch : it->second) {
+    // A start the replay already showed (the task was leased between the
+    // store write and this push) is not sent twice.
+    if (event.has_stage_started() && !watch->seen().started_tasks.insert(event.stage_started().task_id()).second) {
+      continue;
+    }
+    watch->Enqueue({event}, /*last=*/false);
+  }
 }
 
 void JobWatchers::Remove(JobWatch* watch) {

@@ -296,7 +296,9 @@ TEST_F(MvbrdfServiceTest, SubmitCreatesTheTaskGraph) {
   }
   const store::Task& choose = (*tasks)[kConfigurations + 1];
   EXPECT_EQ(choose.kind, "choose");
-  EXPECT_EQ(choose.depends_on, sweeps);
+  std::vector<std::string> choose_deps = {gather.id};
+  choose_deps.insert(choose_deps.end(), sweeps.begin(), sweeps.end());
+  EXPECT_EQ(choose.depends_on, choose_deps);
   const store::Task& reflectance = tasks->back();
   EXPECT_EQ(reflectance.kind, "reflectance");
   EXPECT_EQ(reflectance.depends_on, std::vector<std::string>{choose.id});
