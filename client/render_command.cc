@@ -12,19 +12,13 @@
 #include "core/base/status_macros.h"
 #include "core/gl/egl_context.h"
 #include "core/image/exr.h"
-#include "core/render/phong_renderer.h"
+#include "core/pipeline/reconstruction_renderer.h"
 #include "core/scene/sequence.h"
 #include "core/synth/frame_encoder.h"
 #include "mvbrdf/v1/run_report.pb.h"
 
 namespace mvbrdf::client {
 namespace {
-
-absl::StatusOr<cv::Mat> ReadRgb(const std::filesystem::path& file) {
-  MVBRDF_ASSIGN_OR_RETURN(image::ExrImage exr, image::ReadExr(file));
-  if (exr.image.type() != CV_32FC3) return absl::InvalidArgumentError(absl::StrCat(file.string(), ": expected RGB"));
-  return exr.image;
-}
 
 absl::StatusOr<std::vector<scene::Light>> ReadLights(const std::string& file) {
   MVBRDF_ASSIGN_OR_RETURN(const v1::LightList list, ReadJsonFileAs<v1::LightList>(file));
@@ -71,18 +65,6 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
   if (frame < 0 || frame >= sequence.num_frames) {
     return absl::InvalidArgumentError(absl::StrCat("--frame: must be in [0, ", sequence.num_frames, "), got ", frame));
   }
-  // The layout is rebuilt (deterministically) from the scene and checked
-  // against the run's, so that the scene's per-frame file vertices apply.
-  atlas::AtlasOptions atlas_options;
-  atlas_options.size = static_cast<int>(run.atlas().size());
-  MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas,
-                          atlas::BuildAtlas(sequence.topology, sequence.rest_positions, atlas_options));
-  MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage ids, image::ReadExr(run_dir / "atlas" / "triangle_id.exr"));
-  if (ids.image.size() != atlas.triangle_id.size() || cv::norm(ids.image, atlas.triangle_id, cv::NORM_INF) != 0) {
-    return absl::FailedPreconditionError(
-        absl::StrCat(dir, "/atlas/triangle_id.exr: the run's atlas differs from the one built now"));
-  }
-
   scene::CameraModel camera;
   bool found = false;
   for (const scene::CameraModel& c : sequence.cameras) {
@@ -99,31 +81,9 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
     }
   }
   MVBRDF_ASSIGN_OR_RETURN(const std::vector<scene::Light> lights, ReadLights(lights_file));
-
-  MVBRDF_ASSIGN_OR_RETURN(cv::Mat kd, ReadRgb(run_dir / "atlases" / "kd.exr"));
-  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ks, ReadRgb(run_dir / "atlases" / "ks.exr"));
-  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ke, ReadRgb(run_dir / "atlases" / "ke.exr"));
-  if (correction) {
-    char name[32];
-    std::snprintf(name, sizeof(name), "%04d.exr", static_cast<int>(sequence.scene.frames().first()) + frame);
-    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat c, ReadRgb(run_dir / "atlases" / "correction" / name));
-    kd = kd + c;  // shared/NOTES.md: render with kd + c
-  }
-
   MVBRDF_ASSIGN_OR_RETURN(auto context, gl::EglContext::Create(platform));
-  render::RenderMesh mesh;
-  mesh.triangles = atlas.topology.triangles;
-  mesh.uvs = atlas.topology.uvs;
-  mesh.rest_positions = scene::ToRenderVertices(atlas.topology, sequence.rest_positions);
-  MVBRDF_ASSIGN_OR_RETURN(auto renderer, render::PhongRenderer::Create(*context, mesh, {}));
-  MVBRDF_RETURN_IF_ERROR(renderer->SetAtlasMaterials(kd, ks, ke));
-  MVBRDF_RETURN_IF_ERROR(renderer->SetLights(lights));
-  MVBRDF_ASSIGN_OR_RETURN(const scene::FramePositions positions, sequence.LoadFrame(frame));
-  render::Pose pose;
-  pose.positions = scene::ToRenderVertices(atlas.topology, positions);
-  pose.normals = scene::ToRenderVertices(atlas.topology, scene::ComputeFileVertexNormals(atlas.topology, positions));
-  MVBRDF_ASSIGN_OR_RETURN(const render::RenderOutput image, renderer->Render(pose, camera));
-  const cv::Mat radiance = synth::ApplyDistortion(image.radiance, camera);
+  MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *context));
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat radiance, renderer->Render(camera, lights, frame, correction));
   const std::filesystem::path out_path = out;
   if (out_path.extension() == ".exr") return image::WriteExr(out_path, radiance);
   if (out_path.extension() == ".png") return image::WritePngPreview(out_path, radiance);

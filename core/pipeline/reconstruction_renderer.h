@@ -1,0 +1,50 @@
+// A reconstruction (the output directory of `mvbrdf run`) drawn from any
+// camera under any lights, in the pose of any frame, optionally with that
+// frame's correction atlas (shared/NOTES.md: render with kd + c). Used by
+// `mvbrdf render` and by the report (input beside reconstruction, relit
+// sequences).
+#ifndef MVBRDF_CORE_PIPELINE_RECONSTRUCTION_RENDERER_H_
+#define MVBRDF_CORE_PIPELINE_RECONSTRUCTION_RENDERER_H_
+
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "core/atlas/atlas.h"
+#include "core/gl/egl_context.h"
+#include "core/render/phong_renderer.h"
+#include "core/scene/sequence.h"
+
+namespace mvbrdf::pipeline {
+
+class ReconstructionRenderer {
+ public:
+  // `sequence` (the run's scene) must outlive the renderer. The layout is
+  // rebuilt (deterministically) from the scene and checked against the
+  // run's atlas/triangle_id.exr (FAILED_PRECONDITION when they differ).
+  static absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> Open(const std::filesystem::path& run_dir,
+                                                                      const scene::Sequence& sequence,
+                                                                      gl::EglContext& context);
+
+  // Linear radiance (CV_32FC3) with the camera's lens distortion applied.
+  absl::StatusOr<cv::Mat> Render(const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
+                                 int frame, bool correction);
+
+ private:
+  ReconstructionRenderer(const std::filesystem::path& run_dir, const scene::Sequence& sequence, atlas::Atlas atlas)
+      : run_dir_(run_dir), sequence_(sequence), atlas_(std::move(atlas)) {}
+
+  const std::filesystem::path run_dir_;
+  const scene::Sequence& sequence_;
+  const atlas::Atlas atlas_;
+  cv::Mat kd_, ks_, ke_;
+  bool with_correction_ = false;  // the renderer's kd currently includes a correction atlas
+  std::unique_ptr<render::PhongRenderer> renderer_;
+};
+
+}  // namespace mvbrdf::pipeline
+
+#endif  // MVBRDF_CORE_PIPELINE_RECONSTRUCTION_RENDERER_H_
