@@ -1,13 +1,24 @@
 // Timings of the fitting stage (reported, not asserted):
 //   FitPhong, LM and Powell, 1e4 / 1e5 / 1e6 samples with 4 lights, RGB;
-//   SolveDiffuse throughput over the same sets (per-element closed form).
-// Run: ninja -C build-fit fit_benchmark && build-fit/core/fit/fit_benchmark
+//   SolveDiffuse throughput over the same sets (per-element closed form);
+//   the Phong residual and Jacobian alone, block by block as Ceres calls it
+//   (PhongBlockCost, blocks of 1024 like FitPhong), with a flop estimate;
+//   the per-texel kd pass over a 512^2 atlas with ~10 observations a texel.
+// Run: scripts/bench-micro (JSON into out/bench/), or
+//      ninja -C build fit_benchmark && build/core/fit/fit_benchmark
+#include <algorithm>
+#include <cmath>
 #include <map>
+#include <memory>
+#include <vector>
+#include <utility>
 
 #include "benchmark/benchmark.h"
 #include "core/fit/diffuse.h"
 #include "core/fit/fit_test_util.h"
+#include "core/fit/phong_cost.h"
 #include "core/fit/phong_fit.h"
+#include "core/fit/phong_terms.h"
 
 namespace mvbrdf::fit {
 namespace {
@@ -82,6 +93,199 @@ void BM_DiffuseAccumulator(benchmark::State& state) {
       benchmark::Counter(static_cast<double>(set.size()), benchmark::Counter::kIsIterationInvariantRate);
 }
 BENCHMARK(BM_DiffuseAccumulator)->Arg(1000000)->Unit(benchmark::kMillisecond);
+
+// --- The Phong residual and Jacobian alone -------------------------------
+
+// One channel's normalised data built the way FitPhong's Prepare/FitChannel
+// build it (clamped cosines, ln h or kNoHighlight, w_k = I_k / I_max, r /
+// r_scale), for the evaluation benchmarks only.
+struct ChannelProblem {
+  std::vector<double> log_h;
+  internal::PhongChannelData data;
+  size_t highlight_terms = 0;  // (i, k) pairs with h > 0: the exp() calls per evaluation
+};
+
+std::unique_ptr<ChannelProblem> MakeChannelProblem(const samples::SampleSet& set, int c) {
+  auto problem = std::make_unique<ChannelProblem>();
+  const int num_lights = set.num_lights();
+  internal::PhongChannelData& data = problem->data;
+  data.num_lights = num_lights;
+  double i_max = 0.0;
+  for (int k = 0; k < num_lights; ++k) i_max = std::max(i_max, static_cast<double>(set.light_intensity[k][c]));
+  for (int k = 0; k < num_lights; ++k) data.weight.push_back(set.light_intensity[k][c] / i_max);
+  data.r.resize(set.size());
+  data.diffuse.resize(set.size());
+  problem->log_h.resize(set.size() * num_lights);
+  double sum_rr = 0.0;
+  for (size_t i = 0; i < set.size(); ++i) {
+    double g_sum = 0.0;
+    for (int k = 0; k < num_lights; ++k) {
+      const double g = internal::ClampedCosine(set.g[i * num_lights + k]);
+      const double h = internal::ClampedHighlight(g, set.h[i * num_lights + k]);
+      g_sum += data.weight[k] * g;
+      problem->log_h[i * num_lights + k] = h > 0.0 ? std::log(h) : internal::kNoHighlight;
+      if (h > 0.0) ++problem->highlight_terms;
+    }
+    data.r[i] = set.reflectance[i][c];
+    data.diffuse[i] = g_sum;
+    sum_rr += data.r[i] * data.r[i];
+  }
+  const double r_scale = std::sqrt(sum_rr / static_cast<double>(set.size()));
+  for (double& r : data.r) r /= r_scale;
+  data.log_h = problem->log_h.data();
+  return problem;
+}
+
+// Arithmetic per evaluation, exp() not counted (phong_cost.cc): per light
+// with h > 0, ke ln h, w exp(.), S +=, D += p ln h: 5 flops and one exp();
+// per sample, a G + b S and r - f: 4, and the Jacobian's -b D ke: 2. (D is
+// accumulated whether or not the Jacobian is asked for.)
+double FlopsPerEvaluation(const ChannelProblem& problem, bool jacobian) {
+  return 5.0 * static_cast<double>(problem.highlight_terms) +
+         (jacobian ? 6.0 : 4.0) * static_cast<double>(problem.data.size());
+}
+
+// Arg 0: samples; arg 1: 1 with the Jacobian, 0 residuals only; arg 2: the
+// exponent ke of the data and of the evaluation point.
+void BM_PhongResidualBlocks(benchmark::State& state) {
+  const size_t count = static_cast<size_t>(state.range(0));
+  const bool with_jacobian = state.range(1) != 0;
+  const double ke = static_cast<double>(state.range(2));
+  static std::map<std::pair<size_t, int64_t>, samples::SampleSet> sets;
+  auto key = std::make_pair(count, state.range(2));
+  if (sets.find(key) == sets.end()) {
+    testing::GeneratorOptions generator;
+    generator.num_samples = count;
+    generator.num_lights = 4;
+    generator.noise = 0.05;
+    sets.emplace(key, testing::MakeSamples(testing::MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {ke, ke, ke}),
+                                           generator));
+  }
+  const std::unique_ptr<ChannelProblem> problem = MakeChannelProblem(sets.at(key), 0);
+  // The blocks FitPhong hands to Ceres (kBlockSize = 1024 in phong_fit.cc).
+  constexpr size_t kBlock = 1024;
+  std::vector<std::unique_ptr<ceres::CostFunction>> blocks;
+  for (size_t begin = 0; begin < count; begin += kBlock) {
+    blocks.emplace_back(internal::PhongBlockCost::Create(&problem->data, begin, std::min(count, begin + kBlock)));
+  }
+  double x[3] = {1.0, 1.0, std::log(ke)};
+  const double* parameters[1] = {x};
+  std::vector<double> residuals(kBlock), jacobian(3 * kBlock);
+  double* jacobians[1] = {jacobian.data()};
+  for (auto _ : state) {
+    for (const auto& block : blocks) {
+      block->Evaluate(parameters, residuals.data(), with_jacobian ? jacobians : nullptr);
+      benchmark::DoNotOptimize(residuals.data());
+      benchmark::DoNotOptimize(jacobian.data());
+    }
+    benchmark::ClobberMemory();
+  }
+  state.SetLabel(with_jacobian ? "residual+jacobian" : "residual");
+  state.counters["samples_per_s"] =
+      benchmark::Counter(static_cast<double>(count), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["exp_per_s"] =
+      benchmark::Counter(static_cast<double>(problem->highlight_terms), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["flops_per_s"] =
+      benchmark::Counter(FlopsPerEvaluation(*problem, with_jacobian), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["exp_per_sample"] = static_cast<double>(problem->highlight_terms) / static_cast<double>(count);
+}
+BENCHMARK(BM_PhongResidualBlocks)
+    ->ArgsProduct({{100000}, {0, 1}, {40, 1000}})
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
+
+// --- The per-texel kd pass -----------------------------------------------
+
+// A 512^2 atlas, ~10 observations a texel (element = sample % texels).
+constexpr uint32_t kTexels = 512 * 512;
+constexpr size_t kTexelSamples = 10 * static_cast<size_t>(kTexels);
+
+const samples::SampleSet& TexelSamples() {
+  static const samples::SampleSet set = [] {
+    testing::GeneratorOptions generator;
+    generator.num_samples = kTexelSamples;
+    generator.num_lights = 4;
+    generator.num_elements = kTexels;
+    generator.noise = 0.05;
+    return testing::MakeSamples(testing::MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40}), generator);
+  }();
+  return set;
+}
+
+// Inputs of Add() precomputed, so that this is Add + Solve alone.
+struct TexelInputs {
+  std::vector<uint32_t> element;
+  std::vector<glm::vec3> residual, illumination;
+};
+
+const TexelInputs& TexelAddInputs() {
+  static const TexelInputs inputs = [] {
+    const samples::SampleSet& set = TexelSamples();
+    TexelInputs in;
+    in.element = set.element;
+    in.residual = set.reflectance;
+    in.illumination.resize(set.size());
+    for (size_t i = 0; i < set.size(); ++i) in.illumination[i] = set.Illumination(i, 0xF);
+    return in;
+  }();
+  return inputs;
+}
+
+void BM_TexelAccumulateAndSolve(benchmark::State& state) {
+  const TexelInputs& in = TexelAddInputs();
+  for (auto _ : state) {
+    DiffuseAccumulator accumulator(kTexels);
+    for (size_t i = 0; i < in.element.size(); ++i) accumulator.Add(in.element[i], in.residual[i], in.illumination[i]);
+    DiffuseSolution solution = accumulator.Solve(DiffuseOptions());
+    benchmark::DoNotOptimize(solution);
+  }
+  state.counters["observations_per_s"] =
+      benchmark::Counter(static_cast<double>(in.element.size()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["texels_per_s"] =
+      benchmark::Counter(static_cast<double>(kTexels), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_TexelAccumulateAndSolve)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
+
+// Solve() alone over the filled accumulator (allocation of the solution included).
+void BM_TexelSolve(benchmark::State& state) {
+  const TexelInputs& in = TexelAddInputs();
+  DiffuseAccumulator accumulator(kTexels);
+  for (size_t i = 0; i < in.element.size(); ++i) accumulator.Add(in.element[i], in.residual[i], in.illumination[i]);
+  for (auto _ : state) {
+    DiffuseSolution solution = accumulator.Solve(DiffuseOptions());
+    benchmark::DoNotOptimize(solution);
+  }
+  state.counters["texels_per_s"] =
+      benchmark::Counter(static_cast<double>(kTexels), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_TexelSolve)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
+
+// SolveDiffuse over the same atlas (specular removal with exp() included);
+// arg: threads.
+void BM_TexelSolveDiffuse(benchmark::State& state) {
+  const samples::SampleSet& set = TexelSamples();
+  const PhongRgb specular = testing::MakePhong({0, 0, 0}, {0.3, 0.6, 0.15}, {40, 40, 40});
+  const int threads = static_cast<int>(state.range(0));
+  for (auto _ : state) {
+    DiffuseSolution solution = SolveDiffuse(set, 0xF, specular, kTexels, DiffuseOptions(), threads);
+    benchmark::DoNotOptimize(solution);
+  }
+  state.counters["observations_per_s"] =
+      benchmark::Counter(static_cast<double>(set.size()), benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["texels_per_s"] =
+      benchmark::Counter(static_cast<double>(kTexels), benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_TexelSolveDiffuse)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Repetitions(3)
+    ->ReportAggregatesOnly(true);
 
 }  // namespace
 }  // namespace mvbrdf::fit
