@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include <filesystem>
+
 #include "absl/status/status.h"
 
 namespace mvbrdf::client {
@@ -40,6 +42,22 @@ int RunSubmit(const std::vector<std::string>& args);
 int RunWatch(const std::vector<std::string>& args);
 int RunFetch(const std::vector<std::string>& args);
 int RunCancel(const std::vector<std::string>& args);
+int RunReport(const std::vector<std::string>& args);
+
+class FlagParser;
+// What `mvbrdf report` and `mvbrdf run --report` take (report_command.cc).
+struct ReportFlags {
+  std::string truth;
+  bool no_truth = false;
+  std::string tradeoff;
+  int relit_frames = 12;
+  bool no_render = false;
+  std::string egl = "auto";
+};
+void AddReportFlags(FlagParser& parser, ReportFlags* flags);
+// Writes the HTML report of the run in `run_dir` to `out`.
+absl::Status WriteRunReport(const std::filesystem::path& run_dir, const std::filesystem::path& out,
+                            const ReportFlags& flags);
 
 // The exit code of a failed RPC, from its grpc::StatusCode (as an int):
 // kExitInvalidInput for INVALID_ARGUMENT, NOT_FOUND and FAILED_PRECONDITION,

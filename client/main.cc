@@ -18,6 +18,7 @@ constexpr char kUsage[] =
     "  run        reconstruct the BRDF: light sweep, clustering, fitting, atlases, errors\n"
     "  render     draw a reconstruction from any camera under any lights\n"
     "  evaluate   compare a reconstruction with the synthetic generator's ground truth\n"
+    "  report     the HTML report of a reconstruction (plots, tables, atlases, renderings)\n"
     "  server     run the job server (gRPC; state in --data)\n"
     "  worker     run an EGL-headless worker for a server\n"
     "  jobs       list jobs on a server\n"
@@ -46,6 +47,7 @@ int main(int argc, char** argv) {
   if (command == "run") return mvbrdf::client::RunRun(args);
   if (command == "render") return mvbrdf::client::RunRender(args);
   if (command == "evaluate") return mvbrdf::client::RunEvaluate(args);
+  if (command == "report") return mvbrdf::client::RunReport(args);
   if (command == "server") return mvbrdf::client::RunServer(args);
   if (command == "worker") return mvbrdf::client::RunWorker(args);
   if (command == "jobs") return mvbrdf::client::RunJobs(args);

@@ -199,7 +199,8 @@ int RunRun(const std::vector<std::string>& args) {
   std::string scene_file, out, egl = "auto", data_dir;
   JobFlags job;
   int threads = 2, workers = 1;
-  bool direct = false;
+  bool direct = false, write_report = false;
+  ReportFlags report_flags;
   FlagParser flags("run",
                    "Reconstructs a spatially varying Phong BRDF from the scene: resamples every frame into the\n"
                    "texture atlas, sweeps the candidate light configurations (Table 6.1), clusters texels into\n"
@@ -216,6 +217,8 @@ int RunRun(const std::vector<std::string>& args) {
   flags.AddString("--data", &data_dir, "keep the in-process server's state (and Sample cache) here (default: temporary)");
   flags.AddBool("--direct", &direct, "run the pipeline directly, without the in-process service");
   flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  flags.AddBool("--report", &write_report, "also write DIR/report.html (see 'mvbrdf report')");
+  AddReportFlags(flags, &report_flags);
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf run: %s\n", std::string(s.message()).c_str());
     return kExitUsage;
@@ -236,6 +239,11 @@ int RunRun(const std::vector<std::string>& args) {
     return kExitUsage;
   }
 
+  // result.json names the scene absolutely, so that `render` and `report`
+  // find it from anywhere.
+  std::error_code absolute_error;
+  const std::filesystem::path absolute_scene = std::filesystem::absolute(scene_file, absolute_error);
+  if (!absolute_error) scene_file = absolute_scene.lexically_normal().string();
   scene::LoadOptions load;
   load.check_all_frames = false;  // each frame is checked when it is read
   auto sequence = scene::LoadSequence(scene_file, load);
@@ -246,8 +254,14 @@ int RunRun(const std::vector<std::string>& args) {
   if (!plan.ok()) return ReportFailure(plan.status());
   std::fputs(plan->Describe().c_str(), stdout);
   std::fflush(stdout);
-  if (direct) return RunDirect(*sequence, request, *platform, threads, out);
-  return RunEmbedded(scene_file, request, *platform, threads, workers, data_dir, out);
+  const int ran = direct ? RunDirect(*sequence, request, *platform, threads, out)
+                         : RunEmbedded(scene_file, request, *platform, threads, workers, data_dir, out);
+  if (ran != kExitOk || !write_report) return ran;
+  report_flags.egl = egl;
+  const std::filesystem::path report_file = std::filesystem::path(out) / "report.html";
+  if (absl::Status s = WriteRunReport(out, report_file, report_flags); !s.ok()) return ReportFailure(s, "mvbrdf run");
+  std::printf("wrote %s\n", report_file.string().c_str());
+  return kExitOk;
 }
 
 }  // namespace mvbrdf::client

@@ -5,6 +5,7 @@
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/bundle/sha256.h"
@@ -147,6 +148,7 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
   MVBRDF_RETURN_IF_ERROR(pipeline::ChooseConfiguration(&report));
   v1::StageRow* stage = report.add_stages();
   stage->set_name("light_sweep");
+  stage->set_peak_rss_bytes(PeakRssBytes());
   stage->set_seconds(first_start > 0 && last_end >= first_start ? (last_end - first_start) / 1000.0 : sum);
   TaskOutput out;
   out.metrics["configurations"] = report.light_configurations_size();

@@ -1,0 +1,151 @@
+#include "core/report/report_inputs.h"
+
+#include <cmath>
+#include <fstream>
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/files.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/evaluate/reconstruction_evaluator.h"
+#include "core/image/exr.h"
+#include "core/pipeline/reconstruction_renderer.h"
+#include "core/scene/sequence.h"
+#include "core/scene/video_source.h"
+
+namespace mvbrdf::report {
+namespace {
+
+namespace fs = std::filesystem;
+
+absl::StatusOr<std::string> Png(const fs::path& scratch, const std::string& name, const cv::Mat& linear,
+                                float gain = 1.0f) {
+  const fs::path file = scratch / (name + ".png");
+  MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(file, linear, gain));
+  return ReadFileToString(file);
+}
+
+// The scene's lights of configuration `name` (every light when unknown).
+std::vector<scene::Light> LightsOf(const scene::Sequence& sequence, const std::string& name) {
+  std::vector<scene::Light> lights;
+  for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
+    if (c.name() != name) continue;
+    for (const std::string& l : c.lights()) {
+      for (const scene::Light& light : sequence.lights) {
+        if (light.name == l) lights.push_back(light);
+      }
+    }
+  }
+  return lights.empty() ? sequence.lights : lights;
+}
+
+absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, const ReportOptions& options,
+                           ReportInputs* in) {
+  scene::LoadOptions load;
+  load.check_all_frames = false;
+  load.probe_videos = false;
+  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(run.scene(), load));
+  MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *options.gl));
+  const int frame = sequence.num_frames / 2;
+  const std::vector<scene::Light> lights = LightsOf(sequence, run.chosen_configuration());
+  char correction_name[32];
+  std::snprintf(correction_name, sizeof(correction_name), "%04d.exr",
+                static_cast<int>(sequence.scene.frames().first()) + frame);
+  const bool has_correction = fs::exists(run_dir / "atlases" / "correction" / correction_name);
+  const int cameras = std::min<int>(options.max_cameras, static_cast<int>(sequence.cameras.size()));
+  for (int c = 0; c < cameras; ++c) {
+    const scene::CameraModel& camera = sequence.cameras[static_cast<size_t>(c)];
+    CameraComparison cmp;
+    cmp.camera = camera.name;
+    cmp.frame = frame;
+    MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
+                                                                 static_cast<int>(sequence.scene.frames().first()),
+                                                                 absl::StrCat("scene.cameras[", c, "]")));
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat input, video->ReadFrame(frame));
+    MVBRDF_ASSIGN_OR_RETURN(cmp.input_png, Png(options.scratch_dir, camera.name + "_input", input));
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat brdf, renderer->Render(camera, lights, frame, false));
+    MVBRDF_ASSIGN_OR_RETURN(cmp.reconstruction_png, Png(options.scratch_dir, camera.name + "_brdf", brdf));
+    if (has_correction) {
+      MVBRDF_ASSIGN_OR_RETURN(const cv::Mat corrected, renderer->Render(camera, lights, frame, true));
+      MVBRDF_ASSIGN_OR_RETURN(cmp.corrected_png, Png(options.scratch_dir, camera.name + "_corrected", corrected));
+    }
+    in->cameras.push_back(std::move(cmp));
+  }
+  // Thesis Fig. 7.7: one point light circling the model at its top.
+  glm::vec3 lo(INFINITY), hi(-INFINITY);
+  for (const glm::vec3& p : sequence.rest_positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const glm::vec3 centre = 0.5f * (lo + hi);
+  const float radius = 1.5f * glm::length(hi - lo);
+  glm::vec3 intensity(0.0f);
+  for (const scene::Light& l : lights) intensity += l.intensity;
+  intensity *= 0.6f;  // most of the configuration's light from one place
+  for (int k = 0; k < options.relit_frames && !sequence.cameras.empty(); ++k) {
+    const float angle = 2.0f * 3.14159265f * static_cast<float>(k) / static_cast<float>(options.relit_frames);
+    scene::Light light;
+    light.name = "orbit";
+    light.position = centre + glm::vec3(radius * std::cos(angle), 0.5f * (hi.y - lo.y), radius * std::sin(angle));
+    light.intensity = intensity;
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat relit, renderer->Render(sequence.cameras[0], {light}, frame, false));
+    MVBRDF_ASSIGN_OR_RETURN(std::string png, Png(options.scratch_dir, absl::StrCat("relit_", k), relit));
+    in->relit.push_back({absl::StrCat(static_cast<int>(std::lround(angle * 180.0f / 3.14159265f)), "°"), std::move(png)});
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const ReportOptions& options) {
+  ReportInputs in;
+  MVBRDF_RETURN_IF_ERROR(ReadJsonFile(run_dir / "result.json", &in.run));
+  std::error_code ec;
+  fs::create_directories(options.scratch_dir, ec);
+  if (ec) return absl::FailedPreconditionError(absl::StrCat(options.scratch_dir.string(), ": ", ec.message()));
+
+  for (const auto& [name, caption] : std::vector<std::pair<std::string, std::string>>{
+           {"kd", "kd (diffuse)"}, {"ks", "ks (specular)"}, {"ke", "ke (exponent, /100)"}, {"cluster", "clusters"}}) {
+    const fs::path file = run_dir / "atlases" / (name + ".png");
+    if (!fs::exists(file)) continue;
+    MVBRDF_ASSIGN_OR_RETURN(std::string png, ReadFileToString(file));
+    in.atlases.push_back({caption, std::move(png)});
+  }
+  if (fs::exists(run_dir / "atlases" / "confidence.exr")) {
+    MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage confidence, image::ReadExr(run_dir / "atlases" / "confidence.exr"));
+    double max_count = 0.0;
+    cv::minMaxLoc(confidence.image, nullptr, &max_count);
+    cv::Mat scaled;
+    cv::log(confidence.image + 1.0f, scaled);
+    MVBRDF_ASSIGN_OR_RETURN(std::string png, Png(options.scratch_dir, "confidence", scaled,
+                                                  static_cast<float>(1.0 / std::log(max_count + 1.0 + 1e-9))));
+    in.atlases.push_back({absl::StrCat("confidence (observations, log scale, max ", max_count, ")"), std::move(png)});
+  }
+
+  // The ground truth.
+  fs::path truth = options.truth;
+  if (truth.empty() && options.use_truth && !in.run.scene().empty()) {
+    const fs::path beside = fs::path(in.run.scene()).parent_path();
+    if (fs::exists(beside / "ground_truth" / "truth.json")) truth = beside;
+  }
+  if (!truth.empty()) {
+    const fs::path error_png = options.scratch_dir / "kd_error.png";
+    MVBRDF_ASSIGN_OR_RETURN(in.evaluation, evaluate::EvaluateReconstruction(run_dir, truth, error_png));
+    MVBRDF_ASSIGN_OR_RETURN(std::string png, ReadFileToString(error_png));
+    in.atlases.push_back({"|kd - kd true| ×10", std::move(png)});
+    if (fs::exists(options.scratch_dir / "kd_error_truth_kd.png")) {
+      MVBRDF_ASSIGN_OR_RETURN(std::string truth_png, ReadFileToString(options.scratch_dir / "kd_error_truth_kd.png"));
+      in.atlases.push_back({"kd true", std::move(truth_png)});
+    }
+  }
+  if (!options.tradeoff.empty()) {
+    v1::TradeoffReport tradeoff;
+    MVBRDF_RETURN_IF_ERROR(ReadJsonFile(options.tradeoff, &tradeoff));
+    in.tradeoff = std::move(tradeoff);
+  }
+  if (options.gl != nullptr) MVBRDF_RETURN_IF_ERROR(AddRenderings(run_dir, in.run, options, &in));
+  return in;
+}
+
+}  // namespace mvbrdf::report

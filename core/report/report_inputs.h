@@ -1,0 +1,37 @@
+// Gathers what the HTML report shows from a run's output directory: its
+// result.json, the atlas previews, an evaluation against the ground truth
+// (when the scene's bundle has ground_truth/, or one is given), the
+// error-against-run-time points of scripts/bench-tradeoff, and — with a GL
+// context — input frames beside renderings of the reconstruction and a relit
+// sequence with a point light circling the model.
+#ifndef MVBRDF_CORE_REPORT_REPORT_INPUTS_H_
+#define MVBRDF_CORE_REPORT_REPORT_INPUTS_H_
+
+#include <filesystem>
+
+#include "absl/status/statusor.h"
+#include "core/gl/egl_context.h"
+#include "core/report/report_page.h"
+
+namespace mvbrdf::report {
+
+struct ReportOptions {
+  // Ground truth: a bundle directory with ground_truth/ (empty: the scene's
+  // own directory when it has one).
+  std::filesystem::path truth;
+  bool use_truth = true;
+  // A TradeoffReport JSON (scripts/bench-tradeoff); empty: none.
+  std::filesystem::path tradeoff;
+  // Renderings (input beside reconstruction, the relit sequence) need a
+  // context; null: the report has none.
+  gl::EglContext* gl = nullptr;
+  int max_cameras = 4;    // cameras shown beside their input
+  int relit_frames = 12;  // positions of the circling light
+  std::filesystem::path scratch_dir;  // temporary files (removed by the caller)
+};
+
+absl::StatusOr<ReportInputs> CollectReportInputs(const std::filesystem::path& run_dir, const ReportOptions& options);
+
+}  // namespace mvbrdf::report
+
+#endif  // MVBRDF_CORE_REPORT_REPORT_INPUTS_H_

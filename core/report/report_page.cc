@@ -1,0 +1,228 @@
+#include "core/report/report_page.h"
+
+#include <cstdio>
+#include <map>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "core/report/html.h"
+#include "core/report/svg_plot.h"
+
+namespace mvbrdf::report {
+namespace {
+
+std::string F(double v, const char* format = "%.4g") {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), format, v);
+  return buf;
+}
+
+std::string Rgb(const google::protobuf::RepeatedField<double>& v, const char* format = "%.3f") {
+  std::vector<std::string> parts;
+  for (double x : v) parts.push_back(F(x, format));
+  return absl::StrJoin(parts, " / ");
+}
+
+constexpr char kStyle[] = R"css(
+body { font: 14px/1.45 system-ui, sans-serif; margin: 24px auto; max-width: 1180px; color: #222; }
+h1 { font-size: 24px; margin-bottom: 4px; } h2 { font-size: 19px; margin-top: 34px; border-bottom: 1px solid #ddd; }
+.summary { color: #555; } .warning { background: #fff4d6; padding: 6px 10px; border-left: 4px solid #f0a000; }
+table { border-collapse: collapse; margin: 10px 0; } th, td { padding: 3px 9px; border-bottom: 1px solid #e4e4e4; text-align: right; }
+th { background: #f4f4f4; } table.text td, table.text th { text-align: left; } td:first-child, th:first-child { text-align: left; } tr.chosen td { font-weight: 600; background: #eef6ee; }
+.plot text { font: 12px system-ui, sans-serif; fill: #333; } .plot .plot-title { font-weight: 600; font-size: 13px; }
+.plot .value { fill: #555; font-size: 11px; }
+.figures { display: flex; flex-wrap: wrap; gap: 14px; } figure { margin: 0; } figcaption { color: #555; font-size: 12px; }
+figure img { image-rendering: pixelated; border: 1px solid #ddd; max-width: 100%; }
+.relit { display: grid; grid-template-columns: repeat(6, 1fr); gap: 6px; } .relit img { width: 100%; }
+.ok { color: #197a19; } .bad { color: #b3261e; } code { background: #f4f4f4; padding: 0 3px; }
+)css";
+
+// Marks the page as loaded without script errors and with its plots drawn;
+// the browser test reads these attributes.
+constexpr char kCheckScript[] = R"js(
+window.addEventListener('error', function (e) {
+  document.body.setAttribute('data-report-errors', String(e.message || e));
+});
+window.addEventListener('load', function () {
+  var plots = document.querySelectorAll('svg.plot');
+  var drawn = 0;
+  plots.forEach(function (p) { var b = p.getBBox(); if (b.width > 0 && b.height > 0) drawn++; });
+  var images = document.querySelectorAll('img');
+  var loaded = 0;
+  images.forEach(function (i) { if (i.complete && i.naturalWidth > 0) loaded++; });
+  document.body.setAttribute('data-plots', plots.length + '/' + drawn);
+  document.body.setAttribute('data-images', images.length + '/' + loaded);
+  document.body.setAttribute('data-report-ready', 'yes');
+});
+)js";
+
+std::string Figure(const ReportImage& image, int width = 0) {
+  return "<figure>" + PngImg(image.png, image.caption, width) + "<figcaption>" + Escape(image.caption) +
+         "</figcaption></figure>";
+}
+
+std::string TradeoffSection(const v1::TradeoffReport& tradeoff) {
+  std::map<std::string, int> group_of;
+  std::vector<std::string> groups;
+  std::vector<ScatterPoint> kd_points, ks_points;
+  std::vector<std::vector<std::string>> rows;
+  for (const v1::TradeoffPoint& p : tradeoff.points()) {
+    auto it = group_of.find(p.knob());
+    if (it == group_of.end()) {
+      it = group_of.emplace(p.knob(), static_cast<int>(groups.size())).first;
+      groups.push_back(p.knob());
+    }
+    const std::string label = p.chosen() ? "defaults" : p.setting();
+    kd_points.push_back({p.seconds(), p.kd_rmse(), label, it->second, p.chosen()});
+    ks_points.push_back({p.seconds(), p.ks_rel_error(), label, it->second, p.chosen()});
+    rows.push_back({p.knob(), p.setting(), F(p.seconds(), "%.1f"), F(p.kd_rmse(), "%.4f"), F(p.ks_rel_error(), "%.3f"),
+                    F(p.ke_rel_error(), "%.3f"), p.configuration_correct() ? "yes" : "no",
+                    F(p.peak_rss_bytes() / 1048576.0, "%.0f")});
+  }
+  std::string out = "<section id=\"tradeoff\"><h2>Error against run time</h2>";
+  out += "<p>Each point is a measured run of <code>" + Escape(tradeoff.scene()) +
+         "</code> with one knob changed from the defaults (ringed). The dashed line is the Pareto front: no run is both "
+         "faster and more accurate than a point on it.</p>";
+  out += ParetoSvg("kd RMSE against run time", "run time (s)", "kd RMSE (linear)", kd_points, groups);
+  out += ParetoSvg("ks relative error against run time", "run time (s)", "ks relative error (mean over clusters)",
+                   ks_points, groups);
+  out += Table({"knob", "setting", "seconds", "kd RMSE", "ks rel. error", "ke rel. error", "configuration right",
+                "peak MiB"},
+               rows);
+  return out + "</section>";
+}
+
+}  // namespace
+
+std::string BuildReportHtml(const ReportInputs& in) {
+  const v1::RunReport& run = in.run;
+  std::string h = "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>mvbrdf report: " +
+                  Escape(run.scene()) + "</title><style>" + kStyle + "</style><script>" + kCheckScript +
+                  "</script></head><body>";
+  h += "<h1>BRDF reconstruction</h1><p class=\"summary\"><code>" + Escape(run.scene()) + "</code> — " +
+       absl::StrCat(run.frames()) + " frames, " + absl::StrCat(run.cameras_size()) + " cameras in Table 7.1, " +
+       "atlas " + absl::StrCat(run.atlas().size()) + "², " + F(run.seconds(), "%.1f") + " s, peak memory " +
+       F(run.peak_rss_bytes() / 1048576.0, "%.0f") + " MiB; " + Escape(run.gl_renderer()) + "</p>";
+  h += "<p>Light configuration: <b>" + Escape(run.chosen_configuration()) + "</b>";
+  if (run.light_configurations_size() > 1) {
+    h += " (the next best E_d is " + F(100.0 * run.configuration_margin(), "%.1f") + " % higher)";
+  }
+  h += ". Rule: " + Escape(run.configuration_rule()) + ".</p>";
+  if (!run.configuration_warning().empty()) h += "<p class=\"warning\">" + Escape(run.configuration_warning()) + "</p>";
+
+  if (in.evaluation.has_value()) {
+    const v1::EvaluationReport& e = *in.evaluation;
+    h += "<section id=\"truth\"><h2>Against the ground truth</h2><p>Configuration " +
+         std::string(e.configuration_correct() ? "<b class=\"ok\">right</b>" : "<b class=\"bad\">wrong</b>") +
+         " (truth: " + Escape(e.true_configuration()) + "); kd RMSE " + F(e.kd_rmse(), "%.4f") + " over " +
+         absl::StrCat(e.kd_texels()) + " texels seen ≥ 10 times (median " + F(e.kd_median_abs_error(), "%.4f") +
+         ", p95 " + F(e.kd_p95_abs_error(), "%.4f") + "); cluster accuracy " + F(e.cluster_accuracy(), "%.3f") + ".</p>";
+    std::vector<std::vector<std::string>> rows;
+    for (const v1::MaterialComparison& c : e.clusters()) {
+      rows.push_back({c.cluster(), c.material(), F(c.kd_rmse(), "%.4f"), Rgb(c.ks()), Rgb(c.ks_true()),
+                      F(c.ks_rel_error(), "%.3f"), Rgb(c.ke(), "%.1f"), Rgb(c.ke_true(), "%.1f"),
+                      F(c.ke_rel_error(), "%.3f")});
+    }
+    h += Table({"cluster", "true material", "kd RMSE", "ks", "ks true", "ks rel. error", "ke", "ke true",
+                "ke rel. error"},
+               rows);
+    h += "</section>";
+  }
+
+  if (in.tradeoff.has_value() && in.tradeoff->points_size() > 0) h += TradeoffSection(*in.tradeoff);
+
+  // The plan and where the time goes.
+  h += "<section id=\"plan\"><h2>Plan, time and memory</h2>";
+  std::vector<std::vector<std::string>> plan_rows;
+  for (const v1::PlannedStage& s : run.plan().stages()) plan_rows.push_back({s.name(), "runs", s.why()});
+  for (const v1::SkippedStage& s : run.plan().skipped()) plan_rows.push_back({s.name(), "skipped", s.reason()});
+  h += Table({"stage", "", "why"}, plan_rows, "text");
+  std::vector<std::string> stage_names;
+  BarSeries seconds{"seconds", {}, "#3366cc"}, memory{"peak memory", {}, "#ff9900"};
+  for (const v1::StageRow& s : run.stages()) {
+    stage_names.push_back(s.name());
+    seconds.values.push_back(s.seconds());
+    memory.values.push_back(s.peak_rss_bytes() / 1048576.0);
+  }
+  h += BarChartSvg("Time per stage", stage_names, {seconds}, "s");
+  h += BarChartSvg("Process peak memory after each stage", stage_names, {memory}, "MiB");
+  h += "</section>";
+
+  // Table 6.1.
+  if (run.light_configurations_size() > 0) {
+    h += "<section id=\"table61\"><h2>Table 6.1: light configurations</h2>";
+    std::string rows_html = "<table><thead><tr><th>configuration</th><th>lit triangles</th><th>E_a</th><th>E_d</th>"
+                            "<th>seconds</th></tr></thead><tbody>";
+    std::vector<std::string> names;
+    BarSeries e_d{"E_d", {}, "#109618"};
+    for (const v1::LightConfigurationRow& r : run.light_configurations()) {
+      const bool chosen = r.name() == run.chosen_configuration();
+      rows_html += std::string(chosen ? "<tr class=\"chosen\">" : "<tr>") + "<td>" + Escape(r.name()) +
+                   (chosen ? " ◀" : "") + "</td><td>" + absl::StrCat(r.lit_triangles()) + "</td><td>" +
+                   F(r.e_a(), "%.6f") + "</td><td>" + F(r.e_d(), "%.6f") + "</td><td>" + F(r.seconds(), "%.2f") +
+                   "</td></tr>";
+      names.push_back(r.name());
+      e_d.values.push_back(r.e_d());
+    }
+    h += rows_html + "</tbody></table>";
+    h += BarChartSvg("E_d per configuration (lower is better)", names, {e_d}, "");
+    h += "</section>";
+  }
+
+  // Table 6.2.
+  if (run.solvers_size() > 0) {
+    h += "<section id=\"table62\"><h2>Table 6.2: one BRDF per cluster</h2>";
+    std::vector<std::vector<std::string>> rows;
+    for (const v1::SolverRow& s : run.solvers()) {
+      rows.push_back({s.cluster(), s.solver(), Rgb(s.kd()), Rgb(s.ks()), Rgb(s.ke(), "%.1f"), F(s.final_cost(), "%.6g"),
+                      F(s.mse(), "%.3g"), absl::StrCat(s.samples()), F(s.seconds(), "%.3f"),
+                      absl::StrJoin(s.flags(), ", ")});
+    }
+    h += Table({"cluster", "solver", "kd (RGB)", "ks (RGB)", "ke (RGB)", "cost", "MSE", "Samples", "seconds", "flags"},
+               rows);
+    h += "</section>";
+  }
+
+  // Table 7.1.
+  if (run.cameras_size() > 0) {
+    h += "<section id=\"table71\"><h2>Table 7.1: error per camera</h2>";
+    std::vector<std::vector<std::string>> rows;
+    std::vector<std::string> names;
+    BarSeries brdf{"BRDF atlases", {}, "#dc3912"}, corrected{"with correction atlas", {}, "#3366cc"};
+    for (const v1::CameraErrorRow& c : run.cameras()) {
+      rows.push_back({c.name(), F(c.mse_brdf(), "%.6f"), F(c.mse_correction(), "%.6f"), absl::StrCat(c.samples())});
+      names.push_back(c.name());
+      brdf.values.push_back(c.mse_brdf());
+      corrected.values.push_back(c.mse_correction());
+    }
+    h += Table({"camera", "BRDF atlas MSE", "correction atlas MSE", "observations"}, rows);
+    h += BarChartSvg("Mean squared error per camera", names, {brdf, corrected}, "");
+    h += "</section>";
+  }
+
+  if (!in.atlases.empty()) {
+    h += "<section id=\"atlases\"><h2>Atlases</h2><div class=\"figures\">";
+    for (const ReportImage& image : in.atlases) h += Figure(image, 360);
+    h += "</div></section>";
+  }
+  if (!in.cameras.empty()) {
+    h += "<section id=\"cameras\"><h2>Input and reconstruction</h2><div class=\"figures\">";
+    for (const CameraComparison& c : in.cameras) {
+      h += "<figure>" + PngImg(c.input_png, c.camera + " input") + PngImg(c.reconstruction_png, c.camera + " BRDF");
+      if (!c.corrected_png.empty()) h += PngImg(c.corrected_png, c.camera + " corrected");
+      h += "<figcaption>" + Escape(c.camera) + ", frame " + absl::StrCat(c.frame) +
+           ": input, BRDF atlases" + (c.corrected_png.empty() ? "" : ", with the correction atlas") +
+           "</figcaption></figure>";
+    }
+    h += "</div></section>";
+  }
+  if (!in.relit.empty()) {
+    h += "<section id=\"relit\"><h2>Relit: a light moving around the model</h2><div class=\"relit\">";
+    for (const ReportImage& image : in.relit) h += Figure(image);
+    h += "</div></section>";
+  }
+  h += "<p class=\"summary\">Written by <code>mvbrdf report</code>.</p></body></html>\n";
+  return h;
+}
+
+}  // namespace mvbrdf::report

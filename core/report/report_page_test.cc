@@ -1,0 +1,184 @@
+// The report's pieces, and the whole page in a real browser: Debian's
+// Chromium, headless, loads it without script errors, draws every plot and
+// image, and its screenshot is not blank.
+#include "core/report/report_page.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "core/report/html.h"
+#include "core/report/svg_plot.h"
+
+namespace mvbrdf::report {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(HtmlTest, EscapesAndEncodes) {
+  EXPECT_EQ(Escape("<a href=\"x\">&'"), "&lt;a href=&quot;x&quot;&gt;&amp;&#39;");
+  EXPECT_EQ(Base64(""), "");
+  EXPECT_EQ(Base64("f"), "Zg==");
+  EXPECT_EQ(Base64("fo"), "Zm8=");
+  EXPECT_EQ(Base64("foo"), "Zm9v");
+  EXPECT_EQ(Base64("foobar"), "Zm9vYmFy");
+  EXPECT_EQ(Table({"a"}, {{"<b>x</b>"}, {"1 < 2"}}), "<table><thead><tr><th>a</th></tr></thead><tbody><tr><td><b>x</b>"
+                                                     "</td></tr><tr><td>1 &lt; 2</td></tr></tbody></table>");
+}
+
+TEST(SvgPlotTest, ParetoFrontKeepsOnlyUndominatedPoints) {
+  // (time, error): (1, 5) (2, 3) (3, 4) (4, 1) (5, 1): the front is 0, 1, 3.
+  const std::vector<ScatterPoint> points = {{1, 5}, {2, 3}, {3, 4}, {4, 1}, {5, 1}};
+  EXPECT_EQ(ParetoFront(points), (std::vector<size_t>{0, 1, 3}));
+  const std::string svg = ParetoSvg("t", "x", "y", points, {"g"});
+  EXPECT_NE(svg.find("class=\"pareto\""), std::string::npos);
+  EXPECT_EQ(std::count(svg.begin(), svg.end(), '\n'), 0);
+  size_t circles = 0;
+  for (size_t at = svg.find("class=\"point\""); at != std::string::npos; at = svg.find("class=\"point\"", at + 1)) {
+    ++circles;
+  }
+  EXPECT_EQ(circles, 5u);
+}
+
+TEST(SvgPlotTest, BarChartScalesToTheLargestValueAndSurvivesNonFinite) {
+  const std::string svg = BarChartSvg("T <1>", {"a", "b"}, {{"s", {1.0, NAN}, ""}, {"t", {4.0, 2.0}, ""}}, "s");
+  EXPECT_NE(svg.find("T &lt;1&gt;"), std::string::npos);
+  EXPECT_NE(svg.find("width=\"460.0\""), std::string::npos);  // 4.0 is the full width
+  EXPECT_EQ(svg.find("nan\""), std::string::npos);
+}
+
+std::string TestPng(int seed) {
+  cv::Mat image(48, 64, CV_8UC3);
+  cv::randu(image, cv::Scalar::all(seed), cv::Scalar::all(255));
+  std::vector<uchar> png;
+  cv::imencode(".png", image, png);
+  return std::string(png.begin(), png.end());
+}
+
+ReportInputs SampleInputs() {
+  ReportInputs in;
+  v1::RunReport& run = in.run;
+  run.set_scene("studio/scene.json");
+  run.set_frames(12);
+  run.set_seconds(10.5);
+  run.set_chosen_configuration("NE,NW,SE,SW");
+  run.set_configuration_rule("lowest E_d; E_a breaks ties");
+  run.set_configuration_warning("E_a prefers <C>");
+  for (const char* name : {"C", "NE,NW,SE,SW"}) {
+    v1::LightConfigurationRow* row = run.add_light_configurations();
+    row->set_name(name);
+    row->set_e_a(0.003);
+    row->set_e_d(std::string(name) == "C" ? 0.005 : 0.0005);
+    row->set_seconds(0.5);
+  }
+  for (const char* name : {"atlas", "gather_samples", "light_sweep"}) {
+    v1::StageRow* stage = run.add_stages();
+    stage->set_name(name);
+    stage->set_seconds(2.0);
+    stage->set_peak_rss_bytes(500u << 20);
+  }
+  v1::SolverRow* solver = run.add_solvers();
+  solver->set_cluster("skin");
+  solver->set_solver("levenberg-marquardt");
+  for (int c = 0; c < 3; ++c) {
+    solver->add_kd(0.3);
+    solver->add_ks(0.05);
+    solver->add_ke(30);
+  }
+  v1::CameraErrorRow* cam = run.add_cameras();
+  cam->set_name("cam0");
+  cam->set_mse_brdf(2e-4);
+  cam->set_mse_correction(1e-4);
+  v1::PlannedStage* planned = run.mutable_plan()->add_stages();
+  planned->set_name("light_sweep");
+  planned->set_why("8 candidates");
+  v1::SkippedStage* skipped = run.mutable_plan()->add_skipped();
+  skipped->set_name("atlas");
+  skipped->set_reason("the mesh has UVs");
+  in.atlases.push_back({"kd", TestPng(0)});
+  in.cameras.push_back({"cam0", 6, TestPng(10), TestPng(20), TestPng(30)});
+  for (int k = 0; k < 6; ++k) in.relit.push_back({"light " + std::to_string(k), TestPng(k * 20)});
+  v1::TradeoffReport tradeoff;
+  tradeoff.set_scene("actor");
+  for (int k = 0; k < 4; ++k) {
+    v1::TradeoffPoint* p = tradeoff.add_points();
+    p->set_knob(k < 2 ? "atlas" : "frames");
+    p->set_setting(std::to_string(k));
+    p->set_seconds(5.0 + k);
+    p->set_kd_rmse(0.03 - 0.005 * k);
+    p->set_chosen(k == 3);
+  }
+  in.tradeoff = tradeoff;
+  return in;
+}
+
+TEST(ReportPageTest, HasEverySectionAndEscapesText) {
+  const std::string html = BuildReportHtml(SampleInputs());
+  for (const char* id : {"id=\"tradeoff\"", "id=\"plan\"", "id=\"table61\"", "id=\"table62\"", "id=\"table71\"",
+                         "id=\"atlases\"", "id=\"cameras\"", "id=\"relit\""}) {
+    EXPECT_NE(html.find(id), std::string::npos) << id;
+  }
+  EXPECT_NE(html.find("E_a prefers &lt;C&gt;"), std::string::npos);
+  EXPECT_NE(html.find("the mesh has UVs"), std::string::npos);
+  EXPECT_NE(html.find("class=\"chosen\""), std::string::npos);
+  EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org"));  // nothing fetched from the network
+  EXPECT_EQ(html.find("src=\"http"), std::string::npos);
+}
+
+// Runs `command`, returns its stdout.
+std::string Shell(const std::string& command) {
+  std::string out;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return out;
+  char buf[4096];
+  size_t n = 0;
+  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) out.append(buf, n);
+  pclose(pipe);
+  return out;
+}
+
+TEST(ReportBrowserTest, ChromiumLoadsThePageDrawsEveryPlotAndTheScreenshotIsNotBlank) {
+  const char* chromium = "/usr/bin/chromium";
+  ASSERT_TRUE(fs::exists(chromium)) << "Debian's chromium is missing: run scripts/install-deps";
+  const fs::path dir = fs::temp_directory_path() / ("mvbrdf_report_test_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path page = dir / "report.html";
+  {
+    std::ofstream out(page);
+    out << BuildReportHtml(SampleInputs());
+  }
+  const std::string flags = "--headless --no-sandbox --disable-gpu --disable-quic --no-first-run "
+                            "--disable-background-networking --disable-component-update --disable-sync "
+                            "--virtual-time-budget=5000 --user-data-dir=" + (dir / "profile").string();
+  const std::string dom = Shell(std::string(chromium) + " " + flags + " --dump-dom file://" + page.string() +
+                              " 2>/dev/null");
+  EXPECT_NE(dom.find("data-report-ready=\"yes\""), std::string::npos) << dom.substr(0, 300);
+  EXPECT_EQ(dom.find("data-report-errors=\""), std::string::npos) << "a script error on the page";
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(dom, m, std::regex("data-plots=\"(\\d+)/(\\d+)\"")));
+  EXPECT_EQ(std::stoi(m[1]), 6);  // 2 Pareto, time, memory, E_d, Table 7.1
+  EXPECT_EQ(m[1], m[2]) << "every plot has a size";
+  ASSERT_TRUE(std::regex_search(dom, m, std::regex("data-images=\"(\\d+)/(\\d+)\"")));
+  EXPECT_EQ(std::stoi(m[1]), 1 + 3 + 6);
+  EXPECT_EQ(m[1], m[2]) << "every image decoded";
+
+  const fs::path shot = dir / "shot.png";
+  Shell(std::string(chromium) + " " + flags + " --window-size=1200,1600 --screenshot=" + shot.string() + " file://" +
+      page.string() + " 2>/dev/null");
+  const cv::Mat image = cv::imread(shot.string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(image.empty()) << "no screenshot";
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(image, mean, stddev);
+  EXPECT_GT(stddev[0], 10.0) << "the screenshot is (nearly) blank";
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mvbrdf::report
