@@ -46,4 +46,19 @@ size=$(stat -c %s "$work/cam1.png" 2>/dev/null || echo 0)
 [ "$size" -gt 1000 ] && { echo "ok   rendered image has content ($size bytes)"; passes=$((passes + 1)); } ||
   { echo "FAIL rendered image is empty"; failures=$((failures + 1)); }
 
+# The HTML report (its rendering in a browser is checked by core/report's test).
+check "report" 0 "wrote" -- "$bin" report "$work/run" --relit-frames 4 --out "$work/report.html"
+for section in 'id="truth"' 'id="plan"' 'id="table71"' 'id="atlases"' 'id="cameras"' 'id="relit"' \
+               'Configuration <b class="ok">right</b>'; do
+  grep -q "$section" "$work/report.html" && { echo "ok   report has $section"; passes=$((passes + 1)); } ||
+    { echo "FAIL report lacks $section"; failures=$((failures + 1)); }
+done
+check "report without renderings or truth" 0 "wrote" -- "$bin" report "$work/run" --no-render --no-truth \
+  --out "$work/plain.html"
+grep -q 'id="cameras"' "$work/plain.html" && { echo "FAIL --no-render still rendered"; failures=$((failures + 1)); } ||
+  { echo "ok   --no-render leaves the renderings out"; passes=$((passes + 1)); }
+check "report of a missing run" 3 "result.json" -- "$bin" report "$work/nope" --out "$work/x.html"
+check "run --report writes report.html (light table only: no atlases to draw)" 0 "report.html" -- \
+  "$bin" run "$scene" --outputs light --report --out "$work/light_report"
+
 summary

@@ -132,8 +132,10 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
   if (!truth.empty()) {
     const fs::path error_png = options.scratch_dir / "kd_error.png";
     MVBRDF_ASSIGN_OR_RETURN(in.evaluation, evaluate::EvaluateReconstruction(run_dir, truth, error_png));
-    MVBRDF_ASSIGN_OR_RETURN(std::string png, ReadFileToString(error_png));
-    in.atlases.push_back({"|kd - kd true| ×10", std::move(png)});
+    if (fs::exists(error_png)) {  // runs with atlases
+      MVBRDF_ASSIGN_OR_RETURN(std::string png, ReadFileToString(error_png));
+      in.atlases.push_back({"|kd - kd true| ×10", std::move(png)});
+    }
     if (fs::exists(options.scratch_dir / "kd_error_truth_kd.png")) {
       MVBRDF_ASSIGN_OR_RETURN(std::string truth_png, ReadFileToString(options.scratch_dir / "kd_error_truth_kd.png"));
       in.atlases.push_back({"kd true", std::move(truth_png)});
@@ -144,7 +146,10 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
     MVBRDF_RETURN_IF_ERROR(ReadJsonFile(options.tradeoff, &tradeoff));
     in.tradeoff = std::move(tradeoff);
   }
-  if (options.gl != nullptr) MVBRDF_RETURN_IF_ERROR(AddRenderings(run_dir, in.run, options, &in));
+  // Renderings need the BRDF atlases (a light-table-only run has none).
+  if (options.gl != nullptr && fs::exists(run_dir / "atlases" / "kd.exr")) {
+    MVBRDF_RETURN_IF_ERROR(AddRenderings(run_dir, in.run, options, &in));
+  }
   return in;
 }
 
