@@ -242,6 +242,29 @@ def main():
                 "channel_costs": [c["final_cost"] for c in ours["channels"]],
                 "params": ours["params"],
             }
+        # Where our LM's time goes (fit_peer's copy of the Ceres problem), and
+        # the same without Ceres's projected line search (an experiment).
+        for key, diag in (("ceres", problem.get("ceres_lm_diagnostics")),
+                          ("ceres_no_line_search", problem.get("ceres_lm_no_line_search_diagnostics"))):
+            if not diag:
+                continue
+            lm = row["ours"]["lm"]
+            lm[key] = {
+                "iterations": sum(c["iterations"] for c in diag),
+                "residual_evaluations": sum(c["residual_evaluations"] for c in diag),
+                "jacobian_evaluations": sum(c["jacobian_evaluations"] for c in diag),
+                "residual_seconds": sum(c["residual_seconds"] for c in diag),
+                "jacobian_seconds": sum(c["jacobian_seconds"] for c in diag),
+                "linear_solver_seconds": sum(c["linear_solver_seconds"] for c in diag),
+                "total_seconds": sum(c["total_seconds"] for c in diag),
+                "cost": sum(c["final_cost"] for c in diag),
+                "channels": diag,
+            }
+            drift = max(abs(c["final_cost"] - f) / max(abs(f), 1e-300) for c, f in zip(diag, lm["channel_costs"]))
+            lm[key]["max_relative_cost_difference_to_fitphong"] = drift
+            if key == "ceres" and drift > CHECK_RELATIVE_TOLERANCE:
+                warnings.append(f"{problem['name']}: fit_peer's Ceres diagnostics copy ends at a cost {drift:.3g} "
+                                "(relative) away from FitPhong's: the copy has drifted from phong_fit.cc")
         for key, method, jac in (("trf", "trf", "analytic"), ("trf_2point", "trf", "2-point"),
                                  ("lm", "lm", "analytic")):
             result = run_scipy(channels, method, jac, args.repeats)
@@ -291,6 +314,36 @@ def print_table(report):
     print("seconds: RGB (3 channel fits), median of repeats. LM cost: 0.5 sum of squared residuals over RGB, "
           "original units;\nPowell, trf, trf 2pt, lm: cost / our LM cost - 1 (< 0: lower than ours); "
           "* lm solution outside the bounds; check: our costs re-evaluated by the Python model")
+    print()
+    head = (f"{'problem':<14} | {'LM iter':>7} {'res ev':>6} {'jac ev':>6} {'eval s':>7} {'linsol s':>8} "
+            f"{'ceres s':>7} | {'ours ev ms':>10} {'numpy ev ms':>11} | {'trf nfev/njev':>13} {'lm nfev/njev':>12} | "
+            f"{'noLS res/jac':>12} {'noLS s':>7} {'noLS cost':>9}")
+    print(head)
+    print("-" * len(head))
+    for r in report["problems"]:
+        c = r["ours"]["lm"].get("ceres")
+        if not c:
+            continue
+        evals = c["residual_evaluations"] + c["jacobian_evaluations"]
+        ours_ms = 1e3 * (c["residual_seconds"] + c["jacobian_seconds"]) / max(evals, 1)
+        s = r["scipy"]
+        trf = f"{s['trf']['nfev']}/{sum(x['njev'] for x in s['trf']['channels'])}"
+        lm = f"{s['lm']['nfev']}/{sum(x['njev'] for x in s['lm']['channels'])}"
+        print(f"{r['name']:<14} | {c['iterations']:>7} {c['residual_evaluations']:>6} {c['jacobian_evaluations']:>6} "
+              f"{c['residual_seconds'] + c['jacobian_seconds']:>7.4f} {c['linear_solver_seconds']:>8.4f} "
+              f"{c['total_seconds']:>7.4f} | {ours_ms:>10.3f} {1e3 * r['numpy_residual_jacobian_seconds']:>11.3f} | "
+              f"{trf:>13} {lm:>12} | ", end="")
+        n = r["ours"]["lm"].get("ceres_no_line_search")
+        if n:
+            evs = f"{n['residual_evaluations']}/{n['jacobian_evaluations']}"
+            print(f"{evs:>12} {n['total_seconds']:>7.4f} {n['cost'] / r['ours']['lm']['cost'] - 1:>9.1e}")
+        else:
+            print()
+    print("our LM over RGB, from Ceres's summary: iterations, residual-only and residual+Jacobian evaluations (each "
+          "over all samples, exp() every time),\ntheir time, the linear solver's, Ceres's total; ms per evaluation, "
+          "ours and numpy's (residual + Jacobian of one channel, exp() once); SciPy's evaluation counts over RGB;\n"
+          "noLS: the same Ceres solve with its projected line search off (max_num_line_search_step_size_iterations = 0):"
+          " evaluations, Ceres seconds, cost / our LM cost - 1")
     for w in report["warnings"]:
         print("WARNING:", w)
 

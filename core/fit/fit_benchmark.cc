@@ -10,8 +10,8 @@
 #include <cmath>
 #include <map>
 #include <memory>
-#include <vector>
 #include <utility>
+#include <vector>
 
 #include "benchmark/benchmark.h"
 #include "core/fit/diffuse.h"
@@ -158,8 +158,8 @@ void BM_PhongResidualBlocks(benchmark::State& state) {
     generator.num_samples = count;
     generator.num_lights = 4;
     generator.noise = 0.05;
-    sets.emplace(key, testing::MakeSamples(testing::MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {ke, ke, ke}),
-                                           generator));
+    sets.emplace(key,
+                 testing::MakeSamples(testing::MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {ke, ke, ke}), generator));
   }
   const std::unique_ptr<ChannelProblem> problem = MakeChannelProblem(sets.at(key), 0);
   // The blocks FitPhong hands to Ceres (kBlockSize = 1024 in phong_fit.cc).
@@ -245,10 +245,7 @@ void BM_TexelAccumulateAndSolve(benchmark::State& state) {
   state.counters["texels_per_s"] =
       benchmark::Counter(static_cast<double>(kTexels), benchmark::Counter::kIsIterationInvariantRate);
 }
-BENCHMARK(BM_TexelAccumulateAndSolve)
-    ->Unit(benchmark::kMillisecond)
-    ->Repetitions(5)
-    ->ReportAggregatesOnly(true);
+BENCHMARK(BM_TexelAccumulateAndSolve)->Unit(benchmark::kMillisecond)->Repetitions(5)->ReportAggregatesOnly(true);
 
 // Solve() alone over the filled accumulator (allocation of the solution included).
 void BM_TexelSolve(benchmark::State& state) {
