@@ -14,7 +14,7 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
   flags.AddInt("--atlas", &job->atlas, "atlas resolution in texels per side");
   flags.AddInt("--cluster-samples", &job->cluster_samples, "Samples per cluster fit, at most");
   flags.AddInt("--max-iterations", &job->max_iterations, "iterations of each BRDF fit, at most");
-  flags.AddInt("--sweep-frame-stride", &job->sweep_frame_stride, "use every n-th frame for the light sweep");
+  flags.AddInt("--sweep-frame-stride", &job->sweep_frame_stride, "use every n-th frame for the light sweep (0: every frame up to 64 frames, else at most 64)");
   flags.AddInt("--grow", &job->grow, "dilation iterations of the written atlases");
 }
 
@@ -47,8 +47,8 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   if (job.max_iterations < 1) {
     return absl::InvalidArgumentError(absl::StrCat("--max-iterations: must be >= 1, got ", job.max_iterations));
   }
-  if (job.sweep_frame_stride < 1) {
-    return absl::InvalidArgumentError(absl::StrCat("--sweep-frame-stride: must be >= 1, got ", job.sweep_frame_stride));
+  if (job.sweep_frame_stride < 0) {
+    return absl::InvalidArgumentError(absl::StrCat("--sweep-frame-stride: must be >= 0, got ", job.sweep_frame_stride));
   }
   if (job.grow < 0 || job.grow > 1000) {
     return absl::InvalidArgumentError(absl::StrCat("--grow: must be in [0, 1000], got ", job.grow));

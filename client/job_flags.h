@@ -19,7 +19,7 @@ struct JobFlags {
   int atlas = 512;
   int cluster_samples = 100000;
   int max_iterations = 100;
-  int sweep_frame_stride = 1;
+  int sweep_frame_stride = 0;  // 0: automatic (pipeline::SweepFrameStride)
   int grow = 2;
 };
 

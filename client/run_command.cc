@@ -108,10 +108,8 @@ absl::StatusOr<v1::JobState> FollowJob(v1::Mvbrdf::Stub& stub, const std::string
     } else if (event.has_failed()) {
       *error = event.failed();
     }
-    if (state == v1::SUCCEEDED || state == v1::FAILED || state == v1::CANCELLED) {
-      context.TryCancel();
-      break;
-    }
+    // The server ends the stream after the final state (and the reason
+    // after FAILED), so reading on to the end gets both.
   }
   reader->Finish();
   return state;

@@ -112,6 +112,7 @@ absl::StatusOr<v1::RunReport> ReportHeader(const scene::Sequence& sequence, cons
 absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
   MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, ReportHeader(sequence, o.request));
+  pipeline::NoteSweepFrames(o, sequence.num_frames, report.mutable_plan());
   if (env.gl != nullptr) report.set_gl_renderer(env.gl->Describe());
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
   // The sweep's wall time: from the first sweep task's start to the last

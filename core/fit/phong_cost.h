@@ -59,6 +59,9 @@ struct PhongChannelData {
   size_t size() const { return r.size(); }
 };
 
+// Below this exp() returns a subnormal or 0.
+constexpr double kExpUnderflow = -708.0;
+
 // S_i and D_i of sample i at exponent ke.
 inline void SpecularSums(const PhongChannelData& data, size_t i, double ke, double* s, double* d) {
   const double* log_h = data.log_h + i * static_cast<size_t>(data.num_lights);
@@ -66,7 +69,12 @@ inline void SpecularSums(const PhongChannelData& data, size_t i, double ke, doub
   double sum = 0.0, dsum = 0.0;
   for (int k = 0; k < data.num_lights; ++k) {
     if (log_h[k] == kNoHighlight) continue;
-    const double p = data.weight[k] * std::exp(ke * log_h[k] + (log_a == nullptr ? 0.0 : log_a[k]));
+    const double e = ke * log_h[k] + (log_a == nullptr ? 0.0 : log_a[k]);
+    // exp underflows below ~-708 (to subnormals, then 0) and is several times
+    // slower there; such a term adds nothing a double can hold beside the
+    // others (measured: a third of the terms at ke = 1000).
+    if (e < kExpUnderflow) continue;
+    const double p = data.weight[k] * std::exp(e);
     sum += p;
     dsum += p * log_h[k];
   }

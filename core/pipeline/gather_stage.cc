@@ -37,10 +37,11 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
   TexelStatistics* st = g.texels.get();
   const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
   MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
+  const int stride = SweepFrameStride(options, sequence.num_frames);
   for (int t = 0; t < sequence.num_frames; ++t) {
     if (options.progress) options.progress("gather_samples", t, sequence.num_frames);
     MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
-    const bool sweep_frame = triangles && t % std::max(options.sweep_frame_stride, 1) == 0;
+    const bool sweep_frame = triangles && t % stride == 0;
     if (!sweep_frame && !texels) continue;
     MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
     if (t == 0) {
@@ -76,6 +77,16 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
   }
   if (options.progress) options.progress("gather_samples", sequence.num_frames, sequence.num_frames);
   return g;
+}
+
+void NoteSweepFrames(const ReconstructOptions& options, int num_frames, v1::Plan* plan) {
+  const int stride = SweepFrameStride(options, num_frames);
+  if (stride <= 1) return;
+  for (v1::PlannedStage& stage : *plan->mutable_stages()) {
+    if (stage.name() != "light_sweep") continue;
+    stage.set_why(absl::StrCat(stage.why(), " on every ", stride, options.sweep_frame_stride > 0 ? "" : " (automatic)",
+                               "th frame (", (num_frames + stride - 1) / stride, " of ", num_frames, ")"));
+  }
 }
 
 absl::StatusOr<samples::SampleSet> GatherTriangleSamples(const scene::Sequence& sequence, gl::EglContext& context,

@@ -32,6 +32,9 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                                     const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
                                     bool texels);
 
+// Appends to the plan's light_sweep stage which frames it uses, when not all.
+void NoteSweepFrames(const ReconstructOptions& options, int num_frames, v1::Plan* plan);
+
 // The atlas of options.atlas, then GatherPass for the triangle Samples only.
 absl::StatusOr<samples::SampleSet> GatherTriangleSamples(const scene::Sequence& sequence, gl::EglContext& context,
                                                          const ReconstructOptions& options);

@@ -163,6 +163,11 @@ inline glm::vec3 IlluminationOf(const float* g, const std::vector<glm::vec3>& in
 
 }  // namespace
 
+int SweepFrameStride(const ReconstructOptions& options, int num_frames) {
+  if (options.sweep_frame_stride > 0) return options.sweep_frame_stride;
+  return std::max(1, (num_frames + kMaxSweepFrames - 1) / kMaxSweepFrames);
+}
+
 absl::Status CheckCancelled(const ReconstructOptions& options) {
   if (options.cancelled && options.cancelled()) return absl::CancelledError("the task was cancelled");
   return absl::OkStatus();
@@ -178,6 +183,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   report.set_configuration_rule("lowest E_d; E_a breaks ties");
   MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
   plan.ToProto(report.mutable_plan());
+  NoteSweepFrames(options, sequence.num_frames, report.mutable_plan());
   if (sequence.lights.size() > static_cast<size_t>(samples::kMaxLights)) {
     return absl::InvalidArgumentError(absl::StrCat("scene.lights: at most ", samples::kMaxLights, " lights, got ",
                                                    sequence.lights.size()));
