@@ -5,24 +5,11 @@
 
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/job_state_name.h"
 #include "core/base/proto_json.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
 namespace mvbrdf::client {
-namespace {
-
-const char* StateName(v1::JobState state) {
-  switch (state) {
-    case v1::QUEUED: return "queued";
-    case v1::RUNNING: return "running";
-    case v1::SUCCEEDED: return "succeeded";
-    case v1::FAILED: return "failed";
-    case v1::CANCELLED: return "cancelled";
-    default: return "?";
-  }
-}
-
-}  // namespace
 
 int RunJobs(const std::vector<std::string>& args) {
   std::string address, client_name = "anonymous";
@@ -63,7 +50,7 @@ int RunJobs(const std::vector<std::string>& args) {
   }
   if (response.jobs_size() == 0) std::printf("no jobs\n");
   for (const v1::Job& job : response.jobs()) {
-    std::printf("%s  %-9s  %d tasks%s%s\n", job.id().c_str(), StateName(job.state()), job.tasks_size(),
+    std::printf("%s  %-9s  %d tasks%s%s\n", job.id().c_str(), JobStateName(job.state()), job.tasks_size(),
                 job.error().empty() ? "" : "  ", job.error().c_str());
     for (const v1::TaskInfo& t : job.tasks()) {
       std::printf("    %-12s %-28s %-9s %-16s %6.1f s%s\n", t.kind().c_str(), t.key().c_str(), t.state().c_str(),

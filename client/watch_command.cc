@@ -13,21 +13,11 @@
 
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/job_state_name.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
 namespace mvbrdf::client {
 namespace {
-
-const char* StateName(v1::JobState state) {
-  switch (state) {
-    case v1::QUEUED: return "queued";
-    case v1::RUNNING: return "running";
-    case v1::SUCCEEDED: return "succeeded";
-    case v1::FAILED: return "failed";
-    case v1::CANCELLED: return "cancelled";
-    default: return "?";
-  }
-}
 
 // One JSON object on one line (MessageToJson adds line breaks).
 std::string OneLineJson(const google::protobuf::Message& message) {
@@ -46,7 +36,7 @@ class EventPrinter {
   void Print(const v1::JobEvent& event) {
     switch (event.event_case()) {
       case v1::JobEvent::kState:
-        Line("state: " + std::string(StateName(event.state())));
+        Line("state: " + std::string(JobStateName(event.state())));
         break;
       case v1::JobEvent::kStageStarted: {
         const v1::StageStarted& s = event.stage_started();
@@ -163,7 +153,7 @@ int WatchJobEvents(const std::string& command, const std::string& address, const
       return kExitJobCancelled;
     default:
       std::fprintf(stderr, "mvbrdf %s: error: the event stream of job %s ended before a final state (last: %s)\n",
-                   command.c_str(), job_id.c_str(), StateName(last_state));
+                   command.c_str(), job_id.c_str(), JobStateName(last_state));
       return kExitInternal;
   }
 }

@@ -98,22 +98,10 @@ absl::StatusOr<TaskOutput> Sweep(const v1::Task& task, const scene::Sequence& se
   return out;
 }
 
-// The report a one-process run starts with.
-absl::StatusOr<v1::RunReport> ReportHeader(const scene::Sequence& sequence, const pipeline::RunRequest& request) {
-  v1::RunReport report;
-  report.set_scene(sequence.scene_file.string());
-  report.set_frames(static_cast<uint32_t>(sequence.num_frames));
-  report.set_configuration_rule("lowest E_d; E_a breaks ties");
-  MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, request));
-  plan.ToProto(report.mutable_plan());
-  return report;
-}
-
 absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
-  MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, ReportHeader(sequence, o.request));
-  pipeline::NoteSweepFrames(o, sequence.num_frames, report.mutable_plan());
-  if (env.gl != nullptr) report.set_gl_renderer(env.gl->Describe());
+  MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report,
+                          pipeline::NewRunReport(sequence, o, env.gl != nullptr ? env.gl->Describe() : ""));
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
   // The sweep's wall time: from the first sweep task's start to the last
   // one's end, whichever workers ran them (the sum of the rows' seconds when

@@ -163,6 +163,19 @@ inline glm::vec3 IlluminationOf(const float* g, const std::vector<glm::vec3>& in
 
 }  // namespace
 
+absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, const ReconstructOptions& options,
+                                           const std::string& gl_renderer) {
+  v1::RunReport report;
+  report.set_scene(sequence.scene_file.string());
+  report.set_frames(static_cast<uint32_t>(sequence.num_frames));
+  report.set_gl_renderer(gl_renderer);
+  report.set_configuration_rule("lowest E_d; E_a breaks ties");
+  MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
+  plan.ToProto(report.mutable_plan());
+  NoteSweepFrames(options, sequence.num_frames, report.mutable_plan());
+  return report;
+}
+
 int SweepFrameStride(const ReconstructOptions& options, int num_frames) {
   if (options.sweep_frame_stride > 0) return options.sweep_frame_stride;
   return std::max(1, (num_frames + kMaxSweepFrames - 1) / kMaxSweepFrames);
@@ -176,14 +189,8 @@ absl::Status CheckCancelled(const ReconstructOptions& options) {
 absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
                                                 const ReconstructOptions& options) {
   const auto start = Clock::now();
-  v1::RunReport report;
-  report.set_scene(sequence.scene_file.string());
-  report.set_frames(static_cast<uint32_t>(sequence.num_frames));
-  report.set_gl_renderer(context.Describe());
-  report.set_configuration_rule("lowest E_d; E_a breaks ties");
+  MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, NewRunReport(sequence, options, context.Describe()));
   MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
-  plan.ToProto(report.mutable_plan());
-  NoteSweepFrames(options, sequence.num_frames, report.mutable_plan());
   if (sequence.lights.size() > static_cast<size_t>(samples::kMaxLights)) {
     return absl::InvalidArgumentError(absl::StrCat("scene.lights: at most ", samples::kMaxLights, " lights, got ",
                                                    sequence.lights.size()));

@@ -94,6 +94,13 @@ struct ReconstructOptions {
 
 constexpr int kMaxSweepFrames = 64;
 
+// The head of a run's report: scene, frames, GL renderer, the rule that
+// chooses the configuration, and the plan of options.request (with the
+// sweep's frames noted). RunReconstruction and the service's choose task
+// start from it.
+absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, const ReconstructOptions& options,
+                                           const std::string& gl_renderer);
+
 // The stride the light sweep uses on a sequence of `num_frames` frames.
 int SweepFrameStride(const ReconstructOptions& options, int num_frames);
 
