@@ -23,6 +23,20 @@ using SteadyClock = std::chrono::steady_clock;
 
 constexpr size_t kChunkBytes = size_t{1} << 20;
 
+// A failure that another attempt (on any worker) would repeat: bad input or a
+// limit. Transient ones (unavailable, data loss in transit, internal) retry.
+bool IsPermanent(const absl::Status& status) {
+  switch (status.code()) {
+    case absl::StatusCode::kInvalidArgument:
+    case absl::StatusCode::kFailedPrecondition:
+    case absl::StatusCode::kResourceExhausted:
+    case absl::StatusCode::kOutOfRange:
+      return true;
+    default:
+      return false;
+  }
+}
+
 // Tasks that render or resample need the EGL context; the others are CPU only.
 bool UsesGl(const std::string& kind) { return kind != "sweep" && kind != "choose"; }
 
@@ -438,6 +452,7 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
   } else if (!output.ok()) {
     v1::TaskUpdate update;
     update.set_failed(std::string(output.status().message()));
+    update.set_permanent(IsPermanent(output.status()));
     writer.Write(std::move(update));
     outcome = output.status();
   } else {

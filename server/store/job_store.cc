@@ -309,11 +309,11 @@ absl::StatusOr<std::vector<std::string>> JobStore::CompleteTask(absl::string_vie
 }
 
 absl::Status JobStore::FailTask(absl::string_view task_id, absl::string_view worker, absl::string_view error,
-                                int64_t now_ms) {
+                                int64_t now_ms, bool permanent) {
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));
   MVBRDF_ASSIGN_OR_RETURN(Task task, GetLeasedTaskOf(task_id, worker, "FailTask"));
-  const bool final = task.attempts >= task.max_attempts;
+  const bool final = permanent || task.attempts >= task.max_attempts;
   MVBRDF_ASSIGN_OR_RETURN(
       Statement fail,
       Statement::Prepare(*db_,
@@ -327,8 +327,10 @@ absl::Status JobStore::FailTask(absl::string_view task_id, absl::string_view wor
   if (final) {
     MVBRDF_RETURN_IF_ERROR(FailDependents(task, now_ms));
     MVBRDF_RETURN_IF_ERROR(FailJobLocked(task.job_id,
-                                         absl::StrCat("task ", task.kind, " '", task.key, "' failed after ",
-                                                      task.attempts, " attempts: ", error),
+                                         permanent && task.attempts < task.max_attempts
+                                             ? absl::StrCat("task ", task.kind, " '", task.key, "' failed: ", error)
+                                             : absl::StrCat("task ", task.kind, " '", task.key, "' failed after ",
+                                                            task.attempts, " attempts: ", error),
                                          now_ms));
   } else {
     MVBRDF_RETURN_IF_ERROR(RefreshJobState(task.job_id, now_ms));

@@ -187,9 +187,10 @@ class JobStore {
                                                         const std::vector<NewTask>& follow_ups);
   // The owner reports a failure: the task is queued again while attempts <
   // max_attempts, else it fails, its job fails with `error`, and the job's
-  // other queued/leased tasks are cancelled.
+  // other queued/leased tasks are cancelled. `permanent`: the failure would
+  // recur on any worker (bad input, a limit), so the task fails at once.
   absl::Status FailTask(absl::string_view task_id, absl::string_view worker, absl::string_view error,
-                        int64_t now_ms);
+                        int64_t now_ms, bool permanent = false);
   // Cancels the job and its queued and leased tasks (a worker holding a
   // lease learns it when its next renew/complete fails). Cancelling a
   // cancelled job is OK; a succeeded or failed one is FAILED_PRECONDITION.

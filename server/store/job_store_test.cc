@@ -198,6 +198,25 @@ TEST(JobStoreTest, DependencyIsDoneBeforeTheDependentIsLeased) {
   EXPECT_EQ(foreign.status().code(), absl::StatusCode::kInvalidArgument) << foreign.status();
 }
 
+TEST(JobStoreTest, PermanentFailureFailsTheTaskAndItsJobAtOnce) {
+  TestDir dir;
+  auto store = OpenOrDie(dir.db(), JobStoreOptions{/*default_max_attempts=*/3});
+  const std::string job = CreateJobOrDie(*store);
+  const std::string task = AddTaskOrDie(*store, job, "gather", "");
+  Task leased = LeaseOrDie(*store, "w1", kT0 + 1);
+  ASSERT_EQ(leased.id, task);
+  ASSERT_TRUE(store->FailTask(task, "w1", "samples: too large", kT0 + 2, /*permanent=*/true).ok());
+  auto state = store->GetTask(task);
+  ASSERT_TRUE(state.ok());
+  EXPECT_EQ(state->state, TaskState::kFailed);
+  EXPECT_EQ(state->attempts, 1);
+  auto failed = store->GetJob(job);
+  ASSERT_TRUE(failed.ok());
+  EXPECT_EQ(failed->state, JobState::kFailed);
+  EXPECT_NE(failed->error.find("samples: too large"), std::string::npos) << failed->error;
+  EXPECT_EQ(failed->error.find("attempts"), std::string::npos) << failed->error;
+}
+
 TEST(JobStoreTest, FailRequeuesUntilMaxAttemptsThenTheJobFails) {
   TestDir dir;
   auto store = OpenOrDie(dir.db(), JobStoreOptions{/*default_max_attempts=*/3});

@@ -202,7 +202,7 @@ absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReacto
     }
     case v1::TaskUpdate::kFailed: {
       const std::string reason = update.failed().empty() ? "the worker gave no reason" : update.failed();
-      absl::Status failed = service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms);
+      absl::Status failed = service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms, update.permanent());
       if (absl::IsFailedPrecondition(failed)) return Step::kLeaseLost;
       if (!failed.ok()) return failed;
       service_->NotifyWork();  // requeued for another attempt
@@ -303,7 +303,7 @@ absl::Status WorkersService::ReportReactor::CacheGatheredSamples(const std::stri
         absl::StrCat("samples: ", samples_->bytes.size(),
                      " bytes of triangle Samples do not fit in the Sample cache (raise sample_cache_max_bytes): ",
                      put.message());
-    (void)service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms);
+    (void)service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms, /*permanent=*/true);
     service_->NotifyWork();
     service_->EmitFinalState(job_id_);
     return absl::ResourceExhaustedError(reason);
@@ -661,8 +661,8 @@ absl::StatusOr<std::optional<v1::Task>> WorkersService::TryLease(const std::stri
     absl::StatusOr<v1::SubmitJobRequest> request = RequestOf(*job);
     if (!request.ok()) {
       // Not the worker's fault, and no worker could run it: fail the task
-      // (its job fails for good at max_attempts) and look for another.
-      absl::Status failed = jobs_.FailTask(task.id, worker_id, request.status().message(), now_ms);
+      // and its job for good, and look for another.
+      absl::Status failed = jobs_.FailTask(task.id, worker_id, request.status().message(), now_ms, /*permanent=*/true);
       if (!failed.ok()) return failed;
       EmitFinalState(task.job_id);
       ++skipped;

@@ -561,6 +561,28 @@ TEST_F(WorkersServiceTest, ReportedFailureRequeuesTheTask) {
   EXPECT_EQ(again.task().id(), task);
 }
 
+TEST_F(WorkersServiceTest, PermanentFailureFailsTheJobWithoutAnotherAttempt) {
+  Start();
+  const std::string first = Register("first");
+  const auto [job, task] = AddJob(SampleRequest().SerializeAsString());
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(first, 0, &leased).ok());
+  ASSERT_TRUE(leased.has_task());
+  v1::TaskUpdate failed = Update(first, task);
+  failed.set_failed("options.atlas_size: must be in [16, 16384], got 5");
+  failed.set_permanent(true);
+  v1::TaskUpdateAck ack;
+  ASSERT_TRUE(Report({failed}, &ack).ok());
+  auto stored = jobs_->GetTask(task);
+  ASSERT_TRUE(stored.ok());
+  EXPECT_EQ(stored->state, store::TaskState::kFailed);
+  EXPECT_EQ(stored->attempts, 1);
+  auto ended = jobs_->GetJob(job);
+  ASSERT_TRUE(ended.ok());
+  EXPECT_EQ(ended->state, store::JobState::kFailed);
+  EXPECT_NE(ended->error.find("options.atlas_size"), std::string::npos) << ended->error;
+}
+
 TEST_F(WorkersServiceTest, StopAnswersParkedPolls) {
   Start();
   const std::string worker = Register("w");
