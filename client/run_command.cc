@@ -111,7 +111,11 @@ absl::StatusOr<v1::JobState> FollowJob(v1::Mvbrdf::Stub& stub, const std::string
     // The server ends the stream after the final state (and the reason
     // after FAILED), so reading on to the end gets both.
   }
-  reader->Finish();
+  const grpc::Status finished = reader->Finish();
+  if (state != v1::SUCCEEDED && state != v1::FAILED && state != v1::CANCELLED && !finished.ok()) {
+    return absl::Status(static_cast<absl::StatusCode>(finished.error_code()),
+                        absl::StrCat("watching the job: ", finished.error_message()));
+  }
   return state;
 }
 

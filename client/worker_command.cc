@@ -12,6 +12,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
+#include "client/embedded_service.h"
 #include "client/flags.h"
 #include "worker/worker.h"
 
@@ -81,9 +82,7 @@ int RunWorker(const std::vector<std::string>& args) {
   }
   o.egl = *platform;
   o.cache_dir = cache_dir;
-  grpc::ChannelArguments channel_args;
-  channel_args.SetMaxReceiveMessageSize(16 << 20);
-  o.channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), channel_args);
+  o.channel = ServiceChannel(address);
   o.log = [name = o.name](const std::string& line) {
     std::fprintf(stderr, "worker %s: %s\n", name.c_str(), line.c_str());
   };

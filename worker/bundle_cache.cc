@@ -30,7 +30,8 @@ absl::StatusOr<fs::path> BundleCache::Unpacked(const std::string& sha256) {
   if (fs::exists(done) && fs::is_directory(dir)) return dir;
   std::error_code ec;
   fs::create_directories(dir_, ec);
-  if (ec) return absl::FailedPreconditionError(absl::StrCat(dir_.string(), ": cannot create: ", ec.message()));
+  // This worker's disk: not the job's fault (UNAVAILABLE, retried elsewhere).
+  if (ec) return absl::UnavailableError(absl::StrCat(dir_.string(), ": cannot create: ", ec.message()));
   const fs::path archive = dir_ / (sha256 + ".tar");
   MVBRDF_RETURN_IF_ERROR(fetch_(sha256, archive));
   ++downloads_;

@@ -4,7 +4,7 @@
 // worker restarts. The scene loaded from it is kept too (the last one), so a
 // worker running a sweep's tasks loads its sequence once.
 //
-// Threading: one worker thread uses it.
+// Threading: not thread-safe; the worker serialises its tasks' calls.
 #ifndef MVBRDF_WORKER_BUNDLE_CACHE_H_
 #define MVBRDF_WORKER_BUNDLE_CACHE_H_
 

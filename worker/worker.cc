@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
 #include "core/base/status_macros.h"
 #include "core/bundle/sha256.h"
 #include "worker/bundle_cache.h"
@@ -46,8 +47,8 @@ absl::Status FromGrpc(const grpc::Status& status, absl::string_view what) {
                       absl::StrCat(what, ": ", status.error_message()));
 }
 
-// Reads a server stream of ArtifactChunks into `sink`; checks offsets, the
-// total size and the SHA-256 the first chunk names.
+// Reads a server stream of ArtifactChunks into `sink`; checks offsets and the
+// total size (callers check the SHA-256 of what they keep).
 template <typename Sink>
 absl::Status ReadChunks(grpc::ClientReader<v1::ArtifactChunk>& reader, absl::string_view what, Sink sink) {
   v1::ArtifactChunk chunk;
@@ -113,11 +114,6 @@ class UpdateWriter {
   const std::string& task_id_;
 };
 
-absl::StatusOr<std::string> ReadWholeFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return absl::NotFoundError(absl::StrCat(path.string(), ": cannot open"));
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 
 // Renews a lease every `period` until stopped; `lost` is set when the server
 // refuses (the lease went to another worker, or the job ended).
@@ -245,10 +241,10 @@ absl::Status Worker::Run() {
     request.set_sha256(sha256);
     std::unique_ptr<grpc::ClientReader<v1::ArtifactChunk>> reader = stub->FetchBundle(&rpc, request);
     std::ofstream out(dest, std::ios::binary | std::ios::trunc);
-    if (!out) return absl::FailedPreconditionError(absl::StrCat(dest.string(), ": cannot write"));
+    if (!out) return absl::UnavailableError(absl::StrCat(dest.string(), ": cannot write"));  // this worker's disk
     absl::Status read = ReadChunks(*reader, absl::StrCat("FetchBundle ", sha256), [&out](const std::string& data) {
       out.write(data.data(), static_cast<std::streamsize>(data.size()));
-      return out ? absl::OkStatus() : absl::ResourceExhaustedError("cannot write the bundle (disk full?)");
+      return out ? absl::OkStatus() : absl::UnavailableError("cannot write the bundle (disk full?)");  // this worker's
     });
     ++bundle_downloads_;
     return read;
@@ -276,7 +272,7 @@ absl::Status Worker::Run() {
       }
     }
   };
-  const auto run_one = [this, &stub, &cache](const v1::Task& task, gl::EglContext& gl) {
+  const auto run_one = [this, &stub, &cache](const v1::Task& task, gl::EglContext& gl) -> void {
     Log(absl::StrCat("leased ", task.kind(), task.key().empty() ? "" : absl::StrCat("[", task.key(), "]"),
                      " of job ", task.job_id()));
     const auto start = SteadyClock::now();
@@ -287,7 +283,6 @@ absl::Status Worker::Run() {
     } else {
       Log(absl::StrCat(task.kind(), " ended: ", ran.message()));
     }
-    ++tasks_run_;
   };
 
   while (!stop_) {
@@ -322,7 +317,10 @@ absl::Status Worker::Run() {
       if (status.error_code() == grpc::StatusCode::NOT_FOUND ||
           status.error_code() == grpc::StatusCode::FAILED_PRECONDITION) {
         // A restarted server forgot us: register again.
-        MVBRDF_RETURN_IF_ERROR(Register(*stub, *context));
+        if (absl::Status registered = Register(*stub, *context); !registered.ok()) {
+          join_finished(true);  // CPU tasks still hold references into this frame
+          return registered;
+        }
         continue;
       }
       if (status.error_code() != grpc::StatusCode::UNAVAILABLE &&
@@ -345,8 +343,10 @@ absl::Status Worker::Run() {
       cpu_tasks.push_back({std::thread([&, task, done] {
                              run_one(task, *context);
                              {
+                               // Both counts at once, so max_tasks never sees the task twice.
                                std::lock_guard<std::mutex> lock(slots_mu);
                                --running_cpu_tasks;
+                               ++tasks_run_;
                              }
                              *done = true;
                              slots_cv.notify_all();
@@ -355,6 +355,7 @@ absl::Status Worker::Run() {
       continue;
     }
     run_one(task, *context);
+    ++tasks_run_;
   }
   join_finished(true);
   return absl::OkStatus();
@@ -394,7 +395,7 @@ absl::StatusOr<std::shared_ptr<const samples::SampleSet>> Worker::FetchSamples(v
 absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl::EglContext& context,
                                BundleCache& cache) {
   const std::string worker_id = id();
-  LeaseRenewer renewer(stub, worker_id, task.id(), std::chrono::milliseconds(lease_seconds_ * 1000 / 3));
+  LeaseRenewer renewer(stub, worker_id, task.id(), std::chrono::milliseconds(lease_seconds_.load() * 1000 / 3));
   grpc::ClientContext rpc;
   v1::TaskUpdateAck ack;
   std::unique_ptr<grpc::ClientWriter<v1::TaskUpdate>> stream = stub.ReportTask(&rpc, &ack);
@@ -412,7 +413,8 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
   fs::create_directories(scratch, ec);
   TaskEnvironment env;
   env.gl = &context;
-  env.threads = options_.threads;
+  // CPU-only tasks run up to `threads` at once: one thread each.
+  env.threads = UsesGl(task.kind()) ? options_.threads : 1;
   env.scratch_dir = scratch;
   env.progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
   env.cancelled = [&renewer, &stream_ok] { return renewer.lost() || !stream_ok; };
@@ -475,7 +477,7 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
     }
     for (const auto& [name, path] : output->artifacts) {
       if (!ok) break;
-      absl::StatusOr<std::string> bytes = ReadWholeFile(path);
+      absl::StatusOr<std::string> bytes = ReadFileToString(path);
       if (!bytes.ok()) {
         outcome = bytes.status();
         break;

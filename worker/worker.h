@@ -87,7 +87,7 @@ class Worker {
   mutable std::mutex mu_;
   std::string id_;                           // guarded by mu_
   grpc::ClientContext* poll_ = nullptr;      // guarded by mu_: the long poll in flight
-  int lease_seconds_ = 30;
+  std::atomic<int> lease_seconds_{30};  // set by Register, read by task threads
   std::atomic<int> tasks_run_{0};
   std::atomic<int> bundle_downloads_{0};
   std::atomic<int> samples_downloads_{0};

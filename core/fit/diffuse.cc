@@ -105,13 +105,16 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask m
   DiffuseAccumulator accumulator(num_elements);
   const bool same_exponent = specular[0].ke == specular[1].ke && specular[0].ke == specular[2].ke;
   const glm::dvec3 ks(specular[0].ks, specular[1].ks, specular[2].ks);
-  // Thread t takes the elements e with e % threads == t, each element's
-  // Samples in their order: the sums, and so the solution, are those of one
-  // thread bit for bit.
-  const auto work = [&](uint32_t part, uint32_t parts) {
+  // Thread t takes a contiguous block of elements (no shared cache lines in
+  // the accumulator), each element's Samples in their order: the sums, and so
+  // the solution, are those of one thread bit for bit.
+  const uint32_t parts = static_cast<uint32_t>(std::clamp(threads, 1, 64));
+  const size_t block = (num_elements + parts - 1) / parts;
+  const auto work = [&](uint32_t part, uint32_t) {
+    const size_t first = static_cast<size_t>(part) * block, last = std::min(num_elements, first + block);
     for (size_t i = 0; i < set.size(); ++i) {
       const uint32_t element = set.element[i];
-      if (element >= num_elements || element % parts != part) continue;  // not part of this solve / thread
+      if (element < first || element >= last) continue;  // not part of this solve / thread
       const glm::vec3& r = set.reflectance[i];
       if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z)) continue;
       const float* g_row = set.g.data() + i * num_lights;
@@ -142,7 +145,6 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask m
       accumulator.Add(element, glm::vec3(glm::dvec3(r) - ks * spec), glm::vec3(illumination));
     }
   };
-  const uint32_t parts = static_cast<uint32_t>(std::clamp(threads, 1, 64));
   if (parts == 1) {
     work(0, 1);
   } else {

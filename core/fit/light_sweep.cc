@@ -54,6 +54,8 @@ double MeanSquaredError(const samples::SampleSet& set, samples::LightMask mask, 
   const auto work = [&]() {
     for (size_t chunk = next++; chunk < chunks; chunk = next++) {
       const size_t end = std::min(set.size(), (chunk + 1) * kChunk);
+      double sum = 0.0;  // in registers: no writes to lines other threads write
+      size_t count = 0;
       for (size_t i = chunk * kChunk; i < end; ++i) {
         double sq = 0.0;
         for (int c = 0; c < 3; ++c) {
@@ -61,9 +63,11 @@ double MeanSquaredError(const samples::SampleSet& set, samples::LightMask mask, 
           sq += d * d;
         }
         if (!std::isfinite(sq)) continue;
-        sums[chunk] += sq;
-        ++counts[chunk];
+        sum += sq;
+        ++count;
       }
+      sums[chunk] = sum;
+      counts[chunk] = count;
     }
   };
   const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), std::max<size_t>(chunks, 1));

@@ -107,6 +107,26 @@ TEST(LightSweepTest, OneConfigurationPerCallWithInnerThreadsGivesTheSameRows) {
   }
 }
 
+// Enough Samples for several of E_a's fixed chunks (65536 Samples each): the
+// sum does not depend on how many threads computed the chunks.
+TEST(LightSweepTest, ErrorsOverManyChunksDoNotDependOnThreads) {
+  GeneratorOptions generator;
+  generator.num_samples = 200000;
+  generator.num_lights = 6;
+  generator.num_elements = kTriangles;
+  generator.noise = 0.02;
+  const samples::SampleSet set =
+      MakeSamples(MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40}), generator);
+  absl::StatusOr<SweepResult> one =
+      SweepConfigurations(set, kTriangles, {kConfigurations[1]}, PhongFitOptions(), DiffuseOptions(), 1, 5000);
+  absl::StatusOr<SweepResult> three =
+      SweepConfigurations(set, kTriangles, {kConfigurations[1]}, PhongFitOptions(), DiffuseOptions(), 3, 5000);
+  ASSERT_TRUE(one.ok() && three.ok());
+  EXPECT_EQ(one->rows[0].e_a, three->rows[0].e_a);
+  EXPECT_EQ(one->rows[0].e_d, three->rows[0].e_d);
+  EXPECT_GT(one->rows[0].e_a, 0.0);
+}
+
 // Fitting the average BRDF on a subsample: the same choice, E_a over every
 // Sample, and errors within a few percent of the full fit.
 TEST(LightSweepTest, SubsampledFitKeepsTheChoiceAndTheErrors) {

@@ -8,9 +8,11 @@ namespace mvbrdf::server {
 std::string TriangleSampleOptions(const v1::SubmitJobRequest& request) {
   const v1::FittingOptions& options = request.options();
   const unsigned atlas_size = options.atlas_size() == 0 ? kDefaultAtlasSize : options.atlas_size();
-  std::string text = absl::StrCat("triangle-samples/v1;atlas_size=", atlas_size);
-  // Only non-default values are named, so the common key stays the short one.
-  if (options.sweep_frame_stride() > 1) absl::StrAppend(&text, ";sweep_frame_stride=", options.sweep_frame_stride());
+  // v2: stride 0 means "automatic" (at most pipeline::kMaxSweepFrames frames),
+  // no longer "every frame", so it is always named and v1 entries are never read.
+  std::string text = absl::StrCat("triangle-samples/v2;atlas_size=", atlas_size, ";sweep_frame_stride=",
+                                  options.sweep_frame_stride() == 0 ? std::string("auto")
+                                                                    : absl::StrCat(options.sweep_frame_stride()));
   // Empty and "scene.json" name the same file (BundleArea::UnpackedScene).
   if (!request.scene_path().empty() && request.scene_path() != "scene.json") {
     absl::StrAppend(&text, ";scene_path=", request.scene_path());

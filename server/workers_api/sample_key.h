@@ -26,9 +26,9 @@ inline constexpr int kTriangleSampleLevel = 0;
 inline constexpr unsigned kDefaultAtlasSize = 512;
 
 // The text whose SHA-256 is SampleKey::options_hash:
-// "triangle-samples/v1;atlas_size=N" (N: 512 for 0), then
-// ";sweep_frame_stride=S" when S > 1 and ";scene_path=P" when P is neither
-// empty nor "scene.json".
+// "triangle-samples/v2;atlas_size=N;sweep_frame_stride=S" (N: 512 for 0; S:
+// "auto" for 0, which means at most pipeline::kMaxSweepFrames frames), then
+// ";scene_path=P" when P is neither empty nor "scene.json".
 std::string TriangleSampleOptions(const v1::SubmitJobRequest& request);
 
 // The cache key of the triangle Samples of `bundle_sha256` under `request`.

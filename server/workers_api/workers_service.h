@@ -161,7 +161,9 @@ class WorkersService final : public v1::Workers::CallbackService {
   // The cached triangle Samples of the task's job in 1 MiB chunks. NOT_FOUND
   // for an unknown task or when the cache has no entry ("no cached Samples
   // for <key>"); FAILED_PRECONDITION when the job is final; DATA_LOSS when
-  // the entry was corrupt (it is dropped: the job's gather must run again).
+  // the entry was corrupt (it is dropped). Either way the sweep cannot go on:
+  // the gather is not re-run yet, so the job fails once the sweep's attempts
+  // are used up (an entry evicted mid-job by other jobs' Samples too).
   grpc::ServerWriteReactor<v1::ArtifactChunk>* FetchSamples(grpc::CallbackServerContext* context,
                                                             const v1::FetchSamplesRequest* request) override;
 
