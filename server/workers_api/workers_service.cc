@@ -270,9 +270,10 @@ absl::Status WorkersService::ReportReactor::AddSamplesChunk(const v1::ArtifactCh
   if (partial.bytes.size() < partial.total_size) return absl::OkStatus();
   const std::string sha256 = store::Sha256Hex(partial.bytes);
   if (sha256 != partial.sha256) {
-    samples_.reset();
-    return absl::DataLossError(
+    absl::Status mismatch = absl::DataLossError(
         absl::StrCat("samples: sha256 is ", sha256, ", the first chunk said ", partial.sha256));
+    samples_.reset();  // `partial` is gone from here on
+    return mismatch;
   }
   samples_complete_ = true;
   return absl::OkStatus();

@@ -335,7 +335,7 @@ TEST_F(WorkersServiceTest, LeasesAQueuedTaskWithItsRequestParsed) {
 TEST_F(WorkersServiceTest, TaskWhoseRequestDoesNotParseFailsWithAReason) {
   Start();
   const std::string worker = Register("w");
-  const auto [job, task] = AddJob(std::string("\xff\xff\xff not a proto", 17));
+  const auto [job, task] = AddJob(std::string("\xff\xff\xff not a proto"));
   v1::LeaseTaskResponse response;
   ASSERT_TRUE(Lease(worker, 0, &response).ok());
   EXPECT_FALSE(response.has_task());
