@@ -50,23 +50,9 @@ absl::StatusOr<std::shared_ptr<const scene::Sequence>> BundleCache::Sequence(con
                                                                              const std::string& scene_path) {
   const std::string key = sha256 + "/" + scene_path;
   if (loaded_ != nullptr && loaded_key_ == key) return loaded_;
-  if (!scene_path.empty()) {
-    const fs::path relative(scene_path);
-    bool parent = false;
-    for (const fs::path& part : relative) parent = parent || part == "..";
-    if (relative.is_absolute() || parent || relative.lexically_normal() != relative) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "scene_path: must be a relative, normalised path inside the bundle without \"..\", got \"", scene_path,
-          "\""));
-    }
-  }
+  if (absl::Status checked = bundle::CheckScenePath(scene_path); !checked.ok()) return checked;
   MVBRDF_ASSIGN_OR_RETURN(const fs::path dir, Unpacked(sha256));
-  fs::path scene_file = dir / (scene_path.empty() ? "scene.json" : scene_path);
-  if (scene_path.empty() && !fs::exists(scene_file)) {
-    for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
-      if (e.is_regular_file() && e.path().extension() == ".json") scene_file = e.path();
-    }
-  }
+  MVBRDF_ASSIGN_OR_RETURN(const fs::path scene_file, bundle::SceneFileIn(dir, scene_path));
   scene::LoadOptions load;
   load.check_all_frames = false;  // each frame is checked when it is read
   MVBRDF_ASSIGN_OR_RETURN(scene::Sequence sequence, scene::LoadSequence(scene_file, load));

@@ -504,4 +504,39 @@ absl::StatusOr<fs::path> UnpackBundle(const fs::path& archive_path, const fs::pa
   return dest_dir / scene_name;
 }
 
+absl::Status CheckScenePath(absl::string_view scene_path) {
+  if (scene_path.empty()) return absl::OkStatus();
+  const fs::path relative{std::string(scene_path)};
+  bool parent = false;
+  for (const fs::path& part : relative) parent = parent || part == "..";
+  if (relative.is_absolute() || parent || relative.lexically_normal() != relative) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "scene_path: must be a relative, normalised path inside the bundle without \"..\", got \"", scene_path, "\""));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<fs::path> SceneFileIn(const fs::path& dir, absl::string_view scene_path) {
+  if (absl::Status checked = CheckScenePath(scene_path); !checked.ok()) return checked;
+  if (!scene_path.empty()) {
+    const fs::path file = dir / std::string(scene_path);
+    if (!fs::is_regular_file(file)) {
+      return absl::InvalidArgumentError(absl::StrCat("scene_path: the bundle has no file \"", scene_path, "\""));
+    }
+    return file;
+  }
+  if (fs::is_regular_file(dir / "scene.json")) return dir / "scene.json";
+  std::vector<fs::path> found;
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    if (e.is_regular_file() && e.path().extension() == ".json") found.push_back(e.path());
+  }
+  if (ec) return absl::InternalError(absl::StrCat(dir.string(), ": ", ec.message()));
+  if (found.size() != 1) {
+    return absl::InvalidArgumentError(
+        "scene_path: the bundle has no scene.json and not exactly one top-level .json file; name the scene file");
+  }
+  return found[0];
+}
+
 }  // namespace mvbrdf::bundle

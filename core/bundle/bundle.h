@@ -77,6 +77,15 @@ absl::StatusOr<std::filesystem::path> UnpackBundle(const std::filesystem::path& 
                                                    const std::filesystem::path& dest_dir,
                                                    const UnpackOptions& options = {});
 
+// The scene file inside an unpacked bundle directory. `scene_path` empty:
+// "scene.json" at the top, else the only top-level ".json" file; otherwise a
+// relative, normalised path without ".." naming a regular file. Errors are
+// INVALID_ARGUMENT naming `scene_path`.
+absl::StatusOr<std::filesystem::path> SceneFileIn(const std::filesystem::path& dir, absl::string_view scene_path);
+// INVALID_ARGUMENT naming `scene_path` unless it is empty or a relative,
+// normalised path without "..".
+absl::Status CheckScenePath(absl::string_view scene_path);
+
 }  // namespace mvbrdf::bundle
 
 #endif  // MVBRDF_CORE_BUNDLE_BUNDLE_H_

@@ -91,38 +91,9 @@ void BundleArea::Discard(absl::string_view sha256) {
   fs::remove(PartPath(sha256), ignored);
 }
 
-namespace {
-
-// "scene.json" at the top of `dir`, else the only top-level .json file.
-absl::StatusOr<fs::path> DefaultSceneFile(const fs::path& dir) {
-  if (fs::is_regular_file(dir / "scene.json")) return dir / "scene.json";
-  std::vector<fs::path> found;
-  std::error_code ec;
-  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-    if (e.is_regular_file() && e.path().extension() == ".json") found.push_back(e.path());
-  }
-  if (ec) return absl::InternalError(absl::StrCat(dir.string(), ": ", ec.message()));
-  if (found.size() != 1) {
-    return absl::InvalidArgumentError(
-        "scene_path: the bundle has no scene.json and not exactly one top-level .json file; name the scene file");
-  }
-  return found[0];
-}
-
-}  // namespace
-
 absl::StatusOr<fs::path> BundleArea::UnpackedScene(absl::string_view sha256, absl::string_view scene_path,
                                                    int64_t max_bytes) {
-  if (!scene_path.empty()) {
-    const fs::path relative{std::string(scene_path)};
-    bool parent = false;
-    for (const fs::path& part : relative) parent = parent || part == "..";
-    if (relative.is_absolute() || parent || relative.lexically_normal() != relative) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "scene_path: must be a relative, normalised path inside the bundle without \"..\", got \"", scene_path,
-          "\""));
-    }
-  }
+  if (absl::Status checked = bundle::CheckScenePath(scene_path); !checked.ok()) return checked;
   if (absl::Status dirs = EnsureDirs(); !dirs.ok()) return dirs;
   const fs::path dir = SceneDir(sha256);
   {
@@ -138,12 +109,7 @@ absl::StatusOr<fs::path> BundleArea::UnpackedScene(absl::string_view sha256, abs
       if (!unpacked.ok()) return unpacked.status();
     }
   }
-  if (scene_path.empty()) return DefaultSceneFile(dir);
-  const fs::path file = dir / std::string(scene_path);
-  if (!fs::is_regular_file(file)) {
-    return absl::InvalidArgumentError(absl::StrCat("scene_path: the bundle has no file \"", scene_path, "\""));
-  }
-  return file;
+  return bundle::SceneFileIn(dir, scene_path);
 }
 
 }  // namespace mvbrdf::clients_api
