@@ -55,7 +55,7 @@ free_kib=$(inns df -k --output=avail "$data" | tail -1 | tr -d ' ')
 inns fallocate -l "$(( (free_kib - 256) * 1024 ))" "$data/filler"
 expect "the disk is (almost) full" test "$(inns df -k --output=avail "$data" | tail -1 | tr -d ' ')" -le 300
 
-check "the job fails, and says the disk is full" 1 "No space left on device" -- \
+check "the job fails, and says the disk is full" 5 "No space left on device" -- \
   "$bin" watch "$job" --server "$address" --client disk
 "$bin" jobs --server "$address" --client disk --json > "$work/jobs.json" 2>&1
 expect "the job is failed at once (one attempt), its error names the artifact" /usr/bin/python3 -c "

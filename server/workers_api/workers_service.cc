@@ -121,6 +121,10 @@ class WorkersService::ReportReactor final : public grpc::ServerReadReactor<v1::T
   // A gather result: checks it against the Samples received and puts them
   // in the Sample cache.
   absl::Status CacheGatheredSamples(const std::string& result, int64_t now_ms);
+  // The server failed to keep what the worker sent (`what`): fails the
+  // task's attempt (permanently when storage is full) and returns the
+  // error to end the stream with.
+  absl::Status FailOnStorage(absl::string_view what, const absl::Status& error, int64_t now_ms);
 
   WorkersService* const service_;
   v1::TaskUpdateAck* const ack_;
@@ -296,20 +300,32 @@ absl::Status WorkersService::ReportReactor::CacheGatheredSamples(const std::stri
   MVBRDF_ASSIGN_OR_RETURN(v1::SubmitJobRequest request, RequestOf(job));
   const store::SampleKey key = TriangleSampleKey(job.scene_hash, request);
   absl::Status put = service_->samples_.Put(key, samples_->bytes, now_ms, samples_->sha256);  // verified above
-  if (absl::IsResourceExhausted(put)) {
-    // No sweep could fetch them: the task cannot succeed on any worker
-    // until the cache is made larger. Fail this attempt now (rather than
-    // let the lease run out) and tell the worker why.
-    const std::string reason =
-        absl::StrCat("samples: ", samples_->bytes.size(),
-                     " bytes of triangle Samples do not fit in the Sample cache (raise sample_cache_max_bytes): ",
-                     put.message());
-    (void)service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms, /*permanent=*/true);
-    service_->NotifyWork();
-    service_->EmitFinalState(job_id_);
-    return absl::ResourceExhaustedError(reason);
-  }
-  return put;
+  if (put.ok()) return put;
+  return FailOnStorage(absl::StrCat("samples: ", samples_->bytes.size(), " bytes of triangle Samples"),
+                       absl::IsResourceExhausted(put) && put.message().find("sample cache:") != absl::string_view::npos
+                           ? absl::ResourceExhaustedError(absl::StrCat(
+                                 "do not fit in the Sample cache (raise sample_cache_max_bytes): ", put.message()))
+                           : put,
+                       now_ms);
+}
+
+absl::Status WorkersService::ReportReactor::FailOnStorage(absl::string_view what, const absl::Status& error,
+                                                          int64_t now_ms) {
+  // The worker's output was fine; the server could not keep it (disk full,
+  // an I/O error, the cache's limit). Letting the lease run out would only
+  // rerun the task and end in "lease expired", which says nothing. Fail this
+  // attempt now and say why. A full disk or a full cache fails the task and
+  // its job at once (any worker would repeat it until an operator frees
+  // space; the Sample cache keeps a finished gather for the resubmission);
+  // other storage errors leave the usual attempts.
+  const bool full = absl::IsResourceExhausted(error);
+  const std::string reason =
+      absl::StrCat("server: cannot store ", what, (full ? " (the server's storage is full)" : ""), ": ",
+                   error.message());
+  (void)service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms, /*permanent=*/full);
+  service_->NotifyWork();
+  service_->EmitFinalState(job_id_);
+  return absl::Status(error.code(), reason);
 }
 
 absl::Status WorkersService::ReportReactor::AddChunk(const std::string& name, const v1::ArtifactChunk& chunk) {
@@ -353,8 +369,11 @@ absl::Status WorkersService::ReportReactor::AddChunk(const std::string& name, co
   }
   const int64_t now_ms = service_->clock_();
   absl::StatusOr<store::Artifact> stored = service_->artifacts_.PutBytes(job_id_, name, partial.bytes, now_ms);
+  const size_t size = partial.bytes.size();
   partial_.erase(it);
-  if (!stored.ok()) return stored.status();
+  if (!stored.ok()) {
+    return FailOnStorage(absl::StrCat("artifact '", name, "' (", size, " bytes)"), stored.status(), now_ms);
+  }
   v1::JobEvent event;
   event.set_job_id(job_id_);
   event.set_unix_ms(now_ms);
