@@ -338,6 +338,47 @@ absl::Status JobStore::FailTask(absl::string_view task_id, absl::string_view wor
   return transaction.Commit();
 }
 
+absl::Status JobStore::RedoDependency(absl::string_view task_id, absl::string_view worker,
+                                      absl::string_view dependency_id, absl::string_view reason, int64_t now_ms) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));
+    MVBRDF_ASSIGN_OR_RETURN(Task task, GetLeasedTaskOf(task_id, worker, "RedoDependency"));
+    if (std::find(task.depends_on.begin(), task.depends_on.end(), dependency_id) == task.depends_on.end()) {
+      return absl::InvalidArgumentError(absl::StrCat("RedoDependency: task ", dependency_id,
+                                                     " is not a dependency of task ", task_id));
+    }
+    MVBRDF_ASSIGN_OR_RETURN(Task dependency, GetTaskLocked(dependency_id));
+    const bool exhausted = dependency.state == TaskState::kDone && dependency.attempts >= dependency.max_attempts;
+    if (!exhausted) {
+      if (dependency.state == TaskState::kDone) {
+        MVBRDF_ASSIGN_OR_RETURN(
+            Statement redo,
+            Statement::Prepare(*db_,
+                               "UPDATE tasks SET state = 'queued', result = NULL, lease_expires_ms = NULL, "
+                               "samples_from_cache = 0, error = ?2, updated_ms = ?3 WHERE id = ?1"));
+        MVBRDF_RETURN_IF_ERROR(redo.BindText(1, dependency_id));
+        MVBRDF_RETURN_IF_ERROR(redo.BindText(2, reason));
+        MVBRDF_RETURN_IF_ERROR(redo.BindInt64(3, now_ms));
+        MVBRDF_RETURN_IF_ERROR(redo.Run());
+      }
+      MVBRDF_ASSIGN_OR_RETURN(
+          Statement requeue,
+          Statement::Prepare(*db_,
+                             "UPDATE tasks SET state = 'queued', lease_expires_ms = NULL, "
+                             "attempts = MAX(attempts - 1, 0), updated_ms = ?2 WHERE id = ?1"));
+      MVBRDF_RETURN_IF_ERROR(requeue.BindText(1, task_id));
+      MVBRDF_RETURN_IF_ERROR(requeue.BindInt64(2, now_ms));
+      MVBRDF_RETURN_IF_ERROR(requeue.Run());
+      MVBRDF_RETURN_IF_ERROR(RefreshJobState(task.job_id, now_ms));
+      return transaction.Commit();
+    }
+  }
+  return FailTask(task_id, worker,
+                  absl::StrCat(reason, " (task ", dependency_id, " already ran ", "its maximum number of times)"),
+                  now_ms, /*permanent=*/true);
+}
+
 absl::Status JobStore::CancelJob(absl::string_view job_id, int64_t now_ms) {
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));

@@ -191,6 +191,17 @@ class JobStore {
   // recur on any worker (bad input, a limit), so the task fails at once.
   absl::Status FailTask(absl::string_view task_id, absl::string_view worker, absl::string_view error,
                         int64_t now_ms, bool permanent = false);
+  // The lease owner of `task_id` cannot run it because the output of its
+  // done dependency `dependency_id` is gone (the Samples a gather put in the
+  // Sample cache were evicted or found corrupt): the dependency is queued
+  // again (its result cleared) unless it already is, and `task_id` goes back
+  // to queued behind it without its lease counting as an attempt. When the
+  // dependency has used up its attempts, `task_id` fails instead, and its
+  // job with `reason` (no endless redo when the cache cannot hold the
+  // Samples). FAILED_PRECONDITION unless `task_id` is leased by `worker`;
+  // INVALID_ARGUMENT unless `dependency_id` is one of its dependencies.
+  absl::Status RedoDependency(absl::string_view task_id, absl::string_view worker, absl::string_view dependency_id,
+                              absl::string_view reason, int64_t now_ms);
   // Cancels the job and its queued and leased tasks (a worker holding a
   // lease learns it when its next renew/complete fails). Cancelling a
   // cancelled job is OK; a succeeded or failed one is FAILED_PRECONDITION.

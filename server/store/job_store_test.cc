@@ -629,6 +629,74 @@ INSERT INTO tasks (id, job_id, kind, key, depends_on, state, attempts, max_attem
   ASSERT_NE(reopened, nullptr);
 }
 
+TEST(JobStoreGraphTest, RedoDependencyQueuesTheLostGatherAndItsSweepBehindIt) {
+  TestDir dir;
+  auto store = OpenOrDie(dir.db());
+  const std::string job = CreateJobOrDie(*store);
+  const std::string gather = AddTaskOrDie(*store, job, "gather", "*");
+  const std::string sweep_a = AddTaskOrDie(*store, job, "sweep", "A", gather);
+  const std::string sweep_b = AddTaskOrDie(*store, job, "sweep", "B", gather);
+  ASSERT_TRUE(store->SealJob(job, kT0).ok());
+
+  EXPECT_EQ(LeaseOrDie(*store, "w1", kT0).id, gather);
+  ASSERT_TRUE(store->CompleteTask(gather, "w1", "gathered", kT0 + 1).ok());
+  EXPECT_EQ(LeaseOrDie(*store, "w1", kT0 + 2).id, sweep_a);
+  EXPECT_EQ(LeaseOrDie(*store, "w2", kT0 + 2).id, sweep_b);
+
+  // Only the lease owner, and only for a real dependency.
+  EXPECT_EQ(store->RedoDependency(sweep_a, "w2", gather, "lost", kT0 + 3).code(),
+            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(store->RedoDependency(sweep_a, "w1", sweep_b, "lost", kT0 + 3).code(),
+            absl::StatusCode::kInvalidArgument);
+
+  // The Samples are gone: the gather runs again, both sweeps wait for it and
+  // their leases do not count as attempts.
+  ASSERT_TRUE(store->RedoDependency(sweep_a, "w1", gather, "samples lost", kT0 + 3).ok());
+  ASSERT_TRUE(store->RedoDependency(sweep_b, "w2", gather, "samples lost", kT0 + 3).ok());
+  auto redone = store->GetTask(gather);
+  ASSERT_TRUE(redone.ok());
+  EXPECT_EQ(redone->state, TaskState::kQueued);
+  EXPECT_FALSE(redone->result.has_value());
+  EXPECT_EQ(redone->error, "samples lost");
+  EXPECT_EQ(StateOf(*store, job), JobState::kRunning);
+  Task again = LeaseOrDie(*store, "w2", kT0 + 4);
+  EXPECT_EQ(again.id, gather);
+  EXPECT_EQ(again.attempts, 2);
+  auto nothing = store->LeaseTask("w1", kT0 + 4, kLeaseMs);
+  ASSERT_TRUE(nothing.ok());
+  EXPECT_FALSE(nothing->has_value()) << "a sweep was leased before its gather was done again";
+  ASSERT_TRUE(store->CompleteTask(gather, "w2", "gathered again", kT0 + 5).ok());
+  for (const std::string& sweep : {sweep_a, sweep_b}) {
+    Task leased = LeaseOrDie(*store, "w1", kT0 + 6);
+    EXPECT_EQ(leased.attempts, 1) << leased.key;
+    ASSERT_TRUE(store->CompleteTask(leased.id, "w1", "row", kT0 + 7).ok());
+    (void)sweep;
+  }
+  EXPECT_EQ(StateOf(*store, job), JobState::kSucceeded);
+  ExpectIntegrityOk(dir.db());
+}
+
+TEST(JobStoreGraphTest, RedoDependencyFailsTheJobOnceTheGatherUsedItsAttempts) {
+  TestDir dir;
+  auto store = OpenOrDie(dir.db(), JobStoreOptions{.default_max_attempts = 2});
+  const std::string job = CreateJobOrDie(*store);
+  const std::string gather = AddTaskOrDie(*store, job, "gather", "*");
+  const std::string sweep = AddTaskOrDie(*store, job, "sweep", "A", gather);
+  ASSERT_TRUE(store->SealJob(job, kT0).ok());
+  for (int round = 0; round < 2; ++round) {
+    EXPECT_EQ(LeaseOrDie(*store, "w1", kT0 + 10 * round).id, gather);
+    ASSERT_TRUE(store->CompleteTask(gather, "w1", "gathered", kT0 + 10 * round + 1).ok());
+    EXPECT_EQ(LeaseOrDie(*store, "w1", kT0 + 10 * round + 2).id, sweep);
+    ASSERT_TRUE(store->RedoDependency(sweep, "w1", gather, "evicted", kT0 + 10 * round + 3).ok());
+  }
+  // The second redo found the gather at its limit: the job failed with why.
+  auto failed = store->GetJob(job);
+  ASSERT_TRUE(failed.ok());
+  EXPECT_EQ(failed->state, JobState::kFailed);
+  EXPECT_NE(failed->error.find("evicted"), std::string::npos) << failed->error;
+  EXPECT_NE(failed->error.find("maximum number of times"), std::string::npos) << failed->error;
+}
+
 TEST(JobStoreTest, LeaseStampsStartedMsAndSamplesFromCacheIsRecorded) {
   TestDir dir;
   auto store = OpenOrDie(dir.db());
