@@ -584,15 +584,37 @@ grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchSamples(grpc::
     return ChunkStream::Failed(absl::FailedPreconditionError(
         absl::StrCat("task_id: job ", job->id, " of task ", task->id, " is ", store::JobStateName(job->state))));
   }
+  if (task->state != store::TaskState::kLeased || task->lease_owner != request->worker_id()) {
+    return ChunkStream::Failed(absl::FailedPreconditionError(absl::StrCat(
+        "task_id: task ", task->id, " is not leased by worker ", request->worker_id(), " (Samples go to the lease holder)")));
+  }
   absl::StatusOr<v1::SubmitJobRequest> parsed = RequestOf(*job);
   if (!parsed.ok()) return ChunkStream::Failed(parsed.status());
   const store::SampleKey key = TriangleSampleKey(job->scene_hash, *parsed);
   absl::StatusOr<std::optional<std::string>> bytes = samples_.Get(key, clock_());
-  if (!bytes.ok()) return ChunkStream::Failed(bytes.status());
-  if (!bytes->has_value()) {
-    return ChunkStream::Failed(absl::NotFoundError(absl::StrCat("no cached Samples for ", key.ToString())));
+  if (bytes.ok() && bytes->has_value()) return ChunkStream::FromBytes(std::move(**bytes), kFetchChunkBytes);
+  // DATA_LOSS: the entry failed its checksum and the cache dropped it; empty:
+  // evicted (or dropped) since the gather. Either way the gather runs again.
+  if (!bytes.ok() && !absl::IsDataLoss(bytes.status())) return ChunkStream::Failed(bytes.status());
+  return ChunkStream::Failed(RegatherFor(*task, request->worker_id(), key,
+                                         bytes.ok() ? "evicted from the Sample cache"
+                                                    : std::string(bytes.status().message())));
+}
+
+absl::Status WorkersService::RegatherFor(const store::Task& task, const std::string& worker_id,
+                                         const store::SampleKey& key, const std::string& why) {
+  auto gather = std::find_if(task.depends_on.begin(), task.depends_on.end(), [&](const std::string& id) {
+    absl::StatusOr<store::Task> dependency = jobs_.GetTask(id);
+    return dependency.ok() && dependency->kind == kGatherKind;
+  });
+  if (gather == task.depends_on.end()) {
+    return absl::NotFoundError(absl::StrCat("no cached Samples for ", key.ToString(), " (", why, ")"));
   }
-  return ChunkStream::FromBytes(std::move(**bytes), kFetchChunkBytes);
+  const std::string reason = absl::StrCat("the Samples ", key.ToString(), " were lost (", why, "); gathering again");
+  MVBRDF_RETURN_IF_ERROR(jobs_.RedoDependency(task.id, worker_id, *gather, reason, clock_()));
+  NotifyWork();
+  EmitFinalState(task.job_id);  // when the gather had used its attempts, the job failed
+  return absl::AbortedError(absl::StrCat(reason, "; task ", task.id, " is queued behind the gather"));
 }
 
 absl::StatusOr<v1::SubmitJobRequest> WorkersService::RequestOf(const store::Job& job) {

@@ -186,6 +186,12 @@ class WorkersService final : public v1::Workers::CallbackService {
   absl::StatusOr<std::optional<v1::Task>> TryLease(const std::string& worker_id);
   // The results of `task`'s dependencies, in its depends_on order.
   absl::Status FillInputs(const store::Task& task, v1::Task& out);
+  // The Samples `task` (leased by `worker_id`) needs are gone from the
+  // cache (`why`): its gather dependency runs again and the task waits
+  // behind it (JobStore::RedoDependency). Returns the ABORTED status to
+  // answer the worker with (NOT_FOUND when the task has no gather).
+  absl::Status RegatherFor(const store::Task& task, const std::string& worker_id, const store::SampleKey& key,
+                           const std::string& why);
   // Completes a leased gather task from the Sample cache when its Samples
   // are there: true when it did. A corrupt entry (dropped) or a cache error
   // is a miss: the worker resamples.

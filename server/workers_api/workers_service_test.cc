@@ -800,18 +800,92 @@ TEST_F(WorkersServiceTest, FetchBundleStreamsTheCompleteBundle) {
   EXPECT_EQ(FetchBundle("nobody", sha256).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
 }
 
-TEST_F(WorkersServiceTest, FetchSamplesIsNotFoundOnAMiss) {
+TEST_F(WorkersServiceTest, FetchSamplesServesTheLeaseHolderOnly) {
+  Start();
+  const std::string worker = Register("w");
+  const std::string other = Register("other");
+  const auto [job, gather, sweep] = AddGatherJob();
+  // Not leased yet: nobody may fetch for it.
+  EXPECT_EQ(FetchSamples(worker, sweep).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(FetchSamples(worker, "no-such-task").status.error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(FetchSamples("nobody", sweep).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_EQ(leased.task().id(), gather);
+  const std::string encoded = EncodedSamples(50);
+  v1::TaskUpdateAck ack;
+  ASSERT_TRUE(Report(GatherUpdates(worker, gather, encoded, 700, store::Sha256Hex(encoded)), &ack).ok());
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_EQ(leased.task().id(), sweep);
+  const Fetched taken = FetchSamples(other, sweep);
+  EXPECT_EQ(taken.status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(taken.status.error_message().find("not leased by worker"), std::string::npos)
+      << taken.status.error_message();
+  EXPECT_TRUE(FetchSamples(worker, sweep).status.ok());
+  ASSERT_TRUE(jobs_->CancelJob(job, now_ms_).ok());
+  EXPECT_EQ(FetchSamples(worker, sweep).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+}
+
+// Samples lost between the gather and a sweep (evicted, or corrupt and
+// dropped): the gather runs again, the sweep waits behind it, and the job
+// goes on; no attempt of the sweep is spent.
+TEST_F(WorkersServiceTest, LostSamplesAreGatheredAgain) {
   Start();
   const std::string worker = Register("w");
   const auto [job, gather, sweep] = AddGatherJob();
-  Fetched fetched = FetchSamples(worker, sweep);
-  EXPECT_EQ(fetched.status.error_code(), grpc::StatusCode::NOT_FOUND);
-  EXPECT_NE(fetched.status.error_message().find("no cached Samples for"), std::string::npos)
-      << fetched.status.error_message();
-  EXPECT_EQ(FetchSamples(worker, "no-such-task").status.error_code(), grpc::StatusCode::NOT_FOUND);
-  EXPECT_EQ(FetchSamples("nobody", sweep).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
-  ASSERT_TRUE(jobs_->CancelJob(job, now_ms_).ok());
-  EXPECT_EQ(FetchSamples(worker, sweep).status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  const std::string encoded = EncodedSamples(50);
+  const std::string sha256 = store::Sha256Hex(encoded);
+  const store::SampleKey key = TriangleSampleKey(std::string(64, 'a'), SampleRequest());
+  for (const bool corrupt : {false, true}) {
+    SCOPED_TRACE(corrupt ? "corrupt" : "evicted");
+    v1::LeaseTaskResponse leased;
+    ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+    ASSERT_EQ(leased.task().id(), gather);
+    v1::TaskUpdateAck ack;
+    ASSERT_TRUE(Report(GatherUpdates(worker, gather, encoded, 700, sha256), &ack).ok());
+    ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+    ASSERT_EQ(leased.task().id(), sweep);
+    if (corrupt) {
+      // Flip one byte of the stored blob behind the cache's back.
+      auto db = store::SqliteDb::Open(dir_.db());
+      ASSERT_TRUE(db.ok());
+      auto read = store::Statement::Prepare(**db, "SELECT data FROM sample_cache");
+      ASSERT_TRUE(read.ok());
+      ASSERT_TRUE(read->Step().ok());
+      std::string data = read->ColumnBlob(0);
+      ASSERT_FALSE(data.empty());
+      data[data.size() / 2] = static_cast<char>(data[data.size() / 2] ^ 0x5a);
+      auto write = store::Statement::Prepare(**db, "UPDATE sample_cache SET data = ?1");
+      ASSERT_TRUE(write.ok());
+      ASSERT_TRUE(write->BindBlob(1, data).ok());
+      ASSERT_TRUE(write->Run().ok());
+    } else {
+      ASSERT_TRUE(samples_->Erase(key).ok());
+    }
+    const Fetched lost = FetchSamples(worker, sweep);
+    EXPECT_EQ(lost.status.error_code(), grpc::StatusCode::ABORTED) << lost.status.error_message();
+    EXPECT_NE(lost.status.error_message().find("gathering again"), std::string::npos) << lost.status.error_message();
+    EXPECT_EQ(jobs_->GetTask(gather)->state, store::TaskState::kQueued);
+    EXPECT_EQ(jobs_->GetTask(sweep)->state, store::TaskState::kQueued);
+    EXPECT_EQ(jobs_->GetTask(sweep)->attempts, 0);
+    auto entry = samples_->Get(key, now_ms_);
+    ASSERT_TRUE(entry.ok()) << entry.status();
+    EXPECT_FALSE(entry->has_value()) << "the lost entry is still cached";
+  }
+  // Third time round the Samples stay: the sweep gets them and the job goes on.
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_EQ(leased.task().id(), gather);
+  EXPECT_EQ(jobs_->GetTask(gather)->attempts, 3);
+  v1::TaskUpdateAck ack;
+  ASSERT_TRUE(Report(GatherUpdates(worker, gather, encoded, 700, sha256), &ack).ok());
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_EQ(leased.task().id(), sweep);
+  const Fetched fetched = FetchSamples(worker, sweep);
+  ASSERT_TRUE(fetched.status.ok()) << fetched.status.error_message();
+  EXPECT_EQ(fetched.bytes, encoded);
+  EXPECT_EQ(jobs_->GetTask(sweep)->attempts, 1);
+  EXPECT_EQ(jobs_->GetJob(job)->state, store::JobState::kRunning);
 }
 
 }  // namespace
