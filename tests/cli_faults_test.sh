@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Faults with real processes (issue #7): a worker killed (SIGKILL) in the
 # middle of a task, the server killed in the middle of a job and restarted, a
-# client that goes away while watching. The job finishes each time with
-# results identical to an undisturbed run; the database passes
-# PRAGMA integrity_check and holds no artifact twice.
+# client that goes away while watching, a corrupted Sample-cache entry. The
+# job finishes each time with results identical to an undisturbed run; the
+# database passes PRAGMA integrity_check and holds no artifact twice.
 # Usage: cli_faults_test.sh MVBRDF_BINARY WORK_DIR
 set -u
 bin=$1
@@ -79,11 +79,49 @@ check "fetch after the restart" 0 "" -- "$bin" fetch "$job2" atlases/kd.exr --se
 "$bin" run "$work/b/scene.json" --direct "${opts[@]}" --sweep-frame-stride 2 --out "$work/direct2" > /dev/null 2>&1
 expect "kd identical to an undisturbed run" cmp "$work/killed_server/atlases/kd.exr" "$work/direct2/atlases/kd.exr"
 expect "the worker registered again" bash -c "grep -c 'registered as' '$work/survivor.log' | grep -q '^2$'"
-kill -TERM "$survivor" "$pid"
-wait "$survivor" "$pid" 2>/dev/null
+
+# 3. A corrupted Sample-cache entry: a worker gathers and leaves (--max-tasks 1),
+# a byte of the cached Samples is flipped behind the server's back, and the
+# next worker's sweep finds the checksum wrong: the entry is dropped, the
+# gather runs again and the job ends as an undisturbed run would.
+kill -TERM "$survivor"
+wait "$survivor" 2>/dev/null
+job3=$("$bin" submit "$work/b/scene.json" --server "$address" --client faults "${opts[@]}" --sweep-frame-stride 3 \
+  2>/dev/null)
+"$bin" worker --server "$address" --name gatherer --cache "$work/cache_gatherer" --egl surfaceless --wait 1 \
+  --max-tasks 1 > "$work/gatherer.log" 2>&1
+expect "the gatherer ran the gather and left" grep -q "gather done" "$work/gatherer.log"
+expect "flip one byte of the newest cached Samples" /usr/bin/python3 -c "
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[1], timeout=30)
+rowid, data = db.execute('SELECT rowid, data FROM sample_cache ORDER BY rowid DESC LIMIT 1').fetchone()
+data = bytearray(data)
+data[len(data) // 2] ^= 0x5a
+db.execute('UPDATE sample_cache SET data = ? WHERE rowid = ?', (bytes(data), rowid))
+db.commit()" "$work/data/state.db"
+worker sweeper
+sweeper=$wpid
+check "the job recomputes the Samples and succeeds" 0 "succeeded" -- "$bin" watch "$job3" --server "$address" \
+  --client faults
+expect "the sweeper was told to gather again" grep -q "gathering again" "$work/sweeper.log"
+check "fetch after the recomputation" 0 "" -- "$bin" fetch "$job3" atlases/kd.exr --server "$address" --client faults \
+  --out "$work/corrupt_cache"
+"$bin" run "$work/b/scene.json" --direct "${opts[@]}" --sweep-frame-stride 3 --out "$work/direct3" > /dev/null 2>&1
+expect "kd identical to an undisturbed run" cmp "$work/corrupt_cache/atlases/kd.exr" "$work/direct3/atlases/kd.exr"
+"$bin" jobs --server "$address" --client faults --json > "$work/jobs3.json"
+expect "the gather ran twice, no sweep failed" /usr/bin/python3 -c "
+import json, sys
+job = [j for j in json.load(open(sys.argv[1]))['jobs'] if j['id'] == sys.argv[2]][0]
+gather = [t for t in job['tasks'] if t['kind'] == 'gather'][0]
+sweeps = [t for t in job['tasks'] if t['kind'] == 'sweep']
+assert gather['attempts'] == 2, gather
+assert all(t['attempts'] == 1 for t in sweeps), sweeps
+" "$work/jobs3.json" "$job3"
+kill -TERM "$sweeper" "$pid"
+wait "$sweeper" "$pid" 2>/dev/null
 check "the database passes integrity_check" 0 "ok" -- sqlite3 "$work/data/state.db" "PRAGMA integrity_check"
 dups=$(sqlite3 "$work/data/state.db" "SELECT COUNT(*) FROM (SELECT job_id, name FROM artifacts GROUP BY 1, 2 HAVING COUNT(*) > 1)")
 expect "no artifact stored twice (got $dups)" test "$dups" = 0
 jobs=$(sqlite3 "$work/data/state.db" "SELECT COUNT(*) FROM jobs WHERE state = 'succeeded'")
-expect "both jobs succeeded and none was lost (got $jobs)" test "$jobs" = 2
+expect "all three jobs succeeded and none was lost (got $jobs)" test "$jobs" = 3
 summary
