@@ -21,6 +21,8 @@ fi
 
 check "generate a sequence" 0 "" -- "$bin" synth --cameras 3 --frames 8 --width 160 --height 120 \
   --actor-segments 10 --out "$work/b"
+check "generate a second sequence" 0 "" -- "$bin" synth --cameras 3 --frames 8 --width 320 --height 240 \
+  --actor-segments 12 --out "$work/b2"
 opts=(--atlas 512 --no-powell)
 
 # The server, with a 96 MiB tmpfs as its data directory, in its own mount
@@ -80,9 +82,16 @@ done < "$work/indexed.txt"
 expect "every indexed artifact is on disk and hashes right ($(wc -l < "$work/indexed.txt") checked)" test "$missing" -eq 0
 expect "no temporary file is left behind" test -z "$(inns find "$data/artifacts/tmp" -type f 2>/dev/null)"
 
-# Space freed: the same server and worker run the job again to success.
+# An upload while the disk is full: refused with the reason (the bytes that
+# fitted stay as a valid prefix; the upload resumes after them).
+check "an upload to a full disk is refused with the reason" 1 "No space left on device" -- \
+  "$bin" submit "$work/b2/scene.json" --server "$address" --client disk "${opts[@]}"
+
+# Space freed: the same server and worker take the refused bundle and run its
+# job to success.
 inns rm -f "$data/filler"
-job2=$("$bin" submit "$work/b/scene.json" --server "$address" --client disk "${opts[@]}" 2>/dev/null)
+job2=$("$bin" submit "$work/b2/scene.json" --server "$address" --client disk "${opts[@]}" 2>"$work/submit2.err")
+expect "with space again the refused bundle uploads and its job is queued" test -n "$job2"
 check "with space again the next job succeeds" 0 "succeeded" -- "$bin" watch "$job2" --server "$address" --client disk
 check "its kd atlas can be fetched" 0 "" -- "$bin" fetch "$job2" atlases/kd.exr --server "$address" --client disk \
   --out "$work/after"

@@ -1,5 +1,10 @@
 #include "server/clients_api/bundle_area.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <system_error>
 #include <vector>
@@ -64,10 +69,30 @@ absl::Status BundleArea::Append(absl::string_view sha256, int64_t offset, absl::
   const fs::path part = PartPath(sha256);
   std::error_code ec;
   if (offset == 0) fs::remove(part, ec);  // a fresh start: no stale bytes
-  std::ofstream out(part, std::ios::binary | std::ios::app);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  out.flush();
-  if (!out) return absl::InternalError(absl::StrCat(part.string(), ": write failed"));
+  // POSIX I/O so that the reason reaches the uploader: a full disk is
+  // RESOURCE_EXHAUSTED with "No space left on device", not a bare failure.
+  // Bytes written before a failure stay: they are a valid prefix, and the
+  // upload resumes after them (QueryUpload).
+  const auto failed = [&](const char* what) {
+    const int error = errno;
+    const std::string message = absl::StrCat("uploads/", part.filename().string(), ": ", what, ": ",
+                                             std::strerror(error));
+    if (error == ENOSPC || error == EDQUOT) return absl::ResourceExhaustedError(message);
+    return absl::InternalError(message);
+  };
+  const int fd = ::open(part.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  if (fd < 0) return failed("cannot open");
+  while (!bytes.empty()) {
+    const ssize_t n = ::write(fd, bytes.data(), bytes.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      absl::Status status = failed("write failed");
+      ::close(fd);
+      return status;
+    }
+    bytes.remove_prefix(static_cast<size_t>(n));
+  }
+  if (::close(fd) != 0) return failed("write failed");
   return absl::OkStatus();
 }
 
