@@ -74,12 +74,56 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
     return absl::NotFoundError(absl::StrCat(field, ": mesh file not found: ", file.string()));
   }
   Assimp::Importer importer;
-  // Triangulate only: no welding (we weld bit-exactly ourselves, keeping file
-  // order) and no sorting by primitive type (which would reorder faces).
-  const aiScene* scene = importer.ReadFile(file.string(), aiProcess_Triangulate);
+  // Validation first (it rejects faces without indices and indices past the
+  // vertex array, which the corner loop below would read out of bounds), then
+  // triangulation only: no welding (we weld bit-exactly ourselves, keeping
+  // file order) and no sorting by primitive type (which would reorder faces).
+  const aiScene* scene = importer.ReadFile(file.string(), aiProcess_ValidateDataStructure);
   if (scene == nullptr || (scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0) {
     return absl::InvalidArgumentError(
         absl::StrCat(Prefix(field, file), ": cannot read mesh: ", importer.GetErrorString()));
+  }
+  // Our own checks before triangulating, as assimp's validation lets a face
+  // without indices through and Debian's assimp is built with assertions: a
+  // PLY face list of length 0 made triangulation abort the process (found by
+  // tests/fuzz/mesh_loader_fuzz). An index past the vertex array would make
+  // the corner loop below read out of bounds. The primitive types, which
+  // triangulation trusts, are recomputed from the faces.
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m) {
+    aiMesh* mesh = scene->mMeshes[m];
+    if (mesh == nullptr) {
+      return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": mesh ", m, " is missing"));
+    }
+    if (mesh->mNumFaces != 0 && (mesh->mFaces == nullptr || mesh->mVertices == nullptr)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(Prefix(field, file), ": mesh ", m, " has faces but no face or vertex array"));
+    }
+    unsigned types = 0;
+    for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
+      const aiFace& face = mesh->mFaces[f];
+      if (face.mNumIndices == 0 || face.mIndices == nullptr) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(Prefix(field, file), ": mesh ", m, " face ", f, " has no vertex indices"));
+      }
+      for (unsigned k = 0; k < face.mNumIndices; ++k) {
+        if (face.mIndices[k] >= mesh->mNumVertices) {
+          return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": mesh ", m, " face ", f,
+                                                         " refers to vertex ", face.mIndices[k], " of ",
+                                                         mesh->mNumVertices));
+        }
+      }
+      const unsigned n = face.mNumIndices;
+      types |= n == 1 ? aiPrimitiveType_POINT
+               : n == 2 ? aiPrimitiveType_LINE
+               : n == 3 ? aiPrimitiveType_TRIANGLE
+                        : aiPrimitiveType_POLYGON;
+    }
+    mesh->mPrimitiveTypes = types;
+  }
+  scene = importer.ApplyPostProcessing(aiProcess_Triangulate);
+  if (scene == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(Prefix(field, file), ": cannot triangulate mesh: ", importer.GetErrorString()));
   }
   ImportedCorners out;
   size_t meshes_with_uvs = 0, meshes_with_faces = 0;

@@ -274,6 +274,29 @@ TEST(MeshLoaderTest, LoadsPly) {
   ExpectConsistent(mesh->topology);
 }
 
+// Found by tests/fuzz/mesh_loader_fuzz (corpus/mesh_loader/ply_empty_face.ply):
+// a PLY face with no vertex indices. Assimp's validation let it through and
+// its triangulation (built with assertions on Debian) aborted the process.
+TEST(MeshLoaderTest, RejectsPlyFaceWithoutIndices) {
+  TempDir dir;
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n";
+  WriteText(dir / "empty_face.ply", header + "3 0 1 2\n0\n");
+  for (const bool rest_pose : {true, false}) {
+    const absl::Status status = rest_pose ? LoadMesh(dir / "empty_face.ply", "scene.mesh.path").status()
+                                          : LoadFramePositions(dir / "empty_face.ply", MeshTopology{}, "m").status();
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+    EXPECT_NE(status.message().find("empty_face.ply: mesh 0 face 1 has no vertex indices"), std::string::npos)
+        << status;
+  }
+  // An index past the vertex array is rejected too (by assimp's validation).
+  WriteText(dir / "bad_index.ply", header + "3 0 1 2\n3 0 1 7\n");
+  const absl::Status status = LoadMesh(dir / "bad_index.ply", "scene.mesh.path").status();
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+  EXPECT_NE(status.message().find("bad_index.ply"), std::string::npos) << status;
+}
+
 TEST(MeshLoaderTest, LoadsGltf) {
   // A glTF 2.0 quad (4 vertices, 2 triangles) with its buffer embedded as a
   // data URI: positions as 12 floats, then 6 uint16 indices.
