@@ -299,6 +299,13 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
                                             " bytes follow the header"));
   }
   const size_t num = num_lights;
+  // EncodeSampleSet sets the flag only for a non-empty falloff array, so one
+  // set has one encoding (found by tests/fuzz/sample_set_fuzz: the flag with
+  // no samples or no lights decoded, and re-encoded without it).
+  if (has_falloff && n * num == 0) {
+    return absl::DataLossError(absl::StrCat("sample set encoding: falloff flag set but there are no falloff values (",
+                                            n, " samples x ", num, " lights)"));
+  }
   set.element.resize(n);
   set.frame.resize(n);
   set.camera.resize(n);

@@ -314,6 +314,27 @@ TEST(SampleSetEncoding, ForeignAndCorruptBuffers) {
   ExpectDataLoss(mode, "sample count");
 }
 
+// Found by tests/fuzz/sample_set_fuzz (corpus/sample_set/falloff_flag_empty.mvss):
+// the falloff flag on a set with no falloff values decoded, and re-encoded
+// without it, so one set had two encodings.
+TEST(SampleSetEncoding, FalloffFlagWithoutValuesFails) {
+  const std::string no_samples("MVSS\x01\0\0\0\x02\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0", 24);
+  ExpectDataLoss(no_samples, "falloff flag set but there are no falloff values (0 samples x 0 lights)");
+  // One sample, no lights: element, frame, camera and three halves.
+  std::string no_lights = no_samples + std::string(13, '\0');
+  no_lights[8] = 3;  // compact | falloff
+  no_lights[16] = 1;
+  ExpectDataLoss(no_lights, "(1 samples x 0 lights)");
+  no_lights[8] = 1;  // compact only: fine
+  EXPECT_TRUE(DecodeSampleSet(no_lights).ok());
+  // Encoded sets with fall-off still decode.
+  SampleSet set = MakeSet(2, 3, 5);
+  set.falloff.assign(set.g.size(), 0.5f);
+  auto decoded = DecodeSampleSet(EncodeSampleSet(set, false));
+  ASSERT_TRUE(decoded.ok()) << decoded.status();
+  EXPECT_EQ(decoded->falloff, set.falloff);
+}
+
 TEST(SampleSetEncoding, ByteFlippedCountFails) {
   const std::string good = EncodeSampleSet(MakeSet(2, 3, 5), false);
   for (int byte = 0; byte < 8; ++byte) {
