@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -92,6 +93,22 @@ absl::Status CheckReferences(const std::string& field, const google::protobuf::R
   return absl::OkStatus();
 }
 
+// A path a scene names: relative to the scene's directory and inside it
+// ('/'-separated, no ".." component, not absolute), so that a scene (a
+// bundle on the server) never makes anyone read a file outside its directory.
+absl::Status CheckInsideSceneDir(const std::string& field, const std::string& path) {
+  auto bad = [&](absl::string_view why) {
+    return Invalid(field, absl::StrCat("must be a relative path inside the scene's directory (", why, "), got \"",
+                                       path, "\""));
+  };
+  if (path.front() == '/' || std::filesystem::path(path).is_absolute()) return bad("not absolute");
+  if (path.find('\\') != std::string::npos) return bad("'/' separates directories, not '\\'");
+  for (absl::string_view part : absl::StrSplit(path, '/')) {
+    if (part == "..") return bad("no \"..\" component");
+  }
+  return absl::OkStatus();
+}
+
 absl::Status ValidateRotation(const std::string& field, const google::protobuf::RepeatedField<double>& r) {
   MVBRDF_RETURN_IF_ERROR(CheckCount(field, r.size(), 9, "row-major 3x3"));
   MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(field, r));
@@ -139,6 +156,7 @@ absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
     return Invalid(f + ".video.path", "required (a video file or an image pattern such as \"cam0/%04d.png\")");
   }
   MVBRDF_RETURN_IF_ERROR(ValidateFramePattern(video.path(), f + ".video.path"));
+  MVBRDF_RETURN_IF_ERROR(CheckInsideSceneDir(f + ".video.path", video.path()));
   if (!v1::ColorEncoding_IsValid(video.encoding())) {
     return Invalid(f + ".video.encoding", absl::StrCat("unknown value ", video.encoding()));
   }
@@ -197,6 +215,7 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
     return Invalid("scene.mesh.path", "required (a mesh file or a per-frame pattern such as \"mesh_%04d.obj\")");
   }
   MVBRDF_RETURN_IF_ERROR(ValidateFramePattern(scene.mesh().path(), "scene.mesh.path"));
+  MVBRDF_RETURN_IF_ERROR(CheckInsideSceneDir("scene.mesh.path", scene.mesh().path()));
   const v1::Frames& frames = scene.frames();
   if (frames.count() == 0) return Invalid("scene.frames.count", "must be > 0, got 0");
   if (static_cast<uint64_t>(frames.first()) + frames.count() > static_cast<uint64_t>(INT32_MAX)) {
@@ -268,6 +287,9 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
     MVBRDF_RETURN_IF_ERROR(CheckReferences(f + ".materials", s.materials(), seeds, "material seed",
                                            absl::StrCat(" in segment \"", s.segment(), "\"")));
   }
+  if (!scene.segmentation_path().empty()) {
+    MVBRDF_RETURN_IF_ERROR(CheckInsideSceneDir("scene.segmentation_path", scene.segmentation_path()));
+  }
   if (scene.segment_materials_size() != 0 && scene.segmentation_path().empty()) {
     return Invalid("scene.segment_materials",
                    "given, but scene.segmentation_path is empty (segments need a segmentation file)");
@@ -329,6 +351,59 @@ absl::Status ProbeVideo(const Sequence& seq, int i) {
   return absl::OkStatus();
 }
 
+// Every later frame's mesh file exists (a stat each; the content is read when
+// check_all_frames asks or when the frame is used), so that a bundle without
+// one fails when it is submitted, not halfway through a job.
+absl::Status CheckMeshFramesExist(const Sequence& seq) {
+  const int first = static_cast<int>(seq.scene.frames().first());
+  for (int t = 1; t < seq.num_frames; ++t) {
+    const int absolute = first + t;
+    const std::filesystem::path file = ResolvePath(seq.scene_dir, MeshFramePath(seq.scene, absolute));
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec)) {
+      return absl::NotFoundError(
+          absl::StrCat("scene.mesh.path (frame ", absolute, "): mesh file not found: ", file.string()));
+    }
+  }
+  return absl::OkStatus();
+}
+
+// A camera that sees none of the mesh in frame 0 is rejected: it adds no
+// sample, and a pose that points away (a transposed rotation, a
+// camera_from_world given as world_from_camera) is a calibration error the
+// user wants to hear about. Conservative: the camera is rejected only when
+// every vertex lies on the outer side of one plane of its viewing frustum
+// (behind it, or beyond one image border widened by half the image for lens
+// distortion), so that the mesh's convex hull misses the frustum; a close-up
+// of a coarse mesh whose vertices are all outside the image still passes.
+absl::Status CheckCameraSeesMesh(const Sequence& seq, int i) {
+  const CameraModel& camera = seq.cameras[static_cast<size_t>(i)];
+  // Frustum in normalised coordinates (x/z, y/z), widened by half the image.
+  const double x_lo = (-0.5 - 0.5 * camera.width - camera.cx) / camera.fx;
+  const double x_hi = (1.5 * camera.width - 0.5 - camera.cx) / camera.fx;
+  const double y_lo = (-0.5 - 0.5 * camera.height - camera.cy) / camera.fy;
+  const double y_hi = (1.5 * camera.height - 0.5 - camera.cy) / camera.fy;
+  // Bit k set: some vertex is inside plane k (z > 0, x >= x_lo z, x <= x_hi z, y >= y_lo z, y <= y_hi z).
+  unsigned inside_some = 0;
+  for (const glm::vec3& p : seq.rest_positions) {
+    const glm::dvec3 q = camera.CamFromWorld(glm::dvec3(p));
+    if (q.z > 0.0) inside_some |= 1u;
+    if (q.x >= x_lo * q.z) inside_some |= 2u;
+    if (q.x <= x_hi * q.z) inside_some |= 4u;
+    if (q.y >= y_lo * q.z) inside_some |= 8u;
+    if (q.y <= y_hi * q.z) inside_some |= 16u;
+    if (inside_some == 31u) return absl::OkStatus();
+  }
+  const char* where = (inside_some & 1u) == 0   ? "behind the camera"
+                      : (inside_some & 2u) == 0 ? "left of its image"
+                      : (inside_some & 4u) == 0 ? "right of its image"
+                      : (inside_some & 8u) == 0 ? "above its image"
+                                                : "below its image";
+  return Invalid(absl::StrCat("scene.cameras[", i, "]"),
+                 absl::StrCat("sees none of the mesh in frame 0: all ", seq.rest_positions.size(), " vertices lie ",
+                              where, " (check cam_from_world: world to camera, OpenCV axes with z forward)"));
+}
+
 Light LightFromProto(const v1::Light& l) {
   Light light;
   light.name = l.name();
@@ -384,6 +459,8 @@ absl::StatusOr<Sequence> LoadSequence(const std::filesystem::path& scene_file, c
     for (int i = 0; i < scene.cameras_size(); ++i) MVBRDF_RETURN_IF_ERROR(ProbeVideo(seq, i));
   }
   for (const v1::Camera& camera : scene.cameras()) seq.cameras.push_back(CameraModelFromProto(camera));
+  for (int i = 0; i < scene.cameras_size(); ++i) MVBRDF_RETURN_IF_ERROR(CheckCameraSeesMesh(seq, i));
+  if (!options.check_all_frames && !seq.is_static_mesh()) MVBRDF_RETURN_IF_ERROR(CheckMeshFramesExist(seq));
   for (const v1::Light& light : scene.lights()) seq.lights.push_back(LightFromProto(light));
   return seq;
 }

@@ -256,6 +256,20 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
        "scene.segment_materials[0].materials[2]: duplicate material seed \"skin\""},
       {"SegmentsWithoutSegmentation", [](v1::Scene* s) { s->clear_segmentation_path(); },
        "scene.segment_materials: given, but scene.segmentation_path is empty"},
+      // Paths stay inside the scene's directory (a bundle on the server).
+      {"MeshPathDotDot", [](v1::Scene* s) { s->mutable_mesh()->set_path("../x_%04d.obj"); },
+       "scene.mesh.path: must be a relative path inside the scene's directory (no \"..\" component), got "
+       "\"../x_%04d.obj\""},
+      {"MeshPathDotDotInside", [](v1::Scene* s) { s->mutable_mesh()->set_path("m/../../x.obj"); },
+       "scene.mesh.path: must be a relative path inside"},
+      {"MeshPathAbsolute", [](v1::Scene* s) { s->mutable_mesh()->set_path("/etc/passwd"); },
+       "scene.mesh.path: must be a relative path inside the scene's directory (not absolute), got \"/etc/passwd\""},
+      {"VideoPathAbsolute", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_path("/dev/zero"); },
+       "scene.cameras[1].video.path: must be a relative path inside"},
+      {"VideoPathBackslash", [](v1::Scene* s) { s->mutable_cameras(0)->mutable_video()->set_path("..\\c.mkv"); },
+       "scene.cameras[0].video.path: must be a relative path inside"},
+      {"SegmentationPathDotDot", [](v1::Scene* s) { s->set_segmentation_path("../segments.txt"); },
+       "scene.segmentation_path: must be a relative path inside"},
   };
   return *cases;
 }
@@ -332,6 +346,20 @@ const std::vector<FileErrorCase>& FileErrorCases() {
       {"UnknownJsonField", nullptr,
        [](const std::filesystem::path& dir) { WriteText(dir / "scene.json", "{\"cameraz\": []}"); },
        absl::StatusCode::kInvalidArgument, "scene.json"},
+      // Turned around (a half turn about its y axis): the pyramid is behind cam0.
+      {"CameraSeesNothingBehind",
+       [](v1::Scene* s) {
+         auto* pose = s->mutable_cameras(0)->mutable_cam_from_world();
+         for (int k : {0, 1, 2, 6, 7, 8}) pose->set_rotation(k, -pose->rotation(k));
+         pose->set_translation(0, -pose->translation(0));
+         pose->set_translation(2, -pose->translation(2));
+       },
+       nullptr, absl::StatusCode::kInvalidArgument,
+       "scene.cameras[0]: sees none of the mesh in frame 0: all 5 vertices lie behind the camera"},
+      // Principal point far to the right: the pyramid is left of the image.
+      {"CameraSeesNothingBeside",
+       [](v1::Scene* s) { s->mutable_cameras(0)->mutable_intrinsics()->set_cx(500); }, nullptr,
+       absl::StatusCode::kInvalidArgument, "scene.cameras[0]: sees none of the mesh in frame 0: all 5 vertices lie"},
       {"MissingSceneFile", nullptr,
        [](const std::filesystem::path& dir) { std::filesystem::remove(dir / "scene.json"); },
        absl::StatusCode::kNotFound, "scene.json"},
@@ -360,13 +388,50 @@ TEST(SequenceTest, OptionsSkipFramesAndVideos) {
   TempDir dir;
   const auto file = WriteFixture(dir.path(), FixtureScene());
   std::filesystem::remove(dir / "cam0/0003.png");
-  std::filesystem::remove(dir / "mesh_0003.obj");
+  WriteText(dir / "mesh_0003.obj", "v 0 0 nan\n" + testing::PyramidObj(3));
   LoadOptions options;
   options.check_all_frames = false;
   options.probe_videos = false;
   auto seq = LoadSequence(file, options);
   ASSERT_TRUE(seq.ok()) << seq.status();
-  EXPECT_EQ(seq->LoadFrame(3).status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(seq->LoadFrame(3).status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+// Without check_all_frames, every frame's mesh file must still exist (a stat
+// each): the server then rejects a bundle without one at submit.
+TEST(SequenceTest, MissingLaterMeshFileIsFoundWithoutReadingFrames) {
+  TempDir dir;
+  const auto file = WriteFixture(dir.path(), FixtureScene());
+  std::filesystem::remove(dir / "mesh_0002.obj");
+  LoadOptions options;
+  options.check_all_frames = false;
+  auto seq = LoadSequence(file, options);
+  EXPECT_EQ(seq.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_NE(seq.status().message().find("scene.mesh.path (frame 2): mesh file not found: "), std::string::npos)
+      << seq.status();
+  EXPECT_NE(seq.status().message().find("mesh_0002.obj"), std::string::npos) << seq.status();
+}
+
+// A close-up whose image lies inside one big triangle sees no vertex, but
+// sees the mesh: it must pass.
+TEST(SequenceTest, CloseUpOfACoarseMeshPasses) {
+  TempDir dir;
+  v1::Scene scene = FixtureScene();
+  scene.mutable_mesh()->set_path("quad.obj");
+  scene.clear_segmentation_path();
+  scene.clear_segment_materials();
+  for (int i = 0; i < 2; ++i) {
+    scene.mutable_cameras(i)->mutable_intrinsics()->set_fx(4000);
+    scene.mutable_cameras(i)->mutable_intrinsics()->set_fy(4000);
+  }
+  const auto file = WriteFixture(dir.path(), scene);
+  // A big square in the plane z = 0 facing cam0, and a wall x = 0 facing cam1
+  // (which looks along -x from x = 3), each far larger than the view.
+  WriteText(dir / "quad.obj",
+            "v -50 -50 0\nv 50 -50 0\nv 50 50 0\nv -50 50 0\nv 0 -50 -50\nv 0 50 -50\nv 0 50 50\nv 0 -50 50\n"
+            "f 1 2 3\nf 1 3 4\nf 5 6 7\nf 5 7 8\n");
+  auto seq = LoadSequence(file);
+  EXPECT_TRUE(seq.ok()) << seq.status();
 }
 
 }  // namespace

@@ -1,0 +1,719 @@
+// Bad input against the real service (issue #7, "Bad input"): one in-process
+// server on a loopback port with two real workers, one small valid synthetic
+// scene, and a table of cases. Each case copies the valid scene, breaks one
+// thing, packs the directory into a tar by hand (so that the server, not the
+// client's packer, has to catch what a hostile client could send), uploads it
+// over gRPC and submits. Expected per case:
+// - kRejected: the upload or SubmitJob fails with a given gRPC code and a
+//   message naming the field or file;
+// - kJobFails: the problem shows only while running: the job ends FAILED in
+//   one attempt (permanent) with Job.error naming the field or file;
+// - kJobSucceeds: input the service accepts on purpose (decisions stated in
+//   the case's comment).
+// A valid job runs before the cases and another after them; both must
+// succeed with byte-identical atlases, and after every case the server must
+// still answer (the service keeps serving, other jobs are unaffected).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_replace.h"
+#include "client/bundle_upload.h"
+#include "client/embedded_service.h"
+#include "core/base/proto_json.h"
+#include "core/bundle/sha256.h"
+#include "core/scene/sequence.h"
+#include "core/synth/synthesizer.h"
+
+namespace mvbrdf {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr char kClient[] = "bad-input-test";
+constexpr int kFrames = 3;
+constexpr int kWidth = 64;
+constexpr int kHeight = 48;
+// The server's largest message in this test (small, so that an oversized
+// chunk is cheap to send).
+constexpr int64_t kMaxMessageBytes = int64_t{1} << 20;
+// A known configuration keeps the valid job short (no sweep).
+constexpr char kConfiguration[] = "NE,NW,SE,SW";
+
+// ---------------------------------------------------------------------------
+// Small file helpers.
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void WriteText(const fs::path& path, const std::string& text) {
+  fs::create_directories(path.parent_path());
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+}
+
+std::string FramePath(int frame) {
+  char name[32];
+  std::snprintf(name, sizeof(name), "meshes/mesh_%04d.obj", frame);
+  return name;
+}
+
+// Replaces the first occurrence of `from` in the file; fails the test when absent.
+void ReplaceInFile(const fs::path& path, const std::string& from, const std::string& to) {
+  std::string text = ReadText(path);
+  const size_t at = text.find(from);
+  ASSERT_NE(at, std::string::npos) << "\"" << from << "\" not in " << path;
+  text.replace(at, from.size(), to);
+  WriteText(path, text);
+}
+
+// The n-th (0-based) line starting with `prefix`.
+std::string NthLine(const std::string& text, const std::string& prefix, int n) {
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(prefix, 0) == 0 && n-- == 0) return line;
+  }
+  return "";
+}
+
+// ---------------------------------------------------------------------------
+// A tar written by hand (POSIX ustar): regular files, symlinks and whatever
+// names a case wants, including ones the packer would refuse.
+
+struct TarEntry {
+  std::string name;
+  std::string data;
+  char type = '0';       // '0' regular file, '2' symlink, '5' directory
+  std::string linkname;  // for symlinks
+};
+
+void PutOctal(char* field, size_t width, uint64_t value) {
+  std::snprintf(field, width, "%0*llo", static_cast<int>(width - 1), static_cast<unsigned long long>(value));
+}
+
+std::string TarArchive(const std::vector<TarEntry>& entries) {
+  std::string out;
+  for (const TarEntry& e : entries) {
+    char header[512] = {};
+    std::memcpy(header, e.name.data(), std::min<size_t>(e.name.size(), 100));
+    PutOctal(header + 100, 8, e.type == '5' ? 0755 : 0644);
+    PutOctal(header + 108, 8, 0);
+    PutOctal(header + 116, 8, 0);
+    PutOctal(header + 124, 12, e.type == '0' ? e.data.size() : 0);
+    PutOctal(header + 136, 12, 0);
+    std::memset(header + 148, ' ', 8);
+    header[156] = e.type;
+    std::memcpy(header + 157, e.linkname.data(), std::min<size_t>(e.linkname.size(), 100));
+    std::memcpy(header + 257, "ustar", 6);
+    std::memcpy(header + 263, "00", 2);
+    unsigned sum = 0;
+    for (unsigned char c : header) sum += c;
+    std::snprintf(header + 148, 8, "%06o", sum);
+    header[155] = ' ';
+    out.append(header, sizeof(header));
+    if (e.type == '0') {
+      out += e.data;
+      out.append((512 - e.data.size() % 512) % 512, '\0');
+    }
+  }
+  out.append(1024, '\0');
+  return out;
+}
+
+// Every file under `dir` (sorted, relative names): regular files with their
+// bytes, symlinks as symlinks (not followed), directories skipped.
+std::vector<TarEntry> EntriesOf(const fs::path& dir) {
+  std::vector<TarEntry> entries;
+  for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator(); ++it) {
+    const fs::path& p = it->path();
+    TarEntry e;
+    e.name = p.lexically_relative(dir).generic_string();  // not fs::relative: it follows symlinks
+    if (fs::is_symlink(it->symlink_status())) {
+      e.type = '2';
+      e.linkname = fs::read_symlink(p).string();
+    } else if (fs::is_regular_file(it->symlink_status())) {
+      e.data = ReadText(p);
+    } else {
+      continue;
+    }
+    entries.push_back(std::move(e));
+  }
+  std::sort(entries.begin(), entries.end(), [](const TarEntry& a, const TarEntry& b) { return a.name < b.name; });
+  return entries;
+}
+
+// ---------------------------------------------------------------------------
+// The table.
+
+// What a case's mutation works on: a private copy of the valid scene, extra
+// raw tar entries, and the request it is submitted with.
+struct CaseInput {
+  fs::path dir;                   // the scene directory to break
+  std::vector<TarEntry> extra;    // appended to the archive as they are
+  v1::SubmitJobRequest request;   // bundle_sha256 is filled in after the upload when empty
+  std::string claimed_sha256;     // upload under this hash instead of the archive's
+  // Replaces upload + submit (for cases about the upload stream itself).
+  std::function<grpc::Status(v1::Mvbrdf::Stub&)> custom_call;
+
+  fs::path scene_file() const { return dir / "scene.json"; }
+  v1::Scene Scene() const {
+    auto scene = scene::ReadScene(scene_file());
+    EXPECT_TRUE(scene.ok()) << scene.status();
+    return scene.ok() ? *scene : v1::Scene();
+  }
+  void Write(const v1::Scene& scene) const { ASSERT_TRUE(WriteJsonFile(scene_file(), scene).ok()); }
+  void EditScene(const std::function<void(v1::Scene*)>& edit) const {
+    v1::Scene scene = Scene();
+    edit(&scene);
+    Write(scene);
+  }
+  fs::path Frame(int t) const { return dir / FramePath(t); }
+  // Applies `edit` to every frame's mesh text (the topology stays the same across frames).
+  void EditEveryFrame(const std::function<std::string(std::string)>& edit) const {
+    for (int t = 0; t < kFrames; ++t) WriteText(Frame(t), edit(ReadText(Frame(t))));
+  }
+};
+
+enum class Expect { kRejected, kJobFails, kJobSucceeds };
+
+struct BadInputCase {
+  const char* name;
+  std::function<void(CaseInput&)> mutate;
+  Expect expect;
+  grpc::StatusCode code;                // kRejected only
+  std::vector<std::string> expected;    // substrings of the message / Job.error
+  // Also accepted for kRejected when not OK: a server-side limit that may
+  // answer before the general check does (see the case).
+  grpc::StatusCode alt_code = grpc::StatusCode::OK;
+};
+
+// Where the shared inputs live: dir_ of the fixture (a case's dir is dir_/cases/<name>).
+fs::path Shared(const CaseInput& in) { return in.dir.parent_path().parent_path(); }
+
+// Camera 1 reads an image sequence (videos/png1/%04d.png) instead of its video.
+void UsePngCamera(CaseInput& in) {
+  fs::copy(Shared(in) / "png/videos/cam1", in.dir / "videos/png1", fs::copy_options::recursive);
+  in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_path("videos/png1/%04d.png"); });
+}
+
+// The centre of frame 0's bounding box.
+std::vector<double> MeshCentre(const CaseInput& in) {
+  std::istringstream lines(ReadText(in.Frame(0)));
+  std::string line;
+  double lo[3] = {1e30, 1e30, 1e30}, hi[3] = {-1e30, -1e30, -1e30};
+  while (std::getline(lines, line)) {
+    if (line.rfind("v ", 0) != 0) continue;
+    std::istringstream v(line.substr(2));
+    for (int k = 0; k < 3; ++k) {
+      double x;
+      v >> x;
+      lo[k] = std::min(lo[k], x);
+      hi[k] = std::max(hi[k], x);
+    }
+  }
+  return {(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2};
+}
+
+// Replaces the face line `n` (0-based) of every frame with `face`.
+std::string ReplaceFace(const std::string& text, int n, const std::string& face) {
+  const std::string line = NthLine(text, "f ", n);
+  std::string out = text;
+  out.replace(out.find(line + "\n"), line.size(), face);
+  return out;
+}
+
+std::vector<BadInputCase> Cases() {
+  using C = grpc::StatusCode;
+  const C kInvalid = C::INVALID_ARGUMENT;
+  return {
+      // --- The scene file itself.
+      {"MalformedJson", [](CaseInput& in) { WriteText(in.scene_file(), "{\"name\": \"x\",, }"); }, Expect::kRejected,
+       kInvalid, {"scene.json"}},
+      {"TruncatedJson",
+       [](CaseInput& in) {
+         const std::string text = ReadText(in.scene_file());
+         WriteText(in.scene_file(), text.substr(0, text.size() / 2));
+       },
+       Expect::kRejected, kInvalid, {"scene.json"}},
+      {"UnknownField",
+       [](CaseInput& in) { ReplaceInFile(in.scene_file(), "\"frames\"", "\"cameraz\": [], \"frames\""); },
+       Expect::kRejected, kInvalid, {"scene.json", "cameraz"}},
+      {"EmptyObject", [](CaseInput& in) { WriteText(in.scene_file(), "{}"); }, Expect::kRejected, kInvalid,
+       {"scene.mesh.path"}},
+      {"NoSceneFileInBundle", [](CaseInput& in) { fs::rename(in.scene_file(), in.dir / "scene.txt"); },
+       Expect::kRejected, kInvalid, {"scene"}},
+
+      // --- Missing, unreadable and misplaced files.
+      {"MissingMeshFile", [](CaseInput& in) { fs::remove(in.Frame(0)); }, Expect::kRejected, kInvalid,
+       {"scene.mesh.path (frame 0)", "mesh_0000.obj"}},
+      {"MissingLaterMeshFrame", [](CaseInput& in) { fs::remove(in.Frame(2)); }, Expect::kRejected, kInvalid,
+       {"scene.mesh.path (frame 2)", "mesh_0002.obj"}},
+      {"DirectoryWhereMeshFileExpected",
+       [](CaseInput& in) {
+         fs::remove(in.Frame(0));
+         in.extra.push_back({FramePath(0) + "/", "", '5', ""});
+       },
+       Expect::kRejected, kInvalid, {"mesh_0000.obj"}},
+      {"DanglingSymlinkForVideo",
+       [](CaseInput& in) {
+         fs::remove(in.dir / "videos/cam1.mkv");
+         fs::create_symlink("nowhere.mkv", in.dir / "videos/cam1.mkv");
+       },
+       Expect::kRejected, kInvalid, {"videos/cam1.mkv"}},
+      {"MissingSegmentationFile", [](CaseInput& in) { fs::remove(in.dir / "segments.txt"); }, Expect::kRejected,
+       kInvalid, {"scene.segmentation_path", "segments.txt"}},
+
+      // --- Videos and images.
+      {"VideoWithFewerFramesThanTheScene",
+       [](CaseInput& in) { fs::copy_file(Shared(in) / "short.mkv", in.dir / "videos/cam1.mkv",
+                                         fs::copy_options::overwrite_existing); },
+       Expect::kRejected, kInvalid, {"scene.cameras[1].video", "has 2 frames", "needs 3"}},
+      {"CorruptVideoFile",
+       [](CaseInput& in) { WriteText(in.dir / "videos/cam0.mkv", std::string(4096, 'x')); }, Expect::kRejected,
+       kInvalid, {"scene.cameras[0].video", "cam0.mkv"}},
+      {"VideoOfTheWrongFrameSize", [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->set_width(80); }); },
+       Expect::kRejected, kInvalid, {"scene.cameras[1].video", "64x48, expected 80x48"}},
+      {"CorruptFirstImage",
+       [](CaseInput& in) {
+         UsePngCamera(in);
+         WriteText(in.dir / "videos/png1/0000.png", "\x89PNG\r\n\x1a\nnot really");
+       },
+       Expect::kRejected, kInvalid, {"scene.cameras[1].video", "videos/png1/0000.png"}},
+      {"CorruptLaterImage",
+       [](CaseInput& in) {
+         UsePngCamera(in);
+         WriteText(in.dir / "videos/png1/0001.png", "\x89PNG\r\n\x1a\nnot really");
+       },
+       Expect::kJobFails, C::OK, {"scene.cameras[1].video", "videos/png1/0001.png"}},
+      {"ImageOfTheWrongSize",
+       [](CaseInput& in) {
+         UsePngCamera(in);
+         fs::copy_file(Shared(in) / "small.png", in.dir / "videos/png1/0000.png",
+                       fs::copy_options::overwrite_existing);
+       },
+       Expect::kRejected, kInvalid, {"scene.cameras[1].video", "expected 64x48"}},
+      {"MissingLaterImage",
+       [](CaseInput& in) {
+         UsePngCamera(in);
+         fs::remove(in.dir / "videos/png1/0002.png");
+       },
+       Expect::kRejected, kInvalid, {"scene.cameras[1].video", "has 2 frames"}},
+
+      // --- Meshes.
+      {"MeshWithNoFaces",
+       [](CaseInput& in) { WriteText(in.Frame(0), "v 0 0 0\nv 1 0 0\nv 0 1 0\n"); }, Expect::kRejected,
+       kInvalid, {"scene.mesh.path (frame 0)", "mesh_0000.obj"}},
+      {"NanVertexInFirstFrame",
+       [](CaseInput& in) { ReplaceInFile(in.Frame(0), "v 0 1.06999993 0", "v 0 nan 0"); }, Expect::kRejected,
+       kInvalid, {"mesh_0000.obj", "non-finite"}},
+      {"NanVertexInLaterFrame",
+       [](CaseInput& in) {
+         const std::string line = NthLine(ReadText(in.Frame(2)), "v ", 0);
+         ReplaceInFile(in.Frame(2), line + "\n", "v 0 nan 0\n");
+       },
+       Expect::kJobFails, C::OK, {"mesh_0002.obj", "non-finite"}},
+      {"TopologyChangesBetweenFrames",
+       [](CaseInput& in) { WriteText(in.Frame(1), ReplaceFace(ReadText(in.Frame(1)), 5, "")); },
+       Expect::kJobFails, C::OK, {"mesh_0001.obj", "topology differs from frame 0"}},
+      {"UvsOutOfRange",
+       [](CaseInput& in) {
+         std::string text = ReadText(in.Frame(0));
+         std::string out = "vt 5 5\n";
+         std::istringstream lines(text);
+         std::string line;
+         while (std::getline(lines, line)) {
+           if (line.rfind("f ", 0) == 0) {
+             std::istringstream f(line.substr(2));
+             std::string a, b, c;
+             f >> a >> b >> c;
+             line = absl::StrCat("f ", a, "/1 ", b, "/1 ", c, "/1");
+           }
+           out += line + "\n";
+         }
+         WriteText(in.Frame(0), out);
+       },
+       Expect::kRejected, kInvalid, {"mesh_0000.obj", "outside [0,1]^2"}},
+      // Decision: non-manifold edges are accepted (the pipeline works per
+      // triangle: resampling, Samples and fits never walk edges).
+      {"NonManifoldEdge",
+       [](CaseInput& in) {
+         // Faces 0 and 1 share the edge 1-3 ("f 1 3 2", "f 1 4 3"); face 40
+         // becomes a third triangle on that edge.
+         in.EditEveryFrame([](std::string text) { return ReplaceFace(text, 40, "f 1 3 100"); });
+       },
+       Expect::kJobSucceeds, C::OK, {}},
+      // Decision: zero-area triangles are kept in the topology (indices stay
+      // stable) and excluded from resampling and fitting, counted in
+      // `mvbrdf validate`'s summary.
+      {"ZeroAreaTriangle", [](CaseInput& in) { in.EditEveryFrame([](std::string t) { return ReplaceFace(t, 40, "f 1 1 2"); }); },
+       Expect::kJobSucceeds, C::OK, {}},
+
+      // --- Cameras.
+      {"NonPositiveFocalLength",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->mutable_intrinsics()->set_fx(0); }); },
+       Expect::kRejected, kInvalid, {"scene.cameras[1].intrinsics.fx: must be > 0, got 0"}},
+      {"NegativeFocalLengthY",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_cameras(0)->mutable_intrinsics()->set_fy(-3); }); },
+       Expect::kRejected, kInvalid, {"scene.cameras[0].intrinsics.fy: must be > 0, got -3"}},
+      {"RotationNotOrthonormal",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->mutable_cam_from_world()->set_rotation(0, 2.0); });
+       },
+       Expect::kRejected, kInvalid, {"scene.cameras[1].cam_from_world.rotation"}},
+      // Decision: a camera that sees none of the mesh in frame 0 is rejected
+      // at submit (it can only add nothing or mislead a fit).
+      {"CameraThatSeesNothing",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           // Turn camera 1 around (a rotation of pi about its y axis): R' = diag(-1, 1, -1) R, t' likewise.
+           auto* pose = s->mutable_cameras(1)->mutable_cam_from_world();
+           for (int k : {0, 1, 2, 6, 7, 8}) pose->set_rotation(k, -pose->rotation(k));
+           pose->set_translation(0, -pose->translation(0));
+           pose->set_translation(2, -pose->translation(2));
+         });
+       },
+       Expect::kRejected, kInvalid, {"scene.cameras[1]", "sees none of the mesh"}},
+      {"DuplicateCameraNames",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->set_name("cam0"); }); },
+       Expect::kRejected, kInvalid, {"scene.cameras[1].name: duplicate \"cam0\""}},
+
+      // --- Lights and configurations.
+      {"DuplicateLightNames",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_lights(1)->set_name(s->lights(0).name()); }); },
+       Expect::kRejected, kInvalid, {"scene.lights[1].name: duplicate"}},
+      {"ConfigurationNamesUnknownLight",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) { s->mutable_light_configurations(0)->set_lights(0, "moon"); });
+       },
+       Expect::kRejected, kInvalid, {"scene.light_configurations[0].lights[0]: unknown light \"moon\""}},
+      {"RequestNamesUnknownConfiguration", [](CaseInput& in) { in.request.set_configuration("XX,YY"); },
+       Expect::kRejected, kInvalid, {"configuration", "XX,YY"}},
+      {"RequestNamesUnknownCandidate",
+       [](CaseInput& in) {
+         in.request.clear_configuration();
+         in.request.add_configurations("C");
+         in.request.add_configurations("nope");
+       },
+       Expect::kRejected, kInvalid, {"configurations[1]", "nope"}},
+      // Decision: a point light inside the mesh is accepted (it lights back
+      // faces only, which n.l <= 0 clamps to no light; the configuration then
+      // explains the images badly, which is what the sweep measures). It must
+      // not crash or produce NaN.
+      {"LightInsideTheMesh",
+       [](CaseInput& in) {
+         const std::vector<double> centre = MeshCentre(in);
+         in.EditScene([&](v1::Scene* s) {
+           for (auto& light : *s->mutable_lights()) {
+             if (light.name() == "NE") {
+               light.clear_position();
+               for (double v : centre) light.add_position(v);
+             }
+           }
+         });
+       },
+       Expect::kJobSucceeds, C::OK, {}},
+
+      // --- Absurd sizes.
+      // The request's range check (job_options: [16, 16384]) says
+      // INVALID_ARGUMENT; a server configured with a smaller max_atlas_size
+      // says RESOURCE_EXHAUSTED first.
+      {"AtlasOf100000Texels", [](CaseInput& in) { in.request.mutable_options()->set_atlas_size(100000); },
+       Expect::kRejected, kInvalid, {"options.atlas_size", "100000"}, C::RESOURCE_EXHAUSTED},
+      {"MillionFrames",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_frames()->set_count(1000000); }); },
+       Expect::kRejected, kInvalid, {"1000000"}},
+      {"OutputOutOfRange",
+       [](CaseInput& in) { in.request.add_outputs(static_cast<v1::Output>(99)); }, Expect::kRejected, kInvalid,
+       {"outputs[0]", "99"}},
+
+      // --- Paths that leave the bundle.
+      {"MeshPathWithDotDot",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_mesh()->set_path("../x_%04d.obj"); }); },
+       Expect::kRejected, kInvalid, {"scene.mesh.path", "../x_%04d.obj"}},
+      {"AbsoluteVideoPath",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) { s->mutable_cameras(0)->mutable_video()->set_path("/etc/passwd"); });
+       },
+       Expect::kRejected, kInvalid, {"scene.cameras[0].video.path", "/etc/passwd"}},
+      {"TarEntryWithDotDot", [](CaseInput& in) { in.extra.push_back({"../x.obj", "v 0 0 0\n", '0', ""}); },
+       Expect::kRejected, kInvalid, {"../x.obj"}},
+      {"TarEntryAbsolute", [](CaseInput& in) { in.extra.push_back({"/tmp/bad_input_abs.obj", "v 0 0 0\n", '0', ""}); },
+       Expect::kRejected, kInvalid, {"/tmp/bad_input_abs.obj"}},
+      {"SymlinkPointingOutside",
+       [](CaseInput& in) {
+         fs::remove(in.Frame(1));
+         fs::create_symlink("/etc/passwd", in.Frame(1));
+       },
+       Expect::kRejected, kInvalid, {"mesh_0001.obj"}},
+
+      // --- The request and the upload.
+      {"ScenePathEscapes", [](CaseInput& in) { in.request.set_scene_path("../scene.json"); }, Expect::kRejected,
+       kInvalid, {"scene_path"}},
+      {"ScenePathNotInBundle", [](CaseInput& in) { in.request.set_scene_path("other.json"); }, Expect::kRejected,
+       kInvalid, {"scene_path", "other.json"}},
+      {"BundleShaNotHex", [](CaseInput& in) { in.request.set_bundle_sha256("not-a-hash"); }, Expect::kRejected,
+       kInvalid, {"bundle_sha256"}},
+      {"BundleShaNotUploaded", [](CaseInput& in) { in.request.set_bundle_sha256(std::string(64, 'a')); },
+       Expect::kRejected, C::FAILED_PRECONDITION, {"bundle_sha256", "not uploaded"}},
+      {"UploadHashMismatch", [](CaseInput& in) { in.claimed_sha256 = std::string(64, 'b'); }, Expect::kRejected,
+       kInvalid, {"sha256"}},
+      {"OversizedChunk",
+       [](CaseInput& in) {
+         in.custom_call = [](v1::Mvbrdf::Stub& stub) {
+           grpc::ClientContext context;
+           context.AddMetadata("x-mvbrdf-client", kClient);
+           v1::UploadStatus status;
+           auto writer = stub.UploadBundle(&context, &status);
+           v1::UploadChunk chunk;
+           chunk.set_sha256(std::string(64, 'c'));
+           const size_t size = static_cast<size_t>(kMaxMessageBytes) * 2;
+           chunk.set_total_size(size);
+           chunk.set_data(std::string(size, 'x'));
+           writer->Write(chunk);
+           writer->WritesDone();
+           return writer->Finish();
+         };
+       },
+       Expect::kRejected, C::RESOURCE_EXHAUSTED, {}},
+  };
+}
+
+// ---------------------------------------------------------------------------
+
+class BadInputTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("mvbrdf_bad_input_test_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    {
+      auto context = gl::EglContext::Create(gl::EglPlatform::kSurfaceless);
+      ASSERT_TRUE(context.ok()) << context.status();
+      synth::SynthOptions so;
+      so.num_cameras = 2;
+      so.num_frames = kFrames;
+      so.width = kWidth;
+      so.height = kHeight;
+      so.actor_segments = 6;
+      so.shadow_map_size = 256;
+      so.out_dir = dir_ / "valid";
+      auto valid = synth::Synthesize(so, **context);
+      ASSERT_TRUE(valid.ok()) << valid.status();
+      // The same scene as image sequences, for the image cases.
+      so.video_format = synth::VideoFormat::kPng;
+      so.out_dir = dir_ / "png";
+      ASSERT_TRUE(synth::Synthesize(so, **context).ok());
+      // A video one frame short.
+      so.video_format = synth::VideoFormat::kFfv1;
+      so.num_frames = kFrames - 1;
+      so.out_dir = dir_ / "short";
+      ASSERT_TRUE(synth::Synthesize(so, **context).ok());
+      // A smaller image.
+      so.width = kWidth / 2;
+      so.height = kHeight / 2;
+      so.num_frames = 1;
+      so.num_cameras = 1;
+      so.video_format = synth::VideoFormat::kPng;
+      so.out_dir = dir_ / "small";
+      ASSERT_TRUE(synth::Synthesize(so, **context).ok());
+    }
+    fs::copy_file(dir_ / "short/videos/cam1.mkv", dir_ / "short.mkv");
+    fs::copy_file(dir_ / "small/videos/cam0/0000.png", dir_ / "small.png");
+    client::EmbeddedOptions eo;
+    eo.data_dir = dir_ / "server";
+    eo.workers = 2;
+    eo.egl = gl::EglPlatform::kSurfaceless;
+    eo.threads_per_worker = 1;
+    eo.server.limits.max_message_bytes = kMaxMessageBytes;
+    auto service = client::EmbeddedService::Start(eo);
+    ASSERT_TRUE(service.ok()) << service.status();
+    service_ = service->release();
+    stub_ = v1::Mvbrdf::NewStub(service_->channel()).release();
+  }
+
+  static void TearDownTestSuite() {
+    delete stub_;
+    delete service_;
+    std::error_code ec;
+    if (std::getenv("MVBRDF_KEEP_TEST_DIR") == nullptr) fs::remove_all(dir_, ec);
+  }
+
+  static v1::SubmitJobRequest ValidRequest() {
+    v1::SubmitJobRequest request;
+    request.set_configuration(kConfiguration);
+    request.mutable_options()->set_atlas_size(64);
+    request.mutable_options()->set_max_iterations(10);
+    return request;
+  }
+
+  // Packs `in` (its directory and extra entries), uploads and submits; the
+  // first failing step's status, else OK with the job's id.
+  static grpc::Status UploadAndSubmit(const CaseInput& in, std::string* job_id) {
+    std::vector<TarEntry> entries = EntriesOf(in.dir);
+    entries.insert(entries.end(), in.extra.begin(), in.extra.end());
+    const std::string archive = TarArchive(entries);
+    const fs::path archive_file = in.dir.string() + ".tar";
+    WriteText(archive_file, archive);
+    const std::string sha256 = in.claimed_sha256.empty() ? bundle::Sha256Bytes(archive) : in.claimed_sha256;
+    client::UploadOutcome outcome;
+    const absl::Status uploaded = client::UploadBundleFile(*stub_, kClient, archive_file, sha256,
+                                                           archive.size(), nullptr, &outcome);
+    if (!uploaded.ok()) {
+      return grpc::Status(static_cast<grpc::StatusCode>(uploaded.code()), std::string(uploaded.message()));
+    }
+    v1::SubmitJobRequest request = in.request;
+    if (request.bundle_sha256().empty()) request.set_bundle_sha256(sha256);
+    grpc::ClientContext context;
+    context.AddMetadata("x-mvbrdf-client", kClient);
+    v1::SubmitJobResponse response;
+    const grpc::Status status = stub_->SubmitJob(&context, request, &response);
+    if (status.ok()) *job_id = response.job().id();
+    return status;
+  }
+
+  static v1::Job WaitForJob(const std::string& job_id) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(3);
+    while (std::chrono::steady_clock::now() < deadline) {
+      grpc::ClientContext context;
+      context.AddMetadata("x-mvbrdf-client", kClient);
+      v1::ListJobsRequest request;
+      v1::ListJobsResponse response;
+      EXPECT_TRUE(stub_->ListJobs(&context, request, &response).ok());
+      for (const v1::Job& job : response.jobs()) {
+        if (job.id() == job_id && (job.state() == v1::SUCCEEDED || job.state() == v1::FAILED ||
+                                   job.state() == v1::CANCELLED)) {
+          return job;
+        }
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+    ADD_FAILURE() << "job " << job_id << " did not end";
+    return v1::Job();
+  }
+
+  static std::string Fetch(const std::string& job_id, const std::string& name) {
+    grpc::ClientContext context;
+    context.AddMetadata("x-mvbrdf-client", kClient);
+    v1::FetchArtifactRequest request;
+    request.set_job_id(job_id);
+    request.set_name(name);
+    auto reader = stub_->FetchArtifact(&context, request);
+    std::string bytes;
+    v1::ArtifactChunk chunk;
+    while (reader->Read(&chunk)) bytes += chunk.data();
+    const grpc::Status status = reader->Finish();
+    EXPECT_TRUE(status.ok()) << name << ": " << status.error_message();
+    return bytes;
+  }
+
+  // The server still answers a cheap call.
+  static bool Serving() {
+    grpc::ClientContext context;
+    context.AddMetadata("x-mvbrdf-client", kClient);
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    v1::ListJobsRequest request;
+    v1::ListJobsResponse response;
+    return stub_->ListJobs(&context, request, &response).ok();
+  }
+
+  // A fresh copy of the valid scene under dir_/cases/<name>.
+  static CaseInput NewCase(const std::string& name) {
+    CaseInput in;
+    in.dir = dir_ / "cases" / name;
+    fs::create_directories(in.dir.parent_path());
+    fs::copy(dir_ / "valid", in.dir, fs::copy_options::recursive);
+    fs::remove_all(in.dir / "ground_truth");  // not needed by a job
+    in.request = ValidRequest();
+    return in;
+  }
+
+  static fs::path dir_;
+  static client::EmbeddedService* service_;
+  static v1::Mvbrdf::Stub* stub_;
+};
+
+fs::path BadInputTest::dir_;
+client::EmbeddedService* BadInputTest::service_ = nullptr;
+v1::Mvbrdf::Stub* BadInputTest::stub_ = nullptr;
+
+std::string Describe(const grpc::Status& s) { return absl::StrCat(s.error_code(), " \"", s.error_message(), "\""); }
+
+TEST_F(BadInputTest, EveryCaseGetsAClearErrorAndTheServiceKeepsServing) {
+  // A valid job first; it runs while the bad input arrives.
+  std::string valid_before;
+  ASSERT_TRUE(UploadAndSubmit(NewCase("valid_before"), &valid_before).ok());
+
+  const std::vector<BadInputCase> cases = Cases();
+  EXPECT_GE(cases.size(), 30u);
+  std::map<std::string, std::string> jobs;  // case name -> job id
+  for (const BadInputCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    CaseInput in = NewCase(c.name);
+    c.mutate(in);
+    std::string job_id;
+    const grpc::Status status = in.custom_call ? in.custom_call(*stub_) : UploadAndSubmit(in, &job_id);
+    if (c.expect == Expect::kRejected) {
+      if (c.alt_code == grpc::StatusCode::OK || status.error_code() != c.alt_code) {
+        EXPECT_EQ(status.error_code(), c.code) << Describe(status);
+      }
+      for (const std::string& s : c.expected) {
+        EXPECT_NE(status.error_message().find(s), std::string::npos) << "\"" << s << "\" not in " << Describe(status);
+      }
+      std::printf("%-36s -> rejected %s\n", c.name, Describe(status).c_str());
+    } else {
+      EXPECT_TRUE(status.ok()) << Describe(status);
+      if (status.ok()) jobs[c.name] = job_id;
+    }
+    EXPECT_TRUE(Serving()) << "the server stopped answering after " << c.name;
+  }
+
+  std::string valid_after;
+  ASSERT_TRUE(UploadAndSubmit(NewCase("valid_after"), &valid_after).ok());
+
+  for (const BadInputCase& c : cases) {
+    if (jobs.count(c.name) == 0) continue;
+    SCOPED_TRACE(c.name);
+    const v1::Job job = WaitForJob(jobs[c.name]);
+    if (c.expect == Expect::kJobFails) {
+      EXPECT_EQ(job.state(), v1::FAILED) << job.error();
+      for (const std::string& s : c.expected) {
+        EXPECT_NE(job.error().find(s), std::string::npos) << "\"" << s << "\" not in \"" << job.error() << "\"";
+      }
+      for (const v1::TaskInfo& task : job.tasks()) EXPECT_LE(task.attempts(), 1u) << task.kind();
+      std::printf("%-36s -> job FAILED \"%s\"\n", c.name, job.error().c_str());
+    } else {
+      EXPECT_EQ(job.state(), v1::SUCCEEDED) << job.error();
+      for (const auto& config : job.report().light_configurations()) {
+        EXPECT_TRUE(std::isfinite(config.e_d())) << config.name();
+      }
+      std::printf("%-36s -> job SUCCEEDED\n", c.name);
+    }
+  }
+
+  // The valid jobs before and after: both succeeded with the same atlases.
+  const v1::Job before = WaitForJob(valid_before), after = WaitForJob(valid_after);
+  ASSERT_EQ(before.state(), v1::SUCCEEDED) << before.error();
+  ASSERT_EQ(after.state(), v1::SUCCEEDED) << after.error();
+  for (const char* name : {"atlases/kd.exr", "atlases/ks.exr", "atlas/mesh.obj"}) {
+    const std::string a = Fetch(valid_before, name);
+    EXPECT_FALSE(a.empty()) << name;
+    EXPECT_EQ(a, Fetch(valid_after, name)) << name;
+  }
+}
+
+}  // namespace
+}  // namespace mvbrdf
