@@ -63,10 +63,16 @@ int RunServer(const std::vector<std::string>& args) {
   int max_jobs = o.limits.max_jobs_per_client;
   int max_message_mib = static_cast<int>(o.limits.max_message_bytes >> 20);
   int watch_poll_ms = o.limits.watch_poll_ms;
+  int max_atlas_size = o.limits.max_atlas_size;
+  int max_frames = o.limits.max_frames;
+  std::string tokens_file = o.tokens_file.string(), tls_cert = o.tls_cert_file.string(),
+              tls_key = o.tls_key_file.string(), tls_client_ca = o.tls_client_ca_file.string();
+  bool allow_unauthenticated = o.allow_unauthenticated;
   const std::string listen0 = listen, data_dir0 = data_dir;
   const std::vector<int> ints0 = {lease_seconds,  max_wait_seconds,  poll_interval_ms, max_artifact_mib,
                                   max_samples_mib, sample_cache_mib, compression_level, max_bundle_mib,
-                                  max_jobs,        max_message_mib,  watch_poll_ms};
+                                  max_jobs,        max_message_mib,  watch_poll_ms,     max_atlas_size,
+                                  max_frames};
 
   FlagParser flags("server",
                    "Runs the mvbrdf job server: clients upload sequence bundles and submit jobs, workers lease\n"
@@ -87,6 +93,16 @@ int RunServer(const std::vector<std::string>& args) {
   flags.AddInt("--max-jobs-per-client", &max_jobs, "unfinished jobs per client, at most (0: no limit)");
   flags.AddInt("--max-message-mib", &max_message_mib, "largest gRPC message, MiB");
   flags.AddInt("--watch-poll-ms", &watch_poll_ms, "how often job watches re-read the store, ms");
+  flags.AddInt("--max-atlas-size", &max_atlas_size, "largest atlas a job may ask for, texels per side");
+  flags.AddInt("--max-frames", &max_frames, "most frames a job's sequence may have");
+  flags.AddString("--tokens-file", &tokens_file,
+                  "bearer tokens, one 'role name token' a line (role: client, worker or admin); without it "
+                  "every call is let in");
+  flags.AddString("--tls-cert", &tls_cert, "TLS certificate chain (PEM); with --tls-key the port speaks only TLS");
+  flags.AddString("--tls-key", &tls_key, "TLS private key (PEM)");
+  flags.AddString("--tls-client-ca", &tls_client_ca, "mutual TLS: clients need a certificate signed by this CA");
+  flags.AddBool("--allow-unauthenticated", &allow_unauthenticated,
+                "listen on a non-loopback address without --tokens-file (refused otherwise)");
   if (absl::Status s = flags.Parse(args); !s.ok()) return UsageError(s);
   if (flags.help_requested()) {
     std::fputs(flags.Usage().c_str(), stdout);
@@ -106,6 +122,11 @@ int RunServer(const std::vector<std::string>& args) {
   // Strings need no range checks: ServerOptions::Check names the flag.
   if (listen != listen0) o.listen_address = listen;
   if (data_dir != data_dir0) o.data_dir = data_dir;
+  o.tokens_file = tokens_file;
+  o.tls_cert_file = tls_cert;
+  o.tls_key_file = tls_key;
+  o.tls_client_ca_file = tls_client_ca;
+  o.allow_unauthenticated = allow_unauthenticated;
   struct IntFlag {
     const char* name;
     int value;
@@ -128,6 +149,8 @@ int RunServer(const std::vector<std::string>& args) {
       {"--max-message-mib", max_message_mib,
        [](v1::ServerConfig& c, uint64_t v) { c.set_max_message_bytes(v << 20); }},
       {"--watch-poll-ms", watch_poll_ms, [](v1::ServerConfig& c, uint64_t v) { c.set_watch_poll_ms(v); }},
+      {"--max-atlas-size", max_atlas_size, [](v1::ServerConfig& c, uint64_t v) { c.set_max_atlas_size(v); }},
+      {"--max-frames", max_frames, [](v1::ServerConfig& c, uint64_t v) { c.set_max_frames(v); }},
   };
   for (size_t i = 0; i < ints.size(); ++i) {
     if (ints[i].value == ints0[i]) continue;
@@ -146,7 +169,9 @@ int RunServer(const std::vector<std::string>& args) {
   if (!server.ok()) return ReportFailure(server.status());
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
-  std::printf("listening on %s (data in %s)\n", (*server)->address().c_str(), o.data_dir.string().c_str());
+  std::printf("listening on %s (data in %s; %s, %s)\n", (*server)->address().c_str(), o.data_dir.string().c_str(),
+              (*server)->tls() ? "TLS" : "plaintext",
+              (*server)->authenticating() ? "tokens required" : "no authentication");
   std::fflush(stdout);
   while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   std::printf("shutting down\n");

@@ -7,6 +7,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/scene/sequence.h"
+#include "server/auth/authorize.h"
+#include "server/auth/failed_reactor.h"
 #include "server/clients_api/job_graph.h"
 #include "server/clients_api/job_proto.h"
 
@@ -216,28 +218,44 @@ absl::Status ServiceLimits::Check() const {
     return absl::InvalidArgumentError(absl::StrCat("max_message_bytes: must be > ", kChunkOverheadBytes));
   }
   if (watch_poll_ms <= 0) return absl::InvalidArgumentError("watch_poll_ms: must be > 0");
+  if (max_atlas_size < 16) {
+    return absl::InvalidArgumentError(absl::StrCat("max_atlas_size: must be >= 16, got ", max_atlas_size));
+  }
+  if (max_frames < 1) return absl::InvalidArgumentError(absl::StrCat("max_frames: must be >= 1, got ", max_frames));
   return absl::OkStatus();
 }
 
-std::string ClientOf(const grpc::CallbackServerContext& context) {
-  const auto& metadata = context.client_metadata();
-  auto it = metadata.find("x-mvbrdf-client");
-  if (it == metadata.end() || it->second.empty()) return "anonymous";
-  return std::string(it->second.data(), it->second.size());
-}
-
 MvbrdfService::MvbrdfService(store::JobStore& jobs, store::ArtifactStore& artifacts, std::filesystem::path data_dir,
-                             std::function<int64_t()> clock, ServiceLimits limits, std::function<void()> notify_work)
+                             std::function<int64_t()> clock, ServiceLimits limits, std::function<void()> notify_work,
+                             std::shared_ptr<const auth::TokenTable> tokens)
     : jobs_(jobs),
       artifacts_(artifacts),
       clock_(std::move(clock)),
       limits_(limits),
       notify_work_(std::move(notify_work)),
+      tokens_(std::move(tokens)),
       bundles_(std::move(data_dir)),
       watchers_(jobs, clock_, std::chrono::milliseconds(limits.watch_poll_ms)) {}
 
-grpc::ServerReadReactor<v1::UploadChunk>* MvbrdfService::UploadBundle(grpc::CallbackServerContext* /*context*/,
+absl::StatusOr<auth::Principal> MvbrdfService::Caller(const grpc::CallbackServerContext& context) const {
+  return auth::Authorize(context, tokens_.get(), auth::Role::kClient);
+}
+
+absl::Status MvbrdfService::CheckJobAccess(const auth::Principal& caller, const std::string& job_id) {
+  if (!caller.authenticated || caller.role == auth::Role::kAdmin) return absl::OkStatus();
+  absl::StatusOr<store::Job> job = jobs_.GetJob(job_id);
+  if (!job.ok()) return job.status();
+  if (!auth::MayAccessJob(caller, job->client)) {
+    return absl::NotFoundError(absl::StrCat("job ", job_id, ": no such job"));  // as JobStore says
+  }
+  return absl::OkStatus();
+}
+
+grpc::ServerReadReactor<v1::UploadChunk>* MvbrdfService::UploadBundle(grpc::CallbackServerContext* context,
                                                                       v1::UploadStatus* response) {
+  if (absl::StatusOr<auth::Principal> caller = Caller(*context); !caller.ok()) {
+    return new auth::FailedReadReactor<v1::UploadChunk>(caller.status());
+  }
   return new UploadReactor(bundles_, limits_, response);
 }
 
@@ -245,7 +263,8 @@ grpc::ServerUnaryReactor* MvbrdfService::QueryUpload(grpc::CallbackServerContext
                                                      const v1::QueryUploadRequest* request,
                                                      v1::UploadStatus* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  absl::Status status = BundleArea::CheckDigest("sha256", request->sha256());
+  absl::Status status = Caller(*context).status();
+  if (status.ok()) status = BundleArea::CheckDigest("sha256", request->sha256());
   if (status.ok()) {
     absl::StatusOr<UploadProgress> progress = bundles_.Progress(request->sha256());
     status = progress.status();
@@ -272,6 +291,12 @@ absl::StatusOr<v1::Job> MvbrdfService::JobMessage(const std::string& job_id) {
 absl::Status MvbrdfService::Submit(const std::string& client, const v1::SubmitJobRequest& request, v1::Job* job) {
   const std::string& sha256 = request.bundle_sha256();
   if (absl::Status s = BundleArea::CheckDigest("bundle_sha256", sha256); !s.ok()) return s;
+  const uint32_t atlas_size = request.options().atlas_size() == 0 ? 512 : request.options().atlas_size();
+  if (atlas_size > static_cast<uint32_t>(limits_.max_atlas_size)) {
+    return absl::ResourceExhaustedError(absl::StrCat("options.atlas_size: ", atlas_size,
+                                                     " exceeds the server's limit ", limits_.max_atlas_size,
+                                                     " (max_atlas_size)"));
+  }
   absl::StatusOr<UploadProgress> progress = bundles_.Progress(sha256);
   if (!progress.ok()) return progress.status();
   if (!progress->complete) {
@@ -301,6 +326,11 @@ absl::Status MvbrdfService::Submit(const std::string& client, const v1::SubmitJo
     // The bundle's content is the caller's input, whatever the failure.
     return absl::InvalidArgumentError(sequence.status().message());
   }
+  if (sequence->num_frames > limits_.max_frames) {
+    return absl::ResourceExhaustedError(absl::StrCat("scene: ", sequence->num_frames,
+                                                     " frames exceed the server's limit ", limits_.max_frames,
+                                                     " (max_frames)"));
+  }
   absl::StatusOr<JobPlan> plan = PlanJob(request, *sequence);
   if (!plan.ok()) return plan.status();
 
@@ -325,17 +355,28 @@ grpc::ServerUnaryReactor* MvbrdfService::SubmitJob(grpc::CallbackServerContext* 
                                                    const v1::SubmitJobRequest* request,
                                                    v1::SubmitJobResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  reactor->Finish(ToGrpc(Submit(ClientOf(*context), *request, response->mutable_job())));
+  absl::StatusOr<auth::Principal> caller = Caller(*context);
+  reactor->Finish(ToGrpc(caller.ok() ? Submit(caller->name, *request, response->mutable_job()) : caller.status()));
   return reactor;
 }
 
-grpc::ServerWriteReactor<v1::JobEvent>* MvbrdfService::WatchJob(grpc::CallbackServerContext* /*context*/,
+grpc::ServerWriteReactor<v1::JobEvent>* MvbrdfService::WatchJob(grpc::CallbackServerContext* context,
                                                                 const v1::WatchJobRequest* request) {
+  absl::StatusOr<auth::Principal> caller = Caller(*context);
+  absl::Status allowed = caller.ok() ? CheckJobAccess(*caller, request->job_id()) : caller.status();
+  if (!allowed.ok()) {
+    return new auth::FailedWriteReactor<v1::JobEvent>(allowed);
+  }
   return watchers_.Watch(request->job_id());
 }
 
-grpc::ServerWriteReactor<v1::ArtifactChunk>* MvbrdfService::FetchArtifact(grpc::CallbackServerContext* /*context*/,
+grpc::ServerWriteReactor<v1::ArtifactChunk>* MvbrdfService::FetchArtifact(grpc::CallbackServerContext* context,
                                                                           const v1::FetchArtifactRequest* request) {
+  absl::StatusOr<auth::Principal> caller = Caller(*context);
+  absl::Status allowed = caller.ok() ? CheckJobAccess(*caller, request->job_id()) : caller.status();
+  if (!allowed.ok()) {
+    return new auth::FailedWriteReactor<v1::ArtifactChunk>(allowed);
+  }
   const int64_t chunk_bytes = std::min(kArtifactChunkBytes, limits_.max_message_bytes - kChunkOverheadBytes);
   return new FetchReactor(artifacts_, *request, chunk_bytes);
 }
@@ -343,7 +384,9 @@ grpc::ServerWriteReactor<v1::ArtifactChunk>* MvbrdfService::FetchArtifact(grpc::
 grpc::ServerUnaryReactor* MvbrdfService::CancelJob(grpc::CallbackServerContext* context,
                                                    const v1::CancelJobRequest* request, v1::Job* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  absl::Status status = jobs_.CancelJob(request->job_id(), clock_());
+  absl::StatusOr<auth::Principal> caller = Caller(*context);
+  absl::Status status = caller.ok() ? CheckJobAccess(*caller, request->job_id()) : caller.status();
+  if (status.ok()) status = jobs_.CancelJob(request->job_id(), clock_());
   if (status.ok()) {
     absl::StatusOr<v1::Job> job = JobMessage(request->job_id());
     status = job.status();
@@ -357,7 +400,14 @@ grpc::ServerUnaryReactor* MvbrdfService::ListJobs(grpc::CallbackServerContext* c
                                                   const v1::ListJobsRequest* request, v1::ListJobsResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
   const size_t limit = request->limit() == 0 ? 100 : request->limit();
-  absl::StatusOr<std::vector<store::Job>> jobs = jobs_.ListJobs(ClientOf(*context));
+  absl::StatusOr<auth::Principal> caller = Caller(*context);
+  if (!caller.ok()) {
+    reactor->Finish(ToGrpc(caller.status()));
+    return reactor;
+  }
+  // An admin lists every client's jobs.
+  absl::StatusOr<std::vector<store::Job>> jobs =
+      caller->authenticated && caller->role == auth::Role::kAdmin ? jobs_.ListAllJobs() : jobs_.ListJobs(caller->name);
   absl::Status status = jobs.status();
   if (jobs.ok()) {
     // The newest `limit`, oldest first.

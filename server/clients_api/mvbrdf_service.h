@@ -4,9 +4,17 @@
 // graph), watch it, fetch its artifacts, cancel it, list one's jobs.
 //
 // Callback API: unary calls answer on gRPC's thread; UploadBundle,
-// WatchJob and FetchArtifact are reactors. The caller's identity is the
-// "x-mvbrdf-client" metadata ("anonymous" without it): it scopes ListJobs and
-// the per-client job limit (it is a label, not authentication).
+// WatchJob and FetchArtifact are reactors.
+//
+// Who calls (server/auth/authorize.h): with tokens, every method needs a
+// client or admin token; the token's name is the client, which owns the jobs
+// it submits. A client sees, watches, fetches and cancels only its own jobs
+// (another client's job is NOT_FOUND, the same answer as a job that does not
+// exist, so job ids cannot be probed); an admin sees every job. Bundles are
+// content-addressed and shared: whoever knows a bundle's SHA-256 may query
+// it and submit jobs on it. Without tokens (authentication off) the client is
+// the "x-mvbrdf-client" metadata ("anonymous" without it), a label that
+// scopes ListJobs and the per-client job limit, not a credential.
 //
 // Ownership: the stores outlive the service; the service outlives the
 // grpc::Server it is registered with (shut the server down first).
@@ -16,10 +24,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 
 #include "absl/status/status.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
+#include "server/auth/token_table.h"
 #include "server/clients_api/bundle_area.h"
 #include "server/clients_api/job_watchers.h"
 #include "server/store/artifact_store.h"
@@ -38,6 +48,12 @@ struct ServiceLimits {
   int64_t max_message_bytes = int64_t{4} << 20;
   // How often WatchJob reads the store for changes.
   int watch_poll_ms = 200;
+  // Largest atlas a job may ask for (options.atlas_size; 0 there means
+  // 512), texels per side: an atlas of n² texels costs ~100 bytes per texel
+  // in the reflectance pass. RESOURCE_EXHAUSTED above it.
+  int max_atlas_size = 4096;
+  // Most frames a job's sequence may have. RESOURCE_EXHAUSTED above it.
+  int max_frames = 100000;
 
   absl::Status Check() const;
 };
@@ -46,9 +62,11 @@ class MvbrdfService final : public v1::Mvbrdf::CallbackService {
  public:
   // `data_dir`: bundles/, uploads/ and scenes/ live under it. `clock`: now in
   // unix ms. `notify_work`: called after a job's tasks were added (wakes
-  // long-polling workers); may be empty.
+  // long-polling workers); may be empty. `tokens`: null turns
+  // authentication off.
   MvbrdfService(store::JobStore& jobs, store::ArtifactStore& artifacts, std::filesystem::path data_dir,
-                std::function<int64_t()> clock, ServiceLimits limits, std::function<void()> notify_work = {});
+                std::function<int64_t()> clock, ServiceLimits limits, std::function<void()> notify_work = {},
+                std::shared_ptr<const auth::TokenTable> tokens = nullptr);
 
   // Forwards a progress event (stage started, progress, stage finished with
   // metrics, artifact ready) to the current watchers of event.job_id. Any
@@ -73,18 +91,21 @@ class MvbrdfService final : public v1::Mvbrdf::CallbackService {
  private:
   absl::Status Submit(const std::string& client, const v1::SubmitJobRequest& request, v1::Job* job);
   absl::StatusOr<v1::Job> JobMessage(const std::string& job_id);
+  // Authorize with a client token (see the top of this file).
+  absl::StatusOr<auth::Principal> Caller(const grpc::CallbackServerContext& context) const;
+  // OK when `caller` may act on job `job_id` (always without tokens or for
+  // an admin); NOT_FOUND as for a missing job otherwise.
+  absl::Status CheckJobAccess(const auth::Principal& caller, const std::string& job_id);
 
   store::JobStore& jobs_;
   store::ArtifactStore& artifacts_;
   const std::function<int64_t()> clock_;
   const ServiceLimits limits_;
   const std::function<void()> notify_work_;
+  const std::shared_ptr<const auth::TokenTable> tokens_;
   BundleArea bundles_;
   JobWatchers watchers_;
 };
-
-// The caller's "x-mvbrdf-client" metadata, or "anonymous".
-std::string ClientOf(const grpc::CallbackServerContext& context);
 
 }  // namespace mvbrdf::clients_api
 

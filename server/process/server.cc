@@ -5,7 +5,9 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
 #include "core/base/status_macros.h"
 
 namespace mvbrdf::server {
@@ -16,6 +18,38 @@ int64_t NowMs() {
       .count();
 }
 
+// Whether `address` (host:port, or a unix socket) is reachable only from
+// this machine.
+bool IsLoopback(const std::string& address) {
+  if (absl::StartsWith(address, "unix:") || absl::StartsWith(address, "unix-abstract:")) return true;
+  std::string host = address.substr(0, address.rfind(':'));
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  return host == "localhost" || host == "::1" || absl::StartsWith(host, "127.");
+}
+
+absl::StatusOr<std::string> ReadPem(const std::filesystem::path& path, absl::string_view flag) {
+  absl::StatusOr<std::string> text = ReadFileToString(path);
+  if (!text.ok()) return absl::NotFoundError(absl::StrCat(flag, ": ", path.string(), ": cannot read"));
+  if (text->find("-----BEGIN ") == std::string::npos) {
+    return absl::InvalidArgumentError(absl::StrCat(flag, ": ", path.string(), ": not a PEM file"));
+  }
+  return text;
+}
+
+// The listening port's credentials: TLS when a certificate is configured.
+absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> ListenCredentials(const ServerOptions& options) {
+  if (options.tls_cert_file.empty()) return grpc::InsecureServerCredentials();
+  MVBRDF_ASSIGN_OR_RETURN(std::string cert, ReadPem(options.tls_cert_file, "--tls-cert"));
+  MVBRDF_ASSIGN_OR_RETURN(std::string key, ReadPem(options.tls_key_file, "--tls-key"));
+  grpc::SslServerCredentialsOptions ssl(GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE);
+  if (!options.tls_client_ca_file.empty()) {
+    MVBRDF_ASSIGN_OR_RETURN(ssl.pem_root_certs, ReadPem(options.tls_client_ca_file, "--tls-client-ca"));
+    ssl.client_certificate_request = GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+  }
+  ssl.pem_key_cert_pairs.push_back({std::move(key), std::move(cert)});
+  return grpc::SslServerCredentials(ssl);
+}
+
 }  // namespace
 
 absl::Status ServerOptions::Check() const {
@@ -24,6 +58,18 @@ absl::Status ServerOptions::Check() const {
         absl::StrCat("--listen: expected host:port (port 0 picks a free one), got \"", listen_address, "\""));
   }
   if (data_dir.empty()) return absl::InvalidArgumentError("--data: required (the server's state directory)");
+  if (tls_cert_file.empty() != tls_key_file.empty()) {
+    return absl::InvalidArgumentError("--tls-cert, --tls-key: give both (TLS) or neither (plaintext)");
+  }
+  if (!tls_client_ca_file.empty() && tls_cert_file.empty()) {
+    return absl::InvalidArgumentError("--tls-client-ca: needs --tls-cert and --tls-key (mutual TLS is TLS)");
+  }
+  if (tokens_file.empty() && !allow_unauthenticated && !IsLoopback(listen_address)) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "--listen: ", listen_address,
+        " is reachable from other machines, but no --tokens-file is configured: give one (docs/service.md "
+        "\"Security\"), listen on 127.0.0.1, or pass --allow-unauthenticated"));
+  }
   MVBRDF_RETURN_IF_ERROR(limits.Check());
   MVBRDF_RETURN_IF_ERROR(sample_cache.Check());
   return workers.Check();
@@ -38,6 +84,15 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& optio
         absl::StrCat(options.data_dir.string(), ": cannot create the data directory: ", ec.message()));
   }
   std::unique_ptr<Server> s(new Server());
+  if (!options.tokens_file.empty()) {
+    absl::StatusOr<auth::TokenTable> tokens = auth::TokenTable::ReadFile(options.tokens_file);
+    if (!tokens.ok()) return absl::Status(tokens.status().code(), absl::StrCat("--tokens-file: ", tokens.status().message()));
+    s->tokens_ = std::make_shared<const auth::TokenTable>(*std::move(tokens));
+  }
+  MVBRDF_ASSIGN_OR_RETURN(std::shared_ptr<grpc::ServerCredentials> credentials, ListenCredentials(options));
+  s->tls_ = !options.tls_cert_file.empty();
+  WorkersServiceOptions workers_options = options.workers;
+  workers_options.tokens = s->tokens_;
   const std::filesystem::path db = options.data_dir / "state.db";
   MVBRDF_ASSIGN_OR_RETURN(s->jobs_, store::JobStore::Open(db));
   MVBRDF_ASSIGN_OR_RETURN(s->artifacts_, store::ArtifactStore::Open(db, options.data_dir / "artifacts"));
@@ -48,25 +103,26 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& optio
   Server* self = s.get();
   s->workers_ = std::make_unique<WorkersService>(
       *s->jobs_, *s->artifacts_, *s->sample_cache_,
-      [self](absl::string_view sha256) { return self->bundles_->BundlePath(sha256); }, NowMs, options.workers,
+      [self](absl::string_view sha256) { return self->bundles_->BundlePath(sha256); }, NowMs, workers_options,
       [self](const v1::JobEvent& event) {
         if (self->clients_ != nullptr) self->clients_->PushEvent(event);
       });
   s->clients_ = std::make_unique<clients_api::MvbrdfService>(*s->jobs_, *s->artifacts_, options.data_dir, NowMs,
                                                              options.limits,
-                                                             [self] { self->workers_->NotifyWork(); });
+                                                             [self] { self->workers_->NotifyWork(); }, s->tokens_);
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(options.listen_address, grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(options.listen_address, credentials, &port);
   builder.SetMaxReceiveMessageSize(static_cast<int>(options.limits.max_message_bytes) + (1 << 16));
   builder.SetMaxSendMessageSize(static_cast<int>(options.limits.max_message_bytes) + (1 << 16));
   builder.RegisterService(s->clients_.get());
   builder.RegisterService(s->workers_.get());
   s->grpc_server_ = builder.BuildAndStart();
   if (s->grpc_server_ == nullptr || port == 0) {
-    return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", options.listen_address));
+    return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", options.listen_address,
+                                               s->tls_ ? " (with TLS: do --tls-cert and --tls-key match?)" : ""));
   }
   const std::string host = options.listen_address.substr(0, options.listen_address.rfind(':'));
   s->address_ = absl::StrCat(host, ":", port);

@@ -3,6 +3,13 @@
 // health checking and reflection, on an address from the flags (never
 // hard-coded; port 0 lets the OS choose, for tests).
 //
+// Security (docs/service.md "Security"): with a tokens file every call of
+// the two services needs a bearer token of the right role
+// (server/auth/authorize.h); health checking and reflection stay open for
+// probes. With a certificate and key the port speaks only TLS (and with a
+// client CA only mutual TLS). Without tokens the server refuses a
+// non-loopback listen address unless allow_unauthenticated is set.
+//
 // Threading: Start() and Shutdown() from one thread; the services run on
 // gRPC's callback threads and their own poller threads.
 #ifndef MVBRDF_SERVER_PROCESS_SERVER_H_
@@ -13,6 +20,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "server/auth/token_table.h"
 #include "server/clients_api/mvbrdf_service.h"
 #include "server/store/artifact_store.h"
 #include "server/store/job_store.h"
@@ -29,6 +37,17 @@ struct ServerOptions {
   // The Sample cache in state.db (triangle Samples per bundle and options).
   store::SampleCacheOptions sample_cache;
 
+  // Bearer tokens (server/auth/token_table.h); empty: authentication off.
+  std::filesystem::path tokens_file;
+  // TLS: the server's certificate chain and private key (PEM), both or
+  // neither; empty: plaintext.
+  std::filesystem::path tls_cert_file;
+  std::filesystem::path tls_key_file;
+  // With TLS: clients must present a certificate signed by this CA (PEM).
+  std::filesystem::path tls_client_ca_file;
+  // Listen on a non-loopback address without tokens (refused otherwise).
+  bool allow_unauthenticated = false;
+
   absl::Status Check() const;
 };
 
@@ -43,6 +62,9 @@ class Server {
 
   // The bound address (with the port the OS chose for port 0).
   const std::string& address() const { return address_; }
+  // Whether calls need tokens, and whether the port speaks TLS.
+  bool authenticating() const { return tokens_ != nullptr; }
+  bool tls() const { return tls_; }
   // Blocks until Shutdown() is called from another thread.
   void Wait();
   // Answers parked long polls, stops accepting calls and waits up to
@@ -60,6 +82,8 @@ class Server {
 
  private:
   Server() = default;
+  std::shared_ptr<const auth::TokenTable> tokens_;  // null: authentication off
+  bool tls_ = false;
   std::unique_ptr<store::JobStore> jobs_;
   std::unique_ptr<store::ArtifactStore> artifacts_;
   std::unique_ptr<store::SampleCache> sample_cache_;

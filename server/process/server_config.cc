@@ -121,6 +121,33 @@ absl::Status ApplyServerConfig(const v1::ServerConfig& config, absl::string_view
   if (config.has_watch_poll_ms()) {
     MVBRDF_RETURN_IF_ERROR(SetInt(origin, "watch_poll_ms", config.watch_poll_ms(), 1, &limits.watch_poll_ms));
   }
+  if (config.has_max_atlas_size()) {
+    MVBRDF_RETURN_IF_ERROR(SetInt(origin, "max_atlas_size", config.max_atlas_size(), 16, &limits.max_atlas_size));
+  }
+  if (config.has_max_frames()) {
+    MVBRDF_RETURN_IF_ERROR(SetInt(origin, "max_frames", config.max_frames(), 1, &limits.max_frames));
+  }
+
+  // Files, relative to the config file.
+  const struct {
+    const char* field;
+    bool present;
+    const std::string& value;
+    std::filesystem::path* out;
+  } files[] = {
+      {"tokens_file", config.has_tokens_file(), config.tokens_file(), &options.tokens_file},
+      {"tls_cert_file", config.has_tls_cert_file(), config.tls_cert_file(), &options.tls_cert_file},
+      {"tls_key_file", config.has_tls_key_file(), config.tls_key_file(), &options.tls_key_file},
+      {"tls_client_ca_file", config.has_tls_client_ca_file(), config.tls_client_ca_file(),
+       &options.tls_client_ca_file},
+  };
+  for (const auto& file : files) {
+    if (!file.present) continue;
+    if (file.value.empty()) return FieldError(origin, file.field, "must not be empty (leave it out instead)");
+    std::filesystem::path path(file.value);
+    *file.out = path.is_relative() && !base_dir.empty() ? base_dir / path : path;
+  }
+  if (config.has_allow_unauthenticated()) options.allow_unauthenticated = config.allow_unauthenticated();
   // What the field checks above cannot see (e.g. max_message_bytes too small
   // for a chunk); these messages name the option, which is the field's name.
   for (const absl::Status& status : {limits.Check(), workers.Check()}) {

@@ -31,7 +31,14 @@ TEST(ServerConfigTest, ValidFileSetsEveryField) {
     "max_bundle_bytes": 1073741824,
     "max_jobs_per_client": 0,
     "max_message_bytes": 8388608,
-    "watch_poll_ms": 50
+    "watch_poll_ms": 50,
+    "max_atlas_size": 2048,
+    "max_frames": 5000,
+    "tokens_file": "tokens.txt",
+    "tls_cert_file": "/etc/mvbrdf/server.pem",
+    "tls_key_file": "server.key",
+    "tls_client_ca_file": "ca.pem",
+    "allow_unauthenticated": true
   })json");
   ServerOptions options;
   const absl::Status status = LoadServerConfig(path, options);
@@ -49,7 +56,45 @@ TEST(ServerConfigTest, ValidFileSetsEveryField) {
   EXPECT_EQ(options.limits.max_jobs_per_client, 0);  // present: no limit
   EXPECT_EQ(options.limits.max_message_bytes, 8 << 20);
   EXPECT_EQ(options.limits.watch_poll_ms, 50);
+  EXPECT_EQ(options.limits.max_atlas_size, 2048);
+  EXPECT_EQ(options.limits.max_frames, 5000);
+  EXPECT_EQ(options.tokens_file, dir.path() / "tokens.txt");
+  EXPECT_EQ(options.tls_cert_file, "/etc/mvbrdf/server.pem");
+  EXPECT_EQ(options.tls_key_file, dir.path() / "server.key");
+  EXPECT_EQ(options.tls_client_ca_file, dir.path() / "ca.pem");
+  EXPECT_TRUE(options.allow_unauthenticated);
   EXPECT_TRUE(options.Check().ok());
+}
+
+// Without tokens the server listens only where no other machine reaches it,
+// unless told otherwise; TLS files come in pairs.
+TEST(ServerConfigTest, NonLoopbackWithoutTokensIsRefusedUnlessAllowed) {
+  ServerOptions options;
+  options.data_dir = "/tmp/unused";
+  for (const char* local : {"127.0.0.1:0", "localhost:7000", "[::1]:7000", "unix:/tmp/mvbrdf.sock"}) {
+    options.listen_address = local;
+    EXPECT_TRUE(options.Check().ok()) << local << ": " << options.Check();
+  }
+  for (const char* open : {"0.0.0.0:7000", "[::]:7000", "10.1.2.3:7000", "example.org:7000"}) {
+    options.listen_address = open;
+    const absl::Status refused = options.Check();
+    EXPECT_EQ(refused.code(), absl::StatusCode::kFailedPrecondition) << open;
+    EXPECT_NE(refused.message().find("--allow-unauthenticated"), std::string::npos) << refused;
+  }
+  options.allow_unauthenticated = true;
+  EXPECT_TRUE(options.Check().ok());
+  options.allow_unauthenticated = false;
+  options.tokens_file = "/etc/mvbrdf/tokens";
+  EXPECT_TRUE(options.Check().ok());
+
+  options.tls_cert_file = "server.pem";
+  EXPECT_NE(options.Check().message().find("--tls-cert, --tls-key"), std::string::npos);
+  options.tls_key_file = "server.key";
+  EXPECT_TRUE(options.Check().ok());
+  options.tls_cert_file.clear();
+  options.tls_key_file.clear();
+  options.tls_client_ca_file = "ca.pem";
+  EXPECT_NE(options.Check().message().find("--tls-client-ca"), std::string::npos);
 }
 
 TEST(ServerConfigTest, AbsentFieldsKeepTheDefaults) {

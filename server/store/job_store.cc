@@ -429,6 +429,21 @@ absl::StatusOr<std::vector<Job>> JobStore::ListJobs(absl::string_view client) {
   return jobs;
 }
 
+absl::StatusOr<std::vector<Job>> JobStore::ListAllJobs() {
+  std::lock_guard<std::mutex> lock(mu_);
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement select,
+      Statement::Prepare(*db_, absl::StrCat("SELECT ", kJobColumns,
+                                            " FROM jobs ORDER BY created_ms, rowid")));
+  std::vector<Job> jobs;
+  MVBRDF_RETURN_IF_ERROR(select.ForEachRow([&]() -> absl::Status {
+    MVBRDF_ASSIGN_OR_RETURN(Job job, ReadJob(select));
+    jobs.push_back(std::move(job));
+    return absl::OkStatus();
+  }));
+  return jobs;
+}
+
 absl::StatusOr<std::vector<Task>> JobStore::TasksOfJob(absl::string_view job_id) {
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(

@@ -215,6 +215,8 @@ class JobStore {
   absl::StatusOr<Job> GetJob(absl::string_view job_id);
   // The client's jobs, oldest first.
   absl::StatusOr<std::vector<Job>> ListJobs(absl::string_view client);
+  // Every client's jobs, oldest first (an admin's ListJobs).
+  absl::StatusOr<std::vector<Job>> ListAllJobs();
   // The job's tasks, in creation order.
   absl::StatusOr<std::vector<Task>> TasksOfJob(absl::string_view job_id);
   absl::StatusOr<Task> GetTask(absl::string_view task_id);

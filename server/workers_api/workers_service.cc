@@ -9,6 +9,8 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/samples/sample_set.h"
+#include "server/auth/authorize.h"
+#include "server/auth/failed_reactor.h"
 #include "server/store/digest.h"
 #include "server/workers_api/chunk_stream.h"
 #include "server/workers_api/sample_key.h"
@@ -462,6 +464,10 @@ void WorkersService::ForgetJob(absl::string_view job_id) {
   if (it != events_.end()) events_.erase(it);
 }
 
+absl::Status WorkersService::CheckCaller(const grpc::CallbackServerContext& context) const {
+  return auth::Authorize(context, options_.tokens.get(), auth::Role::kWorker).status();
+}
+
 absl::Status WorkersService::CheckWorker(absl::string_view worker_id) const {
   if (worker_id.empty()) return absl::InvalidArgumentError("worker_id: required (call RegisterWorker first)");
   std::lock_guard<std::mutex> lock(workers_mu_);
@@ -476,6 +482,10 @@ grpc::ServerUnaryReactor* WorkersService::RegisterWorker(grpc::CallbackServerCon
                                                          const v1::RegisterWorkerRequest* request,
                                                          v1::RegisterWorkerResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (absl::Status allowed = CheckCaller(*context); !allowed.ok()) {
+    reactor->Finish(ToGrpc(allowed));
+    return reactor;
+  }
   if (request->name().empty() || request->name().size() > kMaxWorkerNameChars) {
     reactor->Finish(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                                  absl::StrCat("name: must be 1..", kMaxWorkerNameChars, " characters, got ",
@@ -506,7 +516,9 @@ grpc::ServerUnaryReactor* WorkersService::RegisterWorker(grpc::CallbackServerCon
 grpc::ServerUnaryReactor* WorkersService::LeaseTask(grpc::CallbackServerContext* context,
                                                     const v1::LeaseTaskRequest* request,
                                                     v1::LeaseTaskResponse* response) {
-  if (absl::Status known = CheckWorker(request->worker_id()); !known.ok()) {
+  absl::Status known = CheckCaller(*context);
+  if (known.ok()) known = CheckWorker(request->worker_id());
+  if (!known.ok()) {
     grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
     reactor->Finish(ToGrpc(known));
     return reactor;
@@ -540,7 +552,8 @@ grpc::ServerUnaryReactor* WorkersService::RenewLease(grpc::CallbackServerContext
                                                      const v1::RenewLeaseRequest* request,
                                                      v1::RenewLeaseResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  absl::Status status = CheckWorker(request->worker_id());
+  absl::Status status = CheckCaller(*context);
+  if (status.ok()) status = CheckWorker(request->worker_id());
   if (status.ok() && request->task_id().empty()) status = absl::InvalidArgumentError("task_id: required");
   const int64_t now_ms = clock_();
   if (status.ok()) status = jobs_.RenewLease(request->task_id(), request->worker_id(), now_ms, lease_ms());
@@ -551,11 +564,15 @@ grpc::ServerUnaryReactor* WorkersService::RenewLease(grpc::CallbackServerContext
 
 grpc::ServerReadReactor<v1::TaskUpdate>* WorkersService::ReportTask(grpc::CallbackServerContext* context,
                                                                     v1::TaskUpdateAck* ack) {
+  if (absl::Status allowed = CheckCaller(*context); !allowed.ok()) {
+    return new auth::FailedReadReactor<v1::TaskUpdate>(allowed);
+  }
   return new ReportReactor(this, ack);
 }
 
-grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchBundle(grpc::CallbackServerContext* /*context*/,
+grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchBundle(grpc::CallbackServerContext* context,
                                                                           const v1::FetchBundleRequest* request) {
+  if (absl::Status allowed = CheckCaller(*context); !allowed.ok()) return ChunkStream::Failed(allowed);
   if (absl::Status known = CheckWorker(request->worker_id()); !known.ok()) return ChunkStream::Failed(known);
   if (!store::IsSha256Hex(request->sha256())) {
     return ChunkStream::Failed(absl::InvalidArgumentError(absl::StrCat(
@@ -572,8 +589,9 @@ grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchBundle(grpc::C
   return ChunkStream::FromFile(path, request->sha256(), kFetchChunkBytes);
 }
 
-grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchSamples(grpc::CallbackServerContext* /*context*/,
+grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchSamples(grpc::CallbackServerContext* context,
                                                                            const v1::FetchSamplesRequest* request) {
+  if (absl::Status allowed = CheckCaller(*context); !allowed.ok()) return ChunkStream::Failed(allowed);
   if (absl::Status known = CheckWorker(request->worker_id()); !known.ok()) return ChunkStream::Failed(known);
   if (request->task_id().empty()) return ChunkStream::Failed(absl::InvalidArgumentError("task_id: required"));
   absl::StatusOr<store::Task> task = jobs_.GetTask(request->task_id());

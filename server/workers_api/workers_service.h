@@ -54,6 +54,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -66,6 +67,7 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
+#include "server/auth/token_table.h"
 #include "server/store/artifact_store.h"
 #include "server/store/job_store.h"
 #include "server/store/sample_cache.h"
@@ -87,6 +89,9 @@ struct WorkersServiceOptions {
   // How often parked long polls ask the store again without being woken (ms):
   // the latency of picking up an expired lease.
   int poll_interval_ms = 250;
+  // The server's tokens (server/auth/authorize.h): every method needs a
+  // worker or admin token. Null: authentication off.
+  std::shared_ptr<const auth::TokenTable> tokens;
 
   absl::Status Check() const;
 };
@@ -177,6 +182,8 @@ class WorkersService final : public v1::Workers::CallbackService {
     std::chrono::steady_clock::time_point deadline;
   };
 
+  // Authorize with a worker token (server/auth/authorize.h).
+  absl::Status CheckCaller(const grpc::CallbackServerContext& context) const;
   absl::Status CheckWorker(absl::string_view worker_id) const;
   int64_t lease_ms() const { return int64_t{options_.lease_seconds} * 1000; }
   // Leases the oldest leasable task for `worker_id` as a v1::Task with its
