@@ -6,6 +6,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "client/commands.h"
+#include "client/connection.h"
 #include "client/flags.h"
 #include "core/base/proto_json.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
@@ -20,7 +21,9 @@ int RunCancel(const std::vector<std::string>& args) {
                    "job's state. Exit code 3 when there is no such job.");
   flags.AddPositional("JOB", &job_id, true, "the job id");
   flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server");
+  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  ConnectionFlags connection;
+  AddConnectionFlags(flags, &connection);
   flags.AddBool("--json", &json, "print the Job as JSON");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf cancel: %s\n", std::string(s.message()).c_str());
@@ -34,7 +37,12 @@ int RunCancel(const std::vector<std::string>& args) {
     std::fprintf(stderr, "mvbrdf cancel: --server: required\n");
     return kExitUsage;
   }
-  auto stub = v1::Mvbrdf::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel(address, connection);
+  if (!channel.ok()) {
+    std::fprintf(stderr, "mvbrdf cancel: %s\n", std::string(channel.status().message()).c_str());
+    return kExitUsage;
+  }
+  auto stub = v1::Mvbrdf::NewStub(*channel);
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
   context.AddMetadata("x-mvbrdf-client", client_name);

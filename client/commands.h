@@ -3,12 +3,16 @@
 #ifndef MVBRDF_CLIENT_COMMANDS_H_
 #define MVBRDF_CLIENT_COMMANDS_H_
 
+#include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
-#include <filesystem>
-
 #include "absl/status/status.h"
+
+namespace grpc {
+class Channel;
+}  // namespace grpc
 
 namespace mvbrdf::client {
 
@@ -21,6 +25,7 @@ enum ExitCode : int {
   kExitEnvironment = 4,   // EGL/GL, codecs or the file system are not usable; the server is unreachable
   kExitJobFailed = 5,     // `watch` (and `submit --watch`): the job failed (its reason is printed)
   kExitJobCancelled = 6,  // `watch` (and `submit --watch`): the job was cancelled
+  kExitDenied = 7,        // the server refused the credentials (no, unknown or wrong-role token)
 };
 
 // The exit code of a failed Status (kExitInvalidInput, kExitEnvironment or
@@ -61,16 +66,17 @@ absl::Status WriteRunReport(const std::filesystem::path& run_dir, const std::fil
 
 // The exit code of a failed RPC, from its grpc::StatusCode (as an int):
 // kExitInvalidInput for INVALID_ARGUMENT, NOT_FOUND and FAILED_PRECONDITION,
-// kExitEnvironment for UNAVAILABLE and DEADLINE_EXCEEDED, else kExitInternal
+// kExitEnvironment for UNAVAILABLE and DEADLINE_EXCEEDED, kExitDenied for
+// UNAUTHENTICATED and PERMISSION_DENIED, else kExitInternal
 // (report_failure.cc).
 int ExitCodeForRpc(int grpc_code);
 
-// Follows job `job_id` on `address` until its event stream ends, printing each
+// Follows job `job_id` on `channel` until its event stream ends, printing each
 // event (one JSON object per line when `json`); errors are prefixed with
 // "mvbrdf <command>:". Returns kExitOk, kExitJobFailed, kExitJobCancelled or
 // an RPC failure's code (watch_command.cc; also `submit --watch`).
-int WatchJobEvents(const std::string& command, const std::string& address, const std::string& client_name,
-                   const std::string& job_id, bool json);
+int WatchJobEvents(const std::string& command, const std::shared_ptr<grpc::Channel>& channel,
+                   const std::string& client_name, const std::string& job_id, bool json);
 
 }  // namespace mvbrdf::client
 

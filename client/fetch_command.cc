@@ -12,6 +12,7 @@
 
 #include "absl/strings/ascii.h"
 #include "client/commands.h"
+#include "client/connection.h"
 #include "client/flags.h"
 #include "core/bundle/sha256.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
@@ -31,7 +32,10 @@ bool SafeName(const std::string& name) {
 }
 
 // Value flags of `fetch` (their values are not names).
-bool TakesValue(const std::string& arg) { return arg == "--server" || arg == "--client" || arg == "--out"; }
+bool TakesValue(const std::string& arg) {
+  return arg == "--server" || arg == "--client" || arg == "--out" || arg == "--token-file" || arg == "--tls-ca" ||
+         arg == "--tls-cert" || arg == "--tls-key" || arg == "--tls-server-name";
+}
 
 // Returns kExitOk or the exit code after printing the error.
 int FetchOne(v1::Mvbrdf::Stub& stub, const std::string& address, const std::string& client_name,
@@ -112,7 +116,9 @@ int RunFetch(const std::vector<std::string>& args) {
   flags.AddPositional("JOB", &job_id, true, "the job id");
   flags.AddPositional("NAME...", &first_name, true, "artifact names: relative paths without \"..\"");
   flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server");
+  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  ConnectionFlags connection;
+  AddConnectionFlags(flags, &connection);
   flags.AddString("--out", &out_dir, "the directory to write to (required; created when missing)");
   // FlagParser takes a fixed number of positionals: pass it JOB and the first
   // NAME, keep the other names here.
@@ -150,7 +156,12 @@ int RunFetch(const std::vector<std::string>& args) {
       return kExitUsage;
     }
   }
-  auto stub = v1::Mvbrdf::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel(address, connection);
+  if (!channel.ok()) {
+    std::fprintf(stderr, "mvbrdf fetch: %s\n", std::string(channel.status().message()).c_str());
+    return kExitUsage;
+  }
+  auto stub = v1::Mvbrdf::NewStub(*channel);
   for (const std::string& name : names) {
     if (int code = FetchOne(*stub, address, client_name, job_id, name, out_dir); code != kExitOk) return code;
   }

@@ -4,6 +4,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "client/commands.h"
+#include "client/connection.h"
 #include "client/flags.h"
 #include "client/job_state_name.h"
 #include "core/base/proto_json.h"
@@ -17,7 +18,9 @@ int RunJobs(const std::vector<std::string>& args) {
   int limit = 100;
   FlagParser flags("jobs", "Lists the caller's jobs on a server, newest last, with each task's worker and run time.");
   flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name jobs were submitted as");
+  flags.AddString("--client", &client_name, "the client name jobs were submitted as (without tokens)");
+  ConnectionFlags connection;
+  AddConnectionFlags(flags, &connection);
   flags.AddInt("--limit", &limit, "jobs to list, at most");
   flags.AddBool("--json", &json, "print the ListJobsResponse as JSON");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
@@ -32,7 +35,12 @@ int RunJobs(const std::vector<std::string>& args) {
     std::fprintf(stderr, "mvbrdf jobs: %s\n", address.empty() ? "--server: required" : "--limit: must be >= 1");
     return kExitUsage;
   }
-  auto stub = v1::Mvbrdf::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel(address, connection);
+  if (!channel.ok()) {
+    std::fprintf(stderr, "mvbrdf jobs: %s\n", std::string(channel.status().message()).c_str());
+    return kExitUsage;
+  }
+  auto stub = v1::Mvbrdf::NewStub(*channel);
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
   context.AddMetadata("x-mvbrdf-client", client_name);

@@ -14,6 +14,7 @@
 
 #include "client/bundle_upload.h"
 #include "client/commands.h"
+#include "client/connection.h"
 #include "client/flags.h"
 #include "client/job_flags.h"
 #include "client/progress.h"
@@ -64,7 +65,9 @@ int RunSubmit(const std::vector<std::string>& args) {
                    "(exit code 0 succeeded, 5 failed, 6 cancelled).");
   flags.AddPositional("SCENE", &scene, true, "the scene file (scene.json)");
   flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name the job is submitted as");
+  flags.AddString("--client", &client_name, "the client name the job is submitted as (without tokens)");
+  ConnectionFlags connection;
+  AddConnectionFlags(flags, &connection);
   AddJobFlags(flags, &job);
   flags.AddBool("--watch", &watch, "follow the job's events until it ends");
   flags.AddBool("--json", &json, "print the SubmitJobResponse as JSON (and with --watch each event as a JSON line)");
@@ -98,7 +101,12 @@ int RunSubmit(const std::vector<std::string>& args) {
   if (!info.ok()) return LocalFailure(info.status());
   submit.set_bundle_sha256(info->sha256);
 
-  auto stub = v1::Mvbrdf::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel(address, connection);
+  if (!channel.ok()) {
+    std::fprintf(stderr, "mvbrdf submit: %s\n", std::string(channel.status().message()).c_str());
+    return kExitUsage;
+  }
+  auto stub = v1::Mvbrdf::NewStub(*channel);
   {
     ProgressPrinter progress(stderr);
     UploadOutcome outcome;
@@ -133,7 +141,7 @@ int RunSubmit(const std::vector<std::string>& args) {
   }
   std::fflush(stdout);
   if (!watch) return kExitOk;
-  return WatchJobEvents("submit", address, client_name, response.job().id(), json);
+  return WatchJobEvents("submit", *channel, client_name, response.job().id(), json);
 }
 
 }  // namespace mvbrdf::client

@@ -12,6 +12,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "client/commands.h"
+#include "client/connection.h"
 #include "client/flags.h"
 #include "client/job_state_name.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
@@ -112,9 +113,9 @@ class EventPrinter {
 
 }  // namespace
 
-int WatchJobEvents(const std::string& command, const std::string& address, const std::string& client_name,
-                   const std::string& job_id, bool json) {
-  auto stub = v1::Mvbrdf::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+int WatchJobEvents(const std::string& command, const std::shared_ptr<grpc::Channel>& channel,
+                   const std::string& client_name, const std::string& job_id, bool json) {
+  auto stub = v1::Mvbrdf::NewStub(channel);
   grpc::ClientContext context;  // no deadline: a job may run for hours
   context.AddMetadata("x-mvbrdf-client", client_name);
   v1::WatchJobRequest request;
@@ -167,7 +168,9 @@ int RunWatch(const std::vector<std::string>& args) {
                    "(the reason is printed), 6 it was cancelled; 3 no such job, 4 the server is unreachable.");
   flags.AddPositional("JOB", &job_id, true, "the job id (from 'mvbrdf submit' or 'mvbrdf jobs')");
   flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server");
+  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  ConnectionFlags connection;
+  AddConnectionFlags(flags, &connection);
   flags.AddBool("--json", &json, "print each JobEvent as one JSON object per line");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf watch: %s\n", std::string(s.message()).c_str());
@@ -181,7 +184,12 @@ int RunWatch(const std::vector<std::string>& args) {
     std::fprintf(stderr, "mvbrdf watch: --server: required\n");
     return kExitUsage;
   }
-  return WatchJobEvents("watch", address, client_name, job_id, json);
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel(address, connection);
+  if (!channel.ok()) {
+    std::fprintf(stderr, "mvbrdf watch: %s\n", std::string(channel.status().message()).c_str());
+    return kExitUsage;
+  }
+  return WatchJobEvents("watch", *channel, client_name, job_id, json);
 }
 
 }  // namespace mvbrdf::client

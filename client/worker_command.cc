@@ -12,7 +12,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
-#include "client/embedded_service.h"
+#include "client/connection.h"
 #include "client/flags.h"
 #include "worker/worker.h"
 
@@ -52,6 +52,8 @@ int RunWorker(const std::vector<std::string>& args) {
                    "SIGINT/SIGTERM stop it after the task in hand.");
   flags.AddString("--server", &address, "the server's address, HOST:PORT (required)");
   flags.AddString("--name", &o.name, "name shown in jobs/watch (default: host-pid)");
+  ConnectionFlags connection;
+  AddConnectionFlags(flags, &connection);
   flags.AddString("--cache", &cache_dir, "bundle cache and scratch directory");
   flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   flags.AddInt("--threads", &o.threads, "threads for fitting");
@@ -82,7 +84,12 @@ int RunWorker(const std::vector<std::string>& args) {
   }
   o.egl = *platform;
   o.cache_dir = cache_dir;
-  o.channel = ServiceChannel(address);
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel(address, connection);
+  if (!channel.ok()) {
+    std::fprintf(stderr, "mvbrdf worker: %s\n", std::string(channel.status().message()).c_str());
+    return kExitUsage;
+  }
+  o.channel = *channel;
   o.log = [name = o.name](const std::string& line) {
     std::fprintf(stderr, "worker %s: %s\n", name.c_str(), line.c_str());
   };
