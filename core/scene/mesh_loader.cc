@@ -2,8 +2,16 @@
 
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cerrno>
 #include <assimp/Importer.hpp>
 #include <cinttypes>
 #include <cmath>
@@ -68,11 +76,8 @@ struct ImportedCorners {
   bool has_uvs = false;
 };
 
-absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file, absl::string_view field) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) {
-    return absl::NotFoundError(absl::StrCat(field, ": mesh file not found: ", file.string()));
-  }
+// Runs assimp on `file` in this process (see ImportCorners).
+absl::StatusOr<ImportedCorners> ImportCornersHere(const std::filesystem::path& file, absl::string_view field) {
   Assimp::Importer importer;
   // Validation first (it rejects faces without indices and indices past the
   // vertex array, which the corner loop below would read out of bounds), then
@@ -160,6 +165,157 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
     return absl::InvalidArgumentError(absl::StrCat(Prefix(field, file), ": mesh has no triangles"));
   }
   return out;
+}
+
+// The importer runs in a child process. Assimp (Debian's 5.2, not ours to
+// fix) crashes on some malformed files — tests/fuzz/mesh_loader_fuzz finds
+// segfaults in its PLY reader within seconds — and a mesh comes from a
+// request's bundle, so a crash must fail that load, not take down the server
+// or worker. The child sends the corners back through a pipe:
+//   'C', has_uvs (u8), then per corner 5 x f32 (x, y, z, u, v), then "END."
+//   'E', status code (u32), message bytes, then "END."
+// (native byte order: the same machine). The parent checks the framing, so a
+// child that dies part-way is an error whatever its exit status says.
+constexpr char kTrailer[4] = {'E', 'N', 'D', '.'};
+// Assimp also loops forever on some malformed files (a PLY header, found by
+// the fuzzer): the child gets kImportSeconds plus kImportSecondsPerMiB per MiB
+// of file, far more than assimp needs (samba: 1 MiB in 10 ms).
+constexpr double kImportSeconds = 5.0;
+constexpr double kImportSecondsPerMiB = 1.0;
+
+std::string EncodeImport(const absl::StatusOr<ImportedCorners>& result) {
+  std::string out;
+  if (!result.ok()) {
+    const uint32_t code = static_cast<uint32_t>(result.status().code());
+    out.push_back('E');
+    out.append(reinterpret_cast<const char*>(&code), sizeof(code));
+    out.append(result.status().message().data(), result.status().message().size());
+  } else {
+    out.reserve(2 + result->corners.size() * 5 * sizeof(float) + sizeof(kTrailer));
+    out.push_back('C');
+    out.push_back(result->has_uvs ? 1 : 0);
+    for (const Corner& c : result->corners) {
+      const float v[5] = {c.position.x, c.position.y, c.position.z, c.uv.x, c.uv.y};
+      out.append(reinterpret_cast<const char*>(v), sizeof(v));
+    }
+  }
+  out.append(kTrailer, sizeof(kTrailer));
+  return out;
+}
+
+absl::StatusOr<ImportedCorners> DecodeImport(absl::string_view data, const std::string& prefix) {
+  const auto broken = [&] {
+    return absl::InternalError(absl::StrCat(prefix, ": the mesh importer process sent a malformed reply"));
+  };
+  if (data.size() < 1 + sizeof(kTrailer) ||
+      std::memcmp(data.data() + data.size() - sizeof(kTrailer), kTrailer, sizeof(kTrailer)) != 0) {
+    return broken();
+  }
+  data.remove_suffix(sizeof(kTrailer));
+  if (data[0] == 'E') {
+    uint32_t code = 0;
+    if (data.size() < 1 + sizeof(code)) return broken();
+    std::memcpy(&code, data.data() + 1, sizeof(code));
+    if (code == 0 || code > static_cast<uint32_t>(absl::StatusCode::kUnauthenticated)) return broken();
+    return absl::Status(static_cast<absl::StatusCode>(code), data.substr(1 + sizeof(code)));
+  }
+  constexpr size_t kCornerBytes = 5 * sizeof(float);
+  if (data[0] != 'C' || data.size() < 2 || (data.size() - 2) % kCornerBytes != 0) return broken();
+  ImportedCorners out;
+  out.has_uvs = data[1] != 0;
+  const size_t n = (data.size() - 2) / kCornerBytes;
+  out.corners.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    float v[5];
+    std::memcpy(v, data.data() + 2 + i * kCornerBytes, kCornerBytes);
+    out.corners[i].position = aiVector3D(v[0], v[1], v[2]);
+    out.corners[i].uv = aiVector3D(v[3], v[4], 0.0f);
+  }
+  return out;
+}
+
+bool WriteAll(int fd, absl::string_view data) {
+  while (!data.empty()) {
+    const ssize_t n = ::write(fd, data.data(), data.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    data.remove_prefix(static_cast<size_t>(n));
+  }
+  return true;
+}
+
+absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file, absl::string_view field) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(file, ec)) {
+    return absl::NotFoundError(absl::StrCat(field, ": mesh file not found: ", file.string()));
+  }
+  const std::string prefix = Prefix(field, file);
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0) {
+    return absl::InternalError(absl::StrCat(prefix, ": cannot create a pipe: ", std::strerror(errno)));
+  }
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    const int error = errno;
+    ::close(fds[0]);
+    ::close(fds[1]);
+    return absl::ResourceExhaustedError(
+        absl::StrCat(prefix, ": cannot start the mesh importer process: ", std::strerror(error)));
+  }
+  if (pid == 0) {
+    // The child: a crash ends it with the signal (not the parent's handlers,
+    // e.g. a sanitizer's or a fuzzer's), and it leaves by _exit, running no
+    // atexit handlers or destructors of the parent's objects.
+    ::close(fds[0]);
+    for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL}) ::signal(sig, SIG_DFL);
+    const struct rlimit no_core = {0, 0};  // no core dump for an importer crash
+    ::setrlimit(RLIMIT_CORE, &no_core);
+    const bool sent = WriteAll(fds[1], EncodeImport(ImportCornersHere(file, field)));
+    ::_exit(sent ? 0 : 1);
+  }
+  ::close(fds[1]);
+  const double limit_seconds =
+      kImportSeconds + kImportSecondsPerMiB * static_cast<double>(std::filesystem::file_size(file, ec)) / (1 << 20);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit_seconds);
+  std::string reply;
+  char buffer[1 << 16];
+  bool timed_out = false;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    pollfd p = {fds[0], POLLIN, 0};
+    const int ready = left.count() > 0 ? ::poll(&p, 1, static_cast<int>(left.count())) : 0;
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready == 0) {
+      timed_out = true;
+      break;
+    }
+    const ssize_t n = ::read(fds[0], buffer, sizeof(buffer));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    reply.append(buffer, static_cast<size_t>(n));
+  }
+  ::close(fds[0]);
+  if (timed_out) ::kill(pid, SIGKILL);
+  int wstatus = 0;
+  pid_t waited;
+  do {
+    waited = ::waitpid(pid, &wstatus, 0);
+  } while (waited < 0 && errno == EINTR);
+  if (timed_out) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "%s: cannot read mesh: the importer (assimp) did not finish within %.0f s", prefix, limit_seconds));
+  }
+  if (waited == pid && WIFSIGNALED(wstatus)) {
+    return absl::InvalidArgumentError(absl::StrCat(prefix, ": cannot read mesh: the importer (assimp) crashed on it (",
+                                                   strsignal(WTERMSIG(wstatus)), ")"));
+  }
+  if (waited == pid && (!WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(prefix, ": cannot read mesh: the importer process failed (exit ", WEXITSTATUS(wstatus), ")"));
+  }
+  // waited != pid: SIGCHLD ignored, the child reaped itself; the framing says
+  // whether it finished.
+  return DecodeImport(reply, prefix);
 }
 
 // Distance of a UV outside [0,1]^2 along either axis (0 inside; NaN stays NaN).

@@ -6,6 +6,12 @@
 // with identical (position, UV). Triangles keep file order (assimp meshes in
 // scene order, faces in order). A later frame's file must have the same face
 // count and its welded corners must agree, else the topology differs.
+//
+// Assimp runs in a forked child process (about 10 ms per file): it crashes on
+// some malformed files, and a crash there fails the load with
+// INVALID_ARGUMENT instead of ending the calling server or worker; so does an
+// importer running longer than 5 s + 1 s per MiB of file. Safe to call
+// from any thread; the child only runs the importer and leaves by _exit.
 #ifndef MVBRDF_CORE_SCENE_MESH_LOADER_H_
 #define MVBRDF_CORE_SCENE_MESH_LOADER_H_
 

@@ -297,6 +297,62 @@ TEST(MeshLoaderTest, RejectsPlyFaceWithoutIndices) {
   EXPECT_NE(status.message().find("bad_index.ply"), std::string::npos) << status;
 }
 
+// Found by tests/fuzz/mesh_loader_fuzz (corpus/mesh_loader/ply_header_segv.ply):
+// a PLY with a corrupt header on which Debian's assimp 5.2 segfaults. The
+// importer runs in a child process, so the crash fails this load with
+// INVALID_ARGUMENT naming the file instead of killing the caller (a server or
+// worker loading a request's mesh).
+TEST(MeshLoaderTest, SurvivesAnImporterCrash) {
+  const std::string ply(
+      "ply\n"
+      "format binary_li\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00ttle_endian 1.0\n"
+      "element veRtex 2\n"
+      "property float x\n"
+      "property float y\x03\x00\x00\x00perty float z\n"
+      "element face 1\n"
+      "property list uchar int vertex_indices\n"
+      "?nd_header\n"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80?\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80?\x00\x00\x00\x00\x03\x00\x00\x00\x00\x01\x00\x00\x00\x02\x00\x00\x00",
+      263);
+  TempDir dir;
+  WriteText(dir / "crash.ply", ply);
+  const absl::Status status = LoadMesh(dir / "crash.ply", "scene.mesh.path").status();
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+  EXPECT_NE(status.message().find("scene.mesh.path: " + (dir / "crash.ply").string()), std::string::npos) << status;
+  // The loader still works afterwards.
+  WriteText(dir / "ok.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_TRUE(LoadMesh(dir / "ok.obj", "m").ok());
+}
+
+// Found by tests/fuzz/mesh_loader_fuzz (corpus/mesh_loader/ply_header_hang.ply):
+// a PLY header (with OBJ lines mixed in) on which Debian's assimp 5.2 loops
+// forever. The importer process is killed after 5 s + 1 s per MiB.
+TEST(MeshLoaderTest, GivesUpOnAnImporterHang) {
+  const std::string ply(
+      "ply\n"
+      "format binary_little_endian 1.0\n"
+      "element vertex 3\n"
+      "property float x\n"
+      "property f)oat y\n"
+      "pro0o a\n"
+      "v 0 0 0\n"
+      "v 10 0 0\n"
+      "v 0 1 0\n"
+      "v *o b\n"
+      "f -1 -2 -perty float z\n"
+      "element3 face 1\n"
+      "p",
+      167);
+  TempDir dir;
+  WriteText(dir / "hang.ply", ply);
+  const auto start = std::chrono::steady_clock::now();
+  const absl::Status status = LoadMesh(dir / "hang.ply", "scene.mesh.path").status();
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
+  EXPECT_NE(status.message().find("hang.ply"), std::string::npos) << status;
+  EXPECT_LT(seconds, 30.0);
+}
+
 TEST(MeshLoaderTest, LoadsGltf) {
   // A glTF 2.0 quad (4 vertices, 2 triangles) with its buffer embedded as a
   // data URI: positions as 12 floats, then 6 uint16 indices.
