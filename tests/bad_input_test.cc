@@ -262,7 +262,7 @@ std::vector<BadInputCase> Cases() {
       {"MissingMeshFile", [](CaseInput& in) { fs::remove(in.Frame(0)); }, Expect::kRejected, kInvalid,
        {"scene.mesh.path (frame 0)", "mesh_0000.obj"}},
       {"MissingLaterMeshFrame", [](CaseInput& in) { fs::remove(in.Frame(2)); }, Expect::kRejected, kInvalid,
-       {"scene.mesh.path (frame 2)", "mesh_0002.obj"}},
+       {"scene.mesh.path (frame 2): mesh file not found: meshes/mesh_0002.obj"}},
       {"DirectoryWhereMeshFileExpected",
        [](CaseInput& in) {
          fs::remove(in.Frame(0));
@@ -299,7 +299,7 @@ std::vector<BadInputCase> Cases() {
          UsePngCamera(in);
          WriteText(in.dir / "videos/png1/0001.png", "\x89PNG\r\n\x1a\nnot really");
        },
-       Expect::kJobFails, C::OK, {"scene.cameras[1].video", "videos/png1/0001.png"}},
+       Expect::kJobFails, C::OK, {"scene.cameras[1].video: frame 1 (videos/png1/0001.png): cannot decode image"}},
       {"ImageOfTheWrongSize",
        [](CaseInput& in) {
          UsePngCamera(in);
@@ -326,10 +326,10 @@ std::vector<BadInputCase> Cases() {
          const std::string line = NthLine(ReadText(in.Frame(2)), "v ", 0);
          ReplaceInFile(in.Frame(2), line + "\n", "v 0 nan 0\n");
        },
-       Expect::kJobFails, C::OK, {"mesh_0002.obj", "non-finite"}},
+       Expect::kJobFails, C::OK, {"scene.mesh.path (frame 2): meshes/mesh_0002.obj", "non-finite"}},
       {"TopologyChangesBetweenFrames",
        [](CaseInput& in) { WriteText(in.Frame(1), ReplaceFace(ReadText(in.Frame(1)), 5, "")); },
-       Expect::kJobFails, C::OK, {"mesh_0001.obj", "topology differs from frame 0"}},
+       Expect::kJobFails, C::OK, {"scene.mesh.path (frame 1): meshes/mesh_0001.obj: topology differs from frame 0"}},
       {"UvsOutOfRange",
        [](CaseInput& in) {
          std::string text = ReadText(in.Frame(0));
@@ -360,7 +360,15 @@ std::vector<BadInputCase> Cases() {
       // Decision: zero-area triangles are kept in the topology (indices stay
       // stable) and excluded from resampling and fitting, counted in
       // `mvbrdf validate`'s summary.
-      {"ZeroAreaTriangle", [](CaseInput& in) { in.EditEveryFrame([](std::string t) { return ReplaceFace(t, 40, "f 1 1 2"); }); },
+      {"ZeroAreaTriangle",
+       [](CaseInput& in) {
+         in.EditEveryFrame([](std::string t) { return ReplaceFace(t, 40, "f 1 1 2"); });
+         // Counted where `mvbrdf validate` shows it.
+         auto seq = scene::LoadSequence(in.scene_file());
+         ASSERT_TRUE(seq.ok()) << seq.status();
+         EXPECT_EQ(seq->topology.zero_area_triangles, std::vector<uint32_t>{40});
+         EXPECT_NE(scene::Summarize(*seq).find("zero-area triangles: 1 excluded"), std::string::npos);
+       },
        Expect::kJobSucceeds, C::OK, {}},
 
       // --- Cameras.
@@ -673,6 +681,8 @@ TEST_F(BadInputTest, EveryCaseGetsAClearErrorAndTheServiceKeepsServing) {
       for (const std::string& s : c.expected) {
         EXPECT_NE(status.error_message().find(s), std::string::npos) << "\"" << s << "\" not in " << Describe(status);
       }
+      EXPECT_EQ(status.error_message().find(dir_.string()), std::string::npos)
+          << "the message shows the server's private paths: " << Describe(status);
       std::printf("%-36s -> rejected %s\n", c.name, Describe(status).c_str());
     } else {
       EXPECT_TRUE(status.ok()) << Describe(status);
@@ -693,6 +703,7 @@ TEST_F(BadInputTest, EveryCaseGetsAClearErrorAndTheServiceKeepsServing) {
       for (const std::string& s : c.expected) {
         EXPECT_NE(job.error().find(s), std::string::npos) << "\"" << s << "\" not in \"" << job.error() << "\"";
       }
+      EXPECT_EQ(job.error().find(dir_.string()), std::string::npos) << "the error shows a worker's private paths";
       for (const v1::TaskInfo& task : job.tasks()) EXPECT_LE(task.attempts(), 1u) << task.kind();
       std::printf("%-36s -> job FAILED \"%s\"\n", c.name, job.error().c_str());
     } else {

@@ -11,7 +11,10 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "absl/strings/ascii.h"
 #include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -203,10 +206,48 @@ std::string MeshFramePath(const v1::Scene& scene, int absolute_frame) {
   return FormatFramePattern(scene.mesh().path(), absolute_frame);
 }
 
+// Protobuf's JSON parse errors come in several lines: the reason, an excerpt
+// of the document (itself possibly several lines) and a caret line under the
+// offending character. One line is what a CLI prints and a job's error holds:
+// the reason, then the excerpt up to the caret with its whitespace collapsed,
+// "near ..." as a compiler would say it.
+std::string OneLine(absl::string_view message) {
+  std::vector<absl::string_view> lines = absl::StrSplit(message, '\n');
+  auto collapse = [](absl::string_view text) {
+    std::vector<absl::string_view> words = absl::StrSplit(text, absl::ByAnyChar(" \t\r\n"), absl::SkipEmpty());
+    return absl::StrJoin(words, " ");
+  };
+  if (lines.size() >= 3 && absl::StripLeadingAsciiWhitespace(lines.back()) == "^") {
+    const size_t caret = lines.back().find('^');
+    // The excerpt as it was, newlines included: the caret counts characters of it.
+    const size_t begin = lines[1].data() - message.data();
+    const size_t end = lines.back().data() - message.data() - 1;  // before the caret line's '\n'
+    absl::string_view excerpt = message.substr(begin, end - begin);
+    excerpt = excerpt.substr(0, std::min(excerpt.size(), caret + 1));
+    if (excerpt.size() > 40) excerpt = excerpt.substr(excerpt.size() - 40);
+    return absl::StrCat(lines[0], " near \"", collapse(excerpt), "\"");
+  }
+  return collapse(message);
+}
+
+// Errors name files as the scene does (relative to its directory), not where
+// that directory happens to be: on the server and the workers it is an
+// unpacked bundle's private path, which a client neither knows nor should
+// learn ("meshes/mesh_0002.obj", not "/var/lib/mvbrdf/scenes/<sha>/meshes/...").
+absl::Status InSceneTerms(const absl::Status& status, const std::filesystem::path& scene_dir) {
+  if (status.ok()) return status;
+  std::string prefix = scene_dir.string();
+  if (prefix.empty() || prefix == ".") return status;
+  if (prefix.back() != '/') prefix += '/';
+  return absl::Status(status.code(), absl::StrReplaceAll(status.message(), {{prefix, ""}}));
+}
+
 }  // namespace
 
 absl::StatusOr<v1::Scene> ReadScene(const std::filesystem::path& scene_file) {
-  return ReadJsonFileAs<v1::Scene>(scene_file);
+  absl::StatusOr<v1::Scene> scene = ReadJsonFileAs<v1::Scene>(scene_file);
+  if (scene.ok()) return scene;
+  return absl::Status(scene.status().code(), OneLine(scene.status().message()));
 }
 
 absl::Status ValidateSceneMessage(const v1::Scene& scene) {
@@ -424,8 +465,10 @@ absl::StatusOr<FramePositions> Sequence::LoadFrame(int t) const {
   }
   if (is_static_mesh()) return rest_positions;
   const int absolute = static_cast<int>(scene.frames().first()) + t;
-  return LoadFramePositions(ResolvePath(scene_dir, MeshFramePath(scene, absolute)), topology,
-                            absl::StrCat("scene.mesh.path (frame ", absolute, ")"));
+  absl::StatusOr<FramePositions> positions = LoadFramePositions(
+      ResolvePath(scene_dir, MeshFramePath(scene, absolute)), topology, absl::StrCat("scene.mesh.path (frame ", absolute, ")"));
+  if (!positions.ok()) return InSceneTerms(positions.status(), scene_dir);
+  return positions;
 }
 
 int Sequence::FindLight(const std::string& name) const {
@@ -435,7 +478,9 @@ int Sequence::FindLight(const std::string& name) const {
   return -1;
 }
 
-absl::StatusOr<Sequence> LoadSequence(const std::filesystem::path& scene_file, const LoadOptions& options) {
+namespace {
+
+absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, const LoadOptions& options) {
   Sequence seq;
   seq.scene_file = scene_file;
   seq.scene_dir = scene_file.has_parent_path() ? scene_file.parent_path() : std::filesystem::path(".");
@@ -463,6 +508,14 @@ absl::StatusOr<Sequence> LoadSequence(const std::filesystem::path& scene_file, c
   if (!options.check_all_frames && !seq.is_static_mesh()) MVBRDF_RETURN_IF_ERROR(CheckMeshFramesExist(seq));
   for (const v1::Light& light : scene.lights()) seq.lights.push_back(LightFromProto(light));
   return seq;
+}
+
+}  // namespace
+
+absl::StatusOr<Sequence> LoadSequence(const std::filesystem::path& scene_file, const LoadOptions& options) {
+  absl::StatusOr<Sequence> seq = LoadAndCheck(scene_file, options);
+  if (seq.ok()) return seq;
+  return InSceneTerms(seq.status(), scene_file.has_parent_path() ? scene_file.parent_path() : ".");
 }
 
 std::string Summarize(const Sequence& seq) {

@@ -412,6 +412,26 @@ TEST(SequenceTest, MissingLaterMeshFileIsFoundWithoutReadingFrames) {
   EXPECT_NE(seq.status().message().find("mesh_0002.obj"), std::string::npos) << seq.status();
 }
 
+// Errors are one line and name files as the scene does, relative to its
+// directory (on the server that directory is private).
+TEST(SequenceTest, ErrorsAreOneLineAndNameFilesRelativeToTheScene) {
+  TempDir dir;
+  const auto file = WriteFixture(dir.path(), FixtureScene());
+  WriteText(dir / "mesh_0002.obj", "v 0 0 nan\n" + testing::PyramidObj(2));
+  auto nan = LoadSequence(file);
+  EXPECT_NE(nan.status().message().find("scene.mesh.path (frame 2): mesh_0002.obj: "), std::string::npos)
+      << nan.status();
+  EXPECT_EQ(nan.status().message().find(dir.path().string()), std::string::npos) << nan.status();
+
+  WriteText(dir / "scene.json", "{\n  \"name\": \"x\",\n  \"frames\",, {\n    \"count\": 3\n  }\n}\n");
+  auto malformed = LoadSequence(file);
+  EXPECT_EQ(malformed.status().code(), absl::StatusCode::kInvalidArgument);
+  const std::string message(malformed.status().message());
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  EXPECT_EQ(message.rfind("scene.json: not a valid mvbrdf.v1.Scene JSON document: ", 0), 0u) << message;
+  EXPECT_NE(message.find(" near \""), std::string::npos) << message;
+}
+
 // A close-up whose image lies inside one big triangle sees no vertex, but
 // sees the mesh: it must pass.
 TEST(SequenceTest, CloseUpOfACoarseMeshPasses) {

@@ -98,17 +98,20 @@ class ImageSequenceSource : public VideoSource {
   // Frame `index` (absolute). The pattern is expanded before it is joined to
   // the directory, so a '%' in the directory is not taken for a conversion.
   std::string PathOf(int index) const { return ResolvePath(dir_, FormatFramePattern(pattern_, index)).string(); }
+  // Frame `index` as errors name it: relative to the scene's directory, as
+  // the scene names it (not the directory's private location on a worker).
+  std::string ShownPathOf(int index) const { return FormatFramePattern(pattern_, index); }
 
   absl::StatusOr<VideoProbe> Probe() override {
     const std::string first = PathOf(first_frame_);
     const cv::Mat image = cv::imread(first, cv::IMREAD_UNCHANGED);
     if (image.empty()) {
-      return absl::InvalidArgumentError(absl::StrCat(field_, ".video: cannot decode image ", first));
+      return absl::InvalidArgumentError(absl::StrCat(field_, ".video: cannot decode image ", ShownPathOf(first_frame_)));
     }
     const int stored_bits = image.depth() == CV_8U ? 8 : image.depth() == CV_16U ? 16 : 0;
     if (stored_bits != bit_depth_) {
       return absl::InvalidArgumentError(
-          absl::StrCat(field_, ".video: frame 0 (", first, ") is ",
+          absl::StrCat(field_, ".video: frame 0 (", ShownPathOf(first_frame_), ") is ",
                        stored_bits == 0 ? "neither 8- nor 16-bit" : absl::StrCat(stored_bits, "-bit"), ", expected ",
                        bit_depth_, "-bit (video.bit_depth)"));
     }
@@ -125,7 +128,7 @@ class ImageSequenceSource : public VideoSource {
   absl::StatusOr<cv::Mat> ReadFrame(int t) override {
     if (t < 0) return absl::OutOfRangeError(absl::StrCat(field_, ".video: frame ", t, " is negative"));
     const std::string path = PathOf(first_frame_ + t);
-    const std::string what = absl::StrCat(field_, ".video: frame ", t, " (", path, ")");
+    const std::string what = absl::StrCat(field_, ".video: frame ", t, " (", ShownPathOf(first_frame_ + t), ")");
     std::error_code ec;
     if (!std::filesystem::is_regular_file(path, ec)) return absl::NotFoundError(absl::StrCat(what, ": not found"));
     const cv::Mat stored = cv::imread(path, cv::IMREAD_UNCHANGED);
@@ -148,8 +151,11 @@ class ImageSequenceSource : public VideoSource {
 // A video file decoded by OpenCV's FFmpeg backend (8-bit BGR frames).
 class VideoFileSource : public VideoSource {
  public:
-  VideoFileSource(std::string path, int first_frame, int width, int height, bool srgb, std::string field)
+  // `path` is opened; `shown` names it in errors (the scene's relative path).
+  VideoFileSource(std::string path, std::string shown, int first_frame, int width, int height, bool srgb,
+                  std::string field)
       : path_(std::move(path)),
+        shown_(std::move(shown)),
         first_frame_(first_frame),
         width_(width),
         height_(height),
@@ -160,7 +166,7 @@ class VideoFileSource : public VideoSource {
     capture_.release();
     if (!capture_.open(path_, cv::CAP_FFMPEG)) {
       return absl::InvalidArgumentError(
-          absl::StrCat(field_, ".video.path: cannot open video ", path_, " (not a video FFmpeg can decode?)"));
+          absl::StrCat(field_, ".video.path: cannot open video ", shown_, " (not a video FFmpeg can decode?)"));
     }
     next_ = 0;
     return absl::OkStatus();
@@ -169,7 +175,7 @@ class VideoFileSource : public VideoSource {
   absl::StatusOr<VideoProbe> Probe() override {
     cv::VideoCapture capture;
     if (!capture.open(path_, cv::CAP_FFMPEG)) {
-      return absl::InvalidArgumentError(absl::StrCat(field_, ".video.path: cannot open video ", path_));
+      return absl::InvalidArgumentError(absl::StrCat(field_, ".video.path: cannot open video ", shown_));
     }
     VideoProbe probe;
     probe.width = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
@@ -203,7 +209,7 @@ class VideoFileSource : public VideoSource {
     cv::Mat stored;
     if (!capture_.read(stored) || stored.empty()) return EndOfVideo(t);
     ++next_;
-    const std::string what = absl::StrCat(field_, ".video: frame ", t, " of ", path_);
+    const std::string what = absl::StrCat(field_, ".video: frame ", t, " of ", shown_);
     const absl::Status size = CheckSize(stored, width_, height_, what);
     if (!size.ok()) return size;
     return Decode(stored, 8, table_, what);
@@ -213,10 +219,11 @@ class VideoFileSource : public VideoSource {
   absl::Status EndOfVideo(int t) {
     capture_.release();
     return absl::OutOfRangeError(
-        absl::StrCat(field_, ".video: frame ", t, " (file frame ", first_frame_ + t, ") is past the end of ", path_));
+        absl::StrCat(field_, ".video: frame ", t, " (file frame ", first_frame_ + t, ") is past the end of ", shown_));
   }
 
   std::string path_;
+  std::string shown_;
   int first_frame_;
   int width_, height_;
   std::vector<float> table_;
@@ -253,9 +260,10 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
   const bool srgb = video.encoding() != v1::LINEAR;
   std::error_code ec;
   if (IsFramePattern(video.path())) {
-    const std::string first = ResolvePath(scene_dir, FormatFramePattern(video.path(), first_frame)).string();
+    const std::string shown = FormatFramePattern(video.path(), first_frame);
+    const std::string first = ResolvePath(scene_dir, shown).string();
     if (!std::filesystem::is_regular_file(first, ec)) {
-      return absl::NotFoundError(absl::StrCat(path_field, ": first frame not found: ", first));
+      return absl::NotFoundError(absl::StrCat(path_field, ": first frame not found: ", shown));
     }
     return std::unique_ptr<VideoSource>(
         new ImageSequenceSource(scene_dir, video.path(), first_frame, static_cast<int>(camera.width()),
@@ -263,7 +271,7 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
   }
   const std::string path = ResolvePath(scene_dir, video.path()).string();
   if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(absl::StrCat(path_field, ": video file not found: ", path));
+    return absl::NotFoundError(absl::StrCat(path_field, ": video file not found: ", video.path()));
   }
   if (bit_depth != 8) {
     return absl::InvalidArgumentError(
@@ -271,7 +279,7 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
                      ".video.bit_depth: video files are decoded as 8-bit; store 16-bit frames as an image sequence "
                      "(e.g. \"cam0/%04d.png\")"));
   }
-  auto source = std::make_unique<VideoFileSource>(path, first_frame, static_cast<int>(camera.width()),
+  auto source = std::make_unique<VideoFileSource>(path, video.path(), first_frame, static_cast<int>(camera.width()),
                                                   static_cast<int>(camera.height()), srgb, std::string(field));
   const absl::Status opened = source->Reopen();
   if (!opened.ok()) return opened;
