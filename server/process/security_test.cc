@@ -630,5 +630,56 @@ TEST_F(SecurityTest, LimitsAreEnforced) {
   EXPECT_EQ(s.error_message(), "scene: 2 frames exceed the server's limit 1 (max_frames)");
 }
 
+
+// The worker-side limits: an artifact or gather Samples declared larger than
+// the server keeps are refused before any byte is held.
+TEST_F(SecurityTest, WorkerLimitsAreEnforced) {
+  ServerOptions options = Options();
+  options.workers.max_artifact_bytes = 1000;
+  options.workers.max_samples_bytes = 1000;
+  Start(options);
+  UploadScene(kAlice);
+  ASSERT_TRUE(Submit(kAlice, nullptr).ok());
+  v1::RegisterWorkerResponse registered;
+  {
+    auto context = WithToken(kWorker);
+    v1::RegisterWorkerRequest request;
+    request.set_name("w");
+    ASSERT_TRUE(workers_->RegisterWorker(context.get(), request, &registered).ok());
+  }
+  v1::LeaseTaskResponse leased;
+  {
+    auto context = WithToken(kWorker);
+    v1::LeaseTaskRequest request;
+    request.set_worker_id(registered.worker_id());
+    const grpc::Status s = workers_->LeaseTask(context.get(), request, &leased);
+    ASSERT_TRUE(s.ok()) << s.error_message();
+    ASSERT_TRUE(leased.has_task());
+    ASSERT_EQ(leased.task().kind(), "gather");
+  }
+  auto report = [&](bool samples) {
+    auto context = WithToken(kWorker);
+    v1::TaskUpdateAck ack;
+    auto writer = workers_->ReportTask(context.get(), &ack);
+    v1::TaskUpdate update;
+    update.set_worker_id(registered.worker_id());
+    update.set_task_id(leased.task().id());
+    v1::ArtifactChunk* chunk = samples ? update.mutable_samples() : update.mutable_artifact();
+    if (!samples) update.set_artifact_name("atlases/kd.exr");
+    chunk->set_total_size(1001);
+    chunk->set_sha256(std::string(64, 'c'));
+    chunk->set_data(std::string(10, 'x'));
+    writer->Write(update);
+    writer->WritesDone();
+    return writer->Finish();
+  };
+  grpc::Status s = report(false);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_THAT(s.error_message(), HasSubstr("artifact.total_size: 1001 bytes"));
+  s = report(true);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << s.error_message();
+  EXPECT_THAT(s.error_message(), HasSubstr("samples.total_size: 1001 bytes"));
+}
+
 }  // namespace
 }  // namespace mvbrdf::server
