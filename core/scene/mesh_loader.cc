@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cerrno>
 #include <assimp/Importer.hpp>
@@ -182,6 +183,8 @@ constexpr char kTrailer[4] = {'E', 'N', 'D', '.'};
 // of file, far more than assimp needs (samba: 1 MiB in 10 ms).
 constexpr double kImportSeconds = 5.0;
 constexpr double kImportSecondsPerMiB = 1.0;
+std::atomic<double> import_seconds{kImportSeconds};
+std::atomic<double> import_seconds_per_mib{kImportSecondsPerMiB};
 
 std::string EncodeImport(const absl::StatusOr<ImportedCorners>& result) {
   std::string out;
@@ -275,7 +278,7 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
   }
   ::close(fds[1]);
   const double limit_seconds =
-      kImportSeconds + kImportSecondsPerMiB * static_cast<double>(std::filesystem::file_size(file, ec)) / (1 << 20);
+      import_seconds + import_seconds_per_mib * static_cast<double>(std::filesystem::file_size(file, ec)) / (1 << 20);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit_seconds);
   std::string reply;
   char buffer[1 << 16];
@@ -364,6 +367,11 @@ absl::StatusOr<FramePositions> PositionsFromCorners(const std::vector<Corner>& c
 }
 
 }  // namespace
+
+void SetImportTimeLimitForTesting(double seconds, double seconds_per_mib) {
+  import_seconds = seconds;
+  import_seconds_per_mib = seconds_per_mib;
+}
 
 absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::string_view field) {
   auto imported = ImportCorners(file, field);

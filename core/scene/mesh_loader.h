@@ -48,6 +48,10 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::str
 absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& file, const MeshTopology& topology,
                                                   absl::string_view field);
 
+// Sets the importer's time limit (seconds + seconds_per_mib * file MiB;
+// default 5 + 1). For the fuzzer, which meets hangs often; any thread.
+void SetImportTimeLimitForTesting(double seconds, double seconds_per_mib);
+
 // Writes a mesh as Wavefront OBJ (v, optional vt, f lines), file vertices as
 // `v` lines in order, so that LoadMesh reads back the same topology.
 absl::Status WriteObj(const std::filesystem::path& file, const MeshTopology& topology, const FramePositions& positions);
