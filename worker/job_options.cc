@@ -1,8 +1,25 @@
 #include "worker/job_options.h"
 
+#include <cstdint>
+
 #include "absl/strings/str_cat.h"
 
 namespace mvbrdf::worker {
+namespace {
+
+// Upper bounds of the request's counts. The proto fields are unsigned 32-bit
+// and the pipeline's are int: without a bound 4294967295 would become -1.
+// Fits converge in tens of iterations (the thesis uses 100).
+constexpr uint32_t kMaxIterations = 100000;
+// No atlas is wider than 16384 texels, so more dilation rings change nothing.
+constexpr uint32_t kMaxGrowIterations = 16384;
+constexpr uint32_t kMaxFrameStride = INT32_MAX;
+
+absl::Status OutOfRange(const char* field, uint64_t got, uint64_t lo, uint64_t hi) {
+  return absl::InvalidArgumentError(absl::StrCat(field, ": must be in [", lo, ", ", hi, "], got ", got));
+}
+
+}  // namespace
 
 absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequest& request, int threads) {
   pipeline::ReconstructOptions o;
@@ -34,7 +51,12 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
     }
     o.atlas.size = static_cast<int>(f.atlas_size());
   }
-  if (f.max_iterations() != 0) o.fit.max_iterations = static_cast<int>(f.max_iterations());
+  if (f.max_iterations() != 0) {
+    if (f.max_iterations() > kMaxIterations) {
+      return OutOfRange("options.max_iterations", f.max_iterations(), 1, kMaxIterations);
+    }
+    o.fit.max_iterations = static_cast<int>(f.max_iterations());
+  }
   if (f.max_cluster_samples() != 0) {
     if (f.max_cluster_samples() < 10) {
       return absl::InvalidArgumentError(
@@ -42,8 +64,18 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
     }
     o.max_cluster_samples = static_cast<size_t>(f.max_cluster_samples());
   }
-  if (f.sweep_frame_stride() != 0) o.sweep_frame_stride = static_cast<int>(f.sweep_frame_stride());
-  if (f.has_grow_iterations()) o.grow_iterations = static_cast<int>(f.grow_iterations());
+  if (f.sweep_frame_stride() != 0) {
+    if (f.sweep_frame_stride() > kMaxFrameStride) {
+      return OutOfRange("options.sweep_frame_stride", f.sweep_frame_stride(), 1, kMaxFrameStride);
+    }
+    o.sweep_frame_stride = static_cast<int>(f.sweep_frame_stride());
+  }
+  if (f.has_grow_iterations()) {
+    if (f.grow_iterations() > kMaxGrowIterations) {
+      return OutOfRange("options.grow_iterations", f.grow_iterations(), 0, kMaxGrowIterations);
+    }
+    o.grow_iterations = static_cast<int>(f.grow_iterations());
+  }
   if (absl::Status s = o.fit.Check(); !s.ok()) return absl::InvalidArgumentError(absl::StrCat("options.", s.message()));
   o.threads = threads;
   return o;

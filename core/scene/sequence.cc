@@ -8,13 +8,13 @@
 #include <utility>
 #include <vector>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
-#include "absl/strings/ascii.h"
 #include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -101,8 +101,8 @@ absl::Status CheckReferences(const std::string& field, const google::protobuf::R
 // bundle on the server) never makes anyone read a file outside its directory.
 absl::Status CheckInsideSceneDir(const std::string& field, const std::string& path) {
   auto bad = [&](absl::string_view why) {
-    return Invalid(field, absl::StrCat("must be a relative path inside the scene's directory (", why, "), got \"",
-                                       path, "\""));
+    return Invalid(
+        field, absl::StrCat("must be a relative path inside the scene's directory (", why, "), got \"", path, "\""));
   };
   if (path.front() == '/' || std::filesystem::path(path).is_absolute()) return bad("not absolute");
   if (path.find('\\') != std::string::npos) return bad("'/' separates directories, not '\\'");
@@ -465,8 +465,9 @@ absl::StatusOr<FramePositions> Sequence::LoadFrame(int t) const {
   }
   if (is_static_mesh()) return rest_positions;
   const int absolute = static_cast<int>(scene.frames().first()) + t;
-  absl::StatusOr<FramePositions> positions = LoadFramePositions(
-      ResolvePath(scene_dir, MeshFramePath(scene, absolute)), topology, absl::StrCat("scene.mesh.path (frame ", absolute, ")"));
+  absl::StatusOr<FramePositions> positions =
+      LoadFramePositions(ResolvePath(scene_dir, MeshFramePath(scene, absolute)), topology,
+                         absl::StrCat("scene.mesh.path (frame ", absolute, ")"));
   if (!positions.ok()) return InSceneTerms(positions.status(), scene_dir);
   return positions;
 }

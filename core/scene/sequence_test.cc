@@ -357,9 +357,9 @@ const std::vector<FileErrorCase>& FileErrorCases() {
        nullptr, absl::StatusCode::kInvalidArgument,
        "scene.cameras[0]: sees none of the mesh in frame 0: all 5 vertices lie behind the camera"},
       // Principal point far to the right: the pyramid is left of the image.
-      {"CameraSeesNothingBeside",
-       [](v1::Scene* s) { s->mutable_cameras(0)->mutable_intrinsics()->set_cx(500); }, nullptr,
-       absl::StatusCode::kInvalidArgument, "scene.cameras[0]: sees none of the mesh in frame 0: all 5 vertices lie"},
+      {"CameraSeesNothingBeside", [](v1::Scene* s) { s->mutable_cameras(0)->mutable_intrinsics()->set_cx(500); },
+       nullptr, absl::StatusCode::kInvalidArgument,
+       "scene.cameras[0]: sees none of the mesh in frame 0: all 5 vertices lie"},
       {"MissingSceneFile", nullptr,
        [](const std::filesystem::path& dir) { std::filesystem::remove(dir / "scene.json"); },
        absl::StatusCode::kNotFound, "scene.json"},

@@ -106,7 +106,8 @@ class ImageSequenceSource : public VideoSource {
     const std::string first = PathOf(first_frame_);
     const cv::Mat image = cv::imread(first, cv::IMREAD_UNCHANGED);
     if (image.empty()) {
-      return absl::InvalidArgumentError(absl::StrCat(field_, ".video: cannot decode image ", ShownPathOf(first_frame_)));
+      return absl::InvalidArgumentError(
+          absl::StrCat(field_, ".video: cannot decode image ", ShownPathOf(first_frame_)));
     }
     const int stored_bits = image.depth() == CV_8U ? 8 : image.depth() == CV_16U ? 16 : 0;
     if (stored_bits != bit_depth_) {
