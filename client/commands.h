@@ -28,8 +28,8 @@ enum ExitCode : int {
   kExitDenied = 7,        // the server refused the credentials (no, unknown or wrong-role token)
 };
 
-// The exit code of a failed Status (kExitInvalidInput, kExitEnvironment or
-// kExitInternal).
+// The exit code of a failed Status (kExitInvalidInput, kExitEnvironment,
+// kExitDenied for UNAUTHENTICATED, or kExitInternal).
 int ExitCodeFor(const absl::Status& status);
 // Prints "<command>: error: <reason>" on stderr and returns ExitCodeFor(status).
 int ReportFailure(const absl::Status& status, const std::string& command = "mvbrdf");

@@ -15,6 +15,8 @@ int ExitCodeFor(const absl::Status& status) {
     case absl::StatusCode::kOutOfRange:
     case absl::StatusCode::kDataLoss:
       return kExitInvalidInput;
+    case absl::StatusCode::kUnauthenticated:  // only a server says so (e.g. to a worker)
+      return kExitDenied;
     case absl::StatusCode::kUnavailable:
     case absl::StatusCode::kPermissionDenied:
     case absl::StatusCode::kResourceExhausted:

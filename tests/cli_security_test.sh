@@ -114,6 +114,9 @@ expect "a worker token on the client API: exit 7" one_line 7 'worker token "gpu-
 check "a client token cannot run a worker" 4 'client token "alice" may not call mvbrdf.v1.Workers' -- \
   "$bin" worker --server "$server" "${tls[@]}" --token-file "$work/alice.token" --cache "$work/cache2" \
   --egl surfaceless --max-tasks 1
+check "a worker with a wrong token stops with exit 7" 7 "the token is not known to this server" -- \
+  "$bin" worker --server "$server" "${tls[@]}" --token-file "$work/wrong.token" --cache "$work/cache3" \
+  --egl surfaceless --max-tasks 1
 expect "a plaintext client cannot talk to the TLS port" one_line 4 "error" \
   "$bin" jobs --server "$server" --token-file "$work/alice.token"
 expect "a client trusting another CA cannot connect" one_line 4 "error" \

@@ -201,6 +201,41 @@ grpc::Status HealthCheck(const std::shared_ptr<grpc::Channel>& channel, int seco
   return done.get_future().get();
 }
 
+// The service names reflection lists, asked with no metadata (one
+// ServerReflectionInfo exchange: list_services = "*").
+std::string ReflectionListing(const std::shared_ptr<grpc::Channel>& channel) {
+  grpc::GenericStub generic(channel);
+  grpc::CompletionQueue cq;
+  grpc::ClientContext context;
+  context.set_deadline(Deadline());
+  auto call = generic.PrepareCall(&context, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &cq);
+  void* tag = nullptr;
+  bool ok = false;
+  // Each step waits for its own completion before the next starts.
+  auto step = [&](int id) { return cq.Next(&tag, &ok) && tag == reinterpret_cast<void*>(id) && ok; };
+  call->StartCall(reinterpret_cast<void*>(1));
+  if (!step(1)) return "";
+  grpc::Slice list_all(std::string("\x3a\x01*", 3));  // field 7 (list_services) = "*"
+  grpc::ByteBuffer request(&list_all, 1), response;
+  call->Write(request, reinterpret_cast<void*>(2));
+  if (!step(2)) return "";
+  call->Read(&response, reinterpret_cast<void*>(3));
+  if (!step(3)) return "";
+  call->WritesDone(reinterpret_cast<void*>(4));
+  step(4);
+  grpc::Status status;
+  call->Finish(&status, reinterpret_cast<void*>(5));
+  step(5);
+  cq.Shutdown();
+  while (cq.Next(&tag, &ok)) {
+  }
+  std::vector<grpc::Slice> slices;
+  if (!response.Dump(&slices).ok()) return "";
+  std::string bytes;
+  for (const grpc::Slice& slice : slices) bytes.append(reinterpret_cast<const char*>(slice.begin()), slice.size());
+  return bytes;
+}
+
 class SecurityTest : public ::testing::Test {
  protected:
   // Once for the suite: a small synthetic scene (2 cameras, 2 frames) packed
@@ -424,9 +459,10 @@ TEST_F(SecurityTest, EachRoleReachesOnlyItsService) {
     EXPECT_NE(allowed.error_code(), grpc::StatusCode::UNAUTHENTICATED) << allowed.error_message();
     EXPECT_NE(allowed.error_code(), grpc::StatusCode::PERMISSION_DENIED) << allowed.error_message();
   }
-  // Health checking needs no token (probes).
+  // Health checking and reflection need no token (probes, grpcurl).
   const grpc::Status health = HealthCheck(channel_);
   EXPECT_TRUE(health.ok()) << health.error_message();
+  EXPECT_THAT(ReflectionListing(channel_), HasSubstr("mvbrdf.v1.Workers"));
 }
 
 // A client sees and acts on its own jobs only; the unauthenticated label
