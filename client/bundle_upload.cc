@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <thread>
 
 #include <grpcpp/grpcpp.h>
 
@@ -17,11 +18,10 @@ absl::Status FromRpc(const std::string& what, const grpc::Status& status) {
   return absl::Status(static_cast<absl::StatusCode>(status.error_code()), absl::StrCat(what, ": ", status.error_message()));
 }
 
-}  // namespace
-
-absl::Status UploadBundleFile(v1::Mvbrdf::Stub& stub, const std::string& client_name,
-                              const std::filesystem::path& archive, const std::string& sha256, uint64_t size,
-                              ProgressPrinter* progress, UploadOutcome* outcome) {
+// One try: query, then send what the server lacks.
+absl::Status UploadOnce(v1::Mvbrdf::Stub& stub, const std::string& client_name, const std::filesystem::path& archive,
+                        const std::string& sha256, uint64_t size, ProgressPrinter* progress, UploadOutcome* outcome,
+                        uint64_t* server_bytes) {
   *outcome = UploadOutcome();
   v1::UploadStatus upload;
   {
@@ -33,6 +33,7 @@ absl::Status UploadBundleFile(v1::Mvbrdf::Stub& stub, const std::string& client_
     const grpc::Status status = stub.QueryUpload(&context, query, &upload);
     if (!status.ok()) return FromRpc("query upload", status);
   }
+  *server_bytes = upload.received_bytes();
   if (upload.complete()) {
     outcome->already_there = true;
     return absl::OkStatus();
@@ -75,6 +76,37 @@ absl::Status UploadBundleFile(v1::Mvbrdf::Stub& stub, const std::string& client_
     return absl::InternalError(absl::StrCat("upload: the server has ", uploaded.received_bytes(), " of ", size, " bytes"));
   }
   return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status UploadBundleFile(v1::Mvbrdf::Stub& stub, const std::string& client_name,
+                              const std::filesystem::path& archive, const std::string& sha256, uint64_t size,
+                              ProgressPrinter* progress, UploadOutcome* outcome) {
+  // The server takes one upload of a bundle at a time (ABORTED for the
+  // others). Another client sending the same bytes is common (a team
+  // submitting the same sequence), so wait for it: once it completes, the
+  // bundle is "already there"; if it stalls, take over from its prefix. Give
+  // up only when the server's copy has not grown for kStallLimit.
+  constexpr auto kStallLimit = std::chrono::seconds(60);
+  auto backoff = std::chrono::milliseconds(100);
+  uint64_t last_bytes = 0;
+  auto last_growth = std::chrono::steady_clock::now();
+  while (true) {
+    uint64_t server_bytes = 0;
+    absl::Status status = UploadOnce(stub, client_name, archive, sha256, size, progress, outcome, &server_bytes);
+    if (!absl::IsAborted(status)) return status;
+    const auto now = std::chrono::steady_clock::now();
+    if (server_bytes != last_bytes) {
+      last_bytes = server_bytes;
+      last_growth = now;
+    } else if (now - last_growth > kStallLimit) {
+      return absl::AbortedError(absl::StrCat(status.message(), " (another upload of this bundle made no progress for ",
+                                             kStallLimit.count(), " s)"));
+    }
+    std::this_thread::sleep_for(backoff);
+    backoff = std::min(backoff * 2, std::chrono::milliseconds(1000));
+  }
 }
 
 }  // namespace mvbrdf::client

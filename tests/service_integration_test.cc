@@ -343,5 +343,46 @@ TEST_F(ServiceIntegrationTest, AnInterruptedUploadResumesWhereItStopped) {
   EXPECT_TRUE(again.already_there);
 }
 
+TEST_F(ServiceIntegrationTest, ASecondUploadOfTheSameBundleWaitsForTheFirst) {
+  // Two clients send the same bytes at once: the server takes one stream at
+  // a time, the other client waits and finds the bundle complete (or takes
+  // over from the prefix) instead of failing its submit.
+  const fs::path file = dir_ / "concurrent.bin";
+  {
+    std::ofstream out(file, std::ios::binary);
+    for (int i = 0; i < 2 * 1024 * 1024; ++i) out.put(static_cast<char>((i * 40503u) >> 8));
+  }
+  auto sha256 = bundle::Sha256File(file);
+  ASSERT_TRUE(sha256.ok());
+  const std::string bytes = ReadFile(file);
+  grpc::ClientContext context;
+  v1::UploadStatus first_status;
+  auto writer = stub_->UploadBundle(&context, &first_status);
+  v1::UploadChunk chunk;
+  chunk.set_sha256(*sha256);
+  chunk.set_total_size(bytes.size());
+  chunk.set_offset(0);
+  chunk.set_data(bytes.substr(0, 1 << 20));
+  ASSERT_TRUE(writer->Write(chunk));
+  // The first stream holds the bundle; the second upload starts now.
+  absl::Status second = absl::UnknownError("not run");
+  client::UploadOutcome outcome;
+  std::thread other([&] {
+    second = client::UploadBundleFile(*stub_, "tests", file, *sha256, bytes.size(), nullptr, &outcome);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  v1::UploadChunk rest;
+  rest.set_offset(1 << 20);
+  rest.set_data(bytes.substr(1 << 20));
+  ASSERT_TRUE(writer->Write(rest));
+  writer->WritesDone();
+  const grpc::Status finished = writer->Finish();
+  other.join();
+  EXPECT_TRUE(finished.ok()) << finished.error_message();
+  EXPECT_TRUE(first_status.complete());
+  ASSERT_TRUE(second.ok()) << second;
+  EXPECT_TRUE(outcome.already_there) << "the second client sent bytes the first had already sent";
+}
+
 }  // namespace
 }  // namespace mvbrdf
