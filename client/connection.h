@@ -44,6 +44,12 @@ absl::StatusOr<std::string> ResolveToken(const ConnectionFlags& connection);
 absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel(const std::string& address,
                                                            const ConnectionFlags& connection);
 
+// For the one-shot client commands: drops gRPC's own log lines (e.g.
+// "Handshake failed ... certificate verify failed"), which repeat what the
+// command's one-line error says, unless GRPC_VERBOSITY or GRPC_TRACE is set.
+// Call once, before the first channel.
+void QuietGrpcLog();
+
 }  // namespace mvbrdf::client
 
 #endif  // MVBRDF_CLIENT_CONNECTION_H_

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "client/commands.h"
+#include "client/connection.h"
 
 namespace {
 
@@ -42,6 +43,10 @@ int main(int argc, char** argv) {
   }
   const std::string command = argv[1];
   const std::vector<std::string> args(argv + 2, argv + argc);
+  // One-shot clients print one line per failure; gRPC's own log would repeat it.
+  for (const char* client : {"jobs", "submit", "watch", "fetch", "cancel"}) {
+    if (command == client) mvbrdf::client::QuietGrpcLog();
+  }
   if (command == "synth") return mvbrdf::client::RunSynth(args);
   if (command == "validate") return mvbrdf::client::RunValidate(args);
   if (command == "resample") return mvbrdf::client::RunResample(args);
