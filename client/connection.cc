@@ -1,11 +1,11 @@
 #include "client/connection.h"
 
+#include <grpc/support/log.h>
+#include <grpcpp/support/client_interceptor.h>
+
 #include <cstdlib>
 #include <utility>
 #include <vector>
-
-#include <grpc/support/log.h>
-#include <grpcpp/support/client_interceptor.h>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
@@ -80,7 +80,8 @@ void AddConnectionFlags(FlagParser& flags, ConnectionFlags* connection) {
 absl::StatusOr<std::string> ResolveToken(const ConnectionFlags& connection) {
   if (!connection.token_file.empty()) {
     absl::StatusOr<std::string> text = ReadFileToString(connection.token_file);
-    if (!text.ok()) return absl::InvalidArgumentError(absl::StrCat("--token-file: ", connection.token_file, ": cannot read"));
+    if (!text.ok())
+      return absl::InvalidArgumentError(absl::StrCat("--token-file: ", connection.token_file, ": cannot read"));
     const std::string token(absl::StripAsciiWhitespace(*text));
     MVBRDF_RETURN_IF_ERROR(CheckToken(token, absl::StrCat("--token-file: ", connection.token_file)));
     return token;

@@ -13,10 +13,10 @@
 #ifndef MVBRDF_CLIENT_CONNECTION_H_
 #define MVBRDF_CLIENT_CONNECTION_H_
 
+#include <grpcpp/grpcpp.h>
+
 #include <memory>
 #include <string>
-
-#include <grpcpp/grpcpp.h>
 
 #include "absl/status/statusor.h"
 #include "client/flags.h"

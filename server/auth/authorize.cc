@@ -11,9 +11,7 @@ namespace {
 
 constexpr absl::string_view kBearer = "Bearer ";
 
-absl::string_view ServiceOf(Role needed) {
-  return needed == Role::kWorker ? "mvbrdf.v1.Workers" : "mvbrdf.v1.Mvbrdf";
-}
+absl::string_view ServiceOf(Role needed) { return needed == Role::kWorker ? "mvbrdf.v1.Workers" : "mvbrdf.v1.Mvbrdf"; }
 
 }  // namespace
 
@@ -44,9 +42,9 @@ absl::StatusOr<Principal> Authorize(const grpc::ServerContextBase& context, cons
   }
   const bool allowed = principal->role == Role::kAdmin || principal->role == needed;
   if (!allowed) {
-    return absl::PermissionDeniedError(absl::StrCat(
-        RoleName(principal->role), " token \"", principal->name, "\" may not call ", ServiceOf(needed), " (it needs a ",
-        RoleName(needed), needed == Role::kAdmin ? "" : " or admin", " token)"));
+    return absl::PermissionDeniedError(
+        absl::StrCat(RoleName(principal->role), " token \"", principal->name, "\" may not call ", ServiceOf(needed),
+                     " (it needs a ", RoleName(needed), needed == Role::kAdmin ? "" : " or admin", " token)"));
   }
   return *std::move(principal);
 }

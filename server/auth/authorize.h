@@ -17,9 +17,9 @@
 #ifndef MVBRDF_SERVER_AUTH_AUTHORIZE_H_
 #define MVBRDF_SERVER_AUTH_AUTHORIZE_H_
 
-#include <string>
-
 #include <grpcpp/grpcpp.h>
+
+#include <string>
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"

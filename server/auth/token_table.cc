@@ -18,7 +18,9 @@ constexpr size_t kMaxTokenChars = 4096;
 constexpr size_t kMaxNameChars = 64;
 constexpr absl::string_view kDigestPrefix = "sha256:";
 
-bool NameChar(char c) { return absl::ascii_isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-' || c == '@'; }
+bool NameChar(char c) {
+  return absl::ascii_isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-' || c == '@';
+}
 
 int HexValue(char c) {
   if (c >= '0' && c <= '9') return c - '0';
@@ -94,8 +96,8 @@ absl::StatusOr<TokenTable> TokenTable::Parse(absl::string_view text, absl::strin
       }
     } else {
       if (token.size() < kMinTokenChars || token.size() > kMaxTokenChars) {
-        return absl::InvalidArgumentError(absl::StrCat(where, "token: must have ", kMinTokenChars, "..",
-                                                       kMaxTokenChars, " characters, got ", token.size()));
+        return absl::InvalidArgumentError(absl::StrCat(where, "token: must have ", kMinTokenChars, "..", kMaxTokenChars,
+                                                       " characters, got ", token.size()));
       }
       entry.digest = Sha256(token);
     }

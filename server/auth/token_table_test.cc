@@ -8,8 +8,8 @@ namespace {
 constexpr char kAliceToken[] = "alice-secret-0123456789";
 
 TEST(TokenTableTest, ParsesRolesNamesAndDigestsAndLooksUpByToken) {
-  const std::string text = std::string("# role name token\n\nclient alice ") + kAliceToken +
-                           "\n  admin\tops   ops-secret-0123456789  \n";
+  const std::string text =
+      std::string("# role name token\n\nclient alice ") + kAliceToken + "\n  admin\tops   ops-secret-0123456789  \n";
   absl::StatusOr<TokenTable> table = TokenTable::Parse(text, "tokens.txt");
   ASSERT_TRUE(table.ok()) << table.status();
   EXPECT_EQ(table->size(), 2u);
@@ -61,8 +61,8 @@ TEST(TokenTableTest, ErrorsNameTheLineAndFieldButNeverTheToken) {
 
 TEST(TokenTableTest, DigestEntryMatchesItsToken) {
   // sha256("0123456789abcdef") computed independently (sha256sum).
-  absl::StatusOr<TokenTable> table = TokenTable::Parse(
-      "worker w sha256:9f9f5111f7b27a781f1f1ddde5ebc2dd2b796bfc7365c9c28b548e564176929f\n", "t");
+  absl::StatusOr<TokenTable> table =
+      TokenTable::Parse("worker w sha256:9f9f5111f7b27a781f1f1ddde5ebc2dd2b796bfc7365c9c28b548e564176929f\n", "t");
   ASSERT_TRUE(table.ok()) << table.status();
   std::optional<Principal> w = table->Lookup("0123456789abcdef");
   ASSERT_TRUE(w.has_value());

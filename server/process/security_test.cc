@@ -3,6 +3,10 @@
 // `openssl` makes at test time (never committed); each role against each
 // method of both services, job ownership between clients, health checking
 // open, TLS and mutual TLS, and every configurable limit.
+#include <gmock/gmock.h>
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/grpcpp.h>
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -12,11 +16,6 @@
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <gmock/gmock.h>
-#include <grpcpp/generic/generic_stub.h>
-#include <grpcpp/grpcpp.h>
-#include <gtest/gtest.h>
 
 #include "core/base/files.h"
 #include "core/bundle/bundle.h"
@@ -269,8 +268,8 @@ class SecurityTest : public ::testing::Test {
     // openssl prints its progress on stderr: keep the test log readable.
     const std::string q = " 2>/dev/null";
     for (const char* ca : {"ca", "other_ca"}) {
-      Shell("openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=" + std::string(ca) + " -keyout " + d +
-            "/" + ca + ".key -out " + d + "/" + ca + ".pem" + q);
+      Shell("openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=" + std::string(ca) + " -keyout " + d + "/" +
+            ca + ".key -out " + d + "/" + ca + ".pem" + q);
     }
     Shell("printf 'subjectAltName=DNS:localhost,IP:127.0.0.1\\n' > " + d + "/san.ext");
     Shell("openssl req -newkey rsa:2048 -nodes -subj /CN=localhost -keyout " + d + "/server.key -out " + d +
@@ -283,8 +282,8 @@ class SecurityTest : public ::testing::Test {
           "/ca.key -CAcreateserial -days 2 -out " + d + "/client.pem" + q);
     // The tokens file: alice's token as its SHA-256 (the file need not hold
     // the secret), the others in clear.
-    Shell("printf 'client alice sha256:%s\\n' $(printf %s " + std::string(kAlice) +
-          " | sha256sum | cut -c1-64) > " + d + "/tokens.txt");
+    Shell("printf 'client alice sha256:%s\\n' $(printf %s " + std::string(kAlice) + " | sha256sum | cut -c1-64) > " +
+          d + "/tokens.txt");
     Shell("printf '# role name token\\nclient bob " + std::string(kBob) + "\\nworker gpu-1 " + kWorker +
           "\\nadmin ops " + kAdmin + "\\n' >> " + d + "/tokens.txt");
   }
@@ -340,8 +339,7 @@ class SecurityTest : public ::testing::Test {
     ASSERT_TRUE(status.complete());
   }
 
-  grpc::Status Submit(const std::string& token, v1::Job* job, uint32_t atlas_size = 0,
-                      const std::string& label = "") {
+  grpc::Status Submit(const std::string& token, v1::Job* job, uint32_t atlas_size = 0, const std::string& label = "") {
     auto context = WithToken(token);
     if (!label.empty()) context->AddMetadata("x-mvbrdf-client", label);
     v1::SubmitJobRequest request;
@@ -365,8 +363,7 @@ class SecurityTest : public ::testing::Test {
     return reader->Finish();
   }
 
-  grpc::Status Fetch(const std::string& token, const std::string& job_id, const std::string& name,
-                     std::string* bytes) {
+  grpc::Status Fetch(const std::string& token, const std::string& job_id, const std::string& name, std::string* bytes) {
     auto context = WithToken(token);
     v1::FetchArtifactRequest request;
     request.set_job_id(job_id);
@@ -582,8 +579,7 @@ TEST_F(SecurityTest, TlsOnlyWithTheRightCaAndMutualTlsNeedsAClientCertificate) {
   Start(options);
   const std::string mutual_port = server_->address().substr(server_->address().rfind(':') + 1);
   const grpc::Status no_client_cert =
-      HealthCheck(grpc::CreateChannel("localhost:" + mutual_port, grpc::SslCredentials(trusting)),
-                  kFailingCallSeconds);
+      HealthCheck(grpc::CreateChannel("localhost:" + mutual_port, grpc::SslCredentials(trusting)), kFailingCallSeconds);
   EXPECT_FALSE(no_client_cert.ok());
   grpc::SslCredentialsOptions with_cert = trusting;
   with_cert.pem_cert_chain = Pem("client.pem");
@@ -665,7 +661,6 @@ TEST_F(SecurityTest, LimitsAreEnforced) {
   EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_EQ(s.error_message(), "scene: 2 frames exceed the server's limit 1 (max_frames)");
 }
-
 
 // The worker-side limits: an artifact or gather Samples declared larger than
 // the server keeps are refused before any byte is held.
