@@ -4,6 +4,7 @@
 #include <optional>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 
 namespace mvbrdf::auth {
@@ -33,7 +34,8 @@ absl::StatusOr<Principal> Authorize(const grpc::ServerContextBase& context, cons
   }
   if (std::next(first) != last) return absl::UnauthenticatedError("authorization: sent more than once");
   const absl::string_view value(first->second.data(), first->second.size());
-  if (value.size() <= kBearer.size() || value.substr(0, kBearer.size()) != kBearer) {
+  // The scheme is case-insensitive (RFC 6750); the token is not.
+  if (value.size() <= kBearer.size() || !absl::EqualsIgnoreCase(value.substr(0, kBearer.size()), kBearer)) {
     return absl::UnauthenticatedError("authorization: expected 'Bearer <token>'");
   }
   std::optional<Principal> principal = tokens->Lookup(value.substr(kBearer.size()));

@@ -427,6 +427,10 @@ TEST_F(SecurityTest, EachRoleReachesOnlyItsService) {
     s = call(*WithToken(kWrong));
     EXPECT_EQ(s.error_code(), grpc::StatusCode::UNAUTHENTICATED) << s.error_message();
     EXPECT_THAT(s.error_message(), Not(HasSubstr(kWrong)));
+    auto lowercase = WithToken("");  // the scheme is case-insensitive, the token is not
+    lowercase->AddMetadata("authorization", std::string("bearer ") + kWrong);
+    s = call(*lowercase);
+    EXPECT_THAT(s.error_message(), HasSubstr("the token is not known")) << s.error_message();
     auto basic = WithToken("");
     basic->AddMetadata("authorization", std::string("Basic ") + kAlice);
     s = call(*basic);
@@ -443,6 +447,11 @@ TEST_F(SecurityTest, EachRoleReachesOnlyItsService) {
     const grpc::Status denied = call(*WithToken(kWorker));
     EXPECT_EQ(denied.error_code(), grpc::StatusCode::PERMISSION_DENIED) << denied.error_message();
     EXPECT_THAT(denied.error_message(), HasSubstr("worker token \"gpu-1\" may not call mvbrdf.v1.Mvbrdf"));
+    grpc::ClientContext lowercase;
+    lowercase.set_deadline(Deadline());
+    lowercase.AddMetadata("authorization", std::string("bearer ") + kAlice);
+    const grpc::Status lower = call(lowercase);
+    EXPECT_NE(lower.error_code(), grpc::StatusCode::UNAUTHENTICATED) << lower.error_message();
     const grpc::Status allowed = call(*WithToken(kAlice));
     EXPECT_NE(allowed.error_code(), grpc::StatusCode::UNAUTHENTICATED) << allowed.error_message();
     EXPECT_NE(allowed.error_code(), grpc::StatusCode::PERMISSION_DENIED) << allowed.error_message();
