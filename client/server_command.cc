@@ -3,6 +3,7 @@
 // (proto/mvbrdf/v1/server_config.proto as JSON), then the flags.
 #include <csignal>
 #include <cstdio>
+#include <filesystem>
 #include <functional>
 #include <string>
 #include <thread>
@@ -164,6 +165,17 @@ int RunServer(const std::vector<std::string>& args) {
     if (absl::Status s = server::ApplyServerConfig(layer.config, layer.flag, "", o); !s.ok()) return UsageError(s);
   }
   if (absl::Status s = o.Check(); !s.ok()) return UsageError(s);
+  if (!o.tokens_file.empty()) {
+    std::error_code ec;
+    const std::filesystem::perms perms = std::filesystem::status(o.tokens_file, ec).permissions();
+    using std::filesystem::perms;
+    if (!ec && (perms & (perms::group_read | perms::others_read)) != perms::none) {
+      std::fprintf(stderr,
+                   "mvbrdf server: warning: %s is readable by other users: chmod 600 it, or keep only the tokens' "
+                   "sha256: digests in it\n",
+                   o.tokens_file.string().c_str());
+    }
+  }
 
   auto server = server::Server::Start(o);
   if (!server.ok()) return ReportFailure(server.status());

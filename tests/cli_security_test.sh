@@ -53,6 +53,11 @@ check "a bad tokens file names its line" 3 "tokens-bad.txt:1: role" -- bash -c \
   "echo 'root x $(cat "$work/wrong.token")' > '$work/tokens-bad.txt' &&
    '$bin' server --listen 127.0.0.1:0 --data '$work/refused' --tokens-file '$work/tokens-bad.txt'"
 
+cp "$work/tokens.txt" "$work/tokens-open.txt"
+chmod 644 "$work/tokens-open.txt"
+check "a tokens file others can read is warned about" 4 "tokens-open.txt is readable by other users" -- \
+  "$bin" server --listen 127.0.0.1:0 --data /proc/no-such-dir --tokens-file "$work/tokens-open.txt"
+
 "$bin" server --listen 127.0.0.1:0 --data "$work/data" --tokens-file "$work/tokens.txt" \
   --tls-cert "$pki/server.pem" --tls-key "$pki/server.key" > "$work/server.log" 2>&1 &
 pid=$!
