@@ -275,7 +275,9 @@ TEST_F(ServiceIntegrationTest, CancelledJobStopsAndTheServiceGoesOn) {
   EXPECT_EQ(ended.state(), v1::CANCELLED);
   for (const v1::TaskInfo& task : ended.tasks()) {
     EXPECT_NE(task.state(), "queued") << task.kind();
-    if (task.kind() == "reflectance") EXPECT_EQ(task.state(), "cancelled");
+    if (task.kind() == "reflectance") {
+      EXPECT_EQ(task.state(), "cancelled");
+    }
   }
   // Workers are free again: the next job runs.
   v1::SubmitJobRequest request = Request();

@@ -35,6 +35,7 @@ using ::testing::Not;
 constexpr char kAlice[] = "alice-token-0123456789abcdef";
 constexpr char kBob[] = "bob-token-0123456789abcdef";
 constexpr char kWorker[] = "worker-token-0123456789abcdef";
+constexpr char kOtherWorker[] = "other-worker-token-0123456789";
 constexpr char kAdmin[] = "admin-token-0123456789abcdef";
 constexpr char kWrong[] = "nobody-token-0123456789abcdef";
 // Plaintext against a TLS port (and a wrong CA) fails, but only once the
@@ -285,7 +286,7 @@ class SecurityTest : public ::testing::Test {
     Shell("printf 'client alice sha256:%s\\n' $(printf %s " + std::string(kAlice) + " | sha256sum | cut -c1-64) > " +
           d + "/tokens.txt");
     Shell("printf '# role name token\\nclient bob " + std::string(kBob) + "\\nworker gpu-1 " + kWorker +
-          "\\nadmin ops " + kAdmin + "\\n' >> " + d + "/tokens.txt");
+          "\\nworker gpu-2 " + kOtherWorker + "\\nadmin ops " + kAdmin + "\\n' >> " + d + "/tokens.txt");
   }
   static void TearDownTestSuite() {
     if (dir_ != nullptr) fs::remove_all(*dir_);
@@ -673,6 +674,54 @@ TEST_F(SecurityTest, LimitsAreEnforced) {
 
 // The worker-side limits: an artifact or gather Samples declared larger than
 // the server keeps are refused before any byte is held.
+// A worker id is a handle, not a credential: another worker token cannot
+// lease, renew or report as a worker it did not register.
+TEST_F(SecurityTest, AWorkerIdWorksOnlyWithTheTokenThatRegisteredIt) {
+  Start(Options());
+  UploadScene(kAlice);
+  ASSERT_TRUE(Submit(kAlice, nullptr).ok());
+  v1::RegisterWorkerResponse registered;
+  {
+    auto context = WithToken(kWorker);
+    v1::RegisterWorkerRequest request;
+    request.set_name("w");
+    ASSERT_TRUE(workers_->RegisterWorker(context.get(), request, &registered).ok());
+  }
+  auto lease = [&](const char* token) {
+    auto context = WithToken(token);
+    v1::LeaseTaskRequest request;
+    request.set_worker_id(registered.worker_id());
+    v1::LeaseTaskResponse leased;
+    return workers_->LeaseTask(context.get(), request, &leased);
+  };
+  const grpc::Status stolen = lease(kOtherWorker);
+  EXPECT_EQ(stolen.error_code(), grpc::StatusCode::PERMISSION_DENIED) << stolen.error_message();
+  EXPECT_THAT(stolen.error_message(), HasSubstr("registered with another token"));
+  {
+    auto context = WithToken(kOtherWorker);
+    v1::RenewLeaseRequest request;
+    request.set_worker_id(registered.worker_id());
+    request.set_task_id(std::string(32, 'a'));
+    v1::RenewLeaseResponse renewed;
+    EXPECT_EQ(workers_->RenewLease(context.get(), request, &renewed).error_code(),
+              grpc::StatusCode::PERMISSION_DENIED);
+  }
+  {
+    auto context = WithToken(kOtherWorker);
+    v1::TaskUpdateAck ack;
+    auto writer = workers_->ReportTask(context.get(), &ack);
+    v1::TaskUpdate update;
+    update.set_worker_id(registered.worker_id());
+    update.set_task_id(std::string(32, 'a'));
+    update.set_failed("spoofed");
+    writer->Write(update);
+    writer->WritesDone();
+    EXPECT_EQ(writer->Finish().error_code(), grpc::StatusCode::PERMISSION_DENIED);
+  }
+  EXPECT_TRUE(lease(kWorker).ok());
+  EXPECT_TRUE(lease(kAdmin).ok());  // an admin may act for any worker
+}
+
 TEST_F(SecurityTest, WorkerLimitsAreEnforced) {
   ServerOptions options = Options();
   options.workers.max_artifact_bytes = 1000;

@@ -86,7 +86,8 @@ class WorkersService::LeasePoll final : public grpc::ServerUnaryReactor {
 // One ReportTask stream: the updates of one task by its lease owner.
 class WorkersService::ReportReactor final : public grpc::ServerReadReactor<v1::TaskUpdate> {
  public:
-  ReportReactor(WorkersService* service, v1::TaskUpdateAck* ack) : service_(service), ack_(ack) {
+  ReportReactor(WorkersService* service, v1::TaskUpdateAck* ack, auth::Principal caller)
+      : service_(service), ack_(ack), caller_(std::move(caller)) {
     StartRead(&update_);
   }
 
@@ -130,6 +131,7 @@ class WorkersService::ReportReactor final : public grpc::ServerReadReactor<v1::T
 
   WorkersService* const service_;
   v1::TaskUpdateAck* const ack_;
+  const auth::Principal caller_;  // who opened the stream
   v1::TaskUpdate update_;
   // Set by the first update; every later one must name the same.
   std::string worker_id_;
@@ -145,7 +147,7 @@ absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReacto
     const v1::TaskUpdate& update) {
   if (task_id_.empty()) {
     if (update.task_id().empty()) return absl::InvalidArgumentError("task_id: required");
-    MVBRDF_RETURN_IF_ERROR(service_->CheckWorker(update.worker_id()));
+    MVBRDF_RETURN_IF_ERROR(service_->CheckWorker(update.worker_id(), caller_));
     worker_id_ = update.worker_id();
     task_id_ = update.task_id();
   } else if (update.worker_id() != worker_id_ || update.task_id() != task_id_) {
@@ -464,16 +466,23 @@ void WorkersService::ForgetJob(absl::string_view job_id) {
   if (it != events_.end()) events_.erase(it);
 }
 
-absl::Status WorkersService::CheckCaller(const grpc::CallbackServerContext& context) const {
-  return auth::Authorize(context, options_.tokens.get(), auth::Role::kWorker).status();
+absl::StatusOr<auth::Principal> WorkersService::CheckCaller(const grpc::CallbackServerContext& context) const {
+  return auth::Authorize(context, options_.tokens.get(), auth::Role::kWorker);
 }
 
-absl::Status WorkersService::CheckWorker(absl::string_view worker_id) const {
+absl::Status WorkersService::CheckWorker(absl::string_view worker_id, const auth::Principal& caller) const {
   if (worker_id.empty()) return absl::InvalidArgumentError("worker_id: required (call RegisterWorker first)");
   std::lock_guard<std::mutex> lock(workers_mu_);
-  if (workers_.find(worker_id) == workers_.end()) {
+  auto it = workers_.find(worker_id);
+  if (it == workers_.end()) {
     return absl::FailedPreconditionError(absl::StrCat(
         "worker_id: unknown worker '", worker_id, "' (register again: the server may have restarted)"));
+  }
+  // A worker id is a handle, not a credential: only the token that
+  // registered it (or an admin) may act as that worker.
+  if (caller.authenticated && caller.role != auth::Role::kAdmin && it->second.principal != caller.name) {
+    return absl::PermissionDeniedError(
+        absl::StrCat("worker_id: worker '", worker_id, "' was registered with another token"));
   }
   return absl::OkStatus();
 }
@@ -482,8 +491,9 @@ grpc::ServerUnaryReactor* WorkersService::RegisterWorker(grpc::CallbackServerCon
                                                          const v1::RegisterWorkerRequest* request,
                                                          v1::RegisterWorkerResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (absl::Status allowed = CheckCaller(*context); !allowed.ok()) {
-    reactor->Finish(ToGrpc(allowed));
+  absl::StatusOr<auth::Principal> caller = CheckCaller(*context);
+  if (!caller.ok()) {
+    reactor->Finish(ToGrpc(caller.status()));
     return reactor;
   }
   if (request->name().empty() || request->name().size() > kMaxWorkerNameChars) {
@@ -503,6 +513,7 @@ grpc::ServerUnaryReactor* WorkersService::RegisterWorker(grpc::CallbackServerCon
   worker.gl_renderer = request->gl_renderer();
   worker.threads = request->threads();
   worker.registered_ms = clock_();
+  if (caller->authenticated) worker.principal = caller->name;
   {
     std::lock_guard<std::mutex> lock(workers_mu_);
     workers_[worker.id] = worker;
@@ -516,8 +527,8 @@ grpc::ServerUnaryReactor* WorkersService::RegisterWorker(grpc::CallbackServerCon
 grpc::ServerUnaryReactor* WorkersService::LeaseTask(grpc::CallbackServerContext* context,
                                                     const v1::LeaseTaskRequest* request,
                                                     v1::LeaseTaskResponse* response) {
-  absl::Status known = CheckCaller(*context);
-  if (known.ok()) known = CheckWorker(request->worker_id());
+  absl::StatusOr<auth::Principal> caller = CheckCaller(*context);
+  absl::Status known = caller.ok() ? CheckWorker(request->worker_id(), *caller) : caller.status();
   if (!known.ok()) {
     grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
     reactor->Finish(ToGrpc(known));
@@ -552,8 +563,8 @@ grpc::ServerUnaryReactor* WorkersService::RenewLease(grpc::CallbackServerContext
                                                      const v1::RenewLeaseRequest* request,
                                                      v1::RenewLeaseResponse* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  absl::Status status = CheckCaller(*context);
-  if (status.ok()) status = CheckWorker(request->worker_id());
+  absl::StatusOr<auth::Principal> caller = CheckCaller(*context);
+  absl::Status status = caller.ok() ? CheckWorker(request->worker_id(), *caller) : caller.status();
   if (status.ok() && request->task_id().empty()) status = absl::InvalidArgumentError("task_id: required");
   const int64_t now_ms = clock_();
   if (status.ok()) status = jobs_.RenewLease(request->task_id(), request->worker_id(), now_ms, lease_ms());
@@ -564,16 +575,16 @@ grpc::ServerUnaryReactor* WorkersService::RenewLease(grpc::CallbackServerContext
 
 grpc::ServerReadReactor<v1::TaskUpdate>* WorkersService::ReportTask(grpc::CallbackServerContext* context,
                                                                     v1::TaskUpdateAck* ack) {
-  if (absl::Status allowed = CheckCaller(*context); !allowed.ok()) {
-    return new auth::FailedReadReactor<v1::TaskUpdate>(allowed);
-  }
-  return new ReportReactor(this, ack);
+  absl::StatusOr<auth::Principal> caller = CheckCaller(*context);
+  if (!caller.ok()) return new auth::FailedReadReactor<v1::TaskUpdate>(caller.status());
+  return new ReportReactor(this, ack, *std::move(caller));
 }
 
 grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchBundle(grpc::CallbackServerContext* context,
                                                                           const v1::FetchBundleRequest* request) {
-  if (absl::Status allowed = CheckCaller(*context); !allowed.ok()) return ChunkStream::Failed(allowed);
-  if (absl::Status known = CheckWorker(request->worker_id()); !known.ok()) return ChunkStream::Failed(known);
+  absl::StatusOr<auth::Principal> caller = CheckCaller(*context);
+  if (!caller.ok()) return ChunkStream::Failed(caller.status());
+  if (absl::Status known = CheckWorker(request->worker_id(), *caller); !known.ok()) return ChunkStream::Failed(known);
   if (!store::IsSha256Hex(request->sha256())) {
     return ChunkStream::Failed(absl::InvalidArgumentError(absl::StrCat(
         "sha256: must be 64 lowercase hex digits (a SHA-256), got \"", request->sha256().substr(0, 80), "\"")));
@@ -591,8 +602,9 @@ grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchBundle(grpc::C
 
 grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchSamples(grpc::CallbackServerContext* context,
                                                                            const v1::FetchSamplesRequest* request) {
-  if (absl::Status allowed = CheckCaller(*context); !allowed.ok()) return ChunkStream::Failed(allowed);
-  if (absl::Status known = CheckWorker(request->worker_id()); !known.ok()) return ChunkStream::Failed(known);
+  absl::StatusOr<auth::Principal> caller = CheckCaller(*context);
+  if (!caller.ok()) return ChunkStream::Failed(caller.status());
+  if (absl::Status known = CheckWorker(request->worker_id(), *caller); !known.ok()) return ChunkStream::Failed(known);
   if (request->task_id().empty()) return ChunkStream::Failed(absl::InvalidArgumentError("task_id: required"));
   absl::StatusOr<store::Task> task = jobs_.GetTask(request->task_id());
   if (!task.ok()) return ChunkStream::Failed(task.status());

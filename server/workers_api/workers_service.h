@@ -103,6 +103,7 @@ struct RegisteredWorker {
   std::string gl_renderer;
   uint32_t threads = 0;
   int64_t registered_ms = 0;  // unix ms
+  std::string principal;      // the name of the token that registered it; empty with tokens off
 };
 
 class WorkersService final : public v1::Workers::CallbackService {
@@ -183,8 +184,10 @@ class WorkersService final : public v1::Workers::CallbackService {
   };
 
   // Authorize with a worker token (server/auth/authorize.h).
-  absl::Status CheckCaller(const grpc::CallbackServerContext& context) const;
-  absl::Status CheckWorker(absl::string_view worker_id) const;
+  // The caller's principal when its token may call the Workers service.
+  absl::StatusOr<auth::Principal> CheckCaller(const grpc::CallbackServerContext& context) const;
+  // `worker_id` is registered, by `caller`'s token (when tokens are on).
+  absl::Status CheckWorker(absl::string_view worker_id, const auth::Principal& caller) const;
   int64_t lease_ms() const { return int64_t{options_.lease_seconds} * 1000; }
   // Leases the oldest leasable task for `worker_id` as a v1::Task with its
   // inputs. A task whose job's request cannot be parsed is failed with the
