@@ -334,6 +334,18 @@ absl::Status WorkersService::ReportReactor::FailOnStorage(absl::string_view what
 
 absl::Status WorkersService::ReportReactor::AddChunk(const std::string& name, const v1::ArtifactChunk& chunk) {
   if (name.empty()) return absl::InvalidArgumentError("artifact_name: required with an artifact chunk");
+  {
+    // Clients write artifacts to DIR/name (`fetch`, `run`): the name must be
+    // a relative, normalised path without "..", whatever a worker sends.
+    const std::filesystem::path path(name);
+    bool parent = false;
+    for (const std::filesystem::path& part : path) parent = parent || part == "..";
+    if (name.size() > 256 || path.is_absolute() || parent || path.lexically_normal() != path) {
+      return absl::InvalidArgumentError(absl::StrCat("artifact_name: must be a relative, normalised path of at most ",
+                                                     "256 characters without \"..\", got \"", name.substr(0, 300),
+                                                     "\""));
+    }
+  }
   auto it = partial_.find(name);
   if (it == partial_.end()) {
     if (chunk.offset() != 0) {

@@ -533,6 +533,16 @@ TEST_F(WorkersServiceTest, RejectsBadArtifactChunks) {
   wrong_hash.mutable_artifact()->set_total_size(1);
   wrong_hash.mutable_artifact()->set_sha256(std::string(64, '0'));
   EXPECT_EQ(Report({wrong_hash}, &ack).error_code(), grpc::StatusCode::DATA_LOSS);
+
+  // Names that would place a client's copy outside its output directory.
+  for (const std::string& bad : std::vector<std::string>{"../escape.exr", "/etc/cron.d/x", "atlases/../../x", "atlases/./kd.exr",
+                                                          std::string(300, 'n')}) {
+    v1::TaskUpdate named = chunk;
+    named.set_artifact_name(bad);
+    const grpc::Status refused = Report({named}, &ack);
+    EXPECT_EQ(refused.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << bad;
+    EXPECT_NE(refused.error_message().find("artifact_name"), std::string::npos) << refused.error_message();
+  }
 }
 
 TEST_F(WorkersServiceTest, ReportedFailureRequeuesTheTask) {
