@@ -269,11 +269,15 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
     // The child: a crash ends it with the signal (not the parent's handlers,
     // e.g. a sanitizer's or a fuzzer's), and it leaves by _exit, running no
     // atexit handlers or destructors of the parent's objects.
-    ::close(fds[0]);
+    // Only our pipe stays open: an import running in another thread's child
+    // must not hold this one's pipe open (its reader would wait for it).
+    const int out = fds[1];
+    if (out > 3) ::close_range(3, static_cast<unsigned>(out - 1), 0);
+    ::close_range(static_cast<unsigned>(out + 1), ~0u, 0);
     for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL}) ::signal(sig, SIG_DFL);
     const struct rlimit no_core = {0, 0};  // no core dump for an importer crash
     ::setrlimit(RLIMIT_CORE, &no_core);
-    const bool sent = WriteAll(fds[1], EncodeImport(ImportCornersHere(file, field)));
+    const bool sent = WriteAll(out, EncodeImport(ImportCornersHere(file, field)));
     ::_exit(sent ? 0 : 1);
   }
   ::close(fds[1]);
