@@ -10,7 +10,9 @@
 // Assimp runs in a forked child process (about 10 ms per file): it crashes on
 // some malformed files, and a crash there fails the load with
 // INVALID_ARGUMENT instead of ending the calling server or worker; so does an
-// importer running longer than 5 s + 1 s per MiB of file. Safe to call
+// importer running longer than 5 s + 1 s per MiB of file or growing the
+// process by more than 2 GiB + 64 x the file size. A PLY header declaring more
+// elements than the file holds is rejected before assimp sees it. Safe to call
 // from any thread; the child only runs the importer and leaves by _exit.
 #ifndef MVBRDF_CORE_SCENE_MESH_LOADER_H_
 #define MVBRDF_CORE_SCENE_MESH_LOADER_H_
