@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -339,6 +340,7 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
   if (::pipe2(fds, O_CLOEXEC) != 0) {
     return absl::InternalError(absl::StrCat(prefix, ": cannot create a pipe: ", std::strerror(errno)));
   }
+  const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) {
     const int error = errno;
@@ -351,6 +353,10 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
     // The child: a crash ends it with the signal (not the parent's handlers,
     // e.g. a sanitizer's or a fuzzer's), and it leaves by _exit, running no
     // atexit handlers or destructors of the parent's objects.
+    // The child dies with its parent (a server killed mid-import leaves no
+    // importer behind, e.g. one looping forever).
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(1);
     // Only our pipe stays open: an import running in another thread's child
     // must not hold this one's pipe open (its reader would wait for it).
     const int out = fds[1];
