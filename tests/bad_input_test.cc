@@ -297,7 +297,7 @@ std::vector<BadInputCase> Cases() {
       {"NotATar",
        [](CaseInput& in) { in.raw_archive = std::string(5000, 'z'); },
        Expect::kRejected,
-       C::DATA_LOSS,
+       C::INVALID_ARGUMENT,
        {"bundle"}},
       {"NoSceneFileInBundle",
        [](CaseInput& in) { fs::rename(in.scene_file(), in.dir / "scene.txt"); },
@@ -591,8 +591,8 @@ std::vector<BadInputCase> Cases() {
       {"MillionFrames",
        [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_frames()->set_count(1000000); }); },
        Expect::kRejected,
-       kInvalid,
-       {"1000000"}},
+       C::RESOURCE_EXHAUSTED,
+       {"scene.frames.count", "1000000", "max_frames"}},
       {"OutputOutOfRange",
        [](CaseInput& in) { in.request.add_outputs(static_cast<v1::Output>(99)); },
        Expect::kRejected,
@@ -681,6 +681,28 @@ std::vector<BadInputCase> Cases() {
        Expect::kRejected,
        C::RESOURCE_EXHAUSTED,
        {}},
+      // Over the service's limit but inside the transport's margin: the
+      // service's own check answers, with the same code.
+      {"OversizedChunkWithinTheTransportMargin",
+       [](CaseInput& in) {
+         in.custom_call = [](v1::Mvbrdf::Stub& stub) {
+           grpc::ClientContext context;
+           context.AddMetadata("x-mvbrdf-client", kClient);
+           v1::UploadStatus status;
+           auto writer = stub.UploadBundle(&context, &status);
+           v1::UploadChunk chunk;
+           chunk.set_sha256(std::string(64, 'd'));
+           const size_t size = static_cast<size_t>(kMaxMessageBytes) + 1000;
+           chunk.set_total_size(size);
+           chunk.set_data(std::string(size, 'x'));
+           writer->Write(chunk);
+           writer->WritesDone();
+           return writer->Finish();
+         };
+       },
+       Expect::kRejected,
+       C::RESOURCE_EXHAUSTED,
+       {"data"}},
   };
 }
 

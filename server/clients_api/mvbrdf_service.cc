@@ -104,7 +104,8 @@ class UploadReactor final : public grpc::ServerReadReactor<v1::UploadChunk> {
                    absl::StrCat("offset: expected ", received_, " (the bytes received so far), got ", chunk.offset()));
     }
     if (size > limits_.max_message_bytes) {
-      return Error(grpc::StatusCode::INVALID_ARGUMENT,
+      // The same code the transport gives a message over its limit.
+      return Error(grpc::StatusCode::RESOURCE_EXHAUSTED,
                    absl::StrCat("data: ", size, " bytes in one chunk, at most ", limits_.max_message_bytes));
     }
     if (received_ + size > total_) {
@@ -317,7 +318,19 @@ absl::Status MvbrdfService::Submit(const std::string& client, const v1::SubmitJo
 
   absl::StatusOr<std::filesystem::path> scene_file =
       bundles_.UnpackedScene(sha256, request.scene_path(), limits_.max_bundle_bytes);
-  if (!scene_file.ok()) return scene_file.status();
+  if (!scene_file.ok()) {
+    // A bundle that hashes right but does not unpack is the caller's input.
+    if (absl::IsDataLoss(scene_file.status())) return absl::InvalidArgumentError(scene_file.status().message());
+    return scene_file.status();
+  }
+  // The frame limit first, from the scene file alone: a scene claiming
+  // 10^6 frames is refused before any video is probed.
+  if (absl::StatusOr<v1::Scene> message = scene::ReadScene(*scene_file);
+      message.ok() && message->frames().count() > static_cast<uint32_t>(limits_.max_frames)) {
+    return absl::ResourceExhaustedError(absl::StrCat("scene.frames.count: ", message->frames().count(),
+                                                     " frames exceed the server's limit ", limits_.max_frames,
+                                                     " (max_frames)"));
+  }
   scene::LoadOptions load;
   load.check_all_frames = false;
   load.probe_videos = true;
@@ -325,11 +338,6 @@ absl::Status MvbrdfService::Submit(const std::string& client, const v1::SubmitJo
   if (!sequence.ok()) {
     // The bundle's content is the caller's input, whatever the failure.
     return absl::InvalidArgumentError(sequence.status().message());
-  }
-  if (sequence->num_frames > limits_.max_frames) {
-    return absl::ResourceExhaustedError(absl::StrCat("scene: ", sequence->num_frames,
-                                                     " frames exceed the server's limit ", limits_.max_frames,
-                                                     " (max_frames)"));
   }
   absl::StatusOr<JobPlan> plan = PlanJob(request, *sequence);
   if (!plan.ok()) return plan.status();

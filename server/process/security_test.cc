@@ -669,7 +669,7 @@ TEST_F(SecurityTest, LimitsAreEnforced) {
   Start(options);
   s = Submit(kAlice, nullptr);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
-  EXPECT_EQ(s.error_message(), "scene: 2 frames exceed the server's limit 1 (max_frames)");
+  EXPECT_EQ(s.error_message(), "scene.frames.count: 2 frames exceed the server's limit 1 (max_frames)");
 }
 
 // The worker-side limits: an artifact or gather Samples declared larger than
