@@ -124,7 +124,7 @@ absl::StatusOr<ImportedCorners> ImportCornersHere(const std::filesystem::path& f
         }
       }
       const unsigned n = face.mNumIndices;
-      types |= n == 1 ? aiPrimitiveType_POINT
+      types |= n == 1   ? aiPrimitiveType_POINT
                : n == 2 ? aiPrimitiveType_LINE
                : n == 3 ? aiPrimitiveType_TRIANGLE
                         : aiPrimitiveType_POLYGON;
@@ -383,14 +383,14 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
     ::_exit(sent ? 0 : 1);
   }
   ::close(fds[1]);
-  const double limit_seconds =
-      import_seconds + import_seconds_per_mib * file_size / (1 << 20);
+  const double limit_seconds = import_seconds + import_seconds_per_mib * file_size / (1 << 20);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit_seconds);
   std::string reply;
   char buffer[1 << 16];
   bool timed_out = false;
   for (;;) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     pollfd p = {fds[0], POLLIN, 0};
     const int ready = left.count() > 0 ? ::poll(&p, 1, static_cast<int>(left.count())) : 0;
     if (ready < 0 && errno == EINTR) continue;

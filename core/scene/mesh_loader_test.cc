@@ -305,14 +305,19 @@ TEST(MeshLoaderTest, RejectsPlyFaceWithoutIndices) {
 TEST(MeshLoaderTest, SurvivesAnImporterCrash) {
   const std::string ply(
       "ply\n"
-      "format binary_li\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00ttle_endian 1.0\n"
+      "format "
+      "binary_"
+      "li\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00ttle_endian 1.0\n"
       "element veRtex 2\n"
       "property float x\n"
       "property float y\x03\x00\x00\x00perty float z\n"
       "element face 1\n"
       "property list uchar int vertex_indices\n"
       "?nd_header\n"
-      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80?\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80?\x00\x00\x00\x00\x03\x00\x00\x00\x00\x01\x00\x00\x00\x02\x00\x00\x00",
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80?"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x80?"
+      "\x00\x00\x00\x00\x03\x00\x00\x00\x00\x01\x00\x00\x00\x02\x00\x00\x00",
       263);
   TempDir dir;
   WriteText(dir / "crash.ply", ply);
@@ -374,7 +379,8 @@ TEST(MeshLoaderTest, RejectsPlyCountsTheFileCannotHold) {
     const absl::Status status = LoadMesh(dir / name, "scene.mesh.path").status();
     EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1.0) << name;
     EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
-    EXPECT_NE(status.message().find(absl::StrCat(name, ": cannot read mesh: the PLY header declares 400000000 "
+    EXPECT_NE(status.message().find(absl::StrCat(name,
+                                                 ": cannot read mesh: the PLY header declares 400000000 "
                                                  "\"vertex\" elements, more than the")),
               std::string::npos)
         << status;
