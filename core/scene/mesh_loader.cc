@@ -362,7 +362,9 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
     const int out = fds[1];
     if (out > 3) ::close_range(3, static_cast<unsigned>(out - 1), 0);
     ::close_range(static_cast<unsigned>(out + 1), ~0u, 0);
-    for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL}) ::signal(sig, SIG_DFL);
+    // Default dispositions: neither the parent's shutdown handlers (mvbrdf
+    // server and worker catch SIGINT and SIGTERM) nor a sanitizer's run here.
+    for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGINT, SIGTERM, SIGHUP}) ::signal(sig, SIG_DFL);
     const struct rlimit no_core = {0, 0};  // no core dump for an importer crash
     ::setrlimit(RLIMIT_CORE, &no_core);
     // Address space: what the process has now plus kImportMemoryBytes and
