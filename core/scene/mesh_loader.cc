@@ -1,5 +1,7 @@
 #include "core/scene/mesh_loader.h"
 
+#include <assimp/DefaultIOSystem.h>
+#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <fcntl.h>
@@ -14,7 +16,6 @@
 #include <atomic>
 #include <chrono>
 #include <cerrno>
-#include <assimp/Importer.hpp>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -23,6 +24,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <unordered_map>
 #include <vector>
@@ -82,9 +84,43 @@ struct ImportedCorners {
   bool has_uvs = false;
 };
 
+// assimp opens more than the file it is given: an OBJ's `mtllib`, a glTF's
+// buffer `uri`. Those names come from the file, i.e. from whoever sent the
+// bundle, so every open is confined to the mesh file's directory (after
+// resolving "..", and symbolic links): a mesh cannot make the server or a
+// worker read /etc/passwd or another job's files.
+class ConfinedIOSystem final : public Assimp::DefaultIOSystem {
+ public:
+  explicit ConfinedIOSystem(const std::filesystem::path& dir) : root_(Resolve(dir)) {}
+
+  bool Exists(const char* file) const override { return Inside(file) && DefaultIOSystem::Exists(file); }
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    // Read-only, and only inside.
+    if (mode == nullptr || std::string_view(mode).find_first_of("wa+") != std::string_view::npos) return nullptr;
+    return Inside(file) ? DefaultIOSystem::Open(file, mode) : nullptr;
+  }
+
+ private:
+  static std::filesystem::path Resolve(const std::filesystem::path& path) {
+    std::error_code ec;
+    std::filesystem::path resolved = std::filesystem::weakly_canonical(std::filesystem::absolute(path, ec), ec);
+    return ec ? std::filesystem::path() : resolved;
+  }
+  bool Inside(const char* file) const {
+    if (file == nullptr || root_.empty()) return false;
+    const std::filesystem::path resolved = Resolve(file);
+    if (resolved.empty()) return false;
+    auto [r, f] = std::mismatch(root_.begin(), root_.end(), resolved.begin(), resolved.end());
+    return r == root_.end() && f != resolved.end();
+  }
+
+  const std::filesystem::path root_;
+};
+
 // Runs assimp on `file` in this process (see ImportCorners).
 absl::StatusOr<ImportedCorners> ImportCornersHere(const std::filesystem::path& file, absl::string_view field) {
   Assimp::Importer importer;
+  importer.SetIOHandler(new ConfinedIOSystem(file.parent_path().empty() ? "." : file.parent_path()));  // owned by importer
   // Validation first (it rejects faces without indices and indices past the
   // vertex array, which the corner loop below would read out of bounds), then
   // triangulation only: no welding (we weld bit-exactly ourselves, keeping

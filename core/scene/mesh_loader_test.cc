@@ -1,6 +1,7 @@
 #include "core/scene/mesh_loader.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <chrono>
 #include <cmath>
@@ -128,6 +129,28 @@ TEST(MeshLoaderTest, ObjGroupsKeepFaceOrder) {
   auto rest = LoadFramePositions(dir / "p0.obj", mesh->topology, "f");
   ASSERT_TRUE(rest.ok()) << rest.status();
   EXPECT_EQ(*rest, mesh->positions);
+}
+
+// An OBJ's mtllib names a file the importer opens: it must not reach outside
+// the mesh's directory. The material library outside is a FIFO, so an open
+// would block the importer until its time limit and the load would fail
+// after seconds; confined, the load ignores it and succeeds at once.
+TEST(MeshLoaderTest, ImporterOpensNothingOutsideTheMeshDirectory) {
+  TempDir dir;
+  std::filesystem::create_directories(dir / "bundle");
+  ASSERT_EQ(::mkfifo((dir / "outside.mtl").c_str(), 0600), 0);
+  WriteText(dir / "bundle" / "inside.mtl", "newmtl m\nKd 1 0 0\n");
+  for (const std::string& library : {std::string("../outside.mtl"), (dir / "outside.mtl").string()}) {
+    SCOPED_TRACE(library);
+    WriteText(dir / "bundle" / "p.obj", "mtllib " + library + "\n" + testing::PyramidObj(0));
+    const auto start = std::chrono::steady_clock::now();
+    auto mesh = LoadMesh(dir / "bundle" / "p.obj", "f");
+    ASSERT_TRUE(mesh.ok()) << mesh.status();
+    EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(3));
+  }
+  // A library inside is still read (the mesh loads the same).
+  WriteText(dir / "bundle" / "p.obj", "mtllib inside.mtl\n" + testing::PyramidObj(0));
+  EXPECT_TRUE(LoadMesh(dir / "bundle" / "p.obj", "f").ok());
 }
 
 TEST(MeshLoaderTest, DetectsTopologyChanges) {
