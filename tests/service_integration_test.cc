@@ -12,6 +12,7 @@
 
 #include "client/bundle_upload.h"
 #include "client/embedded_service.h"
+#include "core/base/files.h"
 #include "core/bundle/bundle.h"
 #include "core/bundle/sha256.h"
 #include "core/pipeline/reconstruct_stage.h"
@@ -307,28 +308,47 @@ TEST_F(ServiceIntegrationTest, JobSubmittedTwiceRunsTwiceWithTheSameResults) {
   for (const auto& w : service_->workers()) EXPECT_LE(w->bundle_downloads(), 1);
 }
 
-TEST_F(ServiceIntegrationTest, AnInterruptedUploadResumesWhereItStopped) {
-  // 3 MiB of bytes (the server checks the hash, not the contents, until a
-  // job names the bundle).
-  const fs::path file = dir_ / "resumable.bin";
+// Bytes of `mib` MiB in a file under dir_ (the server checks the hash, not
+// the contents, until a job names the bundle), with their SHA-256.
+struct UploadBytes {
+  fs::path file;
+  std::string sha256;
+  std::string bytes;
+};
+
+UploadBytes MakeUploadBytes(const fs::path& file, int mib, uint32_t multiplier) {
   {
     std::ofstream out(file, std::ios::binary);
-    for (int i = 0; i < 3 * 1024 * 1024; ++i) out.put(static_cast<char>((i * 2654435761u) >> 24));
+    for (int i = 0; i < mib * 1024 * 1024; ++i) out.put(static_cast<char>((i * multiplier) >> 24));
   }
   auto sha256 = bundle::Sha256File(file);
-  ASSERT_TRUE(sha256.ok());
-  const std::string bytes = ReadFile(file);
+  EXPECT_TRUE(sha256.ok()) << sha256.status();
+  auto bytes = ReadFileToString(file);
+  EXPECT_TRUE(bytes.ok()) << bytes.status();
+  return {file, sha256.value_or(""), bytes.value_or("")};
+}
+
+// The first MiB of `upload` as the first chunk of an UploadBundle stream.
+v1::UploadChunk FirstMiB(const UploadBytes& upload) {
+  v1::UploadChunk chunk;
+  chunk.set_sha256(upload.sha256);
+  chunk.set_total_size(upload.bytes.size());
+  chunk.set_offset(0);
+  chunk.set_data(upload.bytes.substr(0, 1 << 20));
+  return chunk;
+}
+
+TEST_F(ServiceIntegrationTest, AnInterruptedUploadResumesWhereItStopped) {
+  const UploadBytes upload = MakeUploadBytes(dir_ / "resumable.bin", 3, 2654435761u);
+  const fs::path& file = upload.file;
+  const std::string* sha256 = &upload.sha256;
+  const std::string& bytes = upload.bytes;
   {
     // The first MiB, then the client goes away.
     grpc::ClientContext context;
     v1::UploadStatus status;
     auto writer = stub_->UploadBundle(&context, &status);
-    v1::UploadChunk chunk;
-    chunk.set_sha256(*sha256);
-    chunk.set_total_size(bytes.size());
-    chunk.set_offset(0);
-    chunk.set_data(bytes.substr(0, 1 << 20));
-    ASSERT_TRUE(writer->Write(chunk));
+    ASSERT_TRUE(writer->Write(FirstMiB(upload)));
     writer->WritesDone();
     writer->Finish();
     EXPECT_FALSE(status.complete());
@@ -349,23 +369,14 @@ TEST_F(ServiceIntegrationTest, ASecondUploadOfTheSameBundleWaitsForTheFirst) {
   // Two clients send the same bytes at once: the server takes one stream at
   // a time, the other client waits and finds the bundle complete (or takes
   // over from the prefix) instead of failing its submit.
-  const fs::path file = dir_ / "concurrent.bin";
-  {
-    std::ofstream out(file, std::ios::binary);
-    for (int i = 0; i < 2 * 1024 * 1024; ++i) out.put(static_cast<char>((i * 40503u) >> 8));
-  }
-  auto sha256 = bundle::Sha256File(file);
-  ASSERT_TRUE(sha256.ok());
-  const std::string bytes = ReadFile(file);
+  const UploadBytes upload = MakeUploadBytes(dir_ / "concurrent.bin", 2, 40503u << 16);
+  const fs::path& file = upload.file;
+  const std::string* sha256 = &upload.sha256;
+  const std::string& bytes = upload.bytes;
   grpc::ClientContext context;
   v1::UploadStatus first_status;
   auto writer = stub_->UploadBundle(&context, &first_status);
-  v1::UploadChunk chunk;
-  chunk.set_sha256(*sha256);
-  chunk.set_total_size(bytes.size());
-  chunk.set_offset(0);
-  chunk.set_data(bytes.substr(0, 1 << 20));
-  ASSERT_TRUE(writer->Write(chunk));
+  ASSERT_TRUE(writer->Write(FirstMiB(upload)));
   // The first stream holds the bundle; the second upload starts now.
   absl::Status second = absl::UnknownError("not run");
   client::UploadOutcome outcome;
