@@ -47,6 +47,7 @@ int RunSubmit(const std::vector<std::string>& args);
 int RunWatch(const std::vector<std::string>& args);
 int RunFetch(const std::vector<std::string>& args);
 int RunCancel(const std::vector<std::string>& args);
+int RunHealth(const std::vector<std::string>& args);
 int RunReport(const std::vector<std::string>& args);
 
 class FlagParser;

@@ -27,6 +27,7 @@ constexpr char kUsage[] =
     "  watch      follow a job's events until it ends\n"
     "  fetch      download a job's artifacts\n"
     "  cancel     cancel a job\n"
+    "  health     ask a server's gRPC health service (for probes); exit 0 when serving\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
@@ -44,7 +45,7 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   const std::vector<std::string> args(argv + 2, argv + argc);
   // One-shot clients print one line per failure; gRPC's own log would repeat it.
-  for (const char* client : {"jobs", "submit", "watch", "fetch", "cancel"}) {
+  for (const char* client : {"jobs", "submit", "watch", "fetch", "cancel", "health"}) {
     if (command == client) mvbrdf::client::QuietGrpcLog();
   }
   if (command == "synth") return mvbrdf::client::RunSynth(args);
@@ -61,6 +62,7 @@ int main(int argc, char** argv) {
   if (command == "watch") return mvbrdf::client::RunWatch(args);
   if (command == "fetch") return mvbrdf::client::RunFetch(args);
   if (command == "cancel") return mvbrdf::client::RunCancel(args);
+  if (command == "health") return mvbrdf::client::RunHealth(args);
   std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", command.c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }
