@@ -251,14 +251,15 @@ closure = set(re.findall(r"^(?:\s+(?:Pre)?Depends: <?|)([a-z0-9][a-z0-9.+-]*)", 
 closure = {p.split(":")[0] for p in closure}
 ldd = subprocess.run(["ldd", binary], capture_output=True, text=True, check=True).stdout
 libs = sorted(set(re.findall(r"=> (/\S+)", ldd)))
+# One dpkg -S for every path and its real path: "package[, package]: path" a line.
+paths = sorted(set(libs) | {os.path.realpath(lib) for lib in libs})
+owners = {}
+for line in subprocess.run(["dpkg", "-S"] + paths, capture_output=True, text=True).stdout.splitlines():
+    package, _, path = line.partition(": ")
+    owners[path.strip()] = package.split(",")[0].split(":")[0].strip()
 uncovered = []
 for lib in libs:
-    owner = None
-    for path in (lib, os.path.realpath(lib)):
-        r = subprocess.run(["dpkg", "-S", path], capture_output=True, text=True)
-        if r.returncode == 0:
-            owner = r.stdout.split(":")[0].split(",")[0].strip()
-            break
+    owner = owners.get(lib) or owners.get(os.path.realpath(lib))
     if owner is None or owner not in closure:
         uncovered.append(f"{lib} ({owner})")
 check(f"Dockerfile: the runtime packages provide all {len(libs)} libraries `ldd mvbrdf` names", not uncovered,
@@ -269,10 +270,9 @@ direct = []
 for so in re.findall(r"NEEDED\s+(\S+)", needed):
     path = re.search(rf"^\s*{re.escape(so)} => (\S+)", ldd, re.M)
     if path:
-        r = subprocess.run(["dpkg", "-S", os.path.realpath(path.group(1))], capture_output=True, text=True)
-        r = r if r.returncode == 0 else subprocess.run(["dpkg", "-S", path.group(1)], capture_output=True, text=True)
-        if r.returncode == 0:
-            direct.append(r.stdout.split(":")[0])
+        owner = owners.get(path.group(1)) or owners.get(os.path.realpath(path.group(1)))
+        if owner:
+            direct.append(owner)
 not_listed = sorted(set(direct) - set(runtime_pkgs) - {"libc6", "libgcc-s1", "libstdc++6"})
 check("Dockerfile: every directly linked library's package is listed by name", not not_listed, str(not_listed))
 for p in ("libegl-mesa0", "libgl1-mesa-dri", "libgbm1"):
