@@ -33,7 +33,7 @@ constexpr int kServing = 1;
 std::string EncodeRequest(const std::string& service) {
   if (service.empty()) return {};
   std::string bytes(1, '\x0a');  // field 1, length-delimited
-  for (uint64_t n = service.size(); ; n >>= 7) {
+  for (uint64_t n = service.size();; n >>= 7) {
     if (n < 0x80) {
       bytes.push_back(static_cast<char>(n));
       break;
@@ -57,11 +57,16 @@ int DecodeStatus(const std::string& bytes) {
 
 const char* StatusName(int status) {
   switch (status) {
-    case 0: return "UNKNOWN";
-    case 1: return "SERVING";
-    case 2: return "NOT_SERVING";
-    case 3: return "SERVICE_UNKNOWN";
-    default: return "unrecognised";
+    case 0:
+      return "UNKNOWN";
+    case 1:
+      return "SERVING";
+    case 2:
+      return "NOT_SERVING";
+    case 3:
+      return "SERVICE_UNKNOWN";
+    default:
+      return "unrecognised";
   }
 }
 
@@ -72,7 +77,8 @@ int RunHealth(const std::vector<std::string>& args) {
   int timeout_seconds = 5;
   FlagParser flags("health",
                    "Asks a server's standard health service (grpc.health.v1.Health/Check) whether it is serving; "
-                   "for container probes over TLS. Exit 0: SERVING; 4: unreachable or not serving.");
+                   "for container probes over TLS. Prints the status. Exit 0: SERVING; 4: unreachable or not "
+                   "serving; 3: the server does not know --service.");
   flags.AddString("--server", &address, "the server, host:port (required)");
   flags.AddString("--service", &service, "the service to ask about (default: the whole server)");
   flags.AddInt("--timeout", &timeout_seconds, "seconds to wait for the answer");

@@ -89,13 +89,20 @@ def unit_values(unit, section, key):
     return [v for k, v in unit.get(section, []) if k == key]
 
 
-def systemd_exec_start(unit, instance="w0"):
-    """ExecStart as argv, with ${VAR} from Environment= (and %i) substituted."""
+def systemd_exec_start(unit, instance="w0", environment_file=None):
+    """ExecStart as argv, with ${VAR} from Environment= (then from `environment_file`, as EnvironmentFile= does)
+    and %i substituted."""
     env = {}
     for value in unit_values(unit, "Service", "Environment"):
         for item in shlex.split(value):
             k, _, v = item.partition("=")
             env[k] = v
+    if environment_file:
+        for line in open(environment_file):
+            line = line.strip()
+            if line and not line.startswith("#") and "=" in line:
+                k, _, v = line.partition("=")
+                env[k.strip()] = v.strip()
     command = unit_values(unit, "Service", "ExecStart")[0].replace("%i", instance)
     command = re.sub(r"\$\{(\w+)\}", lambda m: env.get(m.group(1), m.group(0)), command)
     return shlex.split(command)

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """deploy/ as processes (issue #8): a `mvbrdf server` and two `mvbrdf worker`s started with the very arguments,
-config and environment of the Kubernetes manifests (then of the compose file), read from the YAML, with in-container
+config and environment of the Kubernetes manifests (then of the compose file, then of the systemd units with
+deploy/systemd/worker.env), read from the files, with in-container
 paths and the service host replaced by local ones and tokens and TLS made here by deploy/make-secrets (openssl).
 A client submits a tiny synthetic job with a client token over TLS and watches it succeed; the probes' own health
 command must say SERVING.
@@ -60,6 +61,19 @@ def compose_layout():
                 probes=[d.mvbrdf_argv(server["healthcheck"]["test"][1:])], files=files, service_host="mvbrdf-server")
 
 
+def systemd_layout():
+    server_unit = d.systemd_unit("mvbrdf-server.service")
+    worker_unit = d.systemd_unit("mvbrdf-worker@.service")
+    server_argv = d.mvbrdf_argv(d.systemd_exec_start(server_unit))
+    env_file = os.path.join(d.SYSTEMD, "worker.env")  # what /etc/mvbrdf/worker.env holds
+    worker_argv = lambda i: d.mvbrdf_argv(d.systemd_exec_start(worker_unit, f"w{i}", env_file))  # noqa: E731
+    config = json.load(open(os.path.join(d.SYSTEMD, "server.json")))
+    files = {f"/etc/mvbrdf/secrets/{f}": f for f in ("ca.crt", "tls.crt", "tls.key", "tokens", "worker.token")}
+    server_host = d.host_of(worker_argv(0)[worker_argv(0).index("--server") + 1])
+    return dict(server_argv=server_argv, config_path=d.flag_value(server_argv, "--config"), config=config,
+                worker_argv=worker_argv, worker_env={}, probes=[], files=files, service_host=server_host)
+
+
 def run(name, layout):
     root = os.path.join(work, name)
     os.makedirs(os.path.join(root, "files"))
@@ -80,7 +94,8 @@ def run(name, layout):
     mapping[layout["config_path"]] = config_local
     server_argv = [binary] + d.substitute_paths(layout["server_argv"], mapping)
     check(f"{name}: the server's arguments are the manifest's with local paths",
-          server_argv[1:] == ["server", "--config", config_local], str(server_argv))
+          server_argv[1] == "server" and d.flag_value(server_argv, "--config") == config_local and
+          all(a.startswith(root) for a in server_argv[2:] if a.startswith("/")), str(server_argv))
     server = d.Process(server_argv, os.path.join(root, "server.log"))
     processes = [server]
     try:
@@ -103,11 +118,27 @@ def run(name, layout):
             check(f"{name}: the probe's command says SERVING ({time.time() - t0:.2f} s)",
                   r.returncode == 0 and r.stdout.strip() == "SERVING", " ".join(argv) + ": " + r.stdout + r.stderr)
 
+        if name == "k8s":
+            ca = os.path.join(secrets, "ca.crt")
+            for what, argv, codes in (
+                    ("without TLS against the TLS port: not SERVING", ["--server", address], (4,)),
+                    ("a closed port: unreachable", ["--server", "127.0.0.1:1", "--tls-ca", ca], (4,)),
+                    ("an unknown --service: the server does not know it",
+                     ["--server", address, "--tls-ca", ca, "--tls-server-name", "mvbrdf-server", "--service", "x.Y"],
+                     (3,)),
+                    ("no --server: usage", [], (2,))):
+                r = subprocess.run([binary, "health", "--timeout", "3"] + argv, capture_output=True, text=True,
+                                   timeout=30)
+                check(f"mvbrdf health, {what} (exit {codes[0]})", r.returncode in codes and r.stdout.strip() != "SERVING", f"exit {r.returncode}: {r.stderr}")
+
         for i in range(2):
             mapping_i = dict(mapping)
             mapping_i["/var/cache/mvbrdf"] = os.path.join(root, f"cache{i}")  # each pod has its own emptyDir
+            manifest_argv = layout["worker_argv"](i) if callable(layout["worker_argv"]) else layout["worker_argv"]
             argv = [binary] + [a.replace(f"{layout['service_host']}:{port}", address) for a in
-                               d.substitute_paths(layout["worker_argv"], mapping_i)]
+                               d.substitute_paths(manifest_argv, mapping_i)]
+            check(f"{name}: worker {i}: every path is local, the server is this one",
+                  all(a.startswith(root) for a in argv[1:] if a.startswith("/")) and address in argv, str(argv))
             env = dict(os.environ)
             env.update(layout["worker_env"])
             env["XDG_CACHE_HOME"] = os.path.join(root, f"xdg{i}")
@@ -141,4 +172,5 @@ def run(name, layout):
 
 run("k8s", k8s_layout())
 run("compose", compose_layout())
+run("systemd", systemd_layout())
 d.finish()
