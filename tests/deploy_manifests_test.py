@@ -108,6 +108,8 @@ check("compose: the server publishes its listen port", any(str(p).split(":")[-1]
 hc = d.mvbrdf_argv(srv["healthcheck"]["test"][1:])
 check("compose: the healthcheck runs `mvbrdf health` on the listen port",
       hc[0] == "health" and d.port_of(d.flag_value(hc, "--server")) == cport)
+check("compose: the healthcheck's --timeout ends before its timeout",
+      int(d.flag_value(hc, "--timeout") or 5) < int(str(srv["healthcheck"].get("timeout", "30s")).rstrip("s")))
 aliases = srv.get("networks", {}).get("default", {}).get("aliases", []) + ["server"]
 for name, svc in comp["services"].items():
     if svc["command"][0] == "worker":
