@@ -81,7 +81,7 @@ absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int
   if (options_.max_stored_bytes > 0 && stored_size > options_.max_stored_bytes) {
     return absl::ResourceExhaustedError(absl::StrCat("sample cache: entry ", key.ToString(), " needs ",
                                                      stored_size, " bytes compressed, the cache holds at most ",
-                                                     options_.max_stored_bytes));
+                                                     options_.max_stored_bytes, " (raise sample_cache_max_bytes)"));
   }
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));

@@ -305,12 +305,7 @@ absl::Status WorkersService::ReportReactor::CacheGatheredSamples(const std::stri
   const store::SampleKey key = TriangleSampleKey(job.scene_hash, request);
   absl::Status put = service_->samples_.Put(key, samples_->bytes, now_ms, samples_->sha256);  // verified above
   if (put.ok()) return put;
-  return FailOnStorage(absl::StrCat("samples: ", samples_->bytes.size(), " bytes of triangle Samples"),
-                       absl::IsResourceExhausted(put) && put.message().find("sample cache:") != absl::string_view::npos
-                           ? absl::ResourceExhaustedError(absl::StrCat(
-                                 "do not fit in the Sample cache (raise sample_cache_max_bytes): ", put.message()))
-                           : put,
-                       now_ms);
+  return FailOnStorage(absl::StrCat("samples: ", samples_->bytes.size(), " bytes of triangle Samples"), put, now_ms);
 }
 
 absl::Status WorkersService::ReportReactor::FailOnStorage(absl::string_view what, const absl::Status& error,
