@@ -253,6 +253,13 @@ deps = subprocess.run(["apt-cache", "depends", "--recurse", "--no-recommends", "
 closure = set(re.findall(r"^(?:\s+(?:Pre)?Depends: <?|)([a-z0-9][a-z0-9.+-]*)", deps, re.M)) | set(runtime_pkgs)
 closure = {p.split(":")[0] for p in closure}
 ldd = subprocess.run(["ldd", binary], capture_output=True, text=True, check=True).stdout
+# The image ships the Release binary (the build stage runs a Release build). The sanitizer build's binary links
+# libasan and, with its own link flags, more OpenCV modules directly; its libraries say nothing about the image,
+# so the two library checks below run against Release binaries only (scripts/test runs this test in both builds).
+sanitized = re.search(r"^\s*lib(a|ub|t)san\.so", ldd, re.M) is not None
+if sanitized:
+    print("note: a sanitizer build's binary: the ldd checks against the Dockerfile run in the Release build only")
+    ldd = ""
 libs = sorted(set(re.findall(r"=> (/\S+)", ldd)))
 # One dpkg -S for every path and its real path: "package[, package]: path" a line.
 paths = sorted(set(libs) | {os.path.realpath(lib) for lib in libs})
@@ -265,10 +272,11 @@ for lib in libs:
     owner = owners.get(lib) or owners.get(os.path.realpath(lib))
     if owner is None or owner not in closure:
         uncovered.append(f"{lib} ({owner})")
-check(f"Dockerfile: the runtime packages provide all {len(libs)} libraries `ldd mvbrdf` names", not uncovered,
-      "; ".join(uncovered))
+if not sanitized:
+    check(f"Dockerfile: the runtime packages provide all {len(libs)} libraries `ldd mvbrdf` names",
+          len(libs) > 50 and not uncovered, "; ".join(uncovered))
 needed = subprocess.run(["objdump", "-p", binary], capture_output=True, text=True).stdout if shutil.which(
-    "objdump") else ""
+    "objdump") and not sanitized else ""
 direct = []
 for so in re.findall(r"NEEDED\s+(\S+)", needed):
     path = re.search(rf"^\s*{re.escape(so)} => (\S+)", ldd, re.M)
@@ -277,7 +285,9 @@ for so in re.findall(r"NEEDED\s+(\S+)", needed):
         if owner:
             direct.append(owner)
 not_listed = sorted(set(direct) - set(runtime_pkgs) - {"libc6", "libgcc-s1", "libstdc++6"})
-check("Dockerfile: every directly linked library's package is listed by name", not not_listed, str(not_listed))
+if not sanitized:
+    check("Dockerfile: every directly linked library's package is listed by name", bool(direct) and not not_listed,
+          str(not_listed))
 for p in ("libegl-mesa0", "libgl1-mesa-dri", "libgbm1"):
     check(f"Dockerfile: {p} (loaded by EGL at run time, not by ldd) is in the runtime list", p in runtime_pkgs)
 install_deps = open(os.path.join(d.ROOT, "scripts", "install-deps")).read()
