@@ -43,10 +43,6 @@ expect "the data directory is the tmpfs" sh -c "nsenter -t $pid -m -- df '$data'
 
 "$bin" worker --server "$address" --name w1 --cache "$work/cache" --egl surfaceless --wait 1 > "$work/w1.log" 2>&1 &
 wpid=$!
-wait_for() {  # FILE PATTERN SECONDS
-  for _ in $(seq 1 $(( $3 * 10 ))); do grep -q "$2" "$1" 2>/dev/null && return 0; sleep 0.1; done
-  return 1
-}
 
 job=$("$bin" submit "$work/b/scene.json" --server "$address" --client disk "${opts[@]}" 2>"$work/submit.err")
 expect "the job is submitted" test -n "$job"

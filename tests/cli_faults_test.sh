@@ -30,10 +30,6 @@ worker() {  # NAME: starts a worker in the background, its pid in $wpid
     > "$work/$1.log" 2>&1 &
   wpid=$!
 }
-wait_for() {  # FILE PATTERN SECONDS
-  for _ in $(seq 1 $(( $3 * 10 ))); do grep -q "$2" "$1" 2>/dev/null && return 0; sleep 0.1; done
-  return 1
-}
 
 # 1. A worker killed in the middle of its task.
 expect "server starts" server 1

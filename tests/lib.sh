@@ -40,6 +40,12 @@ start_server() {
   return 1
 }
 
+# wait_for FILE PATTERN SECONDS: succeeds once PATTERN appears in FILE.
+wait_for() {  # FILE PATTERN SECONDS
+  for _ in $(seq 1 $(( $3 * 10 ))); do grep -q "$2" "$1" 2>/dev/null && return 0; sleep 0.1; done
+  return 1
+}
+
 summary() {
   echo "$passes passed, $failures failed"
   [ "$failures" -eq 0 ]

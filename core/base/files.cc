@@ -1,6 +1,10 @@
 #include "core/base/files.h"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <system_error>
@@ -88,6 +92,25 @@ std::filesystem::path ResolvePath(const std::filesystem::path& base_dir, absl::s
   std::filesystem::path p{std::string(relative)};
   if (p.is_absolute()) return p;
   return base_dir / p;
+}
+
+absl::Status ErrnoStatus(int error, absl::string_view what, absl::string_view path) {
+  const std::string message = absl::StrCat(path, ": ", what, ": ", std::strerror(error));
+  if (error == ENOSPC || error == EDQUOT) return absl::ResourceExhaustedError(message);
+  if (error == ENOENT) return absl::NotFoundError(message);
+  if (error == EACCES || error == EPERM) return absl::PermissionDeniedError(message);
+  return absl::InternalError(message);
+}
+
+absl::Status WriteAllToFd(int fd, absl::string_view bytes, absl::string_view path) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::write(fd, bytes.data(), bytes.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) return ErrnoStatus(errno, "write failed", path);
+    if (n == 0) return ErrnoStatus(EIO, "write failed", path);
+    bytes.remove_prefix(static_cast<size_t>(n));
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace mvbrdf

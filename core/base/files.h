@@ -18,6 +18,15 @@ absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path);
 // file beside it and renames, so a reader never sees a half-written file.
 absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_view contents);
 
+// The status of a failed system call on `path`, from its errno `error`:
+// "path: what: strerror(error)", RESOURCE_EXHAUSTED for a full disk or quota,
+// NOT_FOUND, PERMISSION_DENIED, else INTERNAL.
+absl::Status ErrnoStatus(int error, absl::string_view what, absl::string_view path);
+
+// Writes all of `bytes` to the descriptor `fd` (short writes and EINTR
+// retried). Errors as ErrnoStatus, naming `path`.
+absl::Status WriteAllToFd(int fd, absl::string_view bytes, absl::string_view path);
+
 // True when `pattern` holds exactly one printf integer conversion
 // ("%d", "%04d", "%5u"...), e.g. "mesh_%04d.obj".
 bool IsFramePattern(absl::string_view pattern);

@@ -1,6 +1,11 @@
 #include "core/base/files.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <string>
 
 #include <vector>
 
@@ -63,6 +68,23 @@ TEST(ProcessStatsTest, PeakRssGrowsWithTouchedMemory) {
   std::vector<char> block(kBytes, 1);  // touched: counts as resident
   EXPECT_GE(PeakRssBytes(), before + kBytes / 2);
   EXPECT_EQ(block[kBytes - 1], 1);
+}
+
+// /dev/full answers every write with ENOSPC: a real full disk for one call.
+TEST(FilesTest, WriteAllToFdReportsAFullDiskAsResourceExhausted) {
+  const int fd = ::open("/dev/full", O_WRONLY | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  const absl::Status full = WriteAllToFd(fd, "bytes", "uploads/x.part");
+  ::close(fd);
+  EXPECT_EQ(full.code(), absl::StatusCode::kResourceExhausted) << full;
+  EXPECT_EQ(full.message(), "uploads/x.part: write failed: No space left on device");
+  EXPECT_EQ(ErrnoStatus(ENOENT, "cannot open", "a").code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(ErrnoStatus(EACCES, "cannot open", "a").code(), absl::StatusCode::kPermissionDenied);
+  EXPECT_EQ(ErrnoStatus(EIO, "write failed", "a").code(), absl::StatusCode::kInternal);
+  const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+  ASSERT_GE(null, 0);
+  EXPECT_TRUE(WriteAllToFd(null, std::string(1 << 20, 'x'), "null").ok());
+  ::close(null);
 }
 
 }  // namespace

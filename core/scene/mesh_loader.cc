@@ -283,16 +283,6 @@ absl::StatusOr<ImportedCorners> DecodeImport(absl::string_view data, const std::
   return out;
 }
 
-bool WriteAll(int fd, absl::string_view data) {
-  while (!data.empty()) {
-    const ssize_t n = ::write(fd, data.data(), data.size());
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    data.remove_prefix(static_cast<size_t>(n));
-  }
-  return true;
-}
-
 // Bytes of a PLY scalar type in a binary file; 0 for an unknown name.
 size_t PlyScalarBytes(const std::string& type) {
   if (type == "char" || type == "uchar" || type == "int8" || type == "uint8") return 1;
@@ -456,7 +446,7 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
       }
       std::fclose(statm);
     }
-    const bool sent = WriteAll(out, EncodeImport(ImportCornersHere(file, field)));
+    const bool sent = WriteAllToFd(out, EncodeImport(ImportCornersHere(file, field)), "pipe").ok();
     ::_exit(sent ? 0 : 1);
   }
   ::close(fds[1]);

@@ -4,12 +4,12 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <cstring>
 #include <fstream>
 #include <system_error>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
 #include "core/bundle/bundle.h"
 #include "core/bundle/sha256.h"
 #include "server/store/digest.h"
@@ -73,27 +73,12 @@ absl::Status BundleArea::Append(absl::string_view sha256, int64_t offset, absl::
   // RESOURCE_EXHAUSTED with "No space left on device", not a bare failure.
   // Bytes written before a failure stay: they are a valid prefix, and the
   // upload resumes after them (QueryUpload).
-  const auto failed = [&](const char* what) {
-    const int error = errno;
-    const std::string message = absl::StrCat("uploads/", part.filename().string(), ": ", what, ": ",
-                                             std::strerror(error));
-    if (error == ENOSPC || error == EDQUOT) return absl::ResourceExhaustedError(message);
-    return absl::InternalError(message);
-  };
+  const std::string name = absl::StrCat("uploads/", part.filename().string());  // no server path in errors
   const int fd = ::open(part.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-  if (fd < 0) return failed("cannot open");
-  while (!bytes.empty()) {
-    const ssize_t n = ::write(fd, bytes.data(), bytes.size());
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) {
-      absl::Status status = failed("write failed");
-      ::close(fd);
-      return status;
-    }
-    bytes.remove_prefix(static_cast<size_t>(n));
-  }
-  if (::close(fd) != 0) return failed("write failed");
-  return absl::OkStatus();
+  if (fd < 0) return ErrnoStatus(errno, "cannot open", name);
+  absl::Status written = WriteAllToFd(fd, bytes, name);
+  if (::close(fd) != 0 && written.ok()) written = ErrnoStatus(errno, "write failed", name);
+  return written;
 }
 
 absl::Status BundleArea::Commit(absl::string_view sha256) {

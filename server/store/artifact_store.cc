@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
 #include "core/base/status_macros.h"
 #include "server/store/digest.h"
 #include "server/store/schema.h"
@@ -20,12 +21,7 @@ namespace {
 constexpr size_t kChunkBytes = size_t{1} << 20;
 
 absl::Status ErrnoError(absl::string_view what, const std::filesystem::path& path) {
-  const int error = errno;
-  const std::string message = absl::StrCat(path.string(), ": ", what, ": ", std::strerror(error));
-  if (error == ENOSPC || error == EDQUOT) return absl::ResourceExhaustedError(message);
-  if (error == ENOENT) return absl::NotFoundError(message);
-  if (error == EACCES || error == EPERM) return absl::PermissionDeniedError(message);
-  return absl::InternalError(message);
+  return ErrnoStatus(errno, what, path.string());
 }
 
 // A file written through a POSIX descriptor so that it can be fsync'ed before
@@ -52,15 +48,7 @@ class TempFile {
     }
   }
 
-  absl::Status Write(absl::string_view bytes) {
-    while (!bytes.empty()) {
-      const ssize_t n = ::write(fd_, bytes.data(), bytes.size());
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0) return ErrnoError("write failed", path_);
-      bytes.remove_prefix(static_cast<size_t>(n));
-    }
-    return absl::OkStatus();
-  }
+  absl::Status Write(absl::string_view bytes) { return WriteAllToFd(fd_, bytes, path_.string()); }
 
   // fsync and close; the file stays until Release() or destruction.
   absl::Status Finish() {
