@@ -112,7 +112,7 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
   static const auto* cases = new std::vector<MessageErrorCase>{
       {"MeshPathEmpty", [](v1::Scene* s) { s->mutable_mesh()->clear_path(); }, "scene.mesh.path: required"},
       {"MeshPathBadPattern", [](v1::Scene* s) { s->mutable_mesh()->set_path("mesh_%s.obj"); },
-       "scene.mesh.path: expected at most one integer conversion"},
+       "scene.mesh.path: expected at most one frame conversion"},
       {"MeshPathTwoConversions", [](v1::Scene* s) { s->mutable_mesh()->set_path("m%d_%d.obj"); }, "scene.mesh.path"},
       {"FrameCountZero", [](v1::Scene* s) { s->mutable_frames()->set_count(0); },
        "scene.frames.count: must be > 0, got 0"},
@@ -177,7 +177,13 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"VideoPathEmpty", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->clear_path(); },
        "scene.cameras[1].video.path: required"},
       {"VideoPathBadPattern", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_path("c/%f.png"); },
-       "scene.cameras[1].video.path: expected at most one integer conversion"},
+       "scene.cameras[1].video.path: expected at most one frame conversion"},
+      // Issue #19 defect 12: a 999999999-digit frame number cost 18 s and 5.9 GB.
+      {"MeshPatternTooWide", [](v1::Scene* s) { s->mutable_mesh()->set_path("mesh_%999999999d.obj"); },
+       "scene.mesh.path: a frame number is at most 9 digits wide"},
+      {"VideoPatternTooWide",
+       [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_path("c/%0999999999d.png"); },
+       "scene.cameras[1].video.path: a frame number is at most 9 digits wide"},
       {"VideoEncodingUnknown",
        [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_encoding(static_cast<v1::ColorEncoding>(7)); },
        "scene.cameras[1].video.encoding: unknown value 7"},
