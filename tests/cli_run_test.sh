@@ -27,6 +27,27 @@ check "plan printed, light table only" 0 "skip  texel_pass: only the light table
   "$bin" run "$scene" --outputs light --out "$work/light"
 [ ! -d "$work/light/atlases" ] && { echo "ok   light table only writes no atlases"; passes=$((passes + 1)); } ||
   { echo "FAIL light table only wrote atlases"; failures=$((failures + 1)); }
+
+# Issue #19 defect 8: --direct swept all 8 configurations whatever --candidates
+# said, and the service's plan said "8 candidate configurations" for 2.
+# swept DIR: the configurations result.json's light table has, one line.
+swept() { python3 -c 'import json,sys; print(";".join(r["name"] for r in json.load(open(sys.argv[1]))["lightConfigurations"]))' "$1/result.json"; }
+check "--candidates --direct: the plan counts what is swept" 0 "run   light_sweep: 2 candidate configurations" -- \
+  "$bin" run "$scene" --direct --outputs light --candidates "C;NE,NW,SE,SW" --out "$work/cand_direct"
+check "--candidates via the service" 0 "run   light_sweep: 2 candidate configurations" -- \
+  "$bin" run "$scene" --outputs light --candidates "C;NE,NW,SE,SW" --out "$work/cand_service"
+expect "direct and service sweep exactly the named configurations" \
+  test "$(swept "$work/cand_direct")" = "C;NE,NW,SE,SW" -a "$(swept "$work/cand_service")" = "C;NE,NW,SE,SW"
+expect "the service's result.json plan counts 2 candidates" \
+  grep -q '"why": "2 candidate configurations' "$work/cand_service/result.json"
+check "--candidates: an unknown name fails naming it" 3 '--candidates: the scene has no light configuration "NE,XX"' -- \
+  "$bin" run "$scene" --direct --outputs light --candidates "C;NE,XX" --out "$work/x"
+check "--candidates: an unknown name fails on the service path too" 3 '"NE,XX"' -- \
+  "$bin" run "$scene" --outputs light --candidates "C;NE,XX" --out "$work/x"
+check "a known wrong configuration (light table only)" 0 "configuration given: C" -- \
+  "$bin" run "$scene" --direct --outputs light --config C --out "$work/cand_direct_c"
+check "--candidates: an empty name is a usage error" 2 "--candidates: configuration 2 is empty" -- \
+  "$bin" run "$scene" --direct --outputs light --candidates "C;;NE,NW,SE,SW" --out "$work/x"
 check "full run" 0 "correction atlas" -- "$bin" run "$scene" --config "NE,NW,SE,SW" --no-powell --atlas 256 --out "$work/run"
 for f in result.json atlases/kd.exr atlases/ks.exr atlases/ke.exr atlases/cluster.exr atlases/confidence.exr \
          atlases/correction/0002.exr atlas/mesh.obj; do

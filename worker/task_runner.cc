@@ -163,8 +163,14 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
     }
     o.light_table = std::move(table);
   } else {
-    // No sweep: the key is the known configuration (empty: every light on).
-    o.request.configuration = task.key();
+    // No sweep: the key is the known configuration (empty: every light on),
+    // the one the request's plan fixes (a given configuration or the only
+    // candidate), so that the plan reads as a one-process run's.
+    MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
+    if (plan.Has(pipeline::Stage::kLightSweep) || plan.fixed_configuration != task.key()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "key: \"", task.key(), "\" is not the configuration the request fixes (\"", plan.fixed_configuration, "\")"));
+    }
   }
   o.out_dir = env.scratch_dir;
   o.texel_statistics = std::move(env.texel_statistics);  // consumed: freed as soon as the fits are done

@@ -248,9 +248,12 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     report.set_configuration_warning(options.light_table->configuration_warning());
     chosen = options.light_table->chosen_configuration();
   } else if (plan.Has(Stage::kLightSweep)) {
+    // What the plan sweeps: the request's candidates, else the scene's.
     std::vector<fit::LightConfiguration> configs;
-    for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
-      configs.push_back({c.name(), {c.lights().begin(), c.lights().end()}});
+    for (const std::string& name : plan.candidates) {
+      for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
+        if (c.name() == name) configs.push_back({c.name(), {c.lights().begin(), c.lights().end()}});
+      }
     }
     MVBRDF_ASSIGN_OR_RETURN(const fit::SweepResult sweep,
                             fit::SweepConfigurations(g.triangle_samples, atlas.topology.triangles.size(), configs,

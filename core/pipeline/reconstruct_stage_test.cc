@@ -109,9 +109,18 @@ TEST_F(ReconstructStageTest, LightTableOnlyComputesNothingElse) {
   options.request.brdf_atlases = options.request.correction = options.request.camera_errors = false;
   options.sweep_frame_stride = 3;  // every third frame is enough to fill the table
   options.out_dir = dir_ / "light_only";
+  // Issue #19 defect 8: the one-process sweep fitted all 8 configurations
+  // whatever the request's candidates said. It sweeps those, in order.
+  options.request.candidates = {"C", "NE,NW,SE,SW", "N,E,W,S"};
   auto report = RunReconstruction(*sequence, *context_, options);
   ASSERT_TRUE(report.ok()) << report.status();
-  EXPECT_EQ(report->light_configurations_size(), 8);
+  ASSERT_EQ(report->light_configurations_size(), 3);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(report->light_configurations(i).name(), options.request.candidates[i]);
+  std::string why;
+  for (const v1::PlannedStage& stage : report->plan().stages()) {
+    if (stage.name() == "light_sweep") why = stage.why();
+  }
+  EXPECT_EQ(why.rfind("3 candidate configurations (of the scene's 8)", 0), 0u) << why;
   EXPECT_EQ(report->clusters_size(), 0);
   EXPECT_EQ(report->cameras_size(), 0);
   EXPECT_FALSE(std::filesystem::exists(dir_ / "light_only" / "atlases"));
