@@ -135,6 +135,7 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
     last_end = std::max(last_end, input.finished_unix_ms());
   }
   MVBRDF_RETURN_IF_ERROR(pipeline::ChooseConfiguration(&report));
+  MVBRDF_RETURN_IF_ERROR(pipeline::CheckMetricsFinite(report));
   v1::StageRow* stage = report.add_stages();
   stage->set_name("light_sweep");
   stage->set_peak_rss_bytes(PeakRssBytes());
@@ -179,8 +180,8 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
   report.SerializeToString(&out.result);
   out.artifacts = FilesUnder(env.scratch_dir);
   for (const v1::CameraErrorRow& c : report.cameras()) {
-    out.metrics[absl::StrCat("mse_brdf/", c.name())] = c.mse_brdf();
-    out.metrics[absl::StrCat("mse_correction/", c.name())] = c.mse_correction();
+    if (c.has_mse_brdf()) out.metrics[absl::StrCat("mse_brdf/", c.name())] = c.mse_brdf();
+    if (c.has_mse_correction()) out.metrics[absl::StrCat("mse_correction/", c.name())] = c.mse_correction();
   }
   return out;
 }
