@@ -16,7 +16,7 @@ namespace mvbrdf {
 absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(absl::StrCat(ElideForMessage(path.string()), ": file not found"));
+    return absl::NotFoundError(absl::StrCat(ElideForMessage(path.string(), kMaxShownPathChars), ": file not found"));
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) return absl::PermissionDeniedError(absl::StrCat(path.string(), ": cannot open for reading"));

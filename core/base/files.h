@@ -50,6 +50,9 @@ std::string FormatFramePattern(absl::string_view pattern, int index);
 // it, then "... (N characters)" when it is longer (a 1 MB field must not
 // make a 1 MB error line).
 std::string ElideForMessage(absl::string_view text, size_t max_chars = 120);
+// For paths: no real path is longer (PATH_MAX), and the whole of a real one
+// stays (a message's private directory prefix is replaced later).
+constexpr size_t kMaxShownPathChars = 4096;
 
 // `relative` resolved against `base_dir` (absolute paths are kept as given).
 std::filesystem::path ResolvePath(const std::filesystem::path& base_dir, absl::string_view relative);

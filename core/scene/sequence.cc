@@ -110,7 +110,7 @@ absl::Status CheckReferences(const std::string& field, const google::protobuf::R
 absl::Status CheckInsideSceneDir(const std::string& field, const std::string& path) {
   auto bad = [&](absl::string_view why) {
     return Invalid(field, absl::StrCat("must be a relative path inside the scene's directory (", why, "), got \"",
-                                       ElideForMessage(path), "\""));
+                                       ElideForMessage(path, kMaxShownPathChars), "\""));
   };
   if (path.front() == '/' || std::filesystem::path(path).is_absolute()) return bad("not absolute");
   if (path.find('\\') != std::string::npos) return bad("'/' separates directories, not '\\'");
@@ -445,7 +445,7 @@ absl::Status CheckMeshFramesExist(const Sequence& seq) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(file, ec)) {
       return absl::NotFoundError(absl::StrCat("scene.mesh.path (frame ", absolute,
-                                              "): mesh file not found: ", ElideForMessage(file.string())));
+                                              "): mesh file not found: ", ElideForMessage(file.string(), kMaxShownPathChars)));
     }
   }
   return absl::OkStatus();
