@@ -58,6 +58,22 @@ grep -q '"chosenConfiguration": "NE,NW,SE,SW"' "$work/run/result.json" && grep -
   { echo "FAIL result.json"; failures=$((failures + 1)); }
 check "evaluate" 0 '"configurationCorrect": true' -- "$bin" evaluate "$work/run" --truth "$work/b"
 check "evaluate without truth" 3 "truth.json" -- "$bin" evaluate "$work/run" --truth "$work"
+# Issue #19 defect 9: the truth of another scene (other mesh, other cameras)
+# said "configurationCorrect": true; false was left out of the JSON.
+"$bin" synth --cameras 2 --frames 1 --width 64 --height 48 --actor-segments 6 --out "$work/other" >/dev/null || exit 1
+check "evaluate against another scene's truth" 3 "--truth: mesh" -- "$bin" evaluate "$work/run" --truth "$work/other"
+cp -r "$work/b" "$work/b_cams"
+python3 - "$work/b_cams/ground_truth/truth.json" <<'EOF_PY'
+import json, sys
+truth = json.load(open(sys.argv[1]))
+truth["cameras"][2]["name"] = "elsewhere"
+del truth["scene"]["cameras"]  # as an older truth file: the cameras as rendered decide
+json.dump(truth, open(sys.argv[1], "w"))
+EOF_PY
+check "evaluate against a truth with other cameras" 3 'cameras.2. names differ: the run' -- \
+  "$bin" evaluate "$work/run" --truth "$work/b_cams"
+check "a wrong configuration prints configurationCorrect: false" 0 '"configurationCorrect": false' -- \
+  "$bin" evaluate "$work/cand_direct_c" --truth "$work/b"
 check "render a scene camera" 0 "wrote" -- "$bin" render "$work/run" --camera cam1 --lights "$work/lights.json" --out "$work/cam1.png"
 check "render with correction" 0 "wrote" -- "$bin" render "$work/run" --camera cam1 --lights "$work/lights.json" --frame 2 --correction --out "$work/cam1.exr"
 check "render unknown camera" 3 "nocam" -- "$bin" render "$work/run" --camera nocam --lights "$work/lights.json" --out "$work/x.png"

@@ -24,6 +24,7 @@
 #include "core/pipeline/texel_reservoir.h"
 #include "core/resample/atlas_ops.h"
 #include "core/samples/sample_set.h"
+#include "core/scene/fingerprint.h"
 #include "core/scene/mesh_loader.h"
 #include "core/scene/video_source.h"
 
@@ -197,6 +198,7 @@ absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, cons
   report.set_frames(static_cast<uint32_t>(sequence.num_frames));
   report.set_gl_renderer(gl_renderer);
   report.set_configuration_rule("lowest E_d; E_a breaks ties");
+  *report.mutable_input() = scene::Fingerprint(sequence);
   MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
   plan.ToProto(report.mutable_plan());
   NoteSweepFrames(options, sequence.num_frames, report.mutable_plan());

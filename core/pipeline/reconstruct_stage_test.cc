@@ -124,6 +124,9 @@ TEST_F(ReconstructStageTest, LightTableOnlyComputesNothingElse) {
     if (stage.name() == "light_sweep") why = stage.why();
   }
   EXPECT_EQ(why.rfind("3 candidate configurations (of the scene's 8)", 0), 0u) << why;
+  // What the run ran on, for `mvbrdf evaluate`.
+  EXPECT_EQ(report->input().mesh_triangles(), sequence->topology.triangles.size());
+  EXPECT_EQ(report->input().cameras_size(), static_cast<int>(sequence->cameras.size()));
   EXPECT_EQ(report->clusters_size(), 0);
   EXPECT_EQ(report->cameras_size(), 0);
   EXPECT_FALSE(std::filesystem::exists(dir_ / "light_only" / "atlases"));
