@@ -444,8 +444,8 @@ absl::Status CheckMeshFramesExist(const Sequence& seq) {
     const std::filesystem::path file = ResolvePath(seq.scene_dir, MeshFramePath(seq.scene, absolute));
     std::error_code ec;
     if (!std::filesystem::is_regular_file(file, ec)) {
-      return absl::NotFoundError(absl::StrCat("scene.mesh.path (frame ", absolute,
-                                              "): mesh file not found: ", ElideForMessage(file.string(), kMaxShownPathChars)));
+      return absl::NotFoundError(absl::StrCat("scene.mesh.path (frame ", absolute, "): mesh file not found: ",
+                                              ElideForMessage(file.string(), kMaxShownPathChars)));
     }
   }
   return absl::OkStatus();
