@@ -33,9 +33,19 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   if (request->outputs_size() == 0) return absl::InvalidArgumentError("--outputs: name at least one output");
   // Configuration names contain commas ("NE,NW,SE,SW"), so candidates are
   // separated by semicolons.
+  // Each is checked against the scene by pipeline::MakePlan (`run`) or the
+  // server (`submit`); an empty one ("A;;B", a trailing ';') is a typo here.
   request->clear_configurations();
-  for (absl::string_view name : absl::StrSplit(job.candidates, ';', absl::SkipEmpty())) {
-    request->add_configurations(std::string(name));
+  if (!job.candidates.empty()) {
+    int index = 0;
+    for (absl::string_view name : absl::StrSplit(job.candidates, ';')) {
+      ++index;
+      if (name.empty()) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "--candidates: configuration ", index, " is empty (names are separated by ';', e.g. \"C;NE,NW,SE,SW\")"));
+      }
+      request->add_configurations(std::string(name));
+    }
   }
   request->set_configuration(job.configuration);
   if (job.atlas < 16 || job.atlas > 16384) {

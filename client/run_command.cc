@@ -55,9 +55,14 @@ void PrintReport(const v1::RunReport& report, const std::string& out) {
   if (report.cameras_size() > 0) {
     std::printf("\n%-10s %12s %16s\n", "camera", "BRDF atlas", "correction atlas");
     for (const auto& c : report.cameras()) {
-      std::printf("%-10s %12.6f %16.6f\n", c.name().c_str(), c.mse_brdf(), c.mse_correction());
+      if (c.has_mse_brdf()) {
+        std::printf("%-10s %12.6f %16.6f\n", c.name().c_str(), c.mse_brdf(), c.mse_correction());
+      } else {
+        std::printf("%-10s %12s %16s\n", c.name().c_str(), "absent", "absent");
+      }
     }
   }
+  for (const std::string& w : report.warnings()) std::printf("warning: %s\n", w.c_str());
   std::printf("\n%u frames in %.1f s, peak memory %.0f MiB; wrote %s/result.json\n", report.frames(), report.seconds(),
               report.peak_rss_bytes() / 1048576.0, out.c_str());
 }

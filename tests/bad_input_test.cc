@@ -289,6 +289,25 @@ std::vector<BadInputCase> Cases() {
        Expect::kRejected,
        kInvalid,
        {"scene.json", "fps"}},
+      // Issue #19: protobuf took the last of two equal keys.
+      {"DuplicateJsonKey",
+       [](CaseInput& in) { ReplaceInFile(in.scene_file(), "\"frames\": {", "\"frames\": {\"count\": 99, "); },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.json: duplicate key \"count\" in frames"}},
+      // Issue #19 defect 12: an 18 s, 5.9 GB expansion and a 1 GB error line.
+      {"MeshPatternOfABillionDigits",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_mesh()->set_path("mesh_%999999999d.obj"); }); },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.mesh.path: a frame number is at most 9 digits wide"}},
+      {"VideoPatternOfABillionDigits",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) { s->mutable_cameras(0)->mutable_video()->set_path("v/%0999999999d.png"); });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[0].video.path: a frame number is at most 9 digits wide"}},
       {"ZeroFps",
        [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_frames()->set_fps(0); }); },
        Expect::kRejected,
@@ -570,6 +589,37 @@ std::vector<BadInputCase> Cases() {
        Expect::kJobSucceeds,
        C::OK,
        {}},
+
+      // Issue #19 defect 7: 1e30 gave "mseBrdf": "Infinity" in a SUCCEEDED job.
+      {"IntensityThatOverflowsFloatMaths",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           auto* light = s->mutable_lights(0);
+           light->clear_intensity();
+           for (int c = 0; c < 3; ++c) light->add_intensity(1e30);
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.lights[0].intensity[0]: must be a finite number in [0, 1e+06]"}},
+      // Issue #19 defect 7: a camera inside the head sees only back faces; its
+      // MSE was 0.000000. Now absent, with a warning naming the camera (the
+      // strings below are looked for in the job's report).
+      {"CameraInsideTheMesh",
+       [](CaseInput& in) {
+         const std::vector<double> centre = SegmentCentre(in, "head");
+         in.EditScene([&](v1::Scene* s) {
+           auto* pose = s->mutable_cameras(1)->mutable_cam_from_world();
+           for (int r = 0; r < 3; ++r) {  // t = -R c: the camera's centre at c
+             double t = 0.0;
+             for (int k = 0; k < 3; ++k) t -= pose->rotation(r * 3 + k) * centre[static_cast<size_t>(k)];
+             pose->set_translation(r, t);
+           }
+         });
+       },
+       Expect::kJobSucceeds,
+       C::OK,
+       {"\"warnings\"", "camera \"cam1\" observed no lit texel in any frame: its errors are absent"}},
 
       // --- Absurd sizes.
       // The server's limit (max_atlas_size, 4096 by default) answers first.
@@ -916,8 +966,16 @@ TEST_F(BadInputTest, EveryCaseGetsAClearErrorAndTheServiceKeepsServing) {
       }
       for (const auto& camera : job.report().cameras()) {
         EXPECT_TRUE(std::isfinite(camera.mse_brdf())) << camera.name();
+        // An error over no observation is absent, not 0.
+        EXPECT_EQ(camera.has_mse_brdf(), camera.samples() > 0) << camera.name();
       }
       const std::string report = MessageToJson(job.report());
+      std::string warnings;  // as they are, not JSON-escaped
+      for (const std::string& w : job.report().warnings()) warnings += w + "\n";
+      for (const std::string& s : c.expected) {
+        EXPECT_TRUE(report.find(s) != std::string::npos || warnings.find(s) != std::string::npos)
+            << "\"" << s << "\" not in the report " << report;
+      }
       EXPECT_EQ(report.find("NaN"), std::string::npos) << report;
       EXPECT_EQ(report.find("Infinity"), std::string::npos) << report;
       std::printf("%-36s -> job SUCCEEDED\n", c.name);

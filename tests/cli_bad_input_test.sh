@@ -61,6 +61,51 @@ sed -i '0,/^v /s/^v .*/v 0 nan 0/' "$work/nan/meshes/mesh_0002.obj"
 one_line "validate: a NaN vertex in a later frame" 3 "scene.mesh.path (frame 2): meshes/mesh_0002.obj" -- \
   "$bin" validate "$work/nan/scene.json"
 
+# Issue #19 defect 12: "mesh_%999999999d.obj" cost 18 s, 5.9 GB and a 1 GB error line.
+broken wide 's#meshes/mesh_%04d.obj#meshes/mesh_%999999999d.obj#'
+one_line "validate: a frame number a billion digits wide" 3 "scene.mesh.path: a frame number is at most 9 digits wide" -- \
+  timeout 10 "$bin" validate "$work/wide/scene.json"
+expect "  ... and its error line is short" test "$(wc -c < "$work/reason")" -lt 400
+# Issue #19 weak spots: what validate let through.
+broken dup_key 's/"frames": {/"frames": {"count": 7, /'
+one_line "validate: a duplicate JSON key" 3 'duplicate key "count" in frames' -- "$bin" validate "$work/dup_key/scene.json"
+broken inf_fps 's/"fps": [0-9.e+]*/"fps": "Infinity"/'
+one_line "validate: an infinite fps" 3 "scene.frames.fps: must be a finite number > 0, got inf" -- \
+  "$bin" validate "$work/inf_fps/scene.json"
+cp -r "$work/valid" "$work/truncated"
+size=$(stat -c %s "$work/truncated/videos/cam1.mkv")
+truncate -s $((size * 2 / 3)) "$work/truncated/videos/cam1.mkv"
+# (check, not one_line: FFmpeg itself logs "File ended prematurely" on stderr.)
+check "validate: a truncated video" 3 "scene.cameras.1.\.video: frame 1 (file frame 1) is past the end of videos/cam1.mkv" -- \
+  "$bin" validate "$work/truncated/scene.json"
+check "validate --quick says it did not read the videos" 0 "not checked (--quick): later mesh frames, the videos" -- \
+  "$bin" validate --quick "$work/truncated/scene.json"
+"$bin" synth --cameras 2 --frames 3 --width 64 --height 48 --actor-segments 6 --format png --out "$work/png" >/dev/null ||
+  exit 1
+"$bin" synth --cameras 1 --frames 1 --width 32 --height 24 --actor-segments 6 --format png --out "$work/small" \
+  >/dev/null || exit 1
+cp -r "$work/png" "$work/png_small"
+cp "$work/small/videos/cam0/0000.png" "$work/png_small/videos/cam0/0002.png"
+one_line "validate: a later image of the wrong size" 3 "scene.cameras[0].video: frame 2" -- \
+  "$bin" validate "$work/png_small/scene.json"
+cp -r "$work/valid" "$work/flat"
+python3 - "$work/flat/meshes" <<'EOF_PY'
+import glob, sys
+for path in glob.glob(sys.argv[1] + "/*.obj"):  # every vertex at the origin: every triangle has zero area
+    lines = ["v 0 0 0" if l.startswith("v ") else l for l in open(path).read().split("\n")]
+    open(path, "w").write("\n".join(lines))
+EOF_PY
+one_line "validate: a mesh of zero area" 3 "triangles have zero area in frame 0" -- "$bin" validate "$work/flat/scene.json"
+cp -r "$work/valid" "$work/dark"
+python3 - "$work/dark/scene.json" <<'EOF_PY'
+import json, sys
+scene = json.load(open(sys.argv[1]))
+for light in scene["lights"]:
+    light["intensity"] = [0, 0, 0]
+json.dump(scene, open(sys.argv[1], "w"))
+EOF_PY
+one_line "validate: every light off" 3 "scene.lights: every light's intensity is 0" -- "$bin" validate "$work/dark/scene.json"
+
 # submit: caught by the server (a server without workers: nothing runs).
 expect "server starts and prints its address" start_server "$work/server.log"
 # A camera turned around (rotation rows 0 and 2 and translation x, z negated) sees nothing.

@@ -27,6 +27,27 @@ check "plan printed, light table only" 0 "skip  texel_pass: only the light table
   "$bin" run "$scene" --outputs light --out "$work/light"
 [ ! -d "$work/light/atlases" ] && { echo "ok   light table only writes no atlases"; passes=$((passes + 1)); } ||
   { echo "FAIL light table only wrote atlases"; failures=$((failures + 1)); }
+
+# Issue #19 defect 8: --direct swept all 8 configurations whatever --candidates
+# said, and the service's plan said "8 candidate configurations" for 2.
+# swept DIR: the configurations result.json's light table has, one line.
+swept() { python3 -c 'import json,sys; print(";".join(r["name"] for r in json.load(open(sys.argv[1]))["lightConfigurations"]))' "$1/result.json"; }
+check "--candidates --direct: the plan counts what is swept" 0 "run   light_sweep: 2 candidate configurations" -- \
+  "$bin" run "$scene" --direct --outputs light --candidates "C;NE,NW,SE,SW" --out "$work/cand_direct"
+check "--candidates via the service" 0 "run   light_sweep: 2 candidate configurations" -- \
+  "$bin" run "$scene" --outputs light --candidates "C;NE,NW,SE,SW" --out "$work/cand_service"
+expect "direct and service sweep exactly the named configurations" \
+  test "$(swept "$work/cand_direct")" = "C;NE,NW,SE,SW" -a "$(swept "$work/cand_service")" = "C;NE,NW,SE,SW"
+expect "the service's result.json plan counts 2 candidates" \
+  grep -q '"why": "2 candidate configurations' "$work/cand_service/result.json"
+check "--candidates: an unknown name fails naming it" 3 '--candidates: the scene has no light configuration "NE,XX"' -- \
+  "$bin" run "$scene" --direct --outputs light --candidates "C;NE,XX" --out "$work/x"
+check "--candidates: an unknown name fails on the service path too" 3 '"NE,XX"' -- \
+  "$bin" run "$scene" --outputs light --candidates "C;NE,XX" --out "$work/x"
+check "a known wrong configuration (light table only)" 0 "configuration given: C" -- \
+  "$bin" run "$scene" --direct --outputs light --config C --out "$work/cand_direct_c"
+check "--candidates: an empty name is a usage error" 2 "--candidates: configuration 2 is empty" -- \
+  "$bin" run "$scene" --direct --outputs light --candidates "C;;NE,NW,SE,SW" --out "$work/x"
 check "full run" 0 "correction atlas" -- "$bin" run "$scene" --config "NE,NW,SE,SW" --no-powell --atlas 256 --out "$work/run"
 for f in result.json atlases/kd.exr atlases/ks.exr atlases/ke.exr atlases/cluster.exr atlases/confidence.exr \
          atlases/correction/0002.exr atlas/mesh.obj; do
@@ -37,6 +58,22 @@ grep -q '"chosenConfiguration": "NE,NW,SE,SW"' "$work/run/result.json" && grep -
   { echo "FAIL result.json"; failures=$((failures + 1)); }
 check "evaluate" 0 '"configurationCorrect": true' -- "$bin" evaluate "$work/run" --truth "$work/b"
 check "evaluate without truth" 3 "truth.json" -- "$bin" evaluate "$work/run" --truth "$work"
+# Issue #19 defect 9: the truth of another scene (other mesh, other cameras)
+# said "configurationCorrect": true; false was left out of the JSON.
+"$bin" synth --cameras 2 --frames 1 --width 64 --height 48 --actor-segments 6 --out "$work/other" >/dev/null || exit 1
+check "evaluate against another scene's truth" 3 "--truth: mesh" -- "$bin" evaluate "$work/run" --truth "$work/other"
+cp -r "$work/b" "$work/b_cams"
+python3 - "$work/b_cams/ground_truth/truth.json" <<'EOF_PY'
+import json, sys
+truth = json.load(open(sys.argv[1]))
+truth["cameras"][2]["name"] = "elsewhere"
+del truth["scene"]["cameras"]  # as an older truth file: the cameras as rendered decide
+json.dump(truth, open(sys.argv[1], "w"))
+EOF_PY
+check "evaluate against a truth with other cameras" 3 'cameras.2. names differ: the run' -- \
+  "$bin" evaluate "$work/run" --truth "$work/b_cams"
+check "a wrong configuration prints configurationCorrect: false" 0 '"configurationCorrect": false' -- \
+  "$bin" evaluate "$work/cand_direct_c" --truth "$work/b"
 check "render a scene camera" 0 "wrote" -- "$bin" render "$work/run" --camera cam1 --lights "$work/lights.json" --out "$work/cam1.png"
 check "render with correction" 0 "wrote" -- "$bin" render "$work/run" --camera cam1 --lights "$work/lights.json" --frame 2 --correction --out "$work/cam1.exr"
 check "render unknown camera" 3 "nocam" -- "$bin" render "$work/run" --camera nocam --lights "$work/lights.json" --out "$work/x.png"

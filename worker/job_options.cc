@@ -39,11 +39,10 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
     }
   }
   run.compare_solvers = request.options().compare_solvers();
-  if (!request.configuration().empty()) {
-    run.configuration = request.configuration();
-  } else if (request.configurations_size() == 1) {
-    run.configuration = request.configurations(0);
-  }
+  // Checked against the scene by pipeline::MakePlan (one candidate is a
+  // known configuration there), so that --direct and the service agree.
+  run.configuration = request.configuration();
+  run.candidates.assign(request.configurations().begin(), request.configurations().end());
   const v1::FittingOptions& f = request.options();
   if (f.atlas_size() != 0) {
     if (f.atlas_size() < 16 || f.atlas_size() > 16384) {

@@ -135,6 +135,7 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
     last_end = std::max(last_end, input.finished_unix_ms());
   }
   MVBRDF_RETURN_IF_ERROR(pipeline::ChooseConfiguration(&report));
+  MVBRDF_RETURN_IF_ERROR(pipeline::CheckMetricsFinite(report));
   v1::StageRow* stage = report.add_stages();
   stage->set_name("light_sweep");
   stage->set_peak_rss_bytes(PeakRssBytes());
@@ -163,8 +164,14 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
     }
     o.light_table = std::move(table);
   } else {
-    // No sweep: the key is the known configuration (empty: every light on).
-    o.request.configuration = task.key();
+    // No sweep: the key is the known configuration (empty: every light on),
+    // the one the request's plan fixes (a given configuration or the only
+    // candidate), so that the plan reads as a one-process run's.
+    MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
+    if (plan.Has(pipeline::Stage::kLightSweep) || plan.fixed_configuration != task.key()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "key: \"", task.key(), "\" is not the configuration the request fixes (\"", plan.fixed_configuration, "\")"));
+    }
   }
   o.out_dir = env.scratch_dir;
   o.texel_statistics = std::move(env.texel_statistics);  // consumed: freed as soon as the fits are done
@@ -173,8 +180,8 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
   report.SerializeToString(&out.result);
   out.artifacts = FilesUnder(env.scratch_dir);
   for (const v1::CameraErrorRow& c : report.cameras()) {
-    out.metrics[absl::StrCat("mse_brdf/", c.name())] = c.mse_brdf();
-    out.metrics[absl::StrCat("mse_correction/", c.name())] = c.mse_correction();
+    if (c.has_mse_brdf()) out.metrics[absl::StrCat("mse_brdf/", c.name())] = c.mse_brdf();
+    if (c.has_mse_correction()) out.metrics[absl::StrCat("mse_correction/", c.name())] = c.mse_correction();
   }
   return out;
 }

@@ -16,7 +16,7 @@ namespace mvbrdf {
 absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(absl::StrCat(path.string(), ": file not found"));
+    return absl::NotFoundError(absl::StrCat(ElideForMessage(path.string(), kMaxShownPathChars), ": file not found"));
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) return absl::PermissionDeniedError(absl::StrCat(path.string(), ": cannot open for reading"));
@@ -46,7 +46,9 @@ absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_v
 namespace {
 
 // Counts integer conversions in a printf pattern; returns -1 on a conversion
-// that is not an integer one.
+// that is not an accepted frame conversion ("%d", "%i", "%u", or one of them
+// zero-padded to a width of at most kMaxFrameDigits, "%04d"), -2 on one of
+// those with a width over kMaxFrameDigits.
 int CountIntegerConversions(absl::string_view pattern) {
   int count = 0;
   for (size_t i = 0; i < pattern.size(); ++i) {
@@ -56,9 +58,17 @@ int CountIntegerConversions(absl::string_view pattern) {
       continue;
     }
     size_t j = i + 1;
-    while (j < pattern.size() && (pattern[j] == '0' || pattern[j] == '-' || pattern[j] == '+' || pattern[j] == ' ')) ++j;
+    const bool zero_padded = j < pattern.size() && pattern[j] == '0';
+    if (zero_padded) ++j;
+    const size_t digits_begin = j;
     while (j < pattern.size() && pattern[j] >= '0' && pattern[j] <= '9') ++j;
+    const size_t digits = j - digits_begin;
     if (j >= pattern.size() || (pattern[j] != 'd' && pattern[j] != 'i' && pattern[j] != 'u')) return -1;
+    // Compared as text: "%0999999999999d" must not overflow an int.
+    static_assert(kMaxFrameDigits <= 9, "one digit of width");
+    if (digits > 1 || (digits == 1 && pattern[digits_begin] - '0' > kMaxFrameDigits)) return -2;
+    if (digits == 1 && pattern[digits_begin] == '0') return -1;  // "%00d"
+    if (zero_padded != (digits > 0)) return -1;                  // "%5d" pads with spaces, "%0d" means nothing
     ++count;
     i = j;
   }
@@ -71,11 +81,23 @@ bool IsFramePattern(absl::string_view pattern) { return CountIntegerConversions(
 
 absl::Status ValidateFramePattern(absl::string_view pattern, absl::string_view field) {
   const int n = CountIntegerConversions(pattern);
+  if (n == -2) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": a frame number is at most ", kMaxFrameDigits,
+                                                   " digits wide (%d or %01d to %0", kMaxFrameDigits, "d), got \"",
+                                                   ElideForMessage(pattern), "\""));
+  }
   if (n < 0 || n > 1) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": expected at most one integer conversion such as %04d, got \"",
-                                                   pattern, "\""));
+    return absl::InvalidArgumentError(absl::StrCat(field,
+                                                   ": expected at most one frame conversion, %d or zero-padded such as "
+                                                   "%04d (no other conversion; %% is a percent sign), got \"",
+                                                   ElideForMessage(pattern), "\""));
   }
   return absl::OkStatus();
+}
+
+std::string ElideForMessage(absl::string_view text, size_t max_chars) {
+  if (text.size() <= max_chars) return std::string(text);
+  return absl::StrCat(text.substr(0, max_chars), "... (", text.size(), " characters)");
 }
 
 std::string FormatFramePattern(absl::string_view pattern, int index) {

@@ -27,18 +27,32 @@ absl::Status ErrnoStatus(int error, absl::string_view what, absl::string_view pa
 // retried). Errors as ErrnoStatus, naming `path`.
 absl::Status WriteAllToFd(int fd, absl::string_view bytes, absl::string_view path);
 
-// True when `pattern` holds exactly one printf integer conversion
-// ("%d", "%04d", "%5u"...), e.g. "mesh_%04d.obj".
+// The widest frame number a pattern may ask for ("%09d"): a wider one only
+// pads (an int has 10 digits), and "%999999999d" would ask for a 1 GB name.
+constexpr int kMaxFrameDigits = 9;
+
+// True when `pattern` holds exactly one frame conversion: "%d", "%i", "%u"
+// or one of them zero-padded ("%04d", at most kMaxFrameDigits wide), e.g.
+// "mesh_%04d.obj".
 bool IsFramePattern(absl::string_view pattern);
 
-// Checks that `pattern` is usable as a frame pattern: at most one integer
-// conversion, no other conversions ("%%" is a literal percent sign).
-// `field` names the pattern in the error, e.g. "scene.mesh.path".
+// Checks that `pattern` is usable as a frame pattern: at most one frame
+// conversion as IsFramePattern accepts, no other conversions ("%%" is a
+// literal percent sign; "%5d", "%-4d", "%s" and widths over kMaxFrameDigits
+// are errors). `field` names the pattern in the error, e.g. "scene.mesh.path".
 absl::Status ValidateFramePattern(absl::string_view pattern, absl::string_view field);
 
 // Expands a frame pattern with `index`; returns `pattern` unchanged when it
 // holds no conversion. Requires ValidateFramePattern(pattern).ok().
 std::string FormatFramePattern(absl::string_view pattern, int index);
+
+// `text` as an error message may echo it: at most `max_chars` characters of
+// it, then "... (N characters)" when it is longer (a 1 MB field must not
+// make a 1 MB error line).
+std::string ElideForMessage(absl::string_view text, size_t max_chars = 120);
+// For paths: no real path is longer (PATH_MAX), and the whole of a real one
+// stays (a message's private directory prefix is replaced later).
+constexpr size_t kMaxShownPathChars = 4096;
 
 // `relative` resolved against `base_dir` (absolute paths are kept as given).
 std::filesystem::path ResolvePath(const std::filesystem::path& base_dir, absl::string_view relative);

@@ -33,6 +33,36 @@ TEST(FramePatternTest, RejectsOtherConversionsNamingTheField) {
   EXPECT_TRUE(ValidateFramePattern("a_%03d.obj", "f").ok());
 }
 
+// Issue #19 defect 12: "mesh_%999999999d.obj" cost 18 s, 5.9 GB and a 1 GB
+// error line. Widths over 9 digits and space-padded or flagged forms are
+// rejected, naming the field, and the echoed pattern is bounded.
+TEST(FramePatternTest, BoundsTheWidthOfTheFrameNumber) {
+  EXPECT_TRUE(ValidateFramePattern("m_%09d.obj", "f").ok());
+  EXPECT_TRUE(ValidateFramePattern("m_%d.obj", "f").ok());
+  EXPECT_EQ(FormatFramePattern("m_%09d.obj", 12), "m_000000012.obj");
+  for (const char* bad : {"mesh_%999999999d.obj", "m_%010d.obj", "m_%099999999999999999999d.obj"}) {
+    const absl::Status s = ValidateFramePattern(bad, "scene.mesh.path");
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_NE(s.message().find("scene.mesh.path: a frame number is at most 9 digits"), std::string::npos)
+        << s.message();
+    EXPECT_FALSE(IsFramePattern(bad)) << bad;
+  }
+  for (const char* bad : {"m_%5d.obj", "m_%-4d.obj", "m_%+d.obj", "m_% d.obj", "m_%00d.obj", "m_%ld.obj"}) {
+    const absl::Status s = ValidateFramePattern(bad, "scene.mesh.path");
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << bad;
+    EXPECT_NE(s.message().find("scene.mesh.path"), std::string::npos) << s.message();
+  }
+  // A long pattern is echoed in part.
+  const std::string huge = "m_%s" + std::string(1 << 20, 'x');
+  const absl::Status s = ValidateFramePattern(huge, "f");
+  EXPECT_LT(s.message().size(), 400u);
+  EXPECT_NE(s.message().find("... (1048580 characters)"), std::string::npos) << s.message();
+  // A path no file system has is echoed in part too.
+  const auto missing = ReadFileToString(std::string(1 << 20, 'p'));
+  EXPECT_EQ(missing.status().code(), absl::StatusCode::kNotFound);
+  EXPECT_LT(missing.status().message().size(), kMaxShownPathChars + 100);
+}
+
 TEST(FilesTest, WriteThenReadRoundTrips) {
   const auto dir = std::filesystem::temp_directory_path() / "mvbrdf_files_test";
   std::filesystem::remove_all(dir);

@@ -15,12 +15,17 @@
 namespace mvbrdf {
 
 // Parses JSON into `message`. Unknown fields are an error (a typo in a field
-// name must not be silently ignored). `origin` names the source in errors.
+// name must not be silently ignored), and so is a key given twice in one
+// object ("duplicate key \"fx\" in cameras[0].intrinsics"). `origin` names
+// the source in errors.
 absl::Status JsonToMessage(absl::string_view json, absl::string_view origin, google::protobuf::Message* message);
 
 // Pretty-printed JSON with lowerCamelCase names; fields at their default
 // values are left out.
 std::string MessageToJson(const google::protobuf::Message& message);
+// The same with every field printed, also at its default value (a result
+// whose `false` or `0` is the answer, e.g. configurationCorrect).
+std::string MessageToJsonWithDefaults(const google::protobuf::Message& message);
 
 absl::Status ReadJsonFile(const std::filesystem::path& path, google::protobuf::Message* message);
 absl::Status WriteJsonFile(const std::filesystem::path& path, const google::protobuf::Message& message);

@@ -58,6 +58,22 @@ TEST(ProtoJsonTest, UnknownFieldIsAnErrorNamingTheOrigin) {
   EXPECT_NE(s.message().find("meshh"), std::string::npos) << s.message();
 }
 
+// Issue #19: duplicate keys were accepted silently (the last one won).
+TEST(ProtoJsonTest, DuplicateKeyIsAnErrorNamingItsPath) {
+  v1::Scene scene;
+  absl::Status s = JsonToMessage(R"({"cameras": [{"name": "a"}, {"name": "b", "intrinsics": {"fx": 1, "fx": 2}}]})",
+                                 "scene.json", &scene);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("scene.json: duplicate key \"fx\" in cameras[1].intrinsics"), std::string::npos)
+      << s.message();
+  s = JsonToMessage(R"({"name": "x", "frames": {"count": 2}, "name": "y"})", "scene.json", &scene);
+  EXPECT_NE(s.message().find("duplicate key \"name\" in the top level"), std::string::npos) << s.message();
+  // Equal keys in different objects, and keys inside strings, are fine.
+  EXPECT_TRUE(
+      JsonToMessage(R"({"name": "a \"name\": {", "cameras": [{"name": "a"}, {"name": "b"}]})", "scene.json", &scene)
+          .ok());
+}
+
 TEST(ProtoJsonTest, MalformedJsonIsAnError) {
   v1::Scene scene;
   EXPECT_FALSE(JsonToMessage(R"({"name": )", "scene.json", &scene).ok());

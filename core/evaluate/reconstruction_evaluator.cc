@@ -8,6 +8,7 @@
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/image/exr.h"
+#include "core/scene/fingerprint.h"
 #include "core/synth/ground_truth.h"
 
 namespace mvbrdf::evaluate {
@@ -19,6 +20,26 @@ absl::StatusOr<cv::Mat> ReadImage(const std::filesystem::path& file, int type, i
     return absl::InvalidArgumentError(absl::StrCat(file.string(), ": unexpected image type or size"));
   }
   return exr.image;
+}
+
+// The truth's idea of the scene: its own fingerprint when synth wrote one,
+// else what every truth file has (triangle count, cameras as rendered).
+v1::SceneFingerprint TruthFingerprint(const v1::GroundTruth& truth) {
+  v1::SceneFingerprint fp = truth.scene();
+  if (fp.mesh_triangles() == 0) fp.set_mesh_triangles(static_cast<uint64_t>(truth.triangle_materials_size()));
+  if (fp.cameras_size() == 0) {
+    for (const v1::Camera& c : truth.cameras()) {
+      v1::CameraFingerprint* f = fp.add_cameras();
+      f->set_name(c.name());
+      f->set_width(c.width());
+      f->set_height(c.height());
+      f->set_fx(c.intrinsics().fx());
+      f->set_fy(c.intrinsics().fy());
+      f->set_cx(c.intrinsics().cx());
+      f->set_cy(c.intrinsics().cy());
+    }
+  }
+  return fp;
 }
 
 double RelativeError(double value, double truth) {
@@ -34,6 +55,15 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   if (!std::filesystem::exists(truth_file)) truth_file = truth_path / "ground_truth" / "truth.json";
   MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth truth, synth::GroundTruth::Load(truth_file));
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
+  // A truth of another scene must not give figures (it gave
+  // "configurationCorrect": true for another mesh and other cameras).
+  if (run.has_input()) {
+    const absl::Status same =
+        scene::CompareFingerprints(run.input(), TruthFingerprint(truth.message()),
+                                   absl::StrCat("the run (", (run_dir / "result.json").string(), ")"),
+                                   absl::StrCat("the truth (", truth_file.string(), ")"));
+    if (!same.ok()) return absl::InvalidArgumentError(absl::StrCat("--truth: ", same.message()));
+  }
 
   v1::EvaluationReport report;
   report.set_chosen_configuration(run.chosen_configuration());
@@ -67,6 +97,11 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
       const float count = confidence.at<float>(y, x);
       const cv::Vec4f& p = rest.at<cv::Vec4f>(y, x);
       if (tri < 0 || count <= 0.0f || p[3] < 0.5f) continue;
+      if (tri >= truth.message().triangle_materials_size()) {
+        return absl::InvalidArgumentError(absl::StrCat("--truth: the run's atlas names triangle ", tri,
+                                                       ", the truth has ", truth.message().triangle_materials_size(),
+                                                       " triangles (not the same mesh)"));
+      }
       const glm::vec2 uv((x + 0.5f) / size, 1.0f - (y + 0.5f) / size);
       const render::PhongParams t = truth.At(static_cast<uint32_t>(tri), {p[0], p[1], p[2]}, uv);
       const cv::Vec3f& k = kd.at<cv::Vec3f>(y, x);

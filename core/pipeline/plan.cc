@@ -57,12 +57,38 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   if (!request.light_table && !request.brdf_atlases && !request.correction && !request.camera_errors) {
     return absl::InvalidArgumentError("outputs: nothing requested (light table, BRDF atlases, correction, errors)");
   }
-  if (!request.configuration.empty()) {
-    bool known = false;
-    for (const auto& c : scene.light_configurations()) known = known || c.name() == request.configuration;
-    if (!known) {
-      return absl::InvalidArgumentError(absl::StrCat("--config: the scene has no light configuration \"",
-                                                     request.configuration, "\""));
+  const auto known = [&](const std::string& name) {
+    for (const auto& c : scene.light_configurations()) {
+      if (c.name() == name) return true;
+    }
+    return false;
+  };
+  const auto known_list = [&]() {
+    std::vector<std::string> names;
+    for (const auto& c : scene.light_configurations()) names.push_back(absl::StrCat("\"", c.name(), "\""));
+    return names.empty() ? std::string("none") : absl::StrJoin(names, ", ");
+  };
+  if (!request.configuration.empty() && !known(request.configuration)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--config: the scene has no light configuration \"", request.configuration, "\""));
+  }
+  if (!request.configuration.empty() && !request.candidates.empty()) {
+    return absl::InvalidArgumentError("--config: give either a known configuration or --candidates to sweep, not both");
+  }
+  for (size_t i = 0; i < request.candidates.size(); ++i) {
+    const std::string& name = request.candidates[i];
+    if (name.empty()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--candidates: configuration ", i + 1, " is empty (names are separated by ';')"));
+    }
+    if (!known(name)) {
+      return absl::InvalidArgumentError(absl::StrCat("--candidates: the scene has no light configuration \"", name,
+                                                     "\" (it has ", known_list(), ")"));
+    }
+    for (size_t j = 0; j < i; ++j) {
+      if (request.candidates[j] == name) {
+        return absl::InvalidArgumentError(absl::StrCat("--candidates: \"", name, "\" is listed twice"));
+      }
     }
   }
   // Everything beyond the light table needs the reflectance stages.
@@ -79,6 +105,14 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   if (!request.configuration.empty()) {
     plan.fixed_configuration = request.configuration;
     skip(Stage::kLightSweep, absl::StrCat("configuration given: ", request.configuration));
+  } else if (request.candidates.size() == 1) {
+    plan.fixed_configuration = request.candidates[0];
+    skip(Stage::kLightSweep, absl::StrCat("one candidate configuration: ", plan.fixed_configuration));
+  } else if (!request.candidates.empty()) {
+    plan.candidates = request.candidates;
+    run(Stage::kLightSweep,
+        absl::StrCat(plan.candidates.size(), " candidate configurations (of the scene's ",
+                     scene.light_configurations_size(), "): ", absl::StrJoin(plan.candidates, "; ")));
   } else if (scene.light_configurations_size() == 1) {
     plan.fixed_configuration = scene.light_configurations(0).name();
     skip(Stage::kLightSweep, absl::StrCat("one candidate configuration: ", plan.fixed_configuration));
@@ -86,6 +120,7 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
     plan.fixed_configuration = "";  // all lights on
     skip(Stage::kLightSweep, "no candidate configurations: every light is on");
   } else {
+    for (const auto& c : scene.light_configurations()) plan.candidates.push_back(c.name());
     run(Stage::kLightSweep, absl::StrCat(scene.light_configurations_size(), " candidate configurations"));
   }
 

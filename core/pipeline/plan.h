@@ -22,6 +22,9 @@ struct RunRequest {
   bool compare_solvers = true;  // Table 6.2: Powell beside Levenberg-Marquardt
   // A known configuration (by name): the sweep is not needed.
   std::string configuration;
+  // The configurations to sweep (names of the scene's), in this order; empty:
+  // every configuration of the scene. One is the same as `configuration`.
+  std::vector<std::string> candidates;
 };
 
 enum class Stage {
@@ -48,6 +51,9 @@ struct Plan {
   std::vector<v1::SkippedStage> skipped;
   // The configuration used when the sweep is skipped (or empty when it runs).
   std::string fixed_configuration;
+  // The configurations the sweep fits, in order, when it runs (the request's
+  // candidates, else the scene's).
+  std::vector<std::string> candidates;
 
   bool Has(Stage stage) const;
   void ToProto(v1::Plan* plan) const;
@@ -55,8 +61,9 @@ struct Plan {
   std::string Describe() const;
 };
 
-// INVALID_ARGUMENT when the request names an unknown configuration or asks
-// for nothing.
+// INVALID_ARGUMENT when the request names an unknown configuration (given or
+// as a candidate; "--config" and "--candidates" name the flags in the
+// message), an empty or repeated candidate, both, or asks for nothing.
 absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest& request);
 
 }  // namespace mvbrdf::pipeline

@@ -42,6 +42,50 @@ TEST(PlanTest, FullSceneRunsEverything) {
   EXPECT_NE(plan->Describe().find("run   light_sweep: 8 candidate configurations"), std::string::npos);
 }
 
+// Issue #19 defect 8: the plan said "8 candidate configurations" when two
+// were swept, and --direct swept all 8 whatever --candidates said.
+TEST(PlanTest, CandidatesAreWhatTheSweepFitsAndThePlanCountsThem) {
+  RunRequest request;
+  request.candidates = {"config5", "config2"};
+  auto plan = MakePlan(MakeSequence(8, 30, false, true), request);
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  EXPECT_TRUE(plan->Has(Stage::kLightSweep));
+  EXPECT_EQ(plan->candidates, request.candidates);
+  EXPECT_NE(plan->Describe().find("run   light_sweep: 2 candidate configurations (of the scene's 8): config5; config2"),
+            std::string::npos)
+      << plan->Describe();
+  // Without candidates: the scene's, all of them.
+  plan = MakePlan(MakeSequence(3, 30, false, true), {});
+  ASSERT_TRUE(plan.ok());
+  EXPECT_EQ(plan->candidates, (std::vector<std::string>{"config0", "config1", "config2"}));
+  // One candidate is a known configuration.
+  request.candidates = {"config4"};
+  plan = MakePlan(MakeSequence(8, 30, false, true), request);
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->Has(Stage::kLightSweep));
+  EXPECT_EQ(plan->fixed_configuration, "config4");
+}
+
+TEST(PlanTest, UnknownEmptyOrRepeatedCandidatesAreErrorsNamingTheFlag) {
+  const scene::Sequence seq = MakeSequence(3, 30, false, true);
+  RunRequest request;
+  request.candidates = {"config1", "NE,NW"};
+  auto plan = MakePlan(seq, request);
+  EXPECT_EQ(plan.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(plan.status().message().find("--candidates: the scene has no light configuration \"NE,NW\""),
+            std::string::npos)
+      << plan.status();
+  request.candidates = {"config1", ""};
+  EXPECT_NE(MakePlan(seq, request).status().message().find("--candidates: configuration 2 is empty"),
+            std::string::npos);
+  request.candidates = {"config1", "config1"};
+  EXPECT_NE(MakePlan(seq, request).status().message().find("--candidates: \"config1\" is listed twice"),
+            std::string::npos);
+  request.candidates = {"config1", "config2"};
+  request.configuration = "config0";
+  EXPECT_NE(MakePlan(seq, request).status().message().find("not both"), std::string::npos);
+}
+
 TEST(PlanTest, OneCandidateConfigurationSkipsTheSweep) {
   auto plan = MakePlan(MakeSequence(1, 30, false, true), {});
   ASSERT_TRUE(plan.ok());

@@ -24,6 +24,7 @@
 #include "core/pipeline/texel_reservoir.h"
 #include "core/resample/atlas_ops.h"
 #include "core/samples/sample_set.h"
+#include "core/scene/fingerprint.h"
 #include "core/scene/mesh_loader.h"
 #include "core/scene/video_source.h"
 
@@ -153,6 +154,33 @@ inline float SpecularSum(const float* h, const float* a, const std::vector<glm::
   return static_cast<float>(s);
 }
 
+// Why no texel was seen lit, as precisely as pass 1's statistics tell.
+absl::Status NothingLit(const scene::Sequence& sequence, const TexelStatistics& texels, const std::string& chosen,
+                        samples::LightMask mask) {
+  bool observed = false;
+  for (uint32_t n : texels.texel_count) observed = observed || n > 0;
+  if (!observed) {
+    return absl::FailedPreconditionError(
+        "no camera observed any texel of the mesh (every camera's view is blocked, e.g. from inside the mesh, or "
+        "faces only back faces, or its lens distortion maps the mesh outside the image; check scene.cameras' poses "
+        "and intrinsics.distortion)");
+  }
+  bool some_intensity = false;
+  for (size_t k = 0; k < sequence.lights.size(); ++k) {
+    const glm::vec3& i = sequence.lights[k].intensity;
+    if ((mask & (1u << k)) && i.x > 0.0f && i.y > 0.0f && i.z > 0.0f) some_intensity = true;
+  }
+  if (!some_intensity) {
+    return absl::FailedPreconditionError(absl::StrCat("light configuration \"", chosen,
+                                                      "\": no light of it has intensity > 0 in every channel, so no "
+                                                      "observed texel is lit (scene.lights[].intensity)"));
+  }
+  return absl::FailedPreconditionError(absl::StrCat(
+      "light configuration \"", chosen,
+      "\": every texel the cameras observed is unlit by its lights (they face away from the observed surfaces or are "
+      "shadowed on all of them; check scene.lights' positions and directions)"));
+}
+
 inline glm::vec3 IlluminationOf(const float* g, const std::vector<glm::vec3>& intensity, samples::LightMask mask) {
   glm::vec3 s(0.0f);
   for (size_t k = 0; k < intensity.size(); ++k) {
@@ -170,10 +198,49 @@ absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, cons
   report.set_frames(static_cast<uint32_t>(sequence.num_frames));
   report.set_gl_renderer(gl_renderer);
   report.set_configuration_rule("lowest E_d; E_a breaks ties");
+  *report.mutable_input() = scene::Fingerprint(sequence);
   MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
   plan.ToProto(report.mutable_plan());
   NoteSweepFrames(options, sequence.num_frames, report.mutable_plan());
   return report;
+}
+
+absl::Status CheckMetricsFinite(const v1::RunReport& report) {
+  const auto bad = [](absl::string_view what, double value) {
+    return absl::FailedPreconditionError(
+        absl::StrCat(what, " is ", value,
+                     ", not a finite number (input values out of range? e.g. light intensities "
+                     "or coordinates far beyond the scene's scale, or frames of nothing but 0 or NaN)"));
+  };
+  for (const v1::LightConfigurationRow& r : report.light_configurations()) {
+    if (!std::isfinite(r.e_a())) return bad(absl::StrCat("light configuration \"", r.name(), "\": E_a"), r.e_a());
+    if (!std::isfinite(r.e_d())) return bad(absl::StrCat("light configuration \"", r.name(), "\": E_d"), r.e_d());
+  }
+  for (const v1::SolverRow& r : report.solvers()) {
+    const std::string row = absl::StrCat("cluster \"", r.cluster(), "\" (", r.solver(), "): ");
+    if (!std::isfinite(r.final_cost())) return bad(row + "final cost", r.final_cost());
+    if (!std::isfinite(r.mse())) return bad(row + "MSE", r.mse());
+    for (int c = 0; c < r.kd_size(); ++c) {
+      if (!std::isfinite(r.kd(c))) return bad(absl::StrCat(row, "kd[", c, "]"), r.kd(c));
+    }
+    for (int c = 0; c < r.ks_size(); ++c) {
+      if (!std::isfinite(r.ks(c))) return bad(absl::StrCat(row, "ks[", c, "]"), r.ks(c));
+    }
+    for (int c = 0; c < r.ke_size(); ++c) {
+      if (!std::isfinite(r.ke(c))) return bad(absl::StrCat(row, "ke[", c, "]"), r.ke(c));
+    }
+  }
+  for (const v1::CameraErrorRow& r : report.cameras()) {
+    const std::string row = absl::StrCat("camera \"", r.name(), "\": ");
+    if (r.has_mse_brdf() && !std::isfinite(r.mse_brdf())) return bad(row + "MSE with the BRDF atlases", r.mse_brdf());
+    if (r.has_mse_correction() && !std::isfinite(r.mse_correction())) {
+      return bad(row + "MSE with the correction atlases", r.mse_correction());
+    }
+  }
+  if (!std::isfinite(report.configuration_margin())) {
+    return bad("the configuration margin", report.configuration_margin());
+  }
+  return absl::OkStatus();
 }
 
 int SweepFrameStride(const ReconstructOptions& options, int num_frames) {
@@ -248,9 +315,12 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     report.set_configuration_warning(options.light_table->configuration_warning());
     chosen = options.light_table->chosen_configuration();
   } else if (plan.Has(Stage::kLightSweep)) {
+    // What the plan sweeps: the request's candidates, else the scene's.
     std::vector<fit::LightConfiguration> configs;
-    for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
-      configs.push_back({c.name(), {c.lights().begin(), c.lights().end()}});
+    for (const std::string& name : plan.candidates) {
+      for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
+        if (c.name() == name) configs.push_back({c.name(), {c.lights().begin(), c.lights().end()}});
+      }
     }
     MVBRDF_ASSIGN_OR_RETURN(const fit::SweepResult sweep,
                             fit::SweepConfigurations(g.triangle_samples, atlas.topology.triangles.size(), configs,
@@ -279,6 +349,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   report.set_chosen_configuration(chosen);
   g.triangle_samples = samples::SampleSet();  // no longer needed
   if (!reflectance) {
+    MVBRDF_RETURN_IF_ERROR(CheckMetricsFinite(report));
     report.set_seconds(Since(start));
     report.set_peak_rss_bytes(PeakRssBytes());
     MVBRDF_RETURN_IF_ERROR(WriteJsonFile(out / "result.json", report));
@@ -306,7 +377,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     km_input.weights.push_back(static_cast<float>((illumination.x + illumination.y + illumination.z) / 3.0));
   }
   g.texels->texel_g_sum = {};
-  if (seen_texels.empty()) return absl::FailedPreconditionError("no texel was seen lit by any camera");
+  if (seen_texels.empty()) return NothingLit(sequence, *g.texels, chosen, mask);
   cluster::KMeansOptions km_options;
   for (const v1::MaterialSeed& seed : sequence.scene.material_seeds()) {
     km_options.seeds.push_back(SrgbSeed(seed));
@@ -507,12 +578,20 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
         const glm::dvec3 k(kd.kd[i]);
         brdf_sq += glm::dot(k * k, cam_s_gg[j]) - 2.0 * glm::dot(k, cam_s_gr[j]);
       }
-      const double n = 3.0 * static_cast<double>(std::max<uint64_t>(cam_count[static_cast<size_t>(c)], 1));
       v1::CameraErrorRow* row = report.add_cameras();
       row->set_name(sequence.cameras[c].name);
+      row->set_samples(cam_count[static_cast<size_t>(c)]);
+      if (cam_count[static_cast<size_t>(c)] == 0) {
+        // An error over nothing is not 0: left out, and said loudly.
+        report.add_warnings(
+            absl::StrCat("camera \"", sequence.cameras[c].name,
+                         "\" observed no lit texel in any frame: its errors are absent (is it inside the mesh, behind "
+                         "something, or does its lens distortion map the mesh outside the image?)"));
+        continue;
+      }
+      const double n = 3.0 * static_cast<double>(cam_count[static_cast<size_t>(c)]);
       row->set_mse_brdf(std::max(0.0, brdf_sq) / n);
       row->set_mse_correction(cam_corr_sq[static_cast<size_t>(c)] / n);
-      row->set_samples(cam_count[static_cast<size_t>(c)]);
     }
   }
 
@@ -583,6 +662,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   std::error_code ec;
   std::filesystem::remove_all(observed_dir, ec);
   AddStage(&report, "write_atlases", Since(t0), options.progress);
+  MVBRDF_RETURN_IF_ERROR(CheckMetricsFinite(report));
 
   report.set_seconds(Since(start));
   report.set_peak_rss_bytes(PeakRssBytes());

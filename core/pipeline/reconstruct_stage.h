@@ -101,6 +101,13 @@ constexpr int kMaxSweepFrames = 64;
 absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, const ReconstructOptions& options,
                                            const std::string& gl_renderer);
 
+// FAILED_PRECONDITION naming the metric and its row (configuration, cluster
+// and solver, or camera) when any figure of the report is NaN or infinite:
+// a result that says "Infinity" is no result. The likely cause is input
+// values far out of range (e.g. light intensities), which scene validation
+// bounds; this is the backstop for what it cannot foresee.
+absl::Status CheckMetricsFinite(const v1::RunReport& report);
+
 // The stride the light sweep uses on a sequence of `num_frames` frames.
 int SweepFrameStride(const ReconstructOptions& options, int num_frames);
 

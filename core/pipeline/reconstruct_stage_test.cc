@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
+#include <limits>
+
 #include "core/evaluate/reconstruction_evaluator.h"
 #include "core/image/exr.h"
 #include "core/synth/synthesizer.h"
@@ -109,12 +112,53 @@ TEST_F(ReconstructStageTest, LightTableOnlyComputesNothingElse) {
   options.request.brdf_atlases = options.request.correction = options.request.camera_errors = false;
   options.sweep_frame_stride = 3;  // every third frame is enough to fill the table
   options.out_dir = dir_ / "light_only";
+  // Issue #19 defect 8: the one-process sweep fitted all 8 configurations
+  // whatever the request's candidates said. It sweeps those, in order.
+  options.request.candidates = {"C", "NE,NW,SE,SW", "N,E,W,S"};
   auto report = RunReconstruction(*sequence, *context_, options);
   ASSERT_TRUE(report.ok()) << report.status();
-  EXPECT_EQ(report->light_configurations_size(), 8);
+  ASSERT_EQ(report->light_configurations_size(), 3);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(report->light_configurations(i).name(), options.request.candidates[i]);
+  std::string why;
+  for (const v1::PlannedStage& stage : report->plan().stages()) {
+    if (stage.name() == "light_sweep") why = stage.why();
+  }
+  EXPECT_EQ(why.rfind("3 candidate configurations (of the scene's 8)", 0), 0u) << why;
+  // What the run ran on, for `mvbrdf evaluate`.
+  EXPECT_EQ(report->input().mesh_triangles(), sequence->topology.triangles.size());
+  EXPECT_EQ(report->input().cameras_size(), static_cast<int>(sequence->cameras.size()));
   EXPECT_EQ(report->clusters_size(), 0);
   EXPECT_EQ(report->cameras_size(), 0);
   EXPECT_FALSE(std::filesystem::exists(dir_ / "light_only" / "atlases"));
+}
+
+// Issue #19 defect 7: "mseBrdf": "Infinity" in a SUCCEEDED job. Any
+// non-finite figure is an error naming the figure and its row.
+TEST(CheckMetricsFiniteTest, NamesTheMetricAndItsRow) {
+  v1::RunReport report;
+  report.add_light_configurations()->set_name("C");
+  v1::CameraErrorRow* cam = report.add_cameras();
+  cam->set_name("cam3");
+  cam->set_mse_brdf(0.01);
+  EXPECT_TRUE(CheckMetricsFinite(report).ok());
+  report.add_cameras()->set_name("blind");  // no observation: the MSE is absent, which is fine
+  EXPECT_TRUE(CheckMetricsFinite(report).ok());
+  cam->set_mse_brdf(std::numeric_limits<double>::infinity());
+  absl::Status s = CheckMetricsFinite(report);
+  EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(s.message().find("camera \"cam3\": MSE with the BRDF atlases is inf, not a finite number (input values "
+                             "out of range? e.g. light intensities"),
+            std::string::npos)
+      << s.message();
+  cam->set_mse_brdf(0.01);
+  report.mutable_light_configurations(0)->set_e_d(std::nan(""));
+  EXPECT_NE(CheckMetricsFinite(report).message().find("light configuration \"C\": E_d is nan"), std::string::npos);
+  report.mutable_light_configurations(0)->set_e_d(1.0);
+  v1::SolverRow* solver = report.add_solvers();
+  solver->set_cluster("skin");
+  solver->set_solver("powell");
+  for (double v : {0.1, std::numeric_limits<double>::infinity(), 0.1}) solver->add_ks(v);
+  EXPECT_NE(CheckMetricsFinite(report).message().find("cluster \"skin\" (powell): ks[1] is inf"), std::string::npos);
 }
 
 }  // namespace

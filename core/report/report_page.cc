@@ -109,6 +109,7 @@ std::string BuildReportHtml(const ReportInputs& in) {
   }
   h += ". Rule: " + Escape(run.configuration_rule()) + ".</p>";
   if (!run.configuration_warning().empty()) h += "<p class=\"warning\">" + Escape(run.configuration_warning()) + "</p>";
+  for (const std::string& w : run.warnings()) h += "<p class=\"warning\">warning: " + Escape(w) + "</p>";
 
   if (in.evaluation.has_value()) {
     const v1::EvaluationReport& e = *in.evaluation;
@@ -190,6 +191,10 @@ std::string BuildReportHtml(const ReportInputs& in) {
     std::vector<std::string> names;
     BarSeries brdf{"BRDF atlases", {}, "#dc3912"}, corrected{"with correction atlas", {}, "#3366cc"};
     for (const v1::CameraErrorRow& c : run.cameras()) {
+      if (!c.has_mse_brdf()) {  // observed nothing: no error to draw (the warnings say so)
+        rows.push_back({c.name(), "absent", "absent", absl::StrCat(c.samples())});
+        continue;
+      }
       rows.push_back({c.name(), F(c.mse_brdf(), "%.6f"), F(c.mse_correction(), "%.6f"), absl::StrCat(c.samples())});
       names.push_back(c.name());
       brdf.values.push_back(c.mse_brdf());

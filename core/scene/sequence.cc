@@ -28,6 +28,13 @@ namespace {
 // rounding error from a matrix that is not a rotation.
 constexpr double kRotationTolerance = 1e-6;
 constexpr double kUnitLengthTolerance = 1e-6;
+// Light intensities and positions are used in float arithmetic (shading,
+// squared residuals of the fits): 1e30 squared overflows to inf and came
+// out as "mseBrdf": "Infinity". Video is in [0, 1], so a light a million
+// times brighter than the model's unit light, or a million world units away,
+// is a typo or an attack, never a capture.
+constexpr double kMaxIntensity = 1e6;
+constexpr double kMaxLightCoordinate = 1e6;
 
 absl::Status Invalid(absl::string_view field, absl::string_view message) {
   return absl::InvalidArgumentError(absl::StrCat(field, ": ", message));
@@ -37,6 +44,7 @@ std::string Num(double v) { return absl::StrFormat("%g", v); }
 
 absl::Status CheckPositive(const std::string& field, double v) {
   if (std::isfinite(v) && v > 0.0) return absl::OkStatus();
+  if (!std::isfinite(v)) return Invalid(field, absl::StrCat("must be a finite number > 0, got ", Num(v)));
   return Invalid(field, absl::StrCat("must be > 0, got ", Num(v)));
 }
 
@@ -101,8 +109,8 @@ absl::Status CheckReferences(const std::string& field, const google::protobuf::R
 // bundle on the server) never makes anyone read a file outside its directory.
 absl::Status CheckInsideSceneDir(const std::string& field, const std::string& path) {
   auto bad = [&](absl::string_view why) {
-    return Invalid(
-        field, absl::StrCat("must be a relative path inside the scene's directory (", why, "), got \"", path, "\""));
+    return Invalid(field, absl::StrCat("must be a relative path inside the scene's directory (", why, "), got \"",
+                                       ElideForMessage(path, kMaxShownPathChars), "\""));
   };
   if (path.front() == '/' || std::filesystem::path(path).is_absolute()) return bad("not absolute");
   if (path.find('\\') != std::string::npos) return bad("'/' separates directories, not '\\'");
@@ -180,6 +188,15 @@ absl::Status ValidateLight(const v1::Light& light, const std::string& f) {
   if (point) {
     MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".position", light.position_size(), 3, "x, y, z"));
     MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(f + ".position", light.position()));
+    for (int i = 0; i < 3; ++i) {
+      if (std::abs(light.position(i)) > kMaxLightCoordinate) {
+        return Invalid(absl::StrCat(f, ".position[", i, "]"),
+                       absl::StrCat("must be within +-", Num(kMaxLightCoordinate),
+                                    " (world units; use a direction "
+                                    "for a distant light), got ",
+                                    Num(light.position(i))));
+      }
+    }
   } else {
     MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".direction", light.direction_size(), 3, "x, y, z"));
     MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(f + ".direction", light.direction()));
@@ -194,8 +211,10 @@ absl::Status ValidateLight(const v1::Light& light, const std::string& f) {
     MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".intensity", light.intensity_size(), 3, "linear R, G, B; or none for 1"));
     for (int i = 0; i < 3; ++i) {
       const double v = light.intensity(i);
-      if (!std::isfinite(v) || v < 0.0) {
-        return Invalid(absl::StrCat(f, ".intensity[", i, "]"), absl::StrCat("must be finite and >= 0, got ", Num(v)));
+      if (!std::isfinite(v) || v < 0.0 || v > kMaxIntensity) {
+        return Invalid(absl::StrCat(f, ".intensity[", i, "]"),
+                       absl::StrCat("must be a finite number in [0, ", Num(kMaxIntensity),
+                                    "] (linear RGB; 1 is the model's unit light), got ", Num(v)));
       }
     }
   }
@@ -279,6 +298,17 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
     MVBRDF_RETURN_IF_ERROR(lights.Add(i, scene.lights(i).name()));
     MVBRDF_RETURN_IF_ERROR(ValidateLight(scene.lights(i), absl::StrCat("scene.lights[", i, "]")));
   }
+  // Nothing lit, nothing to reconstruct: said here, not as "no texel was seen
+  // lit" after a whole pass over the frames.
+  if (scene.lights_size() == 0) {
+    return Invalid("scene.lights", "at least one light is required (nothing is lit without one)");
+  }
+  bool some_light = false;
+  for (const v1::Light& light : scene.lights()) {
+    if (light.intensity_size() == 0) some_light = true;  // (1, 1, 1)
+    for (double v : light.intensity()) some_light = some_light || v > 0.0;
+  }
+  if (!some_light) return Invalid("scene.lights", "every light's intensity is 0 (nothing is lit)");
   NameRegistry configurations("scene.light_configurations", "name");
   for (int i = 0; i < scene.light_configurations_size(); ++i) {
     const v1::LightConfiguration& c = scene.light_configurations(i);
@@ -392,6 +422,18 @@ absl::Status ProbeVideo(const Sequence& seq, int i) {
   return absl::OkStatus();
 }
 
+// Every used frame decodes at the camera's size and bit depth: a video that
+// ends early, or one later frame of another size or depth, fails here as it
+// would halfway through a run.
+absl::Status ReadEveryVideoFrame(const Sequence& seq, int i) {
+  const v1::Camera& camera = seq.scene.cameras(i);
+  const std::string field = absl::StrCat("scene.cameras[", i, "]");
+  MVBRDF_ASSIGN_OR_RETURN(
+      auto source, VideoSource::Open(camera, seq.scene_dir, static_cast<int>(seq.scene.frames().first()), field));
+  for (int t = 0; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(source->ReadFrame(t).status());
+  return absl::OkStatus();
+}
+
 // Every later frame's mesh file exists (a stat each; the content is read when
 // check_all_frames asks or when the frame is used), so that a bundle without
 // one fails when it is submitted, not halfway through a job.
@@ -402,8 +444,8 @@ absl::Status CheckMeshFramesExist(const Sequence& seq) {
     const std::filesystem::path file = ResolvePath(seq.scene_dir, MeshFramePath(seq.scene, absolute));
     std::error_code ec;
     if (!std::filesystem::is_regular_file(file, ec)) {
-      return absl::NotFoundError(
-          absl::StrCat("scene.mesh.path (frame ", absolute, "): mesh file not found: ", file.string()));
+      return absl::NotFoundError(absl::StrCat("scene.mesh.path (frame ", absolute, "): mesh file not found: ",
+                                              ElideForMessage(file.string(), kMaxShownPathChars)));
     }
   }
   return absl::OkStatus();
@@ -497,12 +539,19 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
                           LoadMesh(ResolvePath(seq.scene_dir, MeshFramePath(scene, first)), mesh_field));
   seq.topology = std::move(mesh.topology);
   seq.rest_positions = std::move(mesh.positions);
+  if (!seq.topology.triangles.empty() && seq.topology.zero_area_triangles.size() == seq.topology.triangles.size()) {
+    return Invalid(mesh_field, absl::StrCat("all ", seq.topology.triangles.size(),
+                                            " triangles have zero area in frame 0: there is no surface to resample"));
+  }
   if (options.check_all_frames && !seq.is_static_mesh()) {
     for (int t = 1; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(seq.LoadFrame(t).status());
   }
   if (!scene.segmentation_path().empty()) MVBRDF_RETURN_IF_ERROR(CheckSegmentation(seq));
   if (options.probe_videos) {
     for (int i = 0; i < scene.cameras_size(); ++i) MVBRDF_RETURN_IF_ERROR(ProbeVideo(seq, i));
+  }
+  if (options.read_every_video_frame) {
+    for (int i = 0; i < scene.cameras_size(); ++i) MVBRDF_RETURN_IF_ERROR(ReadEveryVideoFrame(seq, i));
   }
   for (const v1::Camera& camera : scene.cameras()) seq.cameras.push_back(CameraModelFromProto(camera));
   for (int i = 0; i < scene.cameras_size(); ++i) MVBRDF_RETURN_IF_ERROR(CheckCameraSeesMesh(seq, i));

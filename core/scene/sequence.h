@@ -23,6 +23,10 @@ struct LoadOptions {
   bool check_all_frames = true;
   // Open every video to check its frame size and frame count.
   bool probe_videos = true;
+  // Decode every used frame of every video (size, bit depth, the video not
+  // ending early), as a run will: what `mvbrdf validate` does unless --quick.
+  // Off: only what probe_videos checks (a container's stated frame count).
+  bool read_every_video_frame = false;
 };
 
 struct Sequence {

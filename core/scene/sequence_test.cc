@@ -112,7 +112,7 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
   static const auto* cases = new std::vector<MessageErrorCase>{
       {"MeshPathEmpty", [](v1::Scene* s) { s->mutable_mesh()->clear_path(); }, "scene.mesh.path: required"},
       {"MeshPathBadPattern", [](v1::Scene* s) { s->mutable_mesh()->set_path("mesh_%s.obj"); },
-       "scene.mesh.path: expected at most one integer conversion"},
+       "scene.mesh.path: expected at most one frame conversion"},
       {"MeshPathTwoConversions", [](v1::Scene* s) { s->mutable_mesh()->set_path("m%d_%d.obj"); }, "scene.mesh.path"},
       {"FrameCountZero", [](v1::Scene* s) { s->mutable_frames()->set_count(0); },
        "scene.frames.count: must be > 0, got 0"},
@@ -120,7 +120,8 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"FpsZero", [](v1::Scene* s) { s->mutable_frames()->set_fps(0); }, "scene.frames.fps: must be > 0, got 0"},
       {"FpsNegative", [](v1::Scene* s) { s->mutable_frames()->set_fps(-25); },
        "scene.frames.fps: must be > 0, got -25"},
-      {"FpsNan", [](v1::Scene* s) { s->mutable_frames()->set_fps(kNan); }, "scene.frames.fps: must be > 0, got nan"},
+      {"FpsNan", [](v1::Scene* s) { s->mutable_frames()->set_fps(kNan); },
+       "scene.frames.fps: must be a finite number > 0, got nan"},
       {"NoCameras", [](v1::Scene* s) { s->clear_cameras(); }, "scene.cameras: at least one camera"},
       {"CameraNameEmpty", [](v1::Scene* s) { s->mutable_cameras(1)->clear_name(); },
        "scene.cameras[1].name: must not be empty"},
@@ -132,7 +133,7 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"FxNegative", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_intrinsics()->set_fx(-1); },
        "scene.cameras[1].intrinsics.fx: must be > 0, got -1"},
       {"FxNan", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_intrinsics()->set_fx(kNan); },
-       "scene.cameras[1].intrinsics.fx: must be > 0, got nan"},
+       "scene.cameras[1].intrinsics.fx: must be a finite number > 0, got nan"},
       {"FyZero", [](v1::Scene* s) { s->mutable_cameras(0)->mutable_intrinsics()->set_fy(0); },
        "scene.cameras[0].intrinsics.fy: must be > 0, got 0"},
       {"CxInfinite", [](v1::Scene* s) { s->mutable_cameras(0)->mutable_intrinsics()->set_cx(kInf); },
@@ -177,7 +178,13 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"VideoPathEmpty", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->clear_path(); },
        "scene.cameras[1].video.path: required"},
       {"VideoPathBadPattern", [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_path("c/%f.png"); },
-       "scene.cameras[1].video.path: expected at most one integer conversion"},
+       "scene.cameras[1].video.path: expected at most one frame conversion"},
+      // Issue #19 defect 12: a 999999999-digit frame number cost 18 s and 5.9 GB.
+      {"MeshPatternTooWide", [](v1::Scene* s) { s->mutable_mesh()->set_path("mesh_%999999999d.obj"); },
+       "scene.mesh.path: a frame number is at most 9 digits wide"},
+      {"VideoPatternTooWide",
+       [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_path("c/%0999999999d.png"); },
+       "scene.cameras[1].video.path: a frame number is at most 9 digits wide"},
       {"VideoEncodingUnknown",
        [](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_encoding(static_cast<v1::ColorEncoding>(7)); },
        "scene.cameras[1].video.encoding: unknown value 7"},
@@ -203,9 +210,35 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"LightIntensitySize", [](v1::Scene* s) { s->mutable_lights(2)->mutable_intensity()->RemoveLast(); },
        "scene.lights[2].intensity: expected 3 values"},
       {"LightIntensityNegative", [](v1::Scene* s) { s->mutable_lights(2)->set_intensity(1, -0.5); },
-       "scene.lights[2].intensity[1]: must be finite and >= 0, got -0.5"},
+       "scene.lights[2].intensity[1]: must be a finite number in [0, 1e+06]"},
       {"LightIntensityInfinite", [](v1::Scene* s) { s->mutable_lights(2)->set_intensity(0, kInf); },
-       "scene.lights[2].intensity[0]: must be finite and >= 0, got inf"},
+       "scene.lights[2].intensity[0]: must be a finite number in [0, 1e+06] (linear RGB; 1 is the model's unit light), "
+       "got inf"},
+      // Issue #19 defect 7: 1e30 overflowed float maths into "mseBrdf": "Infinity".
+      {"LightIntensityOverflowsFloatMaths", [](v1::Scene* s) { s->mutable_lights(2)->set_intensity(2, 1e30); },
+       "scene.lights[2].intensity[2]: must be a finite number in [0, 1e+06]"},
+      {"LightPositionFarAway", [](v1::Scene* s) { s->mutable_lights(1)->set_position(1, -1e30); },
+       "scene.lights[1].position[1]: must be within +-1e+06"},
+      // Issue #19: validate said "valid" for scenes that run then rejected.
+      {"NoLights",
+       [](v1::Scene* s) {
+         s->clear_lights();
+         s->clear_light_configurations();
+         s->clear_frame_lighting();
+       },
+       "scene.lights: at least one light is required"},
+      {"EveryIntensityZero",
+       [](v1::Scene* s) {
+         for (auto& light : *s->mutable_lights()) {
+           light.clear_intensity();
+           for (int c = 0; c < 3; ++c) light.add_intensity(0.0);
+         }
+       },
+       "scene.lights: every light's intensity is 0"},
+      {"FpsInfinite", [](v1::Scene* s) { s->mutable_frames()->set_fps(kInf); },
+       "scene.frames.fps: must be a finite number > 0, got inf"},
+      {"FocalLengthInfinite", [](v1::Scene* s) { s->mutable_cameras(0)->mutable_intrinsics()->set_fx(kInf); },
+       "scene.cameras[0].intrinsics.fx: must be a finite number > 0, got inf"},
       {"ConfigurationNameEmpty", [](v1::Scene* s) { s->mutable_light_configurations(1)->clear_name(); },
        "scene.light_configurations[1].name: must not be empty"},
       {"ConfigurationNameDuplicate", [](v1::Scene* s) { s->mutable_light_configurations(1)->set_name("NE,NW"); },

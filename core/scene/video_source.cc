@@ -264,7 +264,8 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
     const std::string shown = FormatFramePattern(video.path(), first_frame);
     const std::string first = ResolvePath(scene_dir, shown).string();
     if (!std::filesystem::is_regular_file(first, ec)) {
-      return absl::NotFoundError(absl::StrCat(path_field, ": first frame not found: ", shown));
+      return absl::NotFoundError(
+          absl::StrCat(path_field, ": first frame not found: ", ElideForMessage(shown, kMaxShownPathChars)));
     }
     return std::unique_ptr<VideoSource>(
         new ImageSequenceSource(scene_dir, video.path(), first_frame, static_cast<int>(camera.width()),
@@ -272,7 +273,8 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
   }
   const std::string path = ResolvePath(scene_dir, video.path()).string();
   if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(absl::StrCat(path_field, ": video file not found: ", video.path()));
+    return absl::NotFoundError(
+        absl::StrCat(path_field, ": video file not found: ", ElideForMessage(video.path(), kMaxShownPathChars)));
   }
   if (bit_depth != 8) {
     return absl::InvalidArgumentError(

@@ -14,7 +14,9 @@
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/render/phong_renderer.h"
+#include "core/scene/fingerprint.h"
 #include "core/scene/mesh_loader.h"
+#include "core/scene/sequence.h"
 #include "core/scene/video_source.h"
 #include "core/synth/frame_encoder.h"
 #include "core/synth/subject.h"
@@ -313,6 +315,16 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   p->set_lossy_video(options.lossy_video);
   p->set_exposure(options.exposure);
   truth.set_shadow_map_size(static_cast<uint32_t>(options.shadow_map_size));
+  {
+    // The scene as `mvbrdf run` will read it (the mesh as parsed back from
+    // the written file), for `mvbrdf evaluate` to check a run is of it.
+    scene::LoadOptions quick;
+    quick.check_all_frames = false;
+    quick.probe_videos = false;
+    absl::StatusOr<scene::Sequence> written = scene::LoadSequence(scene_file, quick);
+    if (!written.ok()) return written.status();
+    *truth.mutable_scene() = scene::Fingerprint(*written);
+  }
   MVBRDF_RETURN_IF_ERROR(WriteJsonFile(out / "ground_truth" / "truth.json", truth));
 
   result.scene_file = scene_file;

@@ -21,11 +21,9 @@ absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene
   // Outputs and options as every worker will read them (one function for both).
   absl::StatusOr<pipeline::ReconstructOptions> options = worker::ReconstructOptionsFor(request, 1);
   if (!options.ok()) return options.status();
-  pipeline::RunRequest run = options->request;
-  run.configuration.clear();  // decided below, with the candidates checked
+  const pipeline::RunRequest& run = options->request;  // configuration and candidates as the request has them
 
   const v1::Scene& scene = sequence.scene;
-  std::vector<std::string> candidates;
   std::set<std::string> seen;
   for (int i = 0; i < request.configurations_size(); ++i) {
     const std::string& name = request.configurations(i);
@@ -36,29 +34,24 @@ absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene
     if (!seen.insert(name).second) {
       return absl::InvalidArgumentError(absl::StrCat("configurations[", i, "]: \"", name, "\" is listed twice"));
     }
-    candidates.push_back(name);
   }
   if (!request.configuration().empty()) {
     if (!SceneHasConfiguration(scene, request.configuration())) {
       return absl::InvalidArgumentError(absl::StrCat("configuration: the scene has no light configuration \"",
                                                      request.configuration(), "\""));
     }
-    if (!candidates.empty()) {
+    if (request.configurations_size() != 0) {
       return absl::InvalidArgumentError("configuration: give either a known configuration or candidates to sweep");
     }
-    run.configuration = request.configuration();
-  } else if (candidates.size() == 1) {
-    run.configuration = candidates[0];
-  }
-  if (candidates.empty()) {
-    for (const auto& c : scene.light_configurations()) candidates.push_back(c.name());
   }
 
+  // The plan decides what is swept (the candidates, else the scene's), as
+  // for a one-process run.
   absl::StatusOr<pipeline::Plan> plan = pipeline::MakePlan(sequence, run);
   if (!plan.ok()) return plan.status();
   JobPlan job_plan;
   job_plan.plan = *std::move(plan);
-  if (job_plan.plan.Has(pipeline::Stage::kLightSweep)) job_plan.candidates = std::move(candidates);
+  if (job_plan.plan.Has(pipeline::Stage::kLightSweep)) job_plan.candidates = job_plan.plan.candidates;
   return job_plan;
 }
 
