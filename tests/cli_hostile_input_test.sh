@@ -107,6 +107,14 @@ rename camera 'a\u0000b' "$work/nul"
 check "a NUL in a camera name is not 'valid' (defect 13)" 3 "scene.cameras\[0\].name: must not contain control" -- \
   "$bin" validate "$work/nul/scene.json"
 check "a 200-byte name names the limit" 3 "at most 128 bytes" -- "$bin" validate "$work/h${#rejected[@]}/scene.json"
+/usr/bin/python3 -c "
+import json, sys
+s = json.load(open(sys.argv[1])); s['name'] = 'ab\u0000cd\u001b[31m'
+json.dump(s, open(sys.argv[2], 'w'))" "$scene" "$work/b_named.json"
+cp "$work/b_named.json" "$work/b/named.json"
+check "a NUL and ESC in the free-form scene.name: validate's summary is whole and escaped" 0 'ab\\x00cd\\x1b\[31m' -- \
+  "$bin" validate "$work/b/named.json"
+rm -f "$work/b/named.json"
 cp -r "$work/b" "$work/dupe"
 sed -i 's/"cam1"/"cam0"/' "$work/dupe/scene.json"
 check "duplicate camera names are refused" 3 "duplicate" -- "$bin" validate "$work/dupe/scene.json"
