@@ -1,12 +1,12 @@
 // `mvbrdf render DIR --camera NAME_OR_FILE --lights FILE --out IMAGE`: the
 // reconstruction drawn from any camera under any lights.
 #include <cstdio>
-
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/output_dir.h"
 #include "core/atlas/atlas.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -62,6 +62,25 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
   load.check_all_frames = false;
   load.probe_videos = false;
   MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(run.scene(), load));
+  {
+    // Up front: --out is a .png or .exr, and not a file render reads.
+    const std::filesystem::path out_path = out;
+    if (out_path.extension() != ".exr" && out_path.extension() != ".png") {
+      return absl::InvalidArgumentError(absl::StrCat("--out: expected a .png or .exr file, got ", out));
+    }
+    std::vector<InputPath> inputs = SceneInputs(sequence);
+    inputs.push_back({"the run's result.json", run_dir / "result.json", false});
+    for (const char* atlases : {"atlas", "atlases", "atlases/correction"}) {
+      inputs.push_back({absl::StrCat("the run's ", atlases, "/*.exr"), run_dir / atlases / "%04d.exr", true});
+    }
+    inputs.push_back({"--lights", lights_file, false});
+    inputs.push_back({"--camera", camera_arg, false});
+    MVBRDF_RETURN_IF_ERROR(CheckOutputFileSparesInputs("--out", out_path, inputs));
+    std::error_code ec;
+    if (std::filesystem::is_directory(out_path, ec)) {
+      return absl::InvalidArgumentError(absl::StrCat("--out ", out, ": is a directory, expected an image file name"));
+    }
+  }
   if (frame < 0 || frame >= sequence.num_frames) {
     return absl::InvalidArgumentError(absl::StrCat("--frame: must be in [0, ", sequence.num_frames, "), got ", frame));
   }

@@ -1,14 +1,16 @@
 // `mvbrdf report DIR [--out FILE.html]`: the HTML report of a reconstruction
 // (core/report/report_page.h) — one self-contained file, viewable offline.
+#include <stdlib.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
-#include <fstream>
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
+#include "core/base/files.h"
 #include "core/base/status_macros.h"
 #include "core/gl/egl_context.h"
 #include "core/report/report_inputs.h"
@@ -23,7 +25,10 @@ absl::Status WriteRunReport(const fs::path& run_dir, const fs::path& out, const 
   options.use_truth = !flags.no_truth;
   options.tradeoff = flags.tradeoff;
   options.relit_frames = flags.relit_frames;
-  options.scratch_dir = fs::temp_directory_path() / absl::StrCat("mvbrdf-report-", getpid());
+  // A fresh private directory (mkdtemp), not a guessable name in $TMPDIR.
+  std::string scratch = (fs::temp_directory_path() / "mvbrdf-report-XXXXXX").string();
+  if (mkdtemp(scratch.data()) == nullptr) return ErrnoStatus(errno, "cannot create a temporary directory", scratch);
+  options.scratch_dir = scratch;
   std::unique_ptr<gl::EglContext> context;
   if (!flags.no_render) {
     MVBRDF_ASSIGN_OR_RETURN(const gl::EglPlatform platform, gl::ParseEglPlatform(flags.egl));
@@ -34,10 +39,7 @@ absl::Status WriteRunReport(const fs::path& run_dir, const fs::path& out, const 
   std::error_code ec;
   fs::remove_all(options.scratch_dir, ec);
   if (!inputs.ok()) return inputs.status();
-  std::ofstream file(out, std::ios::binary | std::ios::trunc);
-  file << report::BuildReportHtml(*inputs);
-  if (!file) return absl::UnavailableError(absl::StrCat(out.string(), ": cannot write"));
-  return absl::OkStatus();
+  return WriteStringToFile(out, report::BuildReportHtml(*inputs));
 }
 
 void AddReportFlags(FlagParser& parser, ReportFlags* flags) {

@@ -3,6 +3,7 @@
 
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/output_dir.h"
 #include "client/progress.h"
 #include "core/gl/egl_context.h"
 #include "core/pipeline/resample_stage.h"
@@ -68,6 +69,11 @@ int RunResample(const std::vector<std::string>& args) {
   load.check_all_frames = false;
   auto sequence = scene::LoadSequence(scene_file, load);
   if (!sequence.ok()) return ReportFailure(sequence.status());
+  if (absl::Status s = CheckOutputDirSparesInputs("--out", out, SceneInputs(*sequence)); !s.ok()) {
+    return ReportFailure(s);
+  }
+  absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
+  if (!lock.ok()) return ReportFailure(lock.status());
   auto context = gl::EglContext::Create(*platform);
   if (!context.ok()) {
     std::fprintf(stderr, "mvbrdf resample: error: %s\n", std::string(context.status().message()).c_str());

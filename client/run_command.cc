@@ -14,7 +14,9 @@
 #include "client/commands.h"
 #include "client/embedded_service.h"
 #include "client/flags.h"
+#include "client/interrupt_cleanup.h"
 #include "client/job_flags.h"
+#include "client/output_dir.h"
 #include "client/progress.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
@@ -124,8 +126,8 @@ absl::StatusOr<v1::JobState> FollowJob(v1::Mvbrdf::Stub& stub, const std::string
   return state;
 }
 
-int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base, gl::EglPlatform platform,
-                int threads, int workers, const std::string& data_flag, const std::string& out) {
+int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base, gl::EglPlatform platform, int threads,
+                int workers, const std::string& data_flag, const std::string& out, InterruptCleanup* cleanup) {
   const auto start = std::chrono::steady_clock::now();
   // The server's state: --data keeps it (and its Sample cache) across runs.
   std::string temp_template = (fs::temp_directory_path() / "mvbrdf-run-XXXXXX").string();
@@ -138,6 +140,7 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
     }
     data_dir = temp_template;
     temp = std::make_unique<TempDir>(data_dir);
+    cleanup->Remove(data_dir);  // also on SIGINT and SIGTERM
   }
   EmbeddedOptions eo;
   eo.data_dir = data_dir;
@@ -203,6 +206,8 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
 }  // namespace
 
 int RunRun(const std::vector<std::string>& args) {
+  // Before any thread starts (OpenCV's, gRPC's): see InterruptCleanup.
+  InterruptCleanup cleanup;
   std::string scene_file, out, egl = "auto", data_dir;
   JobFlags job;
   int threads = 2, workers = 1;
@@ -255,14 +260,20 @@ int RunRun(const std::vector<std::string>& args) {
   load.check_all_frames = false;  // each frame is checked when it is read
   auto sequence = scene::LoadSequence(scene_file, load);
   if (!sequence.ok()) return ReportFailure(sequence.status());
+  if (absl::Status s = CheckOutputDirSparesInputs("--out", out, SceneInputs(*sequence)); !s.ok()) {
+    return ReportFailure(s);
+  }
   auto options = worker::ReconstructOptionsFor(request, threads);
   if (!options.ok()) return ReportFailure(options.status());
   auto plan = pipeline::MakePlan(*sequence, options->request);
   if (!plan.ok()) return ReportFailure(plan.status());
+  // One command at a time writes DIR (held to the end, the report included).
+  absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
+  if (!lock.ok()) return ReportFailure(lock.status());
   std::fputs(plan->Describe().c_str(), stdout);
   std::fflush(stdout);
   const int ran = direct ? RunDirect(*sequence, request, *platform, threads, out)
-                         : RunEmbedded(scene_file, request, *platform, threads, workers, data_dir, out);
+                         : RunEmbedded(scene_file, request, *platform, threads, workers, data_dir, out, &cleanup);
   if (ran != kExitOk || !write_report) return ran;
   report_flags.egl = egl;
   const std::filesystem::path report_file = std::filesystem::path(out) / "report.html";

@@ -1,6 +1,8 @@
 // `mvbrdf validate SCENE`: load and check everything, print a summary.
 #include <cstdio>
+#include <string>
 
+#include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
 #include "core/scene/sequence.h"
@@ -29,7 +31,18 @@ int RunValidate(const std::vector<std::string>& args) {
   options.read_every_video_frame = !quick;
   auto sequence = scene::LoadSequence(scene_file, options);
   if (!sequence.ok()) return ReportFailure(sequence.status());
-  std::fputs(scene::Summarize(*sequence).c_str(), stdout);
+  // Written whole (a NUL in the free-form scene.name must not cut it short),
+  // with control characters other than newlines shown as \xNN.
+  std::string summary;
+  for (const char c : scene::Summarize(*sequence)) {
+    const auto byte = static_cast<unsigned char>(c);
+    if ((byte < 0x20 && c != '\n') || byte == 0x7f) {
+      absl::StrAppend(&summary, "\\x", absl::Hex(byte, absl::kZeroPad2));
+    } else {
+      summary += c;
+    }
+  }
+  std::fwrite(summary.data(), 1, summary.size(), stdout);
   // What "valid" covers, so that it promises no more than was looked at.
   if (quick) {
     std::printf(

@@ -1,5 +1,6 @@
 #include "core/base/files.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -13,10 +14,39 @@
 
 namespace mvbrdf {
 
-absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) {
+std::string WhyNotRegularFile(const std::filesystem::path& path) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(absl::StrCat(ElideForMessage(path.string(), kMaxShownPathChars), ": file not found"));
+  const std::filesystem::file_status st = std::filesystem::status(path, ec);
+  switch (st.type()) {
+    case std::filesystem::file_type::regular:
+      return "";
+    case std::filesystem::file_type::not_found:
+      return "not found";
+    case std::filesystem::file_type::directory:
+      return "is a directory";
+    case std::filesystem::file_type::fifo:
+      return "is a FIFO, not a regular file";
+    case std::filesystem::file_type::socket:
+      return "is a socket, not a regular file";
+    case std::filesystem::file_type::character:
+      return "is a character device, not a regular file";
+    case std::filesystem::file_type::block:
+      return "is a block device, not a regular file";
+    default:
+      break;
+  }
+  if (ec) return absl::StrCat("cannot be examined: ", ec.message());
+  return "is not a regular file";
+}
+
+absl::Status NotRegularFileError(absl::string_view why, absl::string_view message) {
+  if (why == "not found") return absl::NotFoundError(message);
+  return absl::InvalidArgumentError(message);
+}
+
+absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) {
+  if (const std::string why = WhyNotRegularFile(path); !why.empty()) {
+    return NotRegularFileError(why, absl::StrCat(ElideForMessage(path.string(), kMaxShownPathChars), ": file ", why));
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) return absl::PermissionDeniedError(absl::StrCat(path.string(), ": cannot open for reading"));
@@ -29,18 +59,20 @@ absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) 
 absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_view contents) {
   std::error_code ec;
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
-  if (ec) return absl::InternalError(absl::StrCat(path.parent_path().string(), ": cannot create directory: ", ec.message()));
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) return absl::PermissionDeniedError(absl::StrCat(tmp.string(), ": cannot open for writing"));
-    out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
-    out.flush();
-    if (!out) return absl::DataLossError(absl::StrCat(tmp.string(), ": write failed (disk full?)"));
+  if (ec) return ErrnoStatus(ec.value(), "cannot create directory", path.parent_path().string());
+  // A temporary of its own beside the file (two writers of one file never
+  // share it), every byte checked, then renamed over the file.
+  std::string tmp = path.string() + ".tmp-XXXXXX";
+  const int fd = ::mkstemp(tmp.data());
+  if (fd < 0) return ErrnoStatus(errno, "cannot create a temporary file", tmp);
+  ::fchmod(fd, 0644);  // mkstemp creates 0600
+  absl::Status written = WriteAllToFd(fd, contents, path.string());
+  if (::close(fd) != 0 && written.ok()) written = ErrnoStatus(errno, "write failed", path.string());
+  if (written.ok() && ::rename(tmp.c_str(), path.c_str()) != 0) {
+    written = ErrnoStatus(errno, "cannot rename the temporary file over it", path.string());
   }
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) return absl::InternalError(absl::StrCat(path.string(), ": cannot rename temporary file: ", ec.message()));
-  return absl::OkStatus();
+  if (!written.ok()) ::unlink(tmp.c_str());
+  return written;
 }
 
 namespace {

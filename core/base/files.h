@@ -11,11 +11,22 @@
 
 namespace mvbrdf {
 
-// Reads a whole file. NOT_FOUND names the path when it does not exist.
+// Why `path` (symlinks followed) cannot be read as a file: "" for a regular
+// file, else "not found", "is a directory", "is a FIFO, not a regular file",
+// "is a character device, not a regular file" (/dev/zero), ...
+std::string WhyNotRegularFile(const std::filesystem::path& path);
+// The status for a WhyNotRegularFile reason `why`: NOT_FOUND for "not found",
+// else INVALID_ARGUMENT; `message` is the whole message.
+absl::Status NotRegularFileError(absl::string_view why, absl::string_view message);
+
+// Reads a whole file. NOT_FOUND names the path when it does not exist;
+// directories, FIFOs and devices are refused (WhyNotRegularFile).
 absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path);
 
 // Writes a whole file, creating parent directories. Writes to a temporary
-// file beside it and renames, so a reader never sees a half-written file.
+// file of its own beside it, checks every write and the close, and renames,
+// so a reader never sees a half-written file and a full disk is an error
+// (RESOURCE_EXHAUSTED, see ErrnoStatus) with nothing left behind.
 absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_view contents);
 
 // The status of a failed system call on `path`, from its errno `error`:

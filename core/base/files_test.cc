@@ -2,11 +2,11 @@
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <string>
-
 #include <vector>
 
 namespace mvbrdf {
@@ -71,7 +71,9 @@ TEST(FilesTest, WriteThenReadRoundTrips) {
   auto text = ReadFileToString(file);
   ASSERT_TRUE(text.ok()) << text.status();
   EXPECT_EQ(*text, "hello\n");
-  EXPECT_FALSE(std::filesystem::exists(dir / "sub" / "x.txt.tmp"));
+  int entries = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir / "sub")) ++entries;
+  EXPECT_EQ(entries, 1) << "a temporary file is left beside x.txt";
   const auto missing = ReadFileToString(dir / "nope.txt");
   EXPECT_EQ(missing.status().code(), absl::StatusCode::kNotFound);
   EXPECT_NE(missing.status().message().find("nope.txt"), std::string::npos);
@@ -115,6 +117,28 @@ TEST(FilesTest, WriteAllToFdReportsAFullDiskAsResourceExhausted) {
   ASSERT_GE(null, 0);
   EXPECT_TRUE(WriteAllToFd(null, std::string(1 << 20, 'x'), "null").ok());
   ::close(null);
+}
+
+}  // namespace
+}  // namespace mvbrdf
+
+namespace mvbrdf {
+namespace {
+
+TEST(FilesTest, SaysWhatAnInputThatIsNoRegularFileIs) {
+  const auto dir = std::filesystem::temp_directory_path() / "mvbrdf_files_kind_test";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir / "d");
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
+  const auto d = ReadFileToString(dir / "d");
+  EXPECT_EQ(d.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(d.status().message().find("is a directory"), std::string::npos) << d.status();
+  const auto fifo = ReadFileToString(dir / "fifo");  // must not block
+  EXPECT_NE(fifo.status().message().find("is a FIFO, not a regular file"), std::string::npos) << fifo.status();
+  const auto zero = ReadFileToString("/dev/zero");  // must not read forever
+  EXPECT_NE(zero.status().message().find("is a character device"), std::string::npos) << zero.status();
+  EXPECT_EQ(WhyNotRegularFile(dir / "nope"), "not found");
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

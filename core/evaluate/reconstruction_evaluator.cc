@@ -42,6 +42,20 @@ v1::SceneFingerprint TruthFingerprint(const v1::GroundTruth& truth) {
   return fp;
 }
 
+// Before any work: the error atlas is a .png or .exr file name, not a directory.
+absl::Status CheckErrorAtlasPath(const std::filesystem::path& file) {
+  const std::string ext = file.extension().string();
+  if (ext != ".png" && ext != ".exr") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("error atlas ", file.string(), ": expected a file name ending in .png or .exr"));
+  }
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec)) {
+    return absl::InvalidArgumentError(absl::StrCat("error atlas ", file.string(), ": is a directory"));
+  }
+  return absl::OkStatus();
+}
+
 double RelativeError(double value, double truth) {
   return std::abs(value - truth) / std::max(std::abs(truth), 1e-12);
 }
@@ -51,6 +65,7 @@ double RelativeError(double value, double truth) {
 absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
                                                             const std::filesystem::path& truth_path,
                                                             const std::filesystem::path& error_atlas) {
+  if (!error_atlas.empty()) MVBRDF_RETURN_IF_ERROR(CheckErrorAtlasPath(error_atlas));
   std::filesystem::path truth_file = truth_path / "truth.json";
   if (!std::filesystem::exists(truth_file)) truth_file = truth_path / "ground_truth" / "truth.json";
   MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth truth, synth::GroundTruth::Load(truth_file));

@@ -1,18 +1,20 @@
 #include "core/image/exr.h"
 
-#include <algorithm>
-#include <cmath>
-#include <map>
-
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
 #include <ImfStandardAttributes.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
 #include "core/scene/video_source.h"
 
 namespace mvbrdf::image {
@@ -36,6 +38,24 @@ int ChannelRank(const std::string& name) {
   const auto it = kRank.find(name);
   return it == kRank.end() ? 5 : it->second;
 }
+
+// An OpenEXR output stream into memory.
+class MemoryOStream : public Imf::OStream {
+ public:
+  explicit MemoryOStream(const std::string& name) : Imf::OStream(name.c_str()) {}
+  void write(const char c[], int n) override {
+    if (position_ + static_cast<size_t>(n) > bytes_.size()) bytes_.resize(position_ + static_cast<size_t>(n));
+    std::memcpy(bytes_.data() + position_, c, static_cast<size_t>(n));
+    position_ += static_cast<size_t>(n);
+  }
+  uint64_t tellp() override { return position_; }
+  void seekp(uint64_t pos) override { position_ = static_cast<size_t>(pos); }
+  const std::string& bytes() const { return bytes_; }
+
+ private:
+  std::string bytes_;
+  size_t position_ = 0;
+};
 
 }  // namespace
 
@@ -72,25 +92,24 @@ absl::Status WriteExr(const std::filesystem::path& file, const cv::Mat& image, c
                         Imf::Slice(pixel_type, reinterpret_cast<char*>(data.data) + c * element, pixel_stride,
                                    pixel_stride * static_cast<size_t>(image.cols)));
   }
-  std::error_code ec;
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
-  const std::filesystem::path tmp = file.string() + ".tmp";
+  // Encoded in memory, then written by WriteStringToFile: every write checked,
+  // to a temporary renamed into place (OpenEXR's own file stream loses write
+  // errors in its destructor, so a full disk left a truncated file).
+  MemoryOStream stream(file.string());
   try {
-    Imf::OutputFile out(tmp.c_str(), header);
+    Imf::OutputFile out(stream, header);
     out.setFrameBuffer(frame_buffer);
     out.writePixels(image.rows);
   } catch (const std::exception& e) {
-    std::filesystem::remove(tmp, ec);
-    return absl::DataLossError(absl::StrCat(file.string(), ": cannot write OpenEXR: ", e.what()));
+    return absl::InternalError(absl::StrCat(file.string(), ": cannot encode OpenEXR: ", e.what()));
   }
-  std::filesystem::rename(tmp, file, ec);
-  if (ec) return absl::InternalError(absl::StrCat(file.string(), ": cannot rename temporary file: ", ec.message()));
-  return absl::OkStatus();
+  return WriteStringToFile(file, stream.bytes());
 }
 
 absl::StatusOr<ExrImage> ReadExr(const std::filesystem::path& file) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) return absl::NotFoundError(absl::StrCat(file.string(), ": file not found"));
+  if (const std::string why = WhyNotRegularFile(file); !why.empty()) {
+    return NotRegularFileError(why, absl::StrCat(file.string(), ": file ", why));
+  }
   try {
     Imf::InputFile in(file.c_str());
     const Imath::Box2i window = in.header().dataWindow();
@@ -131,10 +150,10 @@ absl::StatusOr<ExrImage> ReadExr(const std::filesystem::path& file) {
   }
 }
 
-absl::Status WritePngPreview(const std::filesystem::path& file, const cv::Mat& linear, float gain) {
+absl::StatusOr<std::string> EncodePngPreview(const cv::Mat& linear, float gain) {
   const int channels = linear.channels();
   if (linear.depth() != CV_32F || (channels != 1 && channels != 3 && channels != 4)) {
-    return absl::InvalidArgumentError(absl::StrCat(file.string(), ": a preview takes CV_32F with 1, 3 or 4 channels"));
+    return absl::InvalidArgumentError("a preview takes CV_32F with 1, 3 or 4 channels");
   }
   cv::Mat out(linear.rows, linear.cols, CV_8UC(channels == 1 ? 1 : channels));
   const auto encode = [gain](float v) {
@@ -158,10 +177,23 @@ absl::Status WritePngPreview(const std::filesystem::path& file, const cv::Mat& l
       if (channels == 4) q[3] = static_cast<uint8_t>(std::lround(255.0f * std::clamp(px[3], 0.0f, 1.0f)));
     }
   }
-  std::error_code ec;
-  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), ec);
-  if (!cv::imwrite(file.string(), out)) return absl::DataLossError(absl::StrCat(file.string(), ": cannot write PNG"));
-  return absl::OkStatus();
+  return EncodePng(out);
+}
+
+absl::StatusOr<std::string> EncodePng(const cv::Mat& image) {
+  std::vector<uchar> bytes;
+  try {
+    if (!cv::imencode(".png", image, bytes)) return absl::InternalError("cannot encode PNG");
+  } catch (const cv::Exception& e) {
+    return absl::InternalError(absl::StrCat("cannot encode PNG: ", e.what()));
+  }
+  return std::string(bytes.begin(), bytes.end());
+}
+
+absl::Status WritePngPreview(const std::filesystem::path& file, const cv::Mat& linear, float gain) {
+  absl::StatusOr<std::string> png = EncodePngPreview(linear, gain);
+  if (!png.ok()) return absl::Status(png.status().code(), absl::StrCat(file.string(), ": ", png.status().message()));
+  return WriteStringToFile(file, *png);
 }
 
 }  // namespace mvbrdf::image

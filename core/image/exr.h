@@ -25,7 +25,8 @@ struct ExrOptions {
 
 // Writes CV_32F (1-4 channels) as float/half channels, or CV_16U / CV_32S
 // single-channel images as a UINT channel (masks, triangle ids; -1 becomes
-// 0xffffffff). ZIP compression. Written to a temporary file and renamed.
+// 0xffffffff). ZIP compression. Written to a temporary file and renamed,
+// every write checked (a full disk is RESOURCE_EXHAUSTED, nothing left behind).
 absl::Status WriteExr(const std::filesystem::path& file, const cv::Mat& image, const ExrOptions& options = {});
 
 struct ExrImage {
@@ -41,7 +42,13 @@ absl::StatusOr<ExrImage> ReadExr(const std::filesystem::path& file);
 // An 8-bit sRGB PNG of a linear RGB(A) CV_32FC3/CV_32FC4 image for people:
 // values times `gain`, clipped, sRGB-encoded; alpha (when present) becomes the
 // PNG's alpha, so invalid texels show as transparent. CV_32FC1 gives grey.
+// Written to a temporary file and renamed, every write checked (a full disk is
+// RESOURCE_EXHAUSTED, nothing left behind).
 absl::Status WritePngPreview(const std::filesystem::path& file, const cv::Mat& linear, float gain = 1.0f);
+// The same preview as PNG bytes, in memory.
+absl::StatusOr<std::string> EncodePngPreview(const cv::Mat& linear, float gain = 1.0f);
+// Any 8- or 16-bit image OpenCV can store as PNG (BGR channel order) as PNG bytes.
+absl::StatusOr<std::string> EncodePng(const cv::Mat& image);
 
 }  // namespace mvbrdf::image
 

@@ -15,6 +15,7 @@
 #include "core/pipeline/stage_timer.h"
 #include "core/resample/atlas_ops.h"
 #include "core/scene/mesh_loader.h"
+#include "core/scene/names.h"
 #include "core/scene/video_source.h"
 #include "core/synth/ground_truth.h"
 
@@ -166,9 +167,12 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
           grown = resample::GrowAtlas(resampled, options.grow_iterations);
         }
         StageTimer::Scope s(&timer, "write");
-        MVBRDF_RETURN_IF_ERROR(WriteAtlas(frame_dir / name, resampled));
-        MVBRDF_RETURN_IF_ERROR(WriteAtlas(frame_dir / (name + "_averaged"), averaged));
-        MVBRDF_RETURN_IF_ERROR(WriteAtlas(frame_dir / (name + "_grown"), grown));
+        // File names from camera names only through FileNameFor: never outside frame_dir.
+        for (const auto& [suffix, image] :
+             {std::pair<const char*, const cv::Mat*>{"", &resampled}, {"_averaged", &averaged}, {"_grown", &grown}}) {
+          MVBRDF_ASSIGN_OR_RETURN(const std::filesystem::path stem, scene::FileNameFor(frame_dir, name, suffix));
+          MVBRDF_RETURN_IF_ERROR(WriteAtlas(stem, *image));
+        }
       }
     }
   }

@@ -36,7 +36,7 @@ std::string Table(const std::vector<std::string>& header, const std::vector<std:
   out += "</tr></thead><tbody>";
   for (const auto& row : rows) {
     out += "<tr>";
-    for (const std::string& cell : row) out += "<td>" + (!cell.empty() && cell[0] == '<' ? cell : Escape(cell)) + "</td>";
+    for (const std::string& cell : row) out += "<td>" + Escape(cell) + "</td>";
     out += "</tr>";
   }
   out += "</tbody></table>";

@@ -14,7 +14,8 @@ std::string Escape(absl::string_view text);
 std::string Base64(absl::string_view bytes);
 // <img> with the PNG embedded.
 std::string PngImg(absl::string_view png, const std::string& alt, int width = 0);
-// A table; cells are escaped unless they start with '<' (already HTML).
+// A table of text: every header and cell is escaped (a cell is never HTML, so
+// a camera or cluster name such as "<img src=x onerror=...>" stays text).
 std::string Table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows,
                   const std::string& css_class = "");
 

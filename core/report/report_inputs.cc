@@ -19,11 +19,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-absl::StatusOr<std::string> Png(const fs::path& scratch, const std::string& name, const cv::Mat& linear,
-                                float gain = 1.0f) {
-  const fs::path file = scratch / (name + ".png");
-  MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(file, linear, gain));
-  return ReadFileToString(file);
+// A preview's PNG bytes, encoded in memory: no file is named after a camera.
+absl::StatusOr<std::string> Png(const cv::Mat& linear, float gain = 1.0f) {
+  return image::EncodePngPreview(linear, gain);
 }
 
 // The scene's lights of configuration `name` (every light when unknown).
@@ -63,12 +61,12 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
                                                                  static_cast<int>(sequence.scene.frames().first()),
                                                                  absl::StrCat("scene.cameras[", c, "]")));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat input, video->ReadFrame(frame));
-    MVBRDF_ASSIGN_OR_RETURN(cmp.input_png, Png(options.scratch_dir, camera.name + "_input", input));
+    MVBRDF_ASSIGN_OR_RETURN(cmp.input_png, Png(input));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat brdf, renderer->Render(camera, lights, frame, false));
-    MVBRDF_ASSIGN_OR_RETURN(cmp.reconstruction_png, Png(options.scratch_dir, camera.name + "_brdf", brdf));
+    MVBRDF_ASSIGN_OR_RETURN(cmp.reconstruction_png, Png(brdf));
     if (has_correction) {
       MVBRDF_ASSIGN_OR_RETURN(const cv::Mat corrected, renderer->Render(camera, lights, frame, true));
-      MVBRDF_ASSIGN_OR_RETURN(cmp.corrected_png, Png(options.scratch_dir, camera.name + "_corrected", corrected));
+      MVBRDF_ASSIGN_OR_RETURN(cmp.corrected_png, Png(corrected));
     }
     in->cameras.push_back(std::move(cmp));
   }
@@ -90,7 +88,7 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
     light.position = centre + glm::vec3(radius * std::cos(angle), 0.5f * (hi.y - lo.y), radius * std::sin(angle));
     light.intensity = intensity;
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat relit, renderer->Render(sequence.cameras[0], {light}, frame, false));
-    MVBRDF_ASSIGN_OR_RETURN(std::string png, Png(options.scratch_dir, absl::StrCat("relit_", k), relit));
+    MVBRDF_ASSIGN_OR_RETURN(std::string png, Png(relit));
     in->relit.push_back({absl::StrCat(static_cast<int>(std::lround(angle * 180.0f / 3.14159265f)), "°"), std::move(png)});
   }
   return absl::OkStatus();
@@ -118,8 +116,7 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
     cv::minMaxLoc(confidence.image, nullptr, &max_count);
     cv::Mat scaled;
     cv::log(confidence.image + 1.0f, scaled);
-    MVBRDF_ASSIGN_OR_RETURN(std::string png, Png(options.scratch_dir, "confidence", scaled,
-                                                  static_cast<float>(1.0 / std::log(max_count + 1.0 + 1e-9))));
+    MVBRDF_ASSIGN_OR_RETURN(std::string png, Png(scaled, static_cast<float>(1.0 / std::log(max_count + 1.0 + 1e-9))));
     in.atlases.push_back({absl::StrCat("confidence (observations, log scale, max ", max_count, ")"), std::move(png)});
   }
 

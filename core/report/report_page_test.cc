@@ -28,8 +28,10 @@ TEST(HtmlTest, EscapesAndEncodes) {
   EXPECT_EQ(Base64("fo"), "Zm8=");
   EXPECT_EQ(Base64("foo"), "Zm9v");
   EXPECT_EQ(Base64("foobar"), "Zm9vYmFy");
-  EXPECT_EQ(Table({"a"}, {{"<b>x</b>"}, {"1 < 2"}}), "<table><thead><tr><th>a</th></tr></thead><tbody><tr><td><b>x</b>"
-                                                     "</td></tr><tr><td>1 &lt; 2</td></tr></tbody></table>");
+  // A cell is always text, also when it starts with '<' (a camera named "<img ...>").
+  EXPECT_EQ(Table({"a"}, {{"<b>x</b>"}, {"1 < 2"}}),
+            "<table><thead><tr><th>a</th></tr></thead><tbody><tr><td>&lt;b&gt;x&lt;/b&gt;"
+            "</td></tr><tr><td>1 &lt; 2</td></tr></tbody></table>");
 }
 
 TEST(SvgPlotTest, ParetoFrontKeepsOnlyUndominatedPoints) {
@@ -129,6 +131,61 @@ TEST(ReportPageTest, HasEverySectionAndEscapesText) {
   EXPECT_NE(html.find("class=\"chosen\""), std::string::npos);
   EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org"));  // nothing fetched from the network
   EXPECT_EQ(html.find("src=\"http"), std::string::npos);
+}
+
+constexpr char kHostile[] = "<img src=x onerror=alert(1)>\"q'</script><script>alert(2)</script>";
+
+// Sets every string field of `message` (recursively, repeated ones too, adding
+// an element to empty repeated messages and strings) to kHostile.
+void FillStrings(google::protobuf::Message* message, int depth = 0) {
+  using google::protobuf::FieldDescriptor;
+  const google::protobuf::Descriptor* d = message->GetDescriptor();
+  const google::protobuf::Reflection* r = message->GetReflection();
+  for (int i = 0; i < d->field_count(); ++i) {
+    const FieldDescriptor* f = d->field(i);
+    if (f->type() == FieldDescriptor::TYPE_STRING) {
+      if (!f->is_repeated()) {
+        r->SetString(message, f, kHostile);
+      } else {
+        if (r->FieldSize(*message, f) == 0) r->AddString(message, f, kHostile);
+        for (int k = 0; k < r->FieldSize(*message, f); ++k) r->SetRepeatedString(message, f, k, kHostile);
+      }
+    } else if (f->type() == FieldDescriptor::TYPE_MESSAGE && depth < 4) {
+      if (!f->is_repeated()) {
+        FillStrings(r->MutableMessage(message, f), depth + 1);
+      } else {
+        if (r->FieldSize(*message, f) == 0) r->AddMessage(message, f);
+        for (int k = 0; k < r->FieldSize(*message, f); ++k) {
+          FillStrings(r->MutableRepeatedMessage(message, f, k), depth + 1);
+        }
+      }
+    }
+  }
+}
+
+TEST(ReportPageTest, EveryStringFromTheRunIsEscapedInTextAndAttributes) {
+  ReportInputs in = SampleInputs();
+  FillStrings(&in.run);
+  v1::EvaluationReport evaluation;
+  FillStrings(&evaluation);
+  in.evaluation = evaluation;
+  FillStrings(&*in.tradeoff);
+  for (ReportImage& image : in.atlases) image.caption = kHostile;
+  for (ReportImage& image : in.relit) image.caption = kHostile;
+  for (CameraComparison& c : in.cameras) c.camera = kHostile;
+  const std::string html = BuildReportHtml(in);
+  EXPECT_EQ(html.find("<img src=x"), std::string::npos);
+  EXPECT_EQ(html.find("alert(2)</script>"), std::string::npos);
+  EXPECT_EQ(html.find("\"q'"), std::string::npos);  // a quote could end an attribute
+  // The page's own check script is its only script.
+  size_t scripts = 0;
+  for (size_t at = html.find("<script"); at != std::string::npos; at = html.find("<script", at + 1)) ++scripts;
+  EXPECT_EQ(scripts, 1u);
+  // Every image is an embedded PNG (no image from a name).
+  for (size_t at = html.find("<img"); at != std::string::npos; at = html.find("<img", at + 1)) {
+    EXPECT_EQ(html.compare(at, 32, "<img src=\"data:image/png;base64,"), 0) << html.substr(at, 60);
+  }
+  EXPECT_NE(html.find("&lt;img src=x onerror=alert(1)&gt;&quot;q&#39;&lt;/script&gt;"), std::string::npos);
 }
 
 // Runs `command`, returns its stdout.

@@ -392,9 +392,9 @@ bool ForkedImportIsSafe() {
 
 absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file, absl::string_view field) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) {
-    return absl::NotFoundError(
-        absl::StrCat(field, ": mesh file not found: ", ElideForMessage(file.string(), kMaxShownPathChars)));
+  if (const std::string why = WhyNotRegularFile(file); !why.empty()) {
+    return NotRegularFileError(
+        why, absl::StrCat(field, ": mesh file ", why, ": ", ElideForMessage(file.string(), kMaxShownPathChars)));
   }
   const std::string prefix = Prefix(field, file);
   if (absl::AsciiStrToLower(file.extension().string()) == ".ply") {

@@ -19,6 +19,7 @@
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/scene/mesh_loader.h"
+#include "core/scene/names.h"
 #include "core/scene/video_source.h"
 
 namespace mvbrdf::scene {
@@ -73,7 +74,7 @@ class NameRegistry {
 
   absl::Status Add(int index, const std::string& name) {
     const std::string field = absl::StrCat(list_, "[", index, "].", key_);
-    if (name.empty()) return Invalid(field, "must not be empty");
+    MVBRDF_RETURN_IF_ERROR(ValidateName(field, name));  // names become file names (names.h)
     const auto [it, inserted] = index_of_.emplace(name, index);
     if (!inserted) {
       return Invalid(field, absl::StrCat("duplicate \"", name, "\", also ", list_, "[", it->second, "].", key_));

@@ -130,8 +130,9 @@ class ImageSequenceSource : public VideoSource {
     if (t < 0) return absl::OutOfRangeError(absl::StrCat(field_, ".video: frame ", t, " is negative"));
     const std::string path = PathOf(first_frame_ + t);
     const std::string what = absl::StrCat(field_, ".video: frame ", t, " (", ShownPathOf(first_frame_ + t), ")");
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(path, ec)) return absl::NotFoundError(absl::StrCat(what, ": not found"));
+    if (const std::string why = WhyNotRegularFile(path); !why.empty()) {
+      return NotRegularFileError(why, absl::StrCat(what, ": ", why));
+    }
     const cv::Mat stored = cv::imread(path, cv::IMREAD_UNCHANGED);
     if (stored.empty()) return absl::InvalidArgumentError(absl::StrCat(what, ": cannot decode image"));
     const absl::Status size = CheckSize(stored, width_, height_, what);
@@ -259,22 +260,21 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
     return absl::InvalidArgumentError(absl::StrCat(field, ": first frame must be >= 0, got ", first_frame));
   }
   const bool srgb = video.encoding() != v1::LINEAR;
-  std::error_code ec;
   if (IsFramePattern(video.path())) {
     const std::string shown = FormatFramePattern(video.path(), first_frame);
     const std::string first = ResolvePath(scene_dir, shown).string();
-    if (!std::filesystem::is_regular_file(first, ec)) {
-      return absl::NotFoundError(
-          absl::StrCat(path_field, ": first frame not found: ", ElideForMessage(shown, kMaxShownPathChars)));
+    if (const std::string why = WhyNotRegularFile(first); !why.empty()) {
+      return NotRegularFileError(
+          why, absl::StrCat(path_field, ": first frame ", why, ": ", ElideForMessage(shown, kMaxShownPathChars)));
     }
     return std::unique_ptr<VideoSource>(
         new ImageSequenceSource(scene_dir, video.path(), first_frame, static_cast<int>(camera.width()),
                                 static_cast<int>(camera.height()), bit_depth, srgb, std::string(field)));
   }
   const std::string path = ResolvePath(scene_dir, video.path()).string();
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return absl::NotFoundError(
-        absl::StrCat(path_field, ": video file not found: ", ElideForMessage(video.path(), kMaxShownPathChars)));
+  if (const std::string why = WhyNotRegularFile(path); !why.empty()) {
+    return NotRegularFileError(
+        why, absl::StrCat(path_field, ": video file ", why, ": ", ElideForMessage(video.path(), kMaxShownPathChars)));
   }
   if (bit_depth != 8) {
     return absl::InvalidArgumentError(

@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
+#include "core/base/status_macros.h"
 
 namespace mvbrdf::synth {
 
@@ -48,7 +49,11 @@ absl::Status FrameSink::Write(const cv::Mat& bgr8) {
   }
   if (codec_ == VideoCodec::kPngSequence) {
     const std::string path = FormatFramePattern(file_.string(), next_frame_);
-    if (!cv::imwrite(path, bgr8)) return absl::DataLossError(absl::StrCat(path, ": cannot write PNG"));
+    // Encoded in memory and written checked, to a temporary renamed into place.
+    std::vector<uchar> png;
+    if (!cv::imencode(".png", bgr8, png)) return absl::InternalError(absl::StrCat(path, ": cannot encode PNG"));
+    MVBRDF_RETURN_IF_ERROR(
+        WriteStringToFile(path, absl::string_view(reinterpret_cast<const char*>(png.data()), png.size())));
   } else {
     writer_.write(bgr8);
   }

@@ -1,0 +1,109 @@
+#include "client/output_dir.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <system_error>
+
+#include "absl/strings/str_cat.h"
+#include "core/base/files.h"
+
+namespace mvbrdf::client {
+namespace {
+
+namespace fs = std::filesystem;
+
+// `path` absolute, with symlinks of its existing part and ".." resolved.
+fs::path Canonical(const fs::path& path) {
+  std::error_code ec;
+  fs::path absolute = fs::absolute(path, ec);
+  if (ec) absolute = path;
+  fs::path canonical = fs::weakly_canonical(absolute, ec);
+  return (ec ? absolute : canonical).lexically_normal();
+}
+
+// True when `dir` is `path` or one of its ancestors (both canonical).
+bool Holds(const fs::path& dir, const fs::path& path) {
+  auto d = dir.begin(), p = path.begin();
+  for (; d != dir.end(); ++d, ++p) {
+    if (d->empty()) continue;  // a trailing separator
+    if (p == path.end() || *d != *p) return false;
+  }
+  return true;
+}
+
+std::string Shown(const InputPath& input) { return absl::StrCat(input.field, " (", input.path.string(), ")"); }
+
+}  // namespace
+
+std::vector<InputPath> SceneInputs(const scene::Sequence& sequence) {
+  std::vector<InputPath> inputs;
+  inputs.push_back({"the scene file", sequence.scene_file, false});
+  const v1::Scene& s = sequence.scene;
+  const auto add = [&](const std::string& field, const std::string& relative) {
+    if (relative.empty()) return;
+    inputs.push_back({field, ResolvePath(sequence.scene_dir, relative), IsFramePattern(relative)});
+  };
+  add("scene.mesh.path", s.mesh().path());
+  for (int i = 0; i < s.cameras_size(); ++i) {
+    add(absl::StrCat("scene.cameras[", i, "].video.path"), s.cameras(i).video().path());
+  }
+  add("scene.segmentation_path", s.segmentation_path());
+  return inputs;
+}
+
+absl::Status CheckOutputDirSparesInputs(absl::string_view flag, const fs::path& out_dir,
+                                        const std::vector<InputPath>& inputs) {
+  const fs::path out = Canonical(out_dir);
+  for (const InputPath& input : inputs) {
+    if (Holds(out, Canonical(input.path.parent_path()))) {
+      return absl::InvalidArgumentError(absl::StrCat(flag, " ", out_dir.string(), ": holds ", Shown(input),
+                                                     ", which the command reads; writing there could overwrite it "
+                                                     "(choose a directory that holds no input)"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckOutputFileSparesInputs(absl::string_view flag, const fs::path& out_file,
+                                         const std::vector<InputPath>& inputs) {
+  const fs::path out = Canonical(out_file);
+  for (const InputPath& input : inputs) {
+    const fs::path in = Canonical(input.path);
+    const bool same =
+        input.pattern ? out.parent_path() == in.parent_path() && out.extension() == in.extension() : out == in;
+    if (same) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(flag, " ", out_file.string(), ": would overwrite ", Shown(input), ", which the command reads"));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<OutputDirLock> OutputDirLock::Acquire(absl::string_view flag, const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return ErrnoStatus(ec.value(), absl::StrCat(flag, ": cannot create the directory"), dir.string());
+  const fs::path lock_file = dir / ".mvbrdf.lock";
+  const int fd = ::open(lock_file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return ErrnoStatus(errno, absl::StrCat(flag, ": cannot open the lock file"), lock_file.string());
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    const int error = errno;
+    ::close(fd);
+    if (error == EWOULDBLOCK) {
+      return absl::UnavailableError(absl::StrCat(flag, " ", dir.string(),
+                                                 ": another mvbrdf command is writing this directory (it holds ",
+                                                 lock_file.string(), "); wait for it or choose another directory"));
+    }
+    return ErrnoStatus(error, absl::StrCat(flag, ": cannot lock"), lock_file.string());
+  }
+  return OutputDirLock(fd);
+}
+
+OutputDirLock::~OutputDirLock() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+}  // namespace mvbrdf::client

@@ -1,0 +1,59 @@
+// Where a command writes: an output directory (run, resample) or file
+// (render) must not hold what the command reads — the scene file, its mesh,
+// videos and segmentation — and only one command writes a directory at a time.
+#ifndef MVBRDF_CLIENT_OUTPUT_DIR_H_
+#define MVBRDF_CLIENT_OUTPUT_DIR_H_
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "core/scene/sequence.h"
+
+namespace mvbrdf::client {
+
+// A file a command reads; `pattern` when `path` is a frame pattern
+// ("cam0/%04d.png": every file of its directory with its extension counts).
+struct InputPath {
+  std::string field;  // e.g. "scene.cameras[0].video.path", "the scene file"
+  std::filesystem::path path;
+  bool pattern = false;
+};
+
+// The scene file and every file the scene names (mesh, videos, segmentation).
+std::vector<InputPath> SceneInputs(const scene::Sequence& sequence);
+
+// INVALID_ARGUMENT when the directory `out_dir` (flag `flag`), or anything
+// below it, holds one of `inputs`; paths are compared canonically (symlinks
+// and ".." resolved; `out_dir` need not exist yet).
+absl::Status CheckOutputDirSparesInputs(absl::string_view flag, const std::filesystem::path& out_dir,
+                                        const std::vector<InputPath>& inputs);
+
+// INVALID_ARGUMENT when writing the file `out_file` would overwrite one of
+// `inputs` (for a pattern: a file of its directory with its extension).
+absl::Status CheckOutputFileSparesInputs(absl::string_view flag, const std::filesystem::path& out_file,
+                                         const std::vector<InputPath>& inputs);
+
+// An exclusive lock on an output directory (flock on DIR/.mvbrdf.lock, taken
+// without waiting), held while the object lives; the directory is created.
+// A second command writing the same directory fails at once (UNAVAILABLE,
+// naming the directory) instead of mixing its files with the first's.
+class OutputDirLock {
+ public:
+  static absl::StatusOr<OutputDirLock> Acquire(absl::string_view flag, const std::filesystem::path& dir);
+  OutputDirLock(OutputDirLock&& other) noexcept : fd_(other.fd_) { other.fd_ = -1; }
+  OutputDirLock& operator=(OutputDirLock&&) = delete;
+  OutputDirLock(const OutputDirLock&) = delete;
+  ~OutputDirLock();
+
+ private:
+  explicit OutputDirLock(int fd) : fd_(fd) {}
+  int fd_ = -1;
+};
+
+}  // namespace mvbrdf::client
+
+#endif  // MVBRDF_CLIENT_OUTPUT_DIR_H_

@@ -1,0 +1,87 @@
+#include "core/scene/names.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "absl/strings/escaping.h"
+#include "core/scene/scene_test_util.h"
+#include "core/scene/sequence.h"
+
+namespace mvbrdf::scene {
+namespace {
+
+TEST(NamesTest, AcceptsPlainAndNonAsciiNames) {
+  for (const std::string& name : std::vector<std::string>{"cam0", "NE,NW,SE,SW", "café", "カメラ", "a b", "<b>", "\"q'",
+                                                          "x.y", "-", "😀", std::string(kMaxNameBytes, 'a')}) {
+    EXPECT_TRUE(ValidateName("f", name).ok()) << name << ": " << ValidateName("f", name);
+  }
+}
+
+TEST(NamesTest, RejectsNamesThatCannotBeFileNames) {
+  const std::string nul("a\0b", 3);
+  for (const std::string& name :
+       {std::string(), std::string("."), std::string(".."), std::string("../x"), std::string("/abs/x"),
+        std::string("a/b"), std::string("a\\b"), nul, std::string("a\nb"), std::string("a\tb"),
+        std::string("\x1b[31mred"), std::string("del\x7f"), std::string("c1\xc2\x85"), std::string("bad\xff"),
+        std::string("overlong\xc0\xaf"), std::string("surrogate\xed\xa0\x80"), std::string("cut\xe2\x82"),
+        std::string(kMaxNameBytes + 1, 'a')}) {
+    const absl::Status s = ValidateName("scene.cameras[2].name", name);
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << absl::CHexEscape(name);
+    EXPECT_NE(s.message().find("scene.cameras[2].name: "), std::string::npos) << s;
+    // The message shows control bytes escaped: it is one clean line.
+    for (char c : s.message()) EXPECT_FALSE(static_cast<unsigned char>(c) < 0x20) << s;
+  }
+}
+
+TEST(NamesTest, FileNameForStaysInsideItsDirectory) {
+  auto ok = FileNameFor("/out/frames/0000", "cam0", "_grown.exr");
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ(*ok, std::filesystem::path("/out/frames/0000/cam0_grown.exr"));
+  for (const std::string name : {"../x", "/abs/x", "..", "", "a/../../b"}) {
+    EXPECT_EQ(FileNameFor("/out", name, ".exr").status().code(), absl::StatusCode::kInvalidArgument) << name;
+  }
+  // A suffix cannot smuggle a separator either.
+  EXPECT_FALSE(FileNameFor("/out", "cam0", "/../../x").ok());
+}
+
+TEST(NamesTest, SceneValidationRejectsHostileNamesInEveryNameField) {
+  const std::string hostile[] = {"../x", std::string("a\0b", 3), "\x1b[31m", "a\nb", std::string(200, 'n')};
+  for (const std::string& name : hostile) {
+    {
+      v1::Scene scene = testing::FixtureScene();
+      scene.mutable_cameras(1)->set_name(name);
+      const absl::Status s = ValidateSceneMessage(scene);
+      EXPECT_NE(s.message().find("scene.cameras[1].name: "), std::string::npos) << s;
+    }
+    {
+      v1::Scene scene = testing::FixtureScene();
+      ASSERT_GT(scene.lights_size(), 0);
+      scene.mutable_lights(0)->set_name(name);
+      const absl::Status s = ValidateSceneMessage(scene);
+      EXPECT_NE(s.message().find("scene.lights[0].name: "), std::string::npos) << s;
+    }
+    {
+      v1::Scene scene = testing::FixtureScene();
+      scene.add_light_configurations()->set_name(name);
+      const absl::Status s = ValidateSceneMessage(scene);
+      EXPECT_NE(s.message().find(".name: "), std::string::npos) << s;
+      EXPECT_NE(s.message().find("scene.light_configurations["), std::string::npos) << s;
+    }
+    {
+      v1::Scene scene = testing::FixtureScene();
+      v1::MaterialSeed* seed = scene.add_material_seeds();
+      seed->set_name(name);
+      for (int k = 0; k < 3; ++k) seed->add_srgb8(100);
+      const absl::Status s = ValidateSceneMessage(scene);
+      EXPECT_NE(s.message().find("scene.material_seeds["), std::string::npos) << s;
+    }
+  }
+  v1::Scene cafe = testing::FixtureScene();
+  cafe.mutable_cameras(0)->set_name("café");
+  EXPECT_TRUE(ValidateSceneMessage(cafe).ok()) << ValidateSceneMessage(cafe);
+}
+
+}  // namespace
+}  // namespace mvbrdf::scene
