@@ -8,11 +8,13 @@
 #include "client/flags.h"
 #include "client/output_dir.h"
 #include "core/atlas/atlas.h"
+#include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/gl/egl_context.h"
 #include "core/image/exr.h"
 #include "core/pipeline/reconstruction_renderer.h"
+#include "core/scene/names.h"
 #include "core/scene/sequence.h"
 #include "core/synth/frame_encoder.h"
 #include "mvbrdf/v1/run_report.pb.h"
@@ -91,6 +93,15 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
       camera = c;
       found = true;
     }
+  }
+  if (!found && WhyNotRegularFile(camera_arg) == "not found") {
+    std::string names;
+    for (const scene::CameraModel& c : sequence.cameras) {
+      absl::StrAppend(&names, names.empty() ? "" : ", ", "\"", scene::ShownName(c.name), "\"");
+    }
+    return absl::InvalidArgumentError(absl::StrCat("--camera: \"", scene::ShownName(camera_arg),
+                                                   "\" is neither a camera of the scene (", names,
+                                                   ") nor a camera JSON file"));
   }
   if (!found) {
     MVBRDF_ASSIGN_OR_RETURN(const v1::Camera message, ReadJsonFileAs<v1::Camera>(camera_arg));

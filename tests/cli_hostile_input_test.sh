@@ -167,6 +167,18 @@ done
 expect "report.html shows the camera name as text" grep -qF '&lt;img src=x onerror=alert(1)&gt;' "$work/all_run/report.html"
 expect "tradeoff.html shows the knob as text" grep -qF '&lt;img src=x onerror=alert(5)&gt;' "$work/all_run/tradeoff.html"
 
+# render names its camera by the scene's (hostile but valid) name; nothing is written but --out.
+cat > "$work/all_lights.json" <<'JSON'
+{"lights": [{"name": "<script>k", "position": [2.0, 3.0, 2.0], "intensity": [1.0, 0.9, 0.8]}]}
+JSON
+check "render --camera with a markup name" 0 "wrote" -- "$bin" render "$work/all_run" \
+  --camera "<img src=x onerror=alert(1)>" --lights "$work/all_lights.json" --out "$work/all_run/rendered.png"
+check "render --camera café" 0 "wrote" -- "$bin" render "$work/all_run" --camera "café \"quote'" \
+  --lights "$work/all_lights.json" --out "$work/all_run/rendered_cafe.exr"
+check "render --camera with an ESC is refused, shown escaped" 3 "x1b" -- "$bin" render "$work/all_run" \
+  --camera $'\e[2J' --lights "$work/all_lights.json" --out "$work/all_run/rendered_esc.png"
+expect "nothing was written to the sentinel directory" sentinel_empty
+
 # submit to a loopback server: refused names are refused there too.
 expect "server starts" start_server "$work/server.log"
 check "submit of markup names is accepted" 0 "" -- "$bin" submit "$all/scene.json" --server "$address" --client t \

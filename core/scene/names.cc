@@ -76,4 +76,23 @@ absl::StatusOr<std::filesystem::path> FileNameFor(const std::filesystem::path& d
   return dir / file_name;
 }
 
+std::string ShownName(absl::string_view name) {
+  std::string shown;
+  for (size_t i = 0; i < name.size();) {
+    uint32_t cp = 0;
+    const size_t n = Utf8SequenceAt(name, i, &cp);
+    if (n == 0 || cp < 0x20 || (cp >= 0x7F && cp < 0xA0)) {
+      const size_t bytes = n == 0 ? 1 : n;
+      for (size_t k = 0; k < bytes; ++k) {
+        absl::StrAppend(&shown, "\\x", absl::Hex(static_cast<uint8_t>(name[i + k]), absl::kZeroPad2));
+      }
+      i += bytes;
+    } else {
+      shown.append(name.data() + i, n);
+      i += n;
+    }
+  }
+  return shown;
+}
+
 }  // namespace mvbrdf::scene

@@ -32,6 +32,11 @@ absl::Status ValidateName(absl::string_view field, absl::string_view name);
 absl::StatusOr<std::filesystem::path> FileNameFor(const std::filesystem::path& dir, absl::string_view name,
                                                   absl::string_view suffix);
 
+// `name` as shown in a message or a terminal: printable UTF-8 (café) as it
+// is, control characters (C0, DEL, C1) and invalid UTF-8 as \xNN per byte, so
+// a name that failed or escaped validation cannot send ESC or cut a line.
+std::string ShownName(absl::string_view name);
+
 }  // namespace mvbrdf::scene
 
 #endif  // MVBRDF_CORE_SCENE_NAMES_H_

@@ -83,5 +83,24 @@ TEST(NamesTest, SceneValidationRejectsHostileNamesInEveryNameField) {
   EXPECT_TRUE(ValidateSceneMessage(cafe).ok()) << ValidateSceneMessage(cafe);
 }
 
+TEST(NamesTest, ShownNameKeepsPrintableUtf8AndEscapesControls) {
+  EXPECT_EQ(ShownName("café <b>"), "café <b>");
+  EXPECT_EQ(ShownName(std::string("a\0b", 3)), "a\\x00b");
+  EXPECT_EQ(ShownName("\x1b[31mred"), "\\x1b[31mred");
+  EXPECT_EQ(ShownName("line\nnext\t"), "line\\x0anext\\x09");
+  EXPECT_EQ(ShownName("\xc2\x9b"), "\\xc2\\x9b");  // U+009B, the C1 CSI
+  EXPECT_EQ(ShownName("\xff"), "\\xff");          // not UTF-8
+}
+
+TEST(NamesTest, ReferenceErrorsShowTheNameEscaped) {
+  v1::Scene scene = testing::FixtureScene();
+  ASSERT_GT(scene.light_configurations_size(), 0);
+  scene.mutable_light_configurations(0)->set_lights(0, "\x1b[2Jgone");
+  const absl::Status s = ValidateSceneMessage(scene);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("unknown light \"\\x1b[2Jgone\""), std::string::npos) << s.message();
+  EXPECT_EQ(s.message().find('\x1b'), std::string::npos);
+}
+
 }  // namespace
 }  // namespace mvbrdf::scene

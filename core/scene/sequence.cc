@@ -77,7 +77,8 @@ class NameRegistry {
     MVBRDF_RETURN_IF_ERROR(ValidateName(field, name));  // names become file names (names.h)
     const auto [it, inserted] = index_of_.emplace(name, index);
     if (!inserted) {
-      return Invalid(field, absl::StrCat("duplicate \"", name, "\", also ", list_, "[", it->second, "].", key_));
+      return Invalid(
+          field, absl::StrCat("duplicate \"", ShownName(name), "\", also ", list_, "[", it->second, "].", key_));
     }
     return absl::OkStatus();
   }
@@ -95,11 +96,12 @@ absl::Status CheckReferences(const std::string& field, const google::protobuf::R
   for (int i = 0; i < names.size(); ++i) {
     const std::string item = absl::StrCat(field, "[", i, "]");
     const std::string& name = names.Get(i);
-    if (!known.Has(name)) return Invalid(item, absl::StrCat("unknown ", kind, " \"", name, "\"", owner));
+    if (!known.Has(name))
+      return Invalid(item, absl::StrCat("unknown ", kind, " \"", ShownName(name), "\"", owner));
     const auto [it, inserted] = seen.emplace(name, i);
     if (!inserted) {
-      return Invalid(item,
-                     absl::StrCat("duplicate ", kind, " \"", name, "\", also ", field, "[", it->second, "]", owner));
+      return Invalid(item, absl::StrCat("duplicate ", kind, " \"", ShownName(name), "\", also ", field, "[",
+                                        it->second, "]", owner));
     }
   }
   return absl::OkStatus();
@@ -317,7 +319,7 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
     MVBRDF_RETURN_IF_ERROR(configurations.Add(i, c.name()));
     if (c.lights_size() == 0) return Invalid(f + ".lights", "at least one light is required");
     MVBRDF_RETURN_IF_ERROR(CheckReferences(f + ".lights", c.lights(), lights, "light",
-                                           absl::StrCat(" in configuration \"", c.name(), "\"")));
+                                           absl::StrCat(" in configuration \"", ShownName(c.name()), "\"")));
   }
   std::map<uint32_t, int> frame_entry;
   for (int i = 0; i < scene.frame_lighting_size(); ++i) {
@@ -357,7 +359,7 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
     MVBRDF_RETURN_IF_ERROR(segments.Add(i, s.segment()));
     if (s.materials_size() == 0) return Invalid(f + ".materials", "at least one material seed is required");
     MVBRDF_RETURN_IF_ERROR(CheckReferences(f + ".materials", s.materials(), seeds, "material seed",
-                                           absl::StrCat(" in segment \"", s.segment(), "\"")));
+                                           absl::StrCat(" in segment \"", ShownName(s.segment()), "\"")));
   }
   if (!scene.segmentation_path().empty()) {
     MVBRDF_RETURN_IF_ERROR(CheckInsideSceneDir("scene.segmentation_path", scene.segmentation_path()));
