@@ -601,7 +601,7 @@ std::vector<BadInputCase> Cases() {
        },
        Expect::kRejected,
        kInvalid,
-       {"scene.lights[0].intensity[0]: must be a finite number in [0, 1e+06]"}},
+       {"scene.lights[0].intensity[0]: must be a finite number in [0, 1e+12]"}},
       // Issue #19 defect 7: a camera inside the head sees only back faces; its
       // MSE was 0.000000. Now absent, with a warning naming the camera (the
       // strings below are looked for in the job's report).

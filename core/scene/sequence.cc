@@ -31,11 +31,12 @@ constexpr double kRotationTolerance = 1e-6;
 constexpr double kUnitLengthTolerance = 1e-6;
 // Light intensities and positions are used in float arithmetic (shading,
 // squared residuals of the fits): 1e30 squared overflows to inf and came
-// out as "mseBrdf": "Infinity". Video is in [0, 1], so a light a million
-// times brighter than the model's unit light, or a million world units away,
-// is a typo or an attack, never a capture.
-constexpr double kMaxIntensity = 1e6;
-constexpr double kMaxLightCoordinate = 1e6;
+// out as "mseBrdf": "Infinity". The bounds leave room for any unit system
+// (a world in millimetres needs point lights 1e6 times brighter than one in
+// metres for the same irradiance) while a squared prediction stays far below
+// float's 3e38.
+constexpr double kMaxIntensity = 1e12;
+constexpr double kMaxLightCoordinate = 1e9;
 
 absl::Status Invalid(absl::string_view field, absl::string_view message) {
   return absl::InvalidArgumentError(absl::StrCat(field, ": ", message));

@@ -210,15 +210,15 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"LightIntensitySize", [](v1::Scene* s) { s->mutable_lights(2)->mutable_intensity()->RemoveLast(); },
        "scene.lights[2].intensity: expected 3 values"},
       {"LightIntensityNegative", [](v1::Scene* s) { s->mutable_lights(2)->set_intensity(1, -0.5); },
-       "scene.lights[2].intensity[1]: must be a finite number in [0, 1e+06]"},
+       "scene.lights[2].intensity[1]: must be a finite number in [0, 1e+12]"},
       {"LightIntensityInfinite", [](v1::Scene* s) { s->mutable_lights(2)->set_intensity(0, kInf); },
-       "scene.lights[2].intensity[0]: must be a finite number in [0, 1e+06] (linear RGB; 1 is the model's unit light), "
+       "scene.lights[2].intensity[0]: must be a finite number in [0, 1e+12] (linear RGB; 1 is the model's unit light), "
        "got inf"},
       // Issue #19 defect 7: 1e30 overflowed float maths into "mseBrdf": "Infinity".
       {"LightIntensityOverflowsFloatMaths", [](v1::Scene* s) { s->mutable_lights(2)->set_intensity(2, 1e30); },
-       "scene.lights[2].intensity[2]: must be a finite number in [0, 1e+06]"},
+       "scene.lights[2].intensity[2]: must be a finite number in [0, 1e+12]"},
       {"LightPositionFarAway", [](v1::Scene* s) { s->mutable_lights(1)->set_position(1, -1e30); },
-       "scene.lights[1].position[1]: must be within +-1e+06"},
+       "scene.lights[1].position[1]: must be within +-1e+09"},
       // Issue #19: validate said "valid" for scenes that run then rejected.
       {"NoLights",
        [](v1::Scene* s) {
