@@ -5,6 +5,7 @@
 #include "client/flags.h"
 #include "client/progress.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/resample_stage.h"
 #include "core/scene/sequence.h"
 
@@ -47,6 +48,15 @@ int RunResample(const std::vector<std::string>& args) {
   if (usage.ok() && (o.atlas.size < 16 || o.atlas.size > 16384)) {
     usage = absl::InvalidArgumentError("--atlas: must be in [16, 16384], got " + std::to_string(o.atlas.size));
   }
+  // The flags' names, not AtlasOptions' (its Check() below guards the rest).
+  if (usage.ok() && (o.atlas.gutter < 0 || o.atlas.gutter > o.atlas.size / 8)) {
+    usage = absl::InvalidArgumentError("--gutter: must be in [0, " + std::to_string(o.atlas.size / 8) +
+                                       "] (an eighth of --atlas), got " + std::to_string(o.atlas.gutter));
+  }
+  if (usage.ok() && !(o.atlas.max_normal_deviation_deg >= 1.0 && o.atlas.max_normal_deviation_deg <= 89.0)) {
+    usage = absl::InvalidArgumentError("--chart-angle: must be in [1, 89] degrees, got " +
+                                       std::to_string(o.atlas.max_normal_deviation_deg));
+  }
   if (usage.ok()) usage = o.atlas.Check();
   if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");
   if (usage.ok() && o.grow_iterations < 0) usage = absl::InvalidArgumentError("--grow: must be >= 0");
@@ -68,6 +78,10 @@ int RunResample(const std::vector<std::string>& args) {
   load.check_all_frames = false;
   auto sequence = scene::LoadSequence(scene_file, load);
   if (!sequence.ok()) return ReportFailure(sequence.status());
+  // An atlas that cannot fit fails now, not in an allocation minutes in.
+  if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(o.atlas.size); !fits.ok()) {
+    return ReportFailure(fits, "mvbrdf resample");
+  }
   auto context = gl::EglContext::Create(*platform);
   if (!context.ok()) {
     std::fprintf(stderr, "mvbrdf resample: error: %s\n", std::string(context.status().message()).c_str());
@@ -75,8 +89,9 @@ int RunResample(const std::vector<std::string>& args) {
   }
   ProgressPrinter progress(stderr);
   o.progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
-  auto report = pipeline::RunResampleStage(*sequence, **context, o);
-  if (!report.ok()) return ReportFailure(report.status());
+  auto report = pipeline::CatchOutOfMemory("resample", o.atlas.size,
+                                           [&] { return pipeline::RunResampleStage(*sequence, **context, o); });
+  if (!report.ok()) return ReportFailure(report.status(), "mvbrdf resample");
 
   const auto& a = report->atlas();
   std::printf("atlas %ux%u: %u charts, coverage %.1f%%, overlap %.4f%%, area ratio %.2f..%.2f (%s)\n", a.size(),
