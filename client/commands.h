@@ -67,7 +67,8 @@ absl::Status WriteRunReport(const std::filesystem::path& run_dir, const std::fil
 
 // The exit code of a failed RPC, from its grpc::StatusCode (as an int):
 // kExitInvalidInput for INVALID_ARGUMENT, NOT_FOUND and FAILED_PRECONDITION,
-// kExitEnvironment for UNAVAILABLE and DEADLINE_EXCEEDED, kExitDenied for
+// kExitEnvironment for UNAVAILABLE, DEADLINE_EXCEEDED and RESOURCE_EXHAUSTED
+// (the server's disk is full, or a server limit), kExitDenied for
 // UNAUTHENTICATED and PERMISSION_DENIED, else kExitInternal
 // (report_failure.cc).
 int ExitCodeForRpc(int grpc_code);

@@ -29,17 +29,18 @@ absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path) 
 absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_view contents) {
   std::error_code ec;
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
-  if (ec) return absl::InternalError(absl::StrCat(path.parent_path().string(), ": cannot create directory: ", ec.message()));
+  if (ec) return ErrnoStatus(ec.value(), "cannot create directory", path.parent_path().string());
   const std::filesystem::path tmp = path.string() + ".tmp";
   {
+    errno = 0;  // what a failed write leaves names the cause
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) return absl::PermissionDeniedError(absl::StrCat(tmp.string(), ": cannot open for writing"));
     out.write(contents.data(), static_cast<std::streamsize>(contents.size()));
     out.flush();
-    if (!out) return absl::DataLossError(absl::StrCat(tmp.string(), ": write failed (disk full?)"));
+    if (!out) return ErrnoStatus(errno != 0 ? errno : EIO, "write failed", tmp.string());
   }
   std::filesystem::rename(tmp, path, ec);
-  if (ec) return absl::InternalError(absl::StrCat(path.string(), ": cannot rename temporary file: ", ec.message()));
+  if (ec) return ErrnoStatus(ec.value(), "cannot rename temporary file", path.string());
   return absl::OkStatus();
 }
 
@@ -96,9 +97,11 @@ std::filesystem::path ResolvePath(const std::filesystem::path& base_dir, absl::s
 
 absl::Status ErrnoStatus(int error, absl::string_view what, absl::string_view path) {
   const std::string message = absl::StrCat(path, ": ", what, ": ", std::strerror(error));
-  if (error == ENOSPC || error == EDQUOT) return absl::ResourceExhaustedError(message);
+  if (error == ENOSPC || error == EDQUOT || error == EFBIG) return absl::ResourceExhaustedError(message);
   if (error == ENOENT) return absl::NotFoundError(message);
-  if (error == EACCES || error == EPERM) return absl::PermissionDeniedError(message);
+  if (error == EACCES || error == EPERM || error == EROFS) return absl::PermissionDeniedError(message);
+  // The file system failed under us (exit 4, not an internal error).
+  if (error == EIO || error == EMFILE || error == ENFILE) return absl::UnavailableError(message);
   return absl::InternalError(message);
 }
 

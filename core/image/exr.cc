@@ -12,7 +12,9 @@
 #include <ImfStandardAttributes.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
 #include "core/scene/video_source.h"
 
 namespace mvbrdf::image {
@@ -81,10 +83,15 @@ absl::Status WriteExr(const std::filesystem::path& file, const cv::Mat& image, c
     out.writePixels(image.rows);
   } catch (const std::exception& e) {
     std::filesystem::remove(tmp, ec);
-    return absl::DataLossError(absl::StrCat(file.string(), ": cannot write OpenEXR: ", e.what()));
+    // The file system's failure (exit 4), not the data's.
+    const std::string message = absl::StrCat(file.string(), ": cannot write OpenEXR: ", e.what());
+    if (absl::StrContains(e.what(), "No space left") || absl::StrContains(e.what(), "quota")) {
+      return absl::ResourceExhaustedError(message);
+    }
+    return absl::UnavailableError(message);
   }
   std::filesystem::rename(tmp, file, ec);
-  if (ec) return absl::InternalError(absl::StrCat(file.string(), ": cannot rename temporary file: ", ec.message()));
+  if (ec) return ErrnoStatus(ec.value(), "cannot rename temporary file", file.string());
   return absl::OkStatus();
 }
 
