@@ -22,7 +22,8 @@ enum ExitCode : int {
   kExitInternal = 1,      // a bug or an unexpected failure
   kExitUsage = 2,         // bad command line
   kExitInvalidInput = 3,  // the scene or its files are not valid
-  kExitEnvironment = 4,   // EGL/GL, codecs or the file system are not usable; the server is unreachable
+  kExitEnvironment = 4,   // EGL/GL, codecs, the file system or memory are not usable (a full or read-only
+                          // disk, an atlas too large for memory); the server is unreachable or at its limits
   kExitJobFailed = 5,     // `watch` (and `submit --watch`): the job failed (its reason is printed)
   kExitJobCancelled = 6,  // `watch` (and `submit --watch`): the job was cancelled
   kExitDenied = 7,        // the server refused the credentials (no, unknown or wrong-role token)

@@ -34,8 +34,8 @@ constexpr char kUsage[] =
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
-    "  server unreachable), 5 the watched job failed, 6 the watched job was cancelled, 7 the server\n"
-    "  refused the credentials (no, unknown or wrong-role token)\n";
+    "  disk full, memory, server unreachable or at its limits), 5 the watched job failed, 6 the watched\n"
+    "  job was cancelled, 7 the server refused the credentials (no, unknown or wrong-role token)\n";
 
 }  // namespace
 
