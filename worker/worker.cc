@@ -65,9 +65,11 @@ absl::Status ProbeCacheDir(const fs::path& dir) {
 // breaks writes whose errors do not say so).
 bool IsOwnFault(const absl::Status& status, const fs::path& cache_dir, std::string* why) {
   if (IsMarkedWorkerFault(status)) return true;
-  const bool system = status.code() == absl::StatusCode::kResourceExhausted ||
-                      status.code() == absl::StatusCode::kPermissionDenied ||
-                      status.code() == absl::StatusCode::kInternal || status.code() == absl::StatusCode::kUnavailable;
+  // A file system error (ErrnoStatus's codes) on a file of this worker's; a
+  // limit or a parse error naming a file of the unpacked bundle is the job's.
+  const bool full = absl::IsResourceExhausted(status) && (absl::StrContains(status.message(), "No space left") ||
+                                                          absl::StrContains(status.message(), "quota"));
+  const bool system = full || absl::IsPermissionDenied(status) || absl::IsUnavailable(status);
   if (system && absl::StrContains(status.message(), cache_dir.string())) return true;
   const absl::Status probe = ProbeCacheDir(cache_dir);
   if (probe.ok()) return false;
