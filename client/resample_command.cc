@@ -1,6 +1,8 @@
 // `mvbrdf resample SCENE --out DIR`: every video frame into the texture atlas.
+#include <cmath>
 #include <cstdio>
 
+#include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
 #include "client/progress.h"
@@ -48,14 +50,25 @@ int RunResample(const std::vector<std::string>& args) {
   if (usage.ok() && (o.atlas.size < 16 || o.atlas.size > 16384)) {
     usage = absl::InvalidArgumentError("--atlas: must be in [16, 16384], got " + std::to_string(o.atlas.size));
   }
-  // The flags' names, not AtlasOptions' (its Check() below guards the rest).
+  // The flags' names, not the options structs' (their checks below and in
+  // the resampler guard the rest), and before any EGL set-up.
+  const auto out_of_range = [&usage](const char* flag, const std::string& range, double got) {
+    usage = absl::InvalidArgumentError(absl::StrCat(flag, ": must be in ", range, ", got ", got));
+  };
   if (usage.ok() && (o.atlas.gutter < 0 || o.atlas.gutter > o.atlas.size / 8)) {
-    usage = absl::InvalidArgumentError("--gutter: must be in [0, " + std::to_string(o.atlas.size / 8) +
-                                       "] (an eighth of --atlas), got " + std::to_string(o.atlas.gutter));
+    out_of_range("--gutter", absl::StrCat("[0, ", o.atlas.size / 8, "] (an eighth of --atlas)"), o.atlas.gutter);
   }
   if (usage.ok() && !(o.atlas.max_normal_deviation_deg >= 1.0 && o.atlas.max_normal_deviation_deg <= 89.0)) {
-    usage = absl::InvalidArgumentError("--chart-angle: must be in [1, 89] degrees, got " +
-                                       std::to_string(o.atlas.max_normal_deviation_deg));
+    out_of_range("--chart-angle", "[1, 89] degrees", o.atlas.max_normal_deviation_deg);
+  }
+  if (usage.ok() && !(o.resampler.grazing_margin_deg >= 0.0 && o.resampler.grazing_margin_deg < 90.0)) {
+    out_of_range("--grazing-margin", "[0, 90) degrees", o.resampler.grazing_margin_deg);
+  }
+  if (usage.ok() && !(o.resampler.relative_depth_tolerance >= 0.0 && std::isfinite(o.resampler.relative_depth_tolerance))) {
+    out_of_range("--depth-tolerance", "[0, inf)", o.resampler.relative_depth_tolerance);
+  }
+  if (usage.ok() && (o.resampler.shadow_map_size < 1 || o.resampler.shadow_map_size > 8192)) {
+    out_of_range("--shadow-map-size", "[1, 8192]", o.resampler.shadow_map_size);
   }
   if (usage.ok()) usage = o.atlas.Check();
   if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");

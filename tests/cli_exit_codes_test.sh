@@ -60,6 +60,12 @@ code 2 "an unknown command" "unknown command" -- "$bin" frobnicate
 code 2 "a missing argument" "SCENE" -- "$bin" resample
 code 2 "an unknown flag" "--frobnicate" -- "$bin" validate "$work/b/scene.json" --frobnicate
 code 2 "a port above 65535" "0..65535" -- "$bin" server --listen 127.0.0.1:99999 --data "$work/d"
+# Out-of-range options name the flag the user wrote, not an options struct
+# ("AtlasOptions.gutter", "options.shadow_map_size"), before any EGL set-up.
+for flag in "--gutter 999" "--chart-angle 0" "--grazing-margin 100" "--depth-tolerance -1" "--shadow-map-size 0"; do
+  code 2 "resample $flag" "^mvbrdf resample: ${flag%% *}: must be in" -- \
+    "$bin" resample "$work/b/scene.json" --out "$work/r_flags" $flag
+done
 code 2 "a --client label gRPC cannot carry" "--client: must be printable ASCII" -- \
   "$bin" jobs --server 127.0.0.1:1 --client 'café'
 
