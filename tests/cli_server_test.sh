@@ -51,11 +51,18 @@ check "jobs as JSON" 0 "{" -- "$bin" jobs --server "$address" --json
 check "a second server on the same port is refused, naming the address" 4 \
   "cannot listen on $address: the address is already in use" -- \
   timeout 10 "$bin" server --listen "$address" --data "$work/data2"
+# A job on the first server (queued: no worker), so that its answers differ
+# from an empty second server's.
+"$bin" synth --cameras 2 --frames 2 --width 64 --height 48 --actor-segments 6 --out "$work/tiny" > /dev/null 2>&1
+queued=$("$bin" submit "$work/tiny/scene.json" --server "$address" --client port --atlas 64 2>/dev/null)
+expect "a job is queued on the first server" test -n "$queued"
 "$bin" server --listen "$address" --data "$work/data3" > "$work/server_dup.log" 2>&1 &
 dup=$!
 sleep 1
 served=0
-for _ in $(seq 1 12); do "$bin" jobs --server "$address" | grep -q "no jobs" && served=$((served + 1)); done
+for _ in $(seq 1 12); do
+  "$bin" jobs --server "$address" --client port | grep -q "$queued" && served=$((served + 1))
+done
 kill -TERM "$dup" 2>/dev/null
 wait "$dup" 2>/dev/null
 expect "every call reaches the first server while a second one tries the port ($served of 12)" test "$served" -eq 12
@@ -68,6 +75,7 @@ check "jobs without a server" 4 "mvbrdf jobs: error" -- "$bin" jobs --server "$a
 
 expect "server restarts on the same data" start_server "$work/server2.log"
 check "jobs after the restart" 0 "no jobs" -- "$bin" jobs --server "$address"
+check "the queued job survived the restart" 0 "$queued" -- "$bin" jobs --server "$address" --client port
 check "health: serving" 0 "SERVING" -- "$bin" health --server "$address"
 # Issue #19: the server said SERVING after its data directory was deleted.
 mv "$work/data" "$work/data.moved"
