@@ -33,6 +33,10 @@ int RunCancel(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
+  if (absl::Status s = CheckLabel(client_name, "--client"); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf cancel: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
   if (address.empty()) {
     std::fprintf(stderr, "mvbrdf cancel: --server: required\n");
     return kExitUsage;

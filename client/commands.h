@@ -22,7 +22,8 @@ enum ExitCode : int {
   kExitInternal = 1,      // a bug or an unexpected failure
   kExitUsage = 2,         // bad command line
   kExitInvalidInput = 3,  // the scene or its files are not valid
-  kExitEnvironment = 4,   // EGL/GL, codecs or the file system are not usable; the server is unreachable
+  kExitEnvironment = 4,   // EGL/GL, codecs, the file system or memory are not usable (a full or read-only
+                          // disk, an atlas too large for memory); the server is unreachable or at its limits
   kExitJobFailed = 5,     // `watch` (and `submit --watch`): the job failed (its reason is printed)
   kExitJobCancelled = 6,  // `watch` (and `submit --watch`): the job was cancelled
   kExitDenied = 7,        // the server refused the credentials (no, unknown or wrong-role token)
@@ -67,7 +68,8 @@ absl::Status WriteRunReport(const std::filesystem::path& run_dir, const std::fil
 
 // The exit code of a failed RPC, from its grpc::StatusCode (as an int):
 // kExitInvalidInput for INVALID_ARGUMENT, NOT_FOUND and FAILED_PRECONDITION,
-// kExitEnvironment for UNAVAILABLE and DEADLINE_EXCEEDED, kExitDenied for
+// kExitEnvironment for UNAVAILABLE, DEADLINE_EXCEEDED and RESOURCE_EXHAUSTED
+// (the server's disk is full, or a server limit), kExitDenied for
 // UNAUTHENTICATED and PERMISSION_DENIED, else kExitInternal
 // (report_failure.cc).
 int ExitCodeForRpc(int grpc_code);

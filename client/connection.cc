@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
 #include "core/base/status_macros.h"
@@ -65,6 +66,25 @@ absl::Status CheckToken(absl::string_view token, absl::string_view origin) {
 }
 
 }  // namespace
+
+absl::Status CheckLabel(absl::string_view value, absl::string_view flag) {
+  constexpr size_t kMaxLabelBytes = 128;
+  if (value.empty() || value.size() > kMaxLabelBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(flag, ": must be 1 to ", kMaxLabelBytes, " characters, got ", value.size()));
+  }
+  for (char c : value) {
+    if (c < ' ' || c > '~') {
+      return absl::InvalidArgumentError(
+          absl::StrCat(flag, ": must be printable ASCII (letters, digits, punctuation, spaces), got \"",
+                       absl::CHexEscape(value), "\""));
+    }
+  }
+  if (value.front() == ' ' || value.back() == ' ') {
+    return absl::InvalidArgumentError(absl::StrCat(flag, ": must not start or end with a space, got \"", value, "\""));
+  }
+  return absl::OkStatus();
+}
 
 void AddConnectionFlags(FlagParser& flags, ConnectionFlags* connection) {
   flags.AddString("--token-file", &connection->token_file,

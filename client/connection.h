@@ -39,6 +39,15 @@ void AddConnectionFlags(FlagParser& flags, ConnectionFlags* connection);
 // ASCII without spaces.
 absl::StatusOr<std::string> ResolveToken(const ConnectionFlags& connection);
 
+// Checks a label the client sends to the server in gRPC metadata or as a
+// name (--client, worker --name): 1 to 128 bytes of printable ASCII
+// (0x20..0x7E, what an HTTP/2 header value may hold) without leading or
+// trailing spaces. gRPC aborts the process on a metadata value with other
+// bytes ("café", a newline, a tab), so they are refused here, naming `flag`,
+// rather than percent-encoded: the label names the caller's jobs, and an
+// encoded one would list under a name the user never typed.
+absl::Status CheckLabel(absl::string_view value, absl::string_view flag);
+
 // A channel to `address` with the transport and token of `connection` that
 // accepts the service's largest messages. Errors name the flag.
 absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel(const std::string& address,

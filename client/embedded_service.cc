@@ -3,6 +3,7 @@
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
 #include "core/base/status_macros.h"
 
 namespace mvbrdf::client {
@@ -76,7 +77,7 @@ absl::StatusOr<std::vector<std::string>> EmbeddedService::CopyArtifacts(const st
     std::error_code ec;
     fs::create_directories(target.parent_path(), ec);
     fs::copy_file(source, target, fs::copy_options::overwrite_existing, ec);
-    if (ec) return absl::FailedPreconditionError(absl::StrCat(target.string(), ": cannot write: ", ec.message()));
+    if (ec) return ErrnoStatus(ec.value(), "cannot write", target.string());
     names.push_back(a.name);
   }
   return names;

@@ -145,6 +145,10 @@ int RunFetch(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
+  if (absl::Status s = CheckLabel(client_name, "--client"); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf fetch: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
   if (address.empty() || out_dir.empty()) {
     std::fprintf(stderr, "mvbrdf fetch: %s: required\n", address.empty() ? "--server" : "--out");
     return kExitUsage;

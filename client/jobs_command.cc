@@ -31,6 +31,10 @@ int RunJobs(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
+  if (absl::Status s = CheckLabel(client_name, "--client"); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf jobs: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
   if (address.empty() || limit < 1) {
     std::fprintf(stderr, "mvbrdf jobs: %s\n", address.empty() ? "--server: required" : "--limit: must be >= 1");
     return kExitUsage;

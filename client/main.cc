@@ -1,8 +1,11 @@
 // mvbrdf: measure spatially varying BRDFs from multi-view video of a tracked
 // mesh. One binary, one subcommand per task.
 #include <cstdio>
+#include <new>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "client/commands.h"
 #include "client/connection.h"
@@ -31,12 +34,34 @@ constexpr char kUsage[] =
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
-    "  server unreachable), 5 the watched job failed, 6 the watched job was cancelled, 7 the server\n"
-    "  refused the credentials (no, unknown or wrong-role token)\n";
+    "  disk full, memory, server unreachable or at its limits), 5 the watched job failed, 6 the watched\n"
+    "  job was cancelled, 7 the server refused the credentials (no, unknown or wrong-role token)\n";
 
 }  // namespace
 
+namespace {
+
+int Dispatch(int argc, char** argv);
+
+}  // namespace
+
+// The commands turn what they can foresee into a Status; an allocation that
+// fails anywhere else still ends with a message and exit 4, not an abort.
 int main(int argc, char** argv) {
+  try {
+    return Dispatch(argc, argv);
+  } catch (const std::bad_alloc& e) {
+    std::fprintf(stderr, "mvbrdf: error: out of memory (%s)\n", e.what());
+    return mvbrdf::client::kExitEnvironment;
+  } catch (const cv::Exception& e) {
+    std::fprintf(stderr, "mvbrdf: error: %s\n", e.what());
+    return e.code == cv::Error::StsNoMem ? mvbrdf::client::kExitEnvironment : mvbrdf::client::kExitInternal;
+  }
+}
+
+namespace {
+
+int Dispatch(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h" ||
       std::string(argv[1]) == "help") {
     std::fputs(kUsage, argc < 2 ? stderr : stdout);
@@ -66,3 +91,5 @@ int main(int argc, char** argv) {
   std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", command.c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }
+
+}  // namespace

@@ -49,6 +49,7 @@ int ExitCodeForRpc(int grpc_code) {
       return kExitInvalidInput;
     case grpc::StatusCode::UNAVAILABLE:
     case grpc::StatusCode::DEADLINE_EXCEEDED:
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:  // the server's disk or limits, as ExitCodeFor
       return kExitEnvironment;
     case grpc::StatusCode::UNAUTHENTICATED:
     case grpc::StatusCode::PERMISSION_DENIED:

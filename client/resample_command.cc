@@ -1,11 +1,14 @@
 // `mvbrdf resample SCENE --out DIR`: every video frame into the texture atlas.
+#include <cmath>
 #include <cstdio>
 
+#include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
 #include "client/output_dir.h"
 #include "client/progress.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/resample_stage.h"
 #include "core/scene/sequence.h"
 
@@ -48,6 +51,26 @@ int RunResample(const std::vector<std::string>& args) {
   if (usage.ok() && (o.atlas.size < 16 || o.atlas.size > 16384)) {
     usage = absl::InvalidArgumentError("--atlas: must be in [16, 16384], got " + std::to_string(o.atlas.size));
   }
+  // The flags' names, not the options structs' (their checks below and in
+  // the resampler guard the rest), and before any EGL set-up.
+  const auto out_of_range = [&usage](const char* flag, const std::string& range, double got) {
+    usage = absl::InvalidArgumentError(absl::StrCat(flag, ": must be in ", range, ", got ", got));
+  };
+  if (usage.ok() && (o.atlas.gutter < 0 || o.atlas.gutter > o.atlas.size / 8)) {
+    out_of_range("--gutter", absl::StrCat("[0, ", o.atlas.size / 8, "] (an eighth of --atlas)"), o.atlas.gutter);
+  }
+  if (usage.ok() && !(o.atlas.max_normal_deviation_deg >= 1.0 && o.atlas.max_normal_deviation_deg <= 89.0)) {
+    out_of_range("--chart-angle", "[1, 89] degrees", o.atlas.max_normal_deviation_deg);
+  }
+  if (usage.ok() && !(o.resampler.grazing_margin_deg >= 0.0 && o.resampler.grazing_margin_deg < 90.0)) {
+    out_of_range("--grazing-margin", "[0, 90) degrees", o.resampler.grazing_margin_deg);
+  }
+  if (usage.ok() && !(o.resampler.relative_depth_tolerance >= 0.0 && std::isfinite(o.resampler.relative_depth_tolerance))) {
+    out_of_range("--depth-tolerance", "[0, inf)", o.resampler.relative_depth_tolerance);
+  }
+  if (usage.ok() && (o.resampler.shadow_map_size < 1 || o.resampler.shadow_map_size > 8192)) {
+    out_of_range("--shadow-map-size", "[1, 8192]", o.resampler.shadow_map_size);
+  }
   if (usage.ok()) usage = o.atlas.Check();
   if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");
   if (usage.ok() && o.grow_iterations < 0) usage = absl::InvalidArgumentError("--grow: must be >= 0");
@@ -74,6 +97,10 @@ int RunResample(const std::vector<std::string>& args) {
   }
   absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
   if (!lock.ok()) return ReportFailure(lock.status());
+  // An atlas that cannot fit fails now, not in an allocation minutes in.
+  if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(o.atlas.size); !fits.ok()) {
+    return ReportFailure(fits, "mvbrdf resample");
+  }
   auto context = gl::EglContext::Create(*platform);
   if (!context.ok()) {
     std::fprintf(stderr, "mvbrdf resample: error: %s\n", std::string(context.status().message()).c_str());
@@ -81,8 +108,9 @@ int RunResample(const std::vector<std::string>& args) {
   }
   ProgressPrinter progress(stderr);
   o.progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
-  auto report = pipeline::RunResampleStage(*sequence, **context, o);
-  if (!report.ok()) return ReportFailure(report.status());
+  auto report = pipeline::CatchOutOfMemory("resample", o.atlas.size,
+                                           [&] { return pipeline::RunResampleStage(*sequence, **context, o); });
+  if (!report.ok()) return ReportFailure(report.status(), "mvbrdf resample");
 
   const auto& a = report->atlas();
   std::printf("atlas %ux%u: %u charts, coverage %.1f%%, overlap %.4f%%, area ratio %.2f..%.2f (%s)\n", a.size(),

@@ -22,6 +22,7 @@
 #include "core/base/proto_json.h"
 #include "core/bundle/bundle.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/reconstruct_stage.h"
 #include "core/scene/sequence.h"
 #include "worker/job_options.h"
@@ -92,7 +93,8 @@ int RunDirect(const scene::Sequence& sequence, const v1::SubmitJobRequest& reque
   if (!context.ok()) return ReportFailure(context.status(), "mvbrdf run");
   ProgressPrinter progress(stderr);
   o->progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
-  auto report = pipeline::RunReconstruction(sequence, **context, *o);
+  auto report = pipeline::CatchOutOfMemory("run", o->atlas.size,
+                                           [&] { return pipeline::RunReconstruction(sequence, **context, *o); });
   if (!report.ok()) return ReportFailure(report.status(), "mvbrdf run");
   PrintReport(*report, out);
   return kExitOk;
@@ -270,6 +272,10 @@ int RunRun(const std::vector<std::string>& args) {
   // One command at a time writes DIR (held to the end, the report included).
   absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
   if (!lock.ok()) return ReportFailure(lock.status());
+  // Direct or through the in-process workers, the atlas is allocated here.
+  if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(options->atlas.size); !fits.ok()) {
+    return ReportFailure(fits, "mvbrdf run");
+  }
   std::fputs(plan->Describe().c_str(), stdout);
   std::fflush(stdout);
   const int ran = direct ? RunDirect(*sequence, request, *platform, threads, out)

@@ -178,7 +178,7 @@ int RunServer(const std::vector<std::string>& args) {
   }
 
   auto server = server::Server::Start(o);
-  if (!server.ok()) return ReportFailure(server.status());
+  if (!server.ok()) return ReportFailure(server.status(), "mvbrdf server");
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
   std::printf("listening on %s (data in %s; %s, %s)\n", (*server)->address().c_str(), o.data_dir.string().c_str(),

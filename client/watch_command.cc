@@ -180,6 +180,10 @@ int RunWatch(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
+  if (absl::Status s = CheckLabel(client_name, "--client"); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf watch: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
   if (address.empty()) {
     std::fprintf(stderr, "mvbrdf watch: --server: required\n");
     return kExitUsage;

@@ -72,6 +72,7 @@ int RunWorker(const std::vector<std::string>& args) {
   absl::Status usage = absl::OkStatus();
   auto platform = gl::ParseEglPlatform(egl);
   if (!platform.ok()) usage = platform.status();
+  if (usage.ok()) usage = CheckLabel(o.name, "--name");
   if (usage.ok() && address.empty()) usage = absl::InvalidArgumentError("--server: required (HOST:PORT)");
   if (usage.ok() && (o.threads < 1 || o.threads > 64)) usage = absl::InvalidArgumentError("--threads: must be in [1, 64]");
   if (usage.ok() && (o.wait_seconds < 1 || o.wait_seconds > 600)) {

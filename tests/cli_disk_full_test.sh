@@ -80,7 +80,7 @@ expect "no temporary file is left behind" test -z "$(inns find "$data/artifacts/
 
 # An upload while the disk is full: refused with the reason (the bytes that
 # fitted stay as a valid prefix; the upload resumes after them).
-check "an upload to a full disk is refused with the reason" 1 "No space left on device" -- \
+check "an upload to a full disk is refused with the reason (exit 4: environment)" 4 "No space left on device" -- \
   "$bin" submit "$work/b2/scene.json" --server "$address" --client disk "${opts[@]}"
 
 # Space freed: the same server and worker take the refused bundle and run its

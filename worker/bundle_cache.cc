@@ -5,6 +5,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/bundle/bundle.h"
+#include "worker/worker_fault.h"
 
 namespace mvbrdf::worker {
 namespace fs = std::filesystem;
@@ -31,7 +32,7 @@ absl::StatusOr<fs::path> BundleCache::Unpacked(const std::string& sha256) {
   std::error_code ec;
   fs::create_directories(dir_, ec);
   // This worker's disk: not the job's fault (UNAVAILABLE, retried elsewhere).
-  if (ec) return absl::UnavailableError(absl::StrCat(dir_.string(), ": cannot create: ", ec.message()));
+  if (ec) return WorkerFault(absl::UnavailableError(absl::StrCat(dir_.string(), ": cannot create: ", ec.message())));
   const fs::path archive = dir_ / (sha256 + ".tar");
   MVBRDF_RETURN_IF_ERROR(fetch_(sha256, archive));
   ++downloads_;
@@ -40,6 +41,9 @@ absl::StatusOr<fs::path> BundleCache::Unpacked(const std::string& sha256) {
   unpack.expected_sha256 = sha256;
   absl::StatusOr<fs::path> scene = bundle::UnpackBundle(archive, dir, unpack);
   fs::remove(archive, ec);
+  // Writing the files (INTERNAL, naming them) is this worker's disk; a
+  // bundle that does not unpack (hash, entries) is the job's.
+  if (!scene.ok() && scene.status().code() == absl::StatusCode::kInternal) return WorkerFault(scene.status());
   if (!scene.ok()) return scene.status();
   // The marker last: a crash before it leaves a directory that is unpacked again.
   if (FILE* f = std::fopen(done.c_str(), "w"); f != nullptr) std::fclose(f);

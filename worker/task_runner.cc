@@ -4,6 +4,7 @@
 #include <chrono>
 #include <system_error>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
@@ -12,9 +13,11 @@
 #include "core/fit/light_sweep.h"
 #include "core/pipeline/gather_stage.h"
 #include "core/pipeline/light_table.h"
+#include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/plan.h"
 #include "core/pipeline/reconstruct_stage.h"
 #include "worker/job_options.h"
+#include "worker/worker_fault.h"
 
 namespace mvbrdf::worker {
 namespace {
@@ -190,11 +193,30 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
 
 absl::StatusOr<TaskOutput> RunTask(const v1::Task& task, const scene::Sequence& sequence,
                                    TaskEnvironment environment) {
-  if (task.kind() == "gather") return Gather(task, sequence, environment);
-  if (task.kind() == "sweep") return Sweep(task, sequence, environment);
-  if (task.kind() == "choose") return Choose(task, sequence, environment);
-  if (task.kind() == "reflectance") return Reflectance(task, sequence, environment);
-  return absl::InvalidArgumentError(absl::StrCat("kind: unknown task kind \"", task.kind(), "\""));
+  const bool gl = task.kind() == "gather" || task.kind() == "reflectance";
+  const int atlas_size = task.request().options().atlas_size() != 0
+                             ? static_cast<int>(task.request().options().atlas_size())
+                             : atlas::AtlasOptions().size;
+  // This worker's memory, not the job's input: another worker may have more
+  // (worker_fault.h). Checked up front where it is cheap, caught otherwise.
+  if (gl) {
+    if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(atlas_size); !fits.ok()) {
+      return WorkerFault(absl::ResourceExhaustedError(absl::StrCat("task ", task.kind(), ": ", fits.message())));
+    }
+  }
+  absl::StatusOr<TaskOutput> out = pipeline::CatchOutOfMemory(
+      absl::StrCat("task ", task.kind()), gl ? atlas_size : 0, [&]() -> absl::StatusOr<TaskOutput> {
+        if (task.kind() == "gather") return Gather(task, sequence, environment);
+        if (task.kind() == "sweep") return Sweep(task, sequence, environment);
+        if (task.kind() == "choose") return Choose(task, sequence, environment);
+        if (task.kind() == "reflectance") return Reflectance(task, sequence, environment);
+        return absl::InvalidArgumentError(absl::StrCat("kind: unknown task kind \"", task.kind(), "\""));
+      });
+  if (!out.ok() && absl::IsResourceExhausted(out.status()) &&
+      absl::StrContains(out.status().message(), ": out of memory")) {
+    return WorkerFault(out.status());
+  }
+  return out;
 }
 
 }  // namespace mvbrdf::worker

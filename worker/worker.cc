@@ -1,5 +1,6 @@
 #include "worker/worker.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -9,12 +10,14 @@
 #include <system_error>
 #include <thread>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
 #include "core/base/status_macros.h"
 #include "core/bundle/sha256.h"
 #include "worker/bundle_cache.h"
 #include "worker/task_runner.h"
+#include "worker/worker_fault.h"
 
 namespace mvbrdf::worker {
 namespace {
@@ -36,6 +39,42 @@ bool IsPermanent(const absl::Status& status) {
     default:
       return false;
   }
+}
+
+int64_t SteadyMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(SteadyClock::now().time_since_epoch()).count();
+}
+
+// Whether this worker can write its cache directory: a 256 KiB file written,
+// synced and removed (a full or read-only disk fails it).
+absl::Status ProbeCacheDir(const fs::path& dir) {
+  const fs::path probe = dir / absl::StrCat(".probe-", getpid());
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+  if (fd < 0) return ErrnoStatus(errno, "cannot create a file in the cache directory", probe.string());
+  absl::Status written = WriteAllToFd(fd, std::string(256 << 10, '\0'), probe.string());
+  if (written.ok() && ::fsync(fd) != 0) written = ErrnoStatus(errno, "fsync", probe.string());
+  ::close(fd);
+  ::unlink(probe.c_str());
+  return written;
+}
+
+// Whether a failed task failed on this worker's own environment rather than
+// on the job: marked so where the cause is known (out of memory, the bundle
+// cache's disk), or a system error naming a file of the cache directory, or
+// any failure while the cache directory fails the probe (a full disk also
+// breaks writes whose errors do not say so).
+bool IsOwnFault(const absl::Status& status, const fs::path& cache_dir, std::string* why) {
+  if (IsMarkedWorkerFault(status)) return true;
+  // A file system error (ErrnoStatus's codes) on a file of this worker's; a
+  // limit or a parse error naming a file of the unpacked bundle is the job's.
+  const bool full = absl::IsResourceExhausted(status) && (absl::StrContains(status.message(), "No space left") ||
+                                                          absl::StrContains(status.message(), "quota"));
+  const bool system = full || absl::IsPermissionDenied(status) || absl::IsUnavailable(status);
+  if (system && absl::StrContains(status.message(), cache_dir.string())) return true;
+  const absl::Status probe = ProbeCacheDir(cache_dir);
+  if (probe.ok()) return false;
+  *why = std::string(probe.message());
+  return true;
 }
 
 // Tasks that render or resample need the EGL context; the others are CPU only.
@@ -202,6 +241,34 @@ void Worker::Stop() {
   if (poll_ != nullptr) poll_->TryCancel();
 }
 
+void Worker::NoteTaskOutcome(bool own_fault) {
+  if (!own_fault) {
+    own_faults_ = 0;
+    return;
+  }
+  // 1 s, 2 s, ... 30 s: a healthy worker takes the queue meanwhile.
+  const int n = ++own_faults_;
+  const int64_t backoff_ms = std::min<int64_t>(30000, int64_t{1000} << std::min(n - 1, 5));
+  backoff_until_ms_ = SteadyMs() + backoff_ms;
+  Log(absl::StrCat("not leasing for ", backoff_ms / 1000, " s after a failure of this worker's own environment"));
+}
+
+void Worker::WaitUntilHealthy() {
+  if (own_faults_ == 0) return;
+  while (!stop_ && SteadyMs() < backoff_until_ms_) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::string last;
+  while (!stop_) {
+    const absl::Status probe = ProbeCacheDir(options_.cache_dir);
+    if (probe.ok()) break;
+    if (probe.message() != last) {
+      last = std::string(probe.message());
+      Log(absl::StrCat("not leasing while the cache directory is unusable: ", last));
+    }
+    for (int i = 0; i < 20 && !stop_; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  if (!last.empty() && !stop_) Log("the cache directory works again; leasing");
+}
+
 absl::Status Worker::Register(v1::Workers::Stub& stub, const gl::EglContext& context) {
   v1::RegisterWorkerRequest request;
   request.set_name(options_.name);
@@ -234,6 +301,9 @@ absl::Status Worker::Run() {
   if (ec) return absl::FailedPreconditionError(absl::StrCat(options_.cache_dir.string(), ": cannot create: ", ec.message()));
   std::unique_ptr<v1::Workers::Stub> stub = v1::Workers::NewStub(options_.channel);
   MVBRDF_RETURN_IF_ERROR(Register(*stub, *context));
+  // A cache directory that cannot be written: registered (the server lists
+  // the worker) but not leasing until it can (WaitUntilHealthy).
+  if (!ProbeCacheDir(options_.cache_dir).ok()) own_faults_ = 1;
   BundleCache cache(options_.cache_dir / "bundles", [this, &stub](const std::string& sha256, const fs::path& dest) {
     grpc::ClientContext rpc;
     v1::FetchBundleRequest request;
@@ -241,11 +311,15 @@ absl::Status Worker::Run() {
     request.set_sha256(sha256);
     std::unique_ptr<grpc::ClientReader<v1::ArtifactChunk>> reader = stub->FetchBundle(&rpc, request);
     std::ofstream out(dest, std::ios::binary | std::ios::trunc);
-    if (!out) return absl::UnavailableError(absl::StrCat(dest.string(), ": cannot write"));  // this worker's disk
-    absl::Status read = ReadChunks(*reader, absl::StrCat("FetchBundle ", sha256), [&out](const std::string& data) {
-      out.write(data.data(), static_cast<std::streamsize>(data.size()));
-      return out ? absl::OkStatus() : absl::UnavailableError("cannot write the bundle (disk full?)");  // this worker's
-    });
+    // This worker's disk: not the job's fault.
+    if (!out) return WorkerFault(absl::UnavailableError(absl::StrCat(dest.string(), ": cannot write")));
+    absl::Status read =
+        ReadChunks(*reader, absl::StrCat("FetchBundle ", sha256), [&out, &dest](const std::string& data) {
+          out.write(data.data(), static_cast<std::streamsize>(data.size()));
+          return out ? absl::OkStatus()
+                     : WorkerFault(absl::UnavailableError(
+                           absl::StrCat(dest.string(), ": cannot write the bundle (disk full?)")));
+        });
     ++bundle_downloads_;
     return read;
   });
@@ -292,6 +366,7 @@ absl::Status Worker::Run() {
       slots_cv.wait(lock, [&] { return running_cpu_tasks < max_cpu_tasks || stop_; });
       if (options_.max_tasks > 0 && tasks_run_ + running_cpu_tasks >= options_.max_tasks) break;
     }
+    WaitUntilHealthy();
     if (stop_) break;
     grpc::ClientContext rpc;
     rpc.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(options_.wait_seconds + 30));
@@ -449,13 +524,20 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
   const double seconds = std::chrono::duration<double>(SteadyClock::now() - start).count();
 
   absl::Status outcome = absl::OkStatus();
+  bool own_fault = false;
   if (renewer.lost()) {
     outcome = absl::AbortedError("the lease was lost (the task went to another worker or its job ended)");
   } else if (!output.ok()) {
+    std::string probe;
+    own_fault = IsOwnFault(output.status(), options_.cache_dir, &probe);
     v1::TaskUpdate update;
-    update.set_failed(std::string(output.status().message()));
-    update.set_permanent(IsPermanent(output.status()));
+    update.set_failed(probe.empty()
+                          ? std::string(output.status().message())
+                          : absl::StrCat(output.status().message(), " (this worker's cache directory: ", probe, ")"));
+    update.set_worker_fault(own_fault);
+    update.set_permanent(!own_fault && IsPermanent(output.status()));
     writer.Write(std::move(update));
+    if (own_fault) ++own_faults_reported_;
     outcome = output.status();
   } else {
     bool ok = stream_ok;
@@ -497,14 +579,23 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
       ok = ok && writer.Write(std::move(result));
     }
     if (!outcome.ok()) {
+      // An output this worker wrote cannot be read back: its disk.
+      own_fault = true;
+      ++own_faults_reported_;
       v1::TaskUpdate update;
       update.set_failed(std::string(outcome.message()));
+      update.set_worker_fault(true);
       writer.Write(std::move(update));
     }
   }
   stream->WritesDone();
   const grpc::Status finished = stream->Finish();
   fs::remove_all(scratch, ec);
+  // Too little memory for this task's atlas says nothing about the next
+  // task's: no back-off (the server retries the task elsewhere, a bounded
+  // number of times). A disk or EGL failure stops leasing for a while.
+  const bool out_of_memory = absl::IsResourceExhausted(outcome) && absl::StrContains(outcome.message(), "needs about");
+  if (!renewer.lost()) NoteTaskOutcome(own_fault && !out_of_memory);
   if (!outcome.ok()) return outcome;
   if (!finished.ok()) return FromGrpc(finished, "ReportTask");
   if (!ack.accepted()) return absl::AbortedError("the server did not accept the result (the lease was lost)");

@@ -70,6 +70,8 @@ class Worker {
 
   std::string id() const;
   int tasks_run() const { return tasks_run_; }
+  // Tasks that failed on this worker's own environment (TaskUpdate.worker_fault).
+  int own_faults_reported() const { return own_faults_reported_; }
   int bundle_downloads() const { return bundle_downloads_; }
   int samples_downloads() const { return samples_downloads_; }
 
@@ -89,7 +91,17 @@ class Worker {
   grpc::ClientContext* poll_ = nullptr;      // guarded by mu_: the long poll in flight
   std::atomic<int> lease_seconds_{30};  // set by Register, read by task threads
   std::atomic<int> tasks_run_{0};
+  // Tasks in a row that failed on this worker's own environment
+  // (worker_fault.h), and until when (steady clock, ms) not to lease after
+  // the last; reset by a task that succeeds. Any thread.
+  std::atomic<int> own_faults_{0};
+  std::atomic<int64_t> backoff_until_ms_{0};
+  void NoteTaskOutcome(bool own_fault);
+  // Blocks (until Stop()) while this worker should not lease: in the back-off
+  // after its own failure, or while its cache directory fails a probe write.
+  void WaitUntilHealthy();
   std::atomic<int> bundle_downloads_{0};
+  std::atomic<int> own_faults_reported_{0};
   std::atomic<int> samples_downloads_{0};
   // The last job's triangle Samples, by the SHA-256 of their encoding.
   std::mutex samples_mu_;

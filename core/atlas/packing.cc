@@ -129,7 +129,7 @@ absl::StatusOr<PackedLayout> PackRectangles(const std::vector<glm::dvec2>& exten
   if (!PackShelves(extents, order, 0.0, size, gutter, &layout.offsets)) {
     return absl::ResourceExhaustedError(absl::StrCat("atlas of ", size, " x ", size, " texels with a gutter of ",
                                                      gutter, " cannot hold ", extents.size(),
-                                                     " charts even at one texel each; use a larger AtlasOptions.size"));
+                                                     " charts even at one texel each; use a larger atlas (--atlas)"));
   }
   // The content area bounds the scale from above: sum (s w)(s h) <= size^2.
   double content = 0.0;

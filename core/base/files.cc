@@ -150,9 +150,11 @@ std::filesystem::path ResolvePath(const std::filesystem::path& base_dir, absl::s
 
 absl::Status ErrnoStatus(int error, absl::string_view what, absl::string_view path) {
   const std::string message = absl::StrCat(path, ": ", what, ": ", std::strerror(error));
-  if (error == ENOSPC || error == EDQUOT) return absl::ResourceExhaustedError(message);
+  if (error == ENOSPC || error == EDQUOT || error == EFBIG) return absl::ResourceExhaustedError(message);
   if (error == ENOENT) return absl::NotFoundError(message);
-  if (error == EACCES || error == EPERM) return absl::PermissionDeniedError(message);
+  if (error == EACCES || error == EPERM || error == EROFS) return absl::PermissionDeniedError(message);
+  // The file system failed under us (exit 4, not an internal error).
+  if (error == EIO || error == EMFILE || error == ENFILE) return absl::UnavailableError(message);
   return absl::InternalError(message);
 }
 

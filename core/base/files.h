@@ -30,8 +30,9 @@ absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path);
 absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_view contents);
 
 // The status of a failed system call on `path`, from its errno `error`:
-// "path: what: strerror(error)", RESOURCE_EXHAUSTED for a full disk or quota,
-// NOT_FOUND, PERMISSION_DENIED, else INTERNAL.
+// "path: what: strerror(error)", RESOURCE_EXHAUSTED for a full disk, quota or
+// file size limit, NOT_FOUND, PERMISSION_DENIED (also a read-only file
+// system), UNAVAILABLE for I/O errors and no free descriptors, else INTERNAL.
 absl::Status ErrnoStatus(int error, absl::string_view what, absl::string_view path);
 
 // Writes all of `bytes` to the descriptor `fd` (short writes and EINTR

@@ -112,7 +112,11 @@ TEST(FilesTest, WriteAllToFdReportsAFullDiskAsResourceExhausted) {
   EXPECT_EQ(full.message(), "uploads/x.part: write failed: No space left on device");
   EXPECT_EQ(ErrnoStatus(ENOENT, "cannot open", "a").code(), absl::StatusCode::kNotFound);
   EXPECT_EQ(ErrnoStatus(EACCES, "cannot open", "a").code(), absl::StatusCode::kPermissionDenied);
-  EXPECT_EQ(ErrnoStatus(EIO, "write failed", "a").code(), absl::StatusCode::kInternal);
+  // Issue #19: the file system's failures are the environment's (exit 4), not internal errors (exit 1).
+  EXPECT_EQ(ErrnoStatus(EROFS, "cannot open", "a").code(), absl::StatusCode::kPermissionDenied);
+  EXPECT_EQ(ErrnoStatus(EFBIG, "write failed", "a").code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_EQ(ErrnoStatus(EIO, "write failed", "a").code(), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(ErrnoStatus(EINVAL, "write failed", "a").code(), absl::StatusCode::kInternal);
   const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
   ASSERT_GE(null, 0);
   EXPECT_TRUE(WriteAllToFd(null, std::string(1 << 20, 'x'), "null").ok());

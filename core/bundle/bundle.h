@@ -52,12 +52,11 @@ struct BundleInfo {
 
 // The scene file and every file it references, relative to the scene's
 // directory ('/'-separated, normalised, sorted, unique): the mesh (every frame
-// of a pattern), each camera's video (every frame of an image pattern), the
-// segmentation, and (options.include_ground_truth) ground_truth/truth.json
-// with the textures it names. Errors: the scene's own parse/validation
-// errors; NOT_FOUND naming the field for a missing file; INVALID_ARGUMENT
-// for a path that leaves the scene's directory (absolute, "..", or a symlink
-// resolving outside) - a bundle is self-contained.
+// of a pattern, and the buffers and images a text .gltf names by URI), each camera's video (every frame of an image
+// pattern), the segmentation, and (options.include_ground_truth) ground_truth/truth.json with the textures it names.
+// Errors: the scene's own parse/validation errors; NOT_FOUND naming the field for a missing file; INVALID_ARGUMENT for
+// a path that leaves the scene's directory (absolute, "..", or a symlink resolving outside) - a bundle is
+// self-contained.
 absl::StatusOr<std::vector<std::string>> BundleFiles(const std::filesystem::path& scene_file,
                                                      const PackOptions& options = {});
 

@@ -189,6 +189,72 @@ TEST(BundleTest, PackUnpackLoadsTheSameScene) {
   EXPECT_TRUE(absl::IsAlreadyExists(UnpackBundle(tmp.path() / "b.tar", tmp.path() / "dst", {}).status()));
 }
 
+// A text glTF pyramid whose vertex and index data live in an external
+// buffer file at `buffer_uri` (relative to the .gltf), naming an image too.
+std::string PyramidGltf(const std::string& buffer_uri, const std::string& image_uri) {
+  return absl::StrCat(R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+  "nodes": [{"mesh": 0}],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+  "buffers": [{"uri": ")",
+                      buffer_uri, R"(", "byteLength": 96}],
+  "images": [{"uri": ")",
+                      image_uri, R"("}],
+  "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 60},
+                  {"buffer": 0, "byteOffset": 60, "byteLength": 36}],
+  "accessors": [{"bufferView": 0, "componentType": 5126, "count": 5, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [1, 1, 1]},
+                {"bufferView": 1, "componentType": 5123, "count": 18, "type": "SCALAR"}]})");
+}
+
+std::string PyramidBuffer() {
+  const float v[5][3] = {{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1}, {0.5f, 1, 0.5f}};
+  const uint16_t f[18] = {0, 1, 2, 0, 2, 3, 0, 4, 1, 1, 4, 2, 2, 4, 3, 3, 4, 0};
+  return std::string(reinterpret_cast<const char*>(v), sizeof(v)) +
+         std::string(reinterpret_cast<const char*>(f), sizeof(f));
+}
+
+// Issue #19: a glTF scene with an external .bin ran with --direct but not
+// through the service: the bundle lacked the buffer.
+TEST(BundleTest, GltfBuffersAndImagesTravelWithTheMesh) {
+  TempDir tmp;
+  v1::Scene scene = TinyScene();
+  scene.mutable_mesh()->set_path("meshes/pyramid.gltf");
+  const fs::path scene_file = WriteScene(tmp.path() / "src", scene);
+  // The buffer's URI as assimp opens it (not percent-decoded); the image's
+  // only decoded (the glTF standard's reading).
+  WriteText(tmp.path() / "src/meshes/pyramid.gltf", PyramidGltf("buffers/pyramid.bin", "../textures/kd%20map.png"));
+  WriteText(tmp.path() / "src/meshes/buffers/pyramid.bin", PyramidBuffer());
+  WriteText(tmp.path() / "src/textures/kd map.png", "not read by the loader");
+  const auto files = BundleFiles(scene_file, {});
+  ASSERT_TRUE(files.ok()) << files.status();
+  for (const char* want : {"meshes/pyramid.gltf", "meshes/buffers/pyramid.bin", "textures/kd map.png"}) {
+    EXPECT_NE(std::find(files->begin(), files->end(), want), files->end()) << want;
+  }
+  const auto info = PackBundle(scene_file, tmp.path() / "b.tar", {});
+  ASSERT_TRUE(info.ok()) << info.status();
+  const auto unpacked = UnpackBundle(tmp.path() / "b.tar", tmp.path() / "dst", {});
+  ASSERT_TRUE(unpacked.ok()) << unpacked.status();
+  const auto seq = scene::LoadSequence(*unpacked);
+  ASSERT_TRUE(seq.ok()) << seq.status();
+  EXPECT_EQ(seq->topology.triangles.size(), 6u);
+}
+
+TEST(BundleTest, GltfReferencesOutsideTheSceneAreRefused) {
+  TempDir tmp;
+  v1::Scene scene = TinyScene();
+  scene.mutable_mesh()->set_path("meshes/pyramid.gltf");
+  const fs::path scene_file = WriteScene(tmp.path() / "src", scene);
+  WriteText(tmp.path() / "outside.bin", PyramidBuffer());
+  for (const std::string& uri : {std::string("../../outside.bin"), (tmp.path() / "outside.bin").string(),
+                                 std::string("%2e%2e/%2e%2e/outside.bin"), std::string("http://example.com/x.bin"),
+                                 std::string("bad%zzescape.bin")}) {
+    WriteText(tmp.path() / "src/meshes/pyramid.gltf", PyramidGltf(uri, "data:image/png;base64,AAAA"));
+    const absl::Status status = BundleFiles(scene_file, {}).status();
+    EXPECT_TRUE(absl::IsInvalidArgument(status)) << uri << ": " << status;
+    EXPECT_TRUE(absl::StrContains(status.message(), "scene.mesh.path: meshes/pyramid.gltf: buffers[0].uri")) << status;
+  }
+}
+
 TEST(BundleTest, PackingIsDeterministic) {
   TempDir tmp;
   const fs::path scene_file = WriteScene(tmp.path() / "src", TinyScene());

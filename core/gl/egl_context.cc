@@ -59,7 +59,8 @@ const char* EglErrorName(EGLint error) {
 // `what` failed: the status names the call and the EGL error code.
 absl::Status EglError(absl::string_view what) {
   const EGLint error = eglGetError();
-  return absl::InternalError(absl::StrCat(what, " failed: ", EglErrorName(error), " (0x", absl::Hex(error), ")"));
+  // EGL not usable here: the environment's (exit 4), not a bug of ours.
+  return absl::UnavailableError(absl::StrCat(what, " failed: ", EglErrorName(error), " (0x", absl::Hex(error), ")"));
 }
 
 bool HasExtension(const char* extensions, absl::string_view name) {
@@ -152,7 +153,7 @@ absl::StatusOr<EGLDisplay> HardwareDeviceDisplay() {
     if (display == EGL_NO_DISPLAY) return EglError("eglGetPlatformDisplayEXT(EGL_PLATFORM_DEVICE_EXT)");
     return display;
   }
-  return absl::NotFoundError(
+  return absl::UnavailableError(
       absl::StrCat("EGL platform device: none of the ", num_devices,
                    " EGL devices is a hardware device (all report EGL_MESA_device_software); use platform "
                    "\"surfaceless\" or \"auto\""));

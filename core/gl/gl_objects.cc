@@ -63,13 +63,17 @@ const char* GlErrorName(GLenum error) {
 
 absl::Status CheckGlError(absl::string_view what) {
   std::string errors;
+  bool out_of_memory = false;
   // Bounded: a lost context may report GL_CONTEXT_LOST forever.
   for (int i = 0; i < 16; ++i) {
     const GLenum error = glGetError();
     if (error == GL_NO_ERROR) break;
+    out_of_memory = out_of_memory || error == GL_OUT_OF_MEMORY;
     absl::StrAppend(&errors, errors.empty() ? "" : ", ", GlErrorName(error));
   }
   if (errors.empty()) return absl::OkStatus();
+  // Out of memory is the machine's limit (exit 4), not a bug of ours.
+  if (out_of_memory) return absl::ResourceExhaustedError(absl::StrCat(what, ": ", errors, " (out of memory)"));
   return absl::InternalError(absl::StrCat(what, ": ", errors));
 }
 

@@ -13,6 +13,7 @@
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
 #include "core/scene/video_source.h"

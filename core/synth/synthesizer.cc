@@ -192,7 +192,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   std::error_code ec;
   std::filesystem::create_directories(out / "meshes", ec);
   std::filesystem::create_directories(out / "ground_truth", ec);
-  if (ec) return absl::InternalError(absl::StrCat(out.string(), ": cannot create output directory: ", ec.message()));
+  if (ec) return ErrnoStatus(ec.value(), "cannot create output directory", out.string());
 
   const VideoCodec codec = options.lossy_video ? VideoCodec::kMpeg4Lossy
                            : options.video_format == VideoFormat::kPng ? VideoCodec::kPngSequence

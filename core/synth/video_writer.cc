@@ -22,7 +22,7 @@ absl::StatusOr<std::unique_ptr<FrameSink>> FrameSink::Open(const std::filesystem
   switch (codec) {
     case VideoCodec::kPngSequence: {
       std::filesystem::create_directories(stem, ec);
-      if (ec) return absl::InternalError(absl::StrCat(stem.string(), ": cannot create directory: ", ec.message()));
+      if (ec) return ErrnoStatus(ec.value(), "cannot create directory", stem.string());
       sink->file_ = stem / "%04d.png";
       sink->scene_path_ = relative(sink->file_);
       return sink;

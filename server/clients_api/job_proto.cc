@@ -31,6 +31,8 @@ v1::TaskInfo ToProto(const store::Task& task) {
     info.set_seconds(static_cast<double>(task.updated_ms - task.started_ms) / 1000.0);
   }
   info.set_samples_from_cache(task.samples_from_cache);
+  info.set_last_error(task.error);
+  info.set_worker_faults(static_cast<uint32_t>(task.worker_faults));
   return info;
 }
 

@@ -1,10 +1,19 @@
 #include "server/process/server.h"
 
+#include <netdb.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/health_check_service_interface.h>
 
+#include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
@@ -50,13 +59,78 @@ absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> ListenCredentials(const
   return grpc::SslServerCredentials(ssl);
 }
 
+// Why `address` (host:port, already checked) cannot be listened on, as far
+// as a plain bind(2) of the same address can tell: "address already in use
+// (...)" or the errno text; empty when the bind works (then gRPC failed for
+// another reason, e.g. TLS).
+std::string WhyNotListenable(const std::string& address) {
+  const size_t colon = address.rfind(':');
+  if (colon == std::string::npos || absl::StartsWith(address, "unix")) return "";
+  std::string host = address.substr(0, colon);
+  if (host.size() >= 2 && host.front() == '[') host = host.substr(1, host.size() - 2);
+  const std::string port = address.substr(colon + 1);
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE | AI_NUMERICSERV;
+  addrinfo* found = nullptr;
+  if (const int rc = getaddrinfo(host.c_str(), port.c_str(), &hints, &found); rc != 0) {
+    return absl::StrCat("cannot resolve \"", host, "\": ", gai_strerror(rc));
+  }
+  std::string why;
+  for (addrinfo* a = found; a != nullptr; a = a->ai_next) {
+    const int fd = socket(a->ai_family, a->ai_socktype, a->ai_protocol);
+    if (fd < 0) continue;
+    const int one = 1;
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));  // as gRPC does; not SO_REUSEPORT
+    if (bind(fd, a->ai_addr, a->ai_addrlen) != 0) {
+      why = errno == EADDRINUSE ? "the address is already in use (is another server listening on it?)"
+                                : std::strerror(errno);
+    }
+    close(fd);
+    if (!why.empty()) break;
+  }
+  freeaddrinfo(found);
+  return why;
+}
+
 }  // namespace
 
-absl::Status ServerOptions::Check() const {
-  if (listen_address.empty() || listen_address.find(':') == std::string::npos) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--listen: expected host:port (port 0 picks a free one), got \"", listen_address, "\""));
+absl::Status CheckListenAddress(const std::string& address, absl::string_view origin) {
+  const auto bad = [&](absl::string_view what) {
+    return absl::InvalidArgumentError(absl::StrCat(origin, ": ", what, ", got \"", absl::CHexEscape(address), "\""));
+  };
+  if (absl::StartsWith(address, "unix:") || absl::StartsWith(address, "unix-abstract:")) {
+    if (address.back() == ':') return bad("expected a socket path after the scheme");
+    return absl::OkStatus();
   }
+  const size_t colon = address.rfind(':');
+  if (colon == std::string::npos) return bad("expected host:port (port 0 picks a free one)");
+  const std::string host = address.substr(0, colon), port = address.substr(colon + 1);
+  if (host.empty()) return bad("expected host:port with a host (e.g. 127.0.0.1, 0.0.0.0 or [::1])");
+  if (host.front() == '[') {
+    if (host.size() < 3 || host.back() != ']') return bad("expected [IPv6 address]:port");
+    for (char c : host.substr(1, host.size() - 2)) {
+      if (!absl::ascii_isxdigit(c) && c != ':' && c != '.' && c != '%' && !absl::ascii_isalnum(c)) {
+        return bad("expected [IPv6 address]:port");
+      }
+    }
+  } else {
+    for (char c : host) {
+      if (c == ':') return bad("an IPv6 address needs brackets ([::1]:port)");
+      if (!absl::ascii_isalnum(c) && c != '.' && c != '-' && c != '_') {
+        return bad("expected host:port, the host a name or an IP address");
+      }
+    }
+  }
+  if (port.empty() || port.size() > 5 || !std::all_of(port.begin(), port.end(), absl::ascii_isdigit) ||
+      std::stoi(port) > 65535) {
+    return bad("the port must be a number in 0..65535 (0 picks a free one)");
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ServerOptions::Check() const {
+  MVBRDF_RETURN_IF_ERROR(CheckListenAddress(listen_address, "--listen"));
   if (data_dir.empty()) return absl::InvalidArgumentError("--data: required (the server's state directory)");
   if (tls_cert_file.empty() != tls_key_file.empty()) {
     return absl::InvalidArgumentError("--tls-cert, --tls-key: give both (TLS) or neither (plaintext)");
@@ -113,6 +187,9 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& optio
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
+  // gRPC sets SO_REUSEPORT by default on Linux: a second server on a port
+  // another one holds would start and take half of its clients' calls.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   int port = 0;
   builder.AddListeningPort(options.listen_address, credentials, &port);
   builder.SetMaxReceiveMessageSize(static_cast<int>(options.limits.max_message_bytes) + (1 << 16));
@@ -121,17 +198,45 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& optio
   builder.RegisterService(s->workers_.get());
   s->grpc_server_ = builder.BuildAndStart();
   if (s->grpc_server_ == nullptr || port == 0) {
-    return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", options.listen_address,
-                                               s->tls_ ? " (with TLS: do --tls-cert and --tls-key match?)" : ""));
+    std::string why = WhyNotListenable(options.listen_address);
+    if (why.empty() && s->tls_) why = "with TLS: do --tls-cert and --tls-key match?";
+    return absl::UnavailableError(
+        absl::StrCat("--listen: cannot listen on ", options.listen_address, why.empty() ? "" : ": ", why));
   }
   const std::string host = options.listen_address.substr(0, options.listen_address.rfind(':'));
   s->address_ = absl::StrCat(host, ":", port);
+  s->data_dir_ = options.data_dir;
+  s->health_thread_ = std::thread([self] { self->WatchDataDir(); });
   return s;
+}
+
+void Server::WatchDataDir() {
+  grpc::HealthCheckServiceInterface* health = grpc_server_->GetHealthCheckService();
+  bool serving = true;
+  std::unique_lock<std::mutex> lock(health_mu_);
+  while (!health_cv_.wait_for(lock, std::chrono::milliseconds(500), [this] { return stopping_; })) {
+    // access(2) sees a deleted directory, a deleted (still open) database
+    // and a read-only file system, for root too.
+    const bool usable =
+        access(data_dir_.c_str(), W_OK | X_OK) == 0 && access((data_dir_ / "state.db").c_str(), R_OK | W_OK) == 0;
+    if (usable != serving && health != nullptr) {
+      serving = usable;
+      health->SetServingStatus(serving);
+    }
+  }
 }
 
 void Server::Wait() { grpc_server_->Wait(); }
 
 void Server::Shutdown(double grace_seconds) {
+  if (health_thread_.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(health_mu_);
+      stopping_ = true;
+    }
+    health_cv_.notify_all();
+    health_thread_.join();
+  }
   if (grpc_server_ == nullptr) return;
   workers_->Stop();
   grpc_server_->Shutdown(std::chrono::system_clock::now() +

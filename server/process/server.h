@@ -15,9 +15,12 @@
 #ifndef MVBRDF_SERVER_PROCESS_SERVER_H_
 #define MVBRDF_SERVER_PROCESS_SERVER_H_
 
+#include <condition_variable>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <thread>
 
 #include "absl/status/statusor.h"
 #include "server/auth/token_table.h"
@@ -50,6 +53,13 @@ struct ServerOptions {
 
   absl::Status Check() const;
 };
+
+// Checks a listen address: "host:port" (a name, an IPv4 address or a
+// bracketed IPv6 address; port a decimal number in 0..65535, 0 picking a free
+// one) or "unix:PATH" / "unix-abstract:NAME". INVALID_ARGUMENT naming
+// `origin` (the flag or config field) otherwise; gRPC itself would wrap a
+// port above 65535 (":99999" listens on 34463).
+absl::Status CheckListenAddress(const std::string& address, absl::string_view origin);
 
 class Server {
  public:
@@ -92,6 +102,14 @@ class Server {
   std::unique_ptr<clients_api::MvbrdfService> clients_;
   std::unique_ptr<grpc::Server> grpc_server_;
   std::string address_;
+  // Sets the health service to NOT_SERVING while the data directory or
+  // state.db is gone or not writable (and back to SERVING once it is).
+  std::filesystem::path data_dir_;
+  std::mutex health_mu_;
+  std::condition_variable health_cv_;
+  bool stopping_ = false;  // guarded by health_mu_
+  std::thread health_thread_;
+  void WatchDataDir();
 };
 
 }  // namespace mvbrdf::server

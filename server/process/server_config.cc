@@ -52,11 +52,7 @@ absl::StatusOr<v1::ServerConfig> ReadServerConfig(const std::filesystem::path& p
 absl::Status ApplyServerConfig(const v1::ServerConfig& config, absl::string_view origin,
                                const std::filesystem::path& base_dir, ServerOptions& options) {
   if (config.has_listen_address()) {
-    if (config.listen_address().find(':') == std::string::npos) {
-      return FieldError(origin, "listen_address",
-                        absl::StrCat("expected host:port (port 0 picks a free one), got \"", config.listen_address(),
-                                     "\""));
-    }
+    MVBRDF_RETURN_IF_ERROR(CheckListenAddress(config.listen_address(), absl::StrCat(origin, ": listen_address")));
     options.listen_address = config.listen_address();
   }
   if (config.has_data_dir()) {

@@ -18,7 +18,7 @@ constexpr const char* kJobColumns =
 // tasks.depends_on is unused since schema version 2 (see task_deps).
 constexpr const char* kTaskColumns =
     "id, job_id, kind, key, added_by, state, attempts, max_attempts, lease_owner, lease_expires_ms, result, "
-    "error, created_ms, updated_ms, started_ms, samples_from_cache";
+    "error, created_ms, updated_ms, started_ms, samples_from_cache, worker_faults";
 constexpr absl::string_view kFollowUpRefPrefix = "follow_up:";
 
 absl::StatusOr<Job> ReadJob(const Statement& row) {
@@ -53,6 +53,7 @@ absl::StatusOr<Task> ReadTask(const Statement& row) {
   task.updated_ms = row.ColumnInt64(13);
   task.started_ms = row.ColumnInt64(14);
   task.samples_from_cache = row.ColumnInt64(15) != 0;
+  task.worker_faults = static_cast<int>(row.ColumnInt64(16));
   return task;
 }
 
@@ -309,11 +310,32 @@ absl::StatusOr<std::vector<std::string>> JobStore::CompleteTask(absl::string_vie
 }
 
 absl::Status JobStore::FailTask(absl::string_view task_id, absl::string_view worker, absl::string_view error,
-                                int64_t now_ms, bool permanent) {
+                                int64_t now_ms, bool permanent, bool worker_fault) {
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));
   MVBRDF_ASSIGN_OR_RETURN(Task task, GetLeasedTaskOf(task_id, worker, "FailTask"));
-  const bool final = permanent || task.attempts >= task.max_attempts;
+  if (worker_fault && !permanent && task.worker_faults + 1 < 2 * task.max_attempts) {
+    // Not the job's fault: back to the queue, the attempt given back.
+    MVBRDF_ASSIGN_OR_RETURN(
+        Statement requeue,
+        Statement::Prepare(*db_,
+                           "UPDATE tasks SET state = 'queued', lease_expires_ms = NULL, error = ?2, updated_ms = ?3, "
+                           "attempts = MAX(attempts - 1, 0), worker_faults = worker_faults + 1 WHERE id = ?1"));
+    MVBRDF_RETURN_IF_ERROR(requeue.BindText(1, task_id));
+    MVBRDF_RETURN_IF_ERROR(requeue.BindText(2, error));
+    MVBRDF_RETURN_IF_ERROR(requeue.BindInt64(3, now_ms));
+    MVBRDF_RETURN_IF_ERROR(requeue.Run());
+    MVBRDF_RETURN_IF_ERROR(RefreshJobState(task.job_id, now_ms));
+    return transaction.Commit();
+  }
+  if (worker_fault && !permanent) {
+    // The last of its workers' own failures: the job ends, saying so.
+    MVBRDF_ASSIGN_OR_RETURN(
+        Statement count, Statement::Prepare(*db_, "UPDATE tasks SET worker_faults = worker_faults + 1 WHERE id = ?1"));
+    MVBRDF_RETURN_IF_ERROR(count.BindText(1, task_id));
+    MVBRDF_RETURN_IF_ERROR(count.Run());
+  }
+  const bool final = permanent || worker_fault || task.attempts >= task.max_attempts;
   MVBRDF_ASSIGN_OR_RETURN(
       Statement fail,
       Statement::Prepare(*db_,
@@ -326,12 +348,15 @@ absl::Status JobStore::FailTask(absl::string_view task_id, absl::string_view wor
   MVBRDF_RETURN_IF_ERROR(fail.Run());
   if (final) {
     MVBRDF_RETURN_IF_ERROR(FailDependents(task, now_ms));
-    MVBRDF_RETURN_IF_ERROR(FailJobLocked(task.job_id,
-                                         permanent && task.attempts < task.max_attempts
-                                             ? absl::StrCat("task ", task.kind, " '", task.key, "' failed: ", error)
-                                             : absl::StrCat("task ", task.kind, " '", task.key, "' failed after ",
-                                                            task.attempts, " attempts: ", error),
-                                         now_ms));
+    MVBRDF_RETURN_IF_ERROR(FailJobLocked(
+        task.job_id,
+        worker_fault && !permanent
+            ? absl::StrCat("task ", task.kind, " '", task.key, "' failed ", task.worker_faults + 1,
+                           " times on workers whose own environment failed; the last: ", error)
+        : permanent && task.attempts < task.max_attempts
+            ? absl::StrCat("task ", task.kind, " '", task.key, "' failed: ", error)
+            : absl::StrCat("task ", task.kind, " '", task.key, "' failed after ", task.attempts, " attempts: ", error),
+        now_ms));
   } else {
     MVBRDF_RETURN_IF_ERROR(RefreshJobState(task.job_id, now_ms));
   }

@@ -111,6 +111,9 @@ struct Task {
   int64_t started_ms = 0;
   // The task ran on Samples the Sample cache already held (SetSamplesFromCache).
   bool samples_from_cache = false;
+  // Failures workers reported as their own environment's (FailTask's
+  // worker_fault); they did not count as attempts.
+  int worker_faults = 0;
   std::optional<std::string> result;  // set when done
   std::string error;                  // the last failure reported
   int64_t created_ms = 0;
@@ -189,8 +192,13 @@ class JobStore {
   // max_attempts, else it fails, its job fails with `error`, and the job's
   // other queued/leased tasks are cancelled. `permanent`: the failure would
   // recur on any worker (bad input, a limit), so the task fails at once.
-  absl::Status FailTask(absl::string_view task_id, absl::string_view worker, absl::string_view error,
-                        int64_t now_ms, bool permanent = false);
+  // `worker_fault`: the failure is the worker's own environment's (its disk,
+  // memory, EGL), not the job's: the task is queued again for another worker
+  // and the attempt is given back, up to 2 * max_attempts such failures per
+  // task (then it fails like the last attempt, so a job no worker can run
+  // still ends).
+  absl::Status FailTask(absl::string_view task_id, absl::string_view worker, absl::string_view error, int64_t now_ms,
+                        bool permanent = false, bool worker_fault = false);
   // The lease owner of `task_id` cannot run it because the output of its
   // done dependency `dependency_id` is gone (the Samples a gather put in the
   // Sample cache were evicted or found corrupt): the dependency is queued

@@ -217,6 +217,54 @@ TEST(JobStoreTest, PermanentFailureFailsTheTaskAndItsJobAtOnce) {
   EXPECT_EQ(failed->error.find("attempts"), std::string::npos) << failed->error;
 }
 
+// Issue #19: a worker's own failure (full cache disk, out of memory) goes
+// back to the queue without using an attempt, up to 2 * max_attempts times.
+TEST(JobStoreTest, WorkerFaultsRequeueWithoutUsingAttemptsUpToABound) {
+  TestDir dir;
+  auto store = OpenOrDie(dir.db(), JobStoreOptions{/*default_max_attempts=*/3});
+  const std::string job = CreateJobOrDie(*store);
+  const std::string task = AddTaskOrDie(*store, job, "gather", "");
+  int64_t now = kT0;
+  for (int fault = 1; fault <= 6; ++fault) {
+    Task leased = LeaseOrDie(*store, "bad", ++now);
+    ASSERT_EQ(leased.id, task);
+    EXPECT_EQ(leased.attempts, 1) << "fault " << fault;  // every earlier lease was given back
+    ASSERT_TRUE(store
+                    ->FailTask(task, "bad", "disk full (on worker bad)", ++now, /*permanent=*/false,
+                               /*worker_fault=*/true)
+                    .ok());
+    auto state = store->GetTask(task);
+    ASSERT_TRUE(state.ok());
+    EXPECT_EQ(state->worker_faults, fault);
+    EXPECT_EQ(state->error, "disk full (on worker bad)");
+    EXPECT_EQ(state->state, fault < 6 ? TaskState::kQueued : TaskState::kFailed) << "fault " << fault;
+    if (fault < 6) {
+      EXPECT_EQ(state->attempts, 0);
+    }
+    auto pending = store->GetJob(job);
+    ASSERT_TRUE(pending.ok());
+    EXPECT_EQ(pending->state == JobState::kFailed, fault == 6) << "fault " << fault;
+  }
+  auto failed = store->GetJob(job);
+  ASSERT_TRUE(failed.ok());
+  EXPECT_NE(failed->error.find("failed 6 times on workers whose own environment failed"), std::string::npos)
+      << failed->error;
+  EXPECT_NE(failed->error.find("disk full (on worker bad)"), std::string::npos) << failed->error;
+}
+
+// A permanent failure stays permanent even when flagged as the worker's.
+TEST(JobStoreTest, PermanentWinsOverWorkerFault) {
+  TestDir dir;
+  auto store = OpenOrDie(dir.db(), JobStoreOptions{/*default_max_attempts=*/3});
+  const std::string job = CreateJobOrDie(*store);
+  const std::string task = AddTaskOrDie(*store, job, "gather", "");
+  LeaseOrDie(*store, "w1", kT0 + 1);
+  ASSERT_TRUE(store->FailTask(task, "w1", "bad input", kT0 + 2, /*permanent=*/true, /*worker_fault=*/true).ok());
+  auto failed = store->GetJob(job);
+  ASSERT_TRUE(failed.ok());
+  EXPECT_EQ(failed->state, JobState::kFailed);
+}
+
 TEST(JobStoreTest, FailRequeuesUntilMaxAttemptsThenTheJobFails) {
   TestDir dir;
   auto store = OpenOrDie(dir.db(), JobStoreOptions{/*default_max_attempts=*/3});

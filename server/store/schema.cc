@@ -95,6 +95,10 @@ UPDATE jobs SET sealed = 1
 ALTER TABLE tasks ADD COLUMN started_ms INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE tasks ADD COLUMN samples_from_cache INTEGER NOT NULL DEFAULT 0 CHECK (samples_from_cache IN (0, 1));
 )sql",
+    // 3 -> 4: failures of a worker's own environment, apart from attempts.
+    R"sql(
+ALTER TABLE tasks ADD COLUMN worker_faults INTEGER NOT NULL DEFAULT 0 CHECK (worker_faults >= 0);
+)sql",
 };
 static_assert(sizeof(kMigrations) / sizeof(kMigrations[0]) == kSchemaVersion,
               "one migration per schema version");

@@ -24,6 +24,10 @@
 //     before the first lease (and for tasks leased by a version 2 server)
 //   tasks.samples_from_cache (0/1): the task ran on (or, for gather, was
 //     answered from) Samples the Sample cache already held
+// Version 4 (a worker's own failures, issue #19):
+//   tasks.worker_faults: failures a worker reported as its own environment's
+//     (its disk, memory, EGL), which went back to the queue without using an
+//     attempt; bounded by twice max_attempts
 // Times are unix milliseconds.
 #ifndef MVBRDF_SERVER_STORE_SCHEMA_H_
 #define MVBRDF_SERVER_STORE_SCHEMA_H_
@@ -38,7 +42,7 @@
 namespace mvbrdf::store {
 
 // The newest schema this build knows.
-constexpr int kSchemaVersion = 3;
+constexpr int kSchemaVersion = 4;
 
 // Brings the database up to kSchemaVersion. FAILED_PRECONDITION when the file
 // was written by a newer build (its version is above kSchemaVersion).

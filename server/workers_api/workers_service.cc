@@ -209,8 +209,15 @@ absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReacto
       return Step::kAccepted;
     }
     case v1::TaskUpdate::kFailed: {
-      const std::string reason = update.failed().empty() ? "the worker gave no reason" : update.failed();
-      absl::Status failed = service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms, update.permanent());
+      // The job's error says which worker failed and why ("on worker ID
+      // (NAME)"), so one bad worker among healthy ones can be found.
+      std::optional<RegisteredWorker> worker = service_->FindWorker(worker_id_);
+      const std::string reason = absl::StrCat(
+          update.failed().empty() ? "the worker gave no reason" : update.failed(), " (on worker ", worker_id_,
+          worker.has_value() ? absl::StrCat(" \"", worker->name, "\"") : "",
+          update.worker_fault() && !update.permanent() ? ", a failure of the worker's own environment" : "", ")");
+      absl::Status failed =
+          service_->jobs_.FailTask(task_id_, worker_id_, reason, now_ms, update.permanent(), update.worker_fault());
       if (absl::IsFailedPrecondition(failed)) return Step::kLeaseLost;
       if (!failed.ok()) return failed;
       service_->NotifyWork();  // requeued for another attempt

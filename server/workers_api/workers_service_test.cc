@@ -563,12 +563,28 @@ TEST_F(WorkersServiceTest, ReportedFailureRequeuesTheTask) {
   auto stored = jobs_->GetTask(task);
   ASSERT_TRUE(stored.ok());
   EXPECT_EQ(stored->state, store::TaskState::kQueued);
-  EXPECT_EQ(stored->error, "EGL: no display");
+  // The reason names the worker (issue #19: which of them failed it).
+  EXPECT_EQ(stored->error, "EGL: no display (on worker " + first + " \"first\")");
+  EXPECT_EQ(stored->attempts, 1);
 
   v1::LeaseTaskResponse again;
   ASSERT_TRUE(Lease(second, 0, &again).ok());
   ASSERT_TRUE(again.has_task());
   EXPECT_EQ(again.task().id(), task);
+
+  // A failure of the worker's own environment: queued again, the attempt
+  // given back, counted apart, said so.
+  v1::TaskUpdate own = Update(second, task);
+  own.set_failed("/cache/bundles/x.tar: cannot write the bundle (disk full?)");
+  own.set_worker_fault(true);
+  ASSERT_TRUE(Report({own}, &ack).ok());
+  stored = jobs_->GetTask(task);
+  ASSERT_TRUE(stored.ok());
+  EXPECT_EQ(stored->state, store::TaskState::kQueued);
+  EXPECT_EQ(stored->attempts, 1);  // the first worker's failure only
+  EXPECT_EQ(stored->worker_faults, 1);
+  EXPECT_EQ(stored->error, "/cache/bundles/x.tar: cannot write the bundle (disk full?) (on worker " + second +
+                               " \"second\", a failure of the worker's own environment)");
 }
 
 TEST_F(WorkersServiceTest, PermanentFailureFailsTheJobWithoutAnotherAttempt) {
