@@ -36,7 +36,9 @@ TEST(HtmlTest, EscapesAndEncodes) {
 
 TEST(SvgPlotTest, ParetoFrontKeepsOnlyUndominatedPoints) {
   // (time, error): (1, 5) (2, 3) (3, 4) (4, 1) (5, 1): the front is 0, 1, 3.
-  const std::vector<ScatterPoint> points = {{1, 5}, {2, 3}, {3, 4}, {4, 1}, {5, 1}};
+  std::vector<ScatterPoint> points(5);
+  const double xy[5][2] = {{1, 5}, {2, 3}, {3, 4}, {4, 1}, {5, 1}};
+  for (int i = 0; i < 5; ++i) points[i].x = xy[i][0], points[i].y = xy[i][1];
   EXPECT_EQ(ParetoFront(points), (std::vector<size_t>{0, 1, 3}));
   const std::string svg = ParetoSvg("t", "x", "y", points, {"g"});
   EXPECT_NE(svg.find("class=\"pareto\""), std::string::npos);

@@ -726,7 +726,9 @@ TEST(JobStoreGraphTest, RedoDependencyQueuesTheLostGatherAndItsSweepBehindIt) {
 
 TEST(JobStoreGraphTest, RedoDependencyFailsTheJobOnceTheGatherUsedItsAttempts) {
   TestDir dir;
-  auto store = OpenOrDie(dir.db(), JobStoreOptions{.default_max_attempts = 2});
+  JobStoreOptions options;
+  options.default_max_attempts = 2;
+  auto store = OpenOrDie(dir.db(), options);
   const std::string job = CreateJobOrDie(*store);
   const std::string gather = AddTaskOrDie(*store, job, "gather", "*");
   const std::string sweep = AddTaskOrDie(*store, job, "sweep", "A", gather);
