@@ -15,6 +15,7 @@ int RunSynth(const std::vector<std::string>& args) {
   std::string out;
   std::string format = "ffv1";
   std::string egl = "auto";
+  std::string lighting = "studio";
   const char* env_data = std::getenv("MVBRDF_DATA_DIR");
   std::string data_dir = env_data != nullptr ? env_data : MVBRDF_DEFAULT_DATA_DIR;
   FlagParser flags("synth",
@@ -30,6 +31,9 @@ int RunSynth(const std::vector<std::string>& args) {
   flags.AddDouble("--fps", &o.fps, "frames per second");
   flags.AddDouble("--noise", &o.noise_sigma, "sensor noise sigma in 8-bit code values");
   flags.AddString("--config", &o.configuration, "active light configuration, e.g. \"NE,NW,SE,SW\" or \"C\"");
+  flags.AddString("--lighting", &lighting,
+                  "studio (every frame lit by --config) or olat (one light at a time: frame t by ceiling light "
+                  "t mod 9; in scene.json's frameLighting and the truth)");
   flags.AddUint("--seed", &o.seed, "random seed (noise, perturbations)");
   flags.AddString("--format", &format, "ffv1 (lossless .mkv) or png (image sequences)");
   flags.AddBool("--lossy", &o.lossy_video, "write lossy MPEG-4 video instead (a perturbation)");
@@ -55,7 +59,8 @@ int RunSynth(const std::vector<std::string>& args) {
   }
   auto parsed_preset = synth::ParsePreset(preset);
   auto platform = gl::ParseEglPlatform(egl);
-  for (const absl::Status& s : {parsed_preset.status(), platform.status()}) {
+  auto parsed_lighting = synth::ParseLighting(lighting);
+  for (const absl::Status& s : {parsed_preset.status(), platform.status(), parsed_lighting.status()}) {
     if (!s.ok()) {
       std::fprintf(stderr, "mvbrdf synth: %s\n", std::string(s.message()).c_str());
       return kExitUsage;
@@ -66,6 +71,7 @@ int RunSynth(const std::vector<std::string>& args) {
     return kExitUsage;
   }
   o.preset = *parsed_preset;
+  o.lighting = *parsed_lighting;
   o.video_format = format == "png" ? synth::VideoFormat::kPng : synth::VideoFormat::kFfv1;
   o.out_dir = out;
   o.data_dir = data_dir;

@@ -9,6 +9,11 @@ absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequ
                                                                gl::EglContext& context, const atlas::Atlas& atlas,
                                                                const resample::ResamplerOptions& options) {
   auto s = std::unique_ptr<FrameStream>(new FrameStream(sequence));
+  if (sequence.lights.size() > static_cast<size_t>(samples::kMaxLights)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("scene.lights: at most ", samples::kMaxLights, " lights, got ", sequence.lights.size()));
+  }
+  s->frame_lights_ = samples::FrameLightMasks(sequence);
   MVBRDF_ASSIGN_OR_RETURN(s->resampler_,
                           resample::Resampler::Create(context, atlas, sequence.cameras, sequence.lights, options));
   for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
@@ -21,9 +26,13 @@ absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequ
 }
 
 absl::Status FrameStream::SetFrame(int t) {
+  if (t < 0 || static_cast<size_t>(t) >= frame_lights_.size()) {
+    return absl::OutOfRangeError(absl::StrCat("frame ", t, " outside [0, ", frame_lights_.size(), ")"));
+  }
   MVBRDF_ASSIGN_OR_RETURN(positions_, sequence_.LoadFrame(t));
   MVBRDF_RETURN_IF_ERROR(resampler_->SetFrame(positions_));
   MVBRDF_ASSIGN_OR_RETURN(shadows_, resampler_->ShadowAtlas());
+  samples::ApplyLightMask(frame_lights_[static_cast<size_t>(t)], sequence_.lights.size(), &shadows_);
   MVBRDF_ASSIGN_OR_RETURN(geometry_, resampler_->Geometry());
   frame_ = t;
   return absl::OkStatus();

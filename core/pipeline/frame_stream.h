@@ -16,6 +16,7 @@
 #include "core/atlas/atlas.h"
 #include "core/gl/egl_context.h"
 #include "core/resample/resampler.h"
+#include "core/samples/assemble.h"
 #include "core/scene/sequence.h"
 #include "core/scene/video_source.h"
 
@@ -28,7 +29,9 @@ class FrameStream {
                                                            const atlas::Atlas& atlas,
                                                            const resample::ResamplerOptions& options);
 
-  // Loads frame t: pose, geometry and shadow atlases.
+  // Loads frame t: pose, geometry and shadow atlases. The shadow atlas holds
+  // only the lights on in frame t (scene.frame_lighting,
+  // samples::ApplyLightMask): every Sample assembled from it knows them.
   absl::Status SetFrame(int t);
 
   // Reads camera `camera`'s video frame (kept as last_frame()) and resamples it.
@@ -49,6 +52,7 @@ class FrameStream {
   cv::Mat shadows_;
   resample::GeometryAtlas geometry_;
   cv::Mat last_frame_;
+  std::vector<samples::LightMask> frame_lights_;  // per frame (samples::FrameLightMasks)
   int frame_ = 0;
 };
 

@@ -102,7 +102,16 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   run(Stage::kGatherSamples, reflectance ? "Samples for the light sweep and texel statistics for clustering"
                                          : "triangle Samples for the light sweep");
 
-  if (!request.configuration.empty()) {
+  if (sequence.every_frame_lit_own()) {
+    // Every frame's lights are known: each Sample holds only its frame's
+    // lights (FrameStream), and no configuration is left to choose.
+    plan.fixed_configuration = "";  // every light, as each frame has it
+    std::string reason = absl::StrCat("lighting is given per frame (scene.frame_lighting names the lights of all ",
+                                      sequence.num_frames, " frames)");
+    if (!request.configuration.empty()) absl::StrAppend(&reason, "; --config ", request.configuration, " is not used");
+    if (!request.candidates.empty()) absl::StrAppend(&reason, "; --candidates are not used");
+    skip(Stage::kLightSweep, std::move(reason));
+  } else if (!request.configuration.empty()) {
     plan.fixed_configuration = request.configuration;
     skip(Stage::kLightSweep, absl::StrCat("configuration given: ", request.configuration));
   } else if (request.candidates.size() == 1) {

@@ -333,7 +333,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   }
   if (chosen.empty()) {
     for (size_t k = 0; k < sequence.lights.size(); ++k) mask |= 1u << k;
-    chosen = "all lights";
+    // With every frame's own lights the Samples hold only those (FrameStream).
+    chosen = sequence.every_frame_lit_own() ? scene::kPerFrameLighting : "all lights";
   } else {
     bool found = false;
     for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {

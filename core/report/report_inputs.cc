@@ -46,7 +46,16 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
   MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(run.scene(), load));
   MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *options.gl));
   const int frame = sequence.num_frames / 2;
-  const std::vector<scene::Light> lights = LightsOf(sequence, run.chosen_configuration());
+  // The input frame is lit by its own lights where scene.frame_lighting has
+  // them, else by the run's configuration.
+  std::vector<scene::Light> lights = LightsOf(sequence, run.chosen_configuration());
+  if (const v1::FrameLighting* own = sequence.FrameLightingOf(frame); own != nullptr) {
+    lights.clear();
+    for (const std::string& name : own->lights()) {
+      const int k = sequence.FindLight(name);
+      if (k >= 0) lights.push_back(sequence.lights[static_cast<size_t>(k)]);
+    }
+  }
   char correction_name[32];
   std::snprintf(correction_name, sizeof(correction_name), "%04d.exr",
                 static_cast<int>(sequence.scene.frames().first()) + frame);

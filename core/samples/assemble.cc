@@ -1,8 +1,12 @@
 #include "core/samples/assemble.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
+
+#include <opencv2/core.hpp>
 
 #include "core/render/phong_model.h"
 
@@ -18,6 +22,35 @@ void Check(bool condition, const char* message) {
 }  // namespace assemble_internal
 
 using assemble_internal::Check;
+
+LightMask AllLights(size_t num_lights) {
+  Check(num_lights <= static_cast<size_t>(kMaxLights), "AllLights: more than kMaxLights lights");
+  return num_lights >= 32 ? ~LightMask{0} : (LightMask{1} << num_lights) - 1u;
+}
+
+std::vector<LightMask> FrameLightMasks(const scene::Sequence& sequence) {
+  const LightMask all = AllLights(sequence.lights.size());
+  std::vector<LightMask> masks(static_cast<size_t>(std::max(0, sequence.num_frames)), all);
+  for (int t = 0; t < sequence.num_frames; ++t) {
+    const v1::FrameLighting* fl = sequence.FrameLightingOf(t);
+    if (fl == nullptr) continue;
+    LightMask on = 0;
+    for (const std::string& name : fl->lights()) {
+      const int k = sequence.FindLight(name);
+      // Validation (core/scene/sequence.cc) refuses unknown names.
+      Check(k >= 0, "FrameLightMasks: scene.frame_lighting names an unknown light");
+      on |= LightMask{1} << k;
+    }
+    masks[static_cast<size_t>(t)] = on;
+  }
+  return masks;
+}
+
+void ApplyLightMask(LightMask on, size_t num_lights, cv::Mat* shadows) {
+  Check(shadows != nullptr && shadows->type() == CV_16UC1, "ApplyLightMask: shadows must be CV_16UC1");
+  if ((on & AllLights(num_lights)) == AllLights(num_lights)) return;
+  cv::bitwise_and(*shadows, cv::Scalar(static_cast<double>(on & 0xffffu)), *shadows);
+}
 
 SampleSet MakeSampleSet(const std::vector<scene::Light>& lights) {
   Check(lights.size() <= static_cast<size_t>(kMaxLights), "MakeSampleSet: more than kMaxLights lights");

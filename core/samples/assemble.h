@@ -20,6 +20,7 @@
 #include "core/scene/camera_model.h"
 #include "core/scene/light.h"
 #include "core/scene/mesh.h"
+#include "core/scene/sequence.h"
 
 namespace mvbrdf::samples {
 
@@ -29,6 +30,21 @@ struct AssembleOptions {
   // triangle's texels see it in the shadow atlas.
   float min_visible_fraction = 0.5f;
 };
+
+// Per frame t of `sequence`, the lights that are on (bit k =
+// sequence.lights[k]): those of the frame's scene.frame_lighting entry, every
+// light for a frame without one (the configuration under test selects among
+// them later). Requires at most kMaxLights lights.
+std::vector<LightMask> FrameLightMasks(const scene::Sequence& sequence);
+
+// Every light on: the mask of a frame without its own lighting.
+LightMask AllLights(size_t num_lights);
+
+// Clears in a shadow atlas (CV_16UC1, bit k = light k visible) the bits of the
+// lights that are off in its frame, so that every Sample assembled from it
+// (triangle, texel and pixel Samples) has g = h = 0 for them: a light that is
+// off lights nothing. A no-op when `on` covers every light of the atlas.
+void ApplyLightMask(LightMask on, size_t num_lights, cv::Mat* shadows);
 
 // An empty set for `lights` (names and intensities filled in).
 SampleSet MakeSampleSet(const std::vector<scene::Light>& lights);

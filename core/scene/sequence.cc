@@ -525,6 +525,21 @@ int Sequence::FindLight(const std::string& name) const {
   return -1;
 }
 
+const v1::FrameLighting* Sequence::FrameLightingOf(int t) const {
+  if (t < 0 || t >= num_frames) return nullptr;
+  const uint64_t frame = static_cast<uint64_t>(scene.frames().first()) + static_cast<uint64_t>(t);
+  for (const v1::FrameLighting& fl : scene.frame_lighting()) {
+    if (fl.frame() == frame) return &fl;
+  }
+  return nullptr;
+}
+
+bool Sequence::every_frame_lit_own() const {
+  // Validation refuses duplicate frames and frames outside the sequence, so
+  // one entry per frame is every frame.
+  return num_frames > 0 && scene.frame_lighting_size() == num_frames;
+}
+
 namespace {
 
 absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, const LoadOptions& options) {

@@ -45,7 +45,19 @@ struct Sequence {
   absl::StatusOr<FramePositions> LoadFrame(int t) const;
   // Index of a light by name, or -1.
   int FindLight(const std::string& name) const;
+  // The scene.frame_lighting entry of frame t in [0, num_frames) (absolute
+  // frame scene.frames.first + t), or null: that frame has all lights of the
+  // configuration under test on.
+  const v1::FrameLighting* FrameLightingOf(int t) const;
+  // Whether every frame has its own entry: the lights of each frame are
+  // known, and no configuration needs to be chosen (no light sweep).
+  bool every_frame_lit_own() const;
 };
+
+// The name a run reports as its configuration when every frame has its own
+// lights (Sequence::every_frame_lit_own); `mvbrdf synth --lighting olat`
+// writes it as the truth's active configuration.
+inline constexpr char kPerFrameLighting[] = "per-frame lighting";
 
 // Parses only (JSON -> message), no validation and no files touched.
 absl::StatusOr<v1::Scene> ReadScene(const std::filesystem::path& scene_file);

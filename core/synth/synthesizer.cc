@@ -94,6 +94,12 @@ const char* PresetName(Preset preset) {
   return "?";
 }
 
+absl::StatusOr<Lighting> ParseLighting(absl::string_view name) {
+  if (name == "studio") return Lighting::kStudio;
+  if (name == "olat") return Lighting::kOlat;
+  return absl::InvalidArgumentError(absl::StrCat("--lighting: expected studio or olat, got \"", name, "\""));
+}
+
 absl::Status SynthOptions::Check() const {
   MVBRDF_RETURN_IF_ERROR(CheckRange("--cameras", num_cameras, 1, 64));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--frames", num_frames, 1, 100000));
@@ -155,6 +161,13 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
       if (l.name == name) active_lights.push_back(l);
     }
   }
+  const bool olat = options.lighting == Lighting::kOlat;
+  // The lights of frame t.
+  const auto frame_lights = [&](int t) -> std::vector<scene::Light> {
+    if (!olat) return active_lights;
+    return {studio.lights[static_cast<size_t>(t) % studio.lights.size()]};
+  };
+  if (olat) active_lights = studio.lights;  // every light lights some frame
 
   std::mt19937 rng(options.seed);
   // Cameras as rendered (truth) and as written to the scene (perturbed).
@@ -186,7 +199,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   if (!subject.kd_texture.empty()) {
     MVBRDF_RETURN_IF_ERROR(renderer->SetKdTexture(subject.kd_texture));
   }
-  MVBRDF_RETURN_IF_ERROR(renderer->SetLights(active_lights));
+  if (!olat) MVBRDF_RETURN_IF_ERROR(renderer->SetLights(active_lights));
 
   const std::filesystem::path out = options.out_dir;
   std::error_code ec;
@@ -218,6 +231,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     render::Pose pose;
     pose.positions = scene::ToRenderVertices(subject.topology, rendered);
     pose.normals = scene::ToRenderVertices(subject.topology, normals);
+    if (olat) MVBRDF_RETURN_IF_ERROR(renderer->SetLights(frame_lights(t)));
     for (size_t c = 0; c < studio.cameras.size(); ++c) {
       MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer->Render(pose, studio.cameras[c]));
       const cv::Mat distorted = ApplyDistortion(image.radiance, studio.cameras[c]);
@@ -251,6 +265,16 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     config->set_name(c.name);
     for (const std::string& l : c.lights) config->add_lights(l);
   }
+  std::vector<v1::FrameLighting> frame_lighting;
+  if (olat) {
+    for (int t = 0; t < options.num_frames; ++t) {
+      v1::FrameLighting fl;
+      fl.set_frame(static_cast<uint32_t>(t));  // scene.frames.first is 0
+      for (const scene::Light& l : frame_lights(t)) fl.add_lights(l.name);
+      *scene.add_frame_lighting() = fl;
+      frame_lighting.push_back(std::move(fl));
+    }
+  }
   for (const StudioMaterial& m : subject.materials) {
     v1::MaterialSeed* seed = scene.add_material_seeds();
     seed->set_name(m.name);
@@ -281,7 +305,8 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   v1::GroundTruth& truth = result.truth;
   truth.set_preset(subject.preset);
   truth.set_seed(options.seed);
-  truth.set_active_configuration(active->name);
+  truth.set_active_configuration(olat ? std::string(scene::kPerFrameLighting) : active->name);
+  for (const v1::FrameLighting& fl : frame_lighting) *truth.add_frame_lighting() = fl;
   for (const scene::Light& l : active_lights) {
     v1::Light* light = truth.add_lights();
     light->set_name(l.name);

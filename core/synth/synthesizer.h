@@ -7,7 +7,8 @@
 //   videos/camN.mkv            FFV1 lossless video per camera (or
 //   videos/camN/%04d.png       a PNG sequence, or camN.mp4 when lossy)
 //   segments.txt               segment name per triangle (actor only)
-//   ground_truth/truth.json    GroundTruth: active configuration, lights,
+//   ground_truth/truth.json    GroundTruth: active configuration (or
+//                              per-frame lighting), lights,
 //                              true cameras, materials, per-triangle
 //                              material, perturbations
 //   ground_truth/kd_texture.png  (spot) the true kd in UV space, sRGB
@@ -30,6 +31,13 @@ const char* PresetName(Preset preset);
 
 enum class VideoFormat { kFfv1, kPng };
 
+// How the frames are lit. kStudio: every frame by the active configuration.
+// kOlat (one light at a time): frame t by the studio's light t mod 9 alone
+// (C, N, E, W, S, NE, NW, SE, SW), recorded in the scene's frame_lighting and
+// the truth's frame_lighting.
+enum class Lighting { kStudio, kOlat };
+absl::StatusOr<Lighting> ParseLighting(absl::string_view name);
+
 struct SynthOptions {
   Preset preset = Preset::kActor;
   int num_cameras = 8;
@@ -40,6 +48,8 @@ struct SynthOptions {
   // Active light configuration by name (one of the thesis's eight, e.g.
   // "NE,NW,SE,SW"; spaces are ignored).
   std::string configuration = "NE,NW,SE,SW";
+  // kOlat leaves `configuration` unused.
+  Lighting lighting = Lighting::kStudio;
   uint32_t seed = 1;
   VideoFormat video_format = VideoFormat::kFfv1;
   // Perturbations (ground_truth.proto: Perturbations).
