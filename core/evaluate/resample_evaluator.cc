@@ -76,12 +76,18 @@ absl::StatusOr<std::unique_ptr<ResampleEvaluator>> ResampleEvaluator::Create(
   MVBRDF_ASSIGN_OR_RETURN(e->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
   MVBRDF_RETURN_IF_ERROR(e->renderer_->SetProceduralMaterials(truth.RendererMaterials()));
   if (!truth.KdTexture().empty()) MVBRDF_RETURN_IF_ERROR(e->renderer_->SetKdTexture(truth.KdTexture()));
-  MVBRDF_RETURN_IF_ERROR(e->renderer_->SetLights(truth.ActiveLights()));
+  e->all_lights_ = truth.ActiveLights();
+  MVBRDF_RETURN_IF_ERROR(e->renderer_->SetLights(e->all_lights_));
+  for (const v1::FrameLighting& fl : message.frame_lighting()) e->frame_lights_[fl.frame()] = truth.FrameLights(fl.frame());
 
   return e;
 }
 
-absl::Status ResampleEvaluator::SetFrame(const scene::FramePositions& file_positions) {
+absl::Status ResampleEvaluator::SetFrame(const scene::FramePositions& file_positions, uint32_t frame) {
+  if (!frame_lights_.empty()) {
+    const auto it = frame_lights_.find(frame);
+    MVBRDF_RETURN_IF_ERROR(renderer_->SetLights(it != frame_lights_.end() ? it->second : all_lights_));
+  }
   const scene::MeshTopology& topo = atlas_->topology;
   pose_.positions = scene::ToRenderVertices(topo, file_positions);
   pose_.normals = scene::ToRenderVertices(topo, scene::ComputeFileVertexNormals(topo, file_positions));

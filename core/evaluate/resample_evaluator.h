@@ -8,6 +8,7 @@
 #ifndef MVBRDF_CORE_EVALUATE_RESAMPLE_EVALUATOR_H_
 #define MVBRDF_CORE_EVALUATE_RESAMPLE_EVALUATOR_H_
 
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -54,8 +55,10 @@ class ResampleEvaluator {
                                                                    const scene::FramePositions& rest_positions,
                                                                    const resample::ResamplerOptions& options);
 
-  // The pose of the next frame (file-vertex positions of the scene's mesh).
-  absl::Status SetFrame(const scene::FramePositions& file_positions);
+  // The pose of the next frame (file-vertex positions of the scene's mesh)
+  // and, where the truth lit frames by their own lights, absolute frame
+  // `frame`'s lights (synth::GroundTruth::FrameLights).
+  absl::Status SetFrame(const scene::FramePositions& file_positions, uint32_t frame = 0);
 
   // Compares camera `camera`'s resampled atlas (CV_32FC4) of the current
   // frame, with the frame's geometry atlas, against the truth.
@@ -78,6 +81,9 @@ class ResampleEvaluator {
   resample::ResamplerOptions options_;
   std::unique_ptr<render::PhongRenderer> renderer_;
   render::Pose pose_;
+  // Absolute frame -> its lights, where the truth lit frames by their own.
+  std::map<uint32_t, std::vector<scene::Light>> frame_lights_;
+  std::vector<scene::Light> all_lights_;
 };
 
 }  // namespace mvbrdf::evaluate

@@ -163,5 +163,37 @@ TEST(PlanTest, PlanGoesIntoTheReport) {
   EXPECT_EQ(proto.skipped_size(), 3);  // atlas, sweep, correction
 }
 
+// Issue #13: when every frame has its own lights there is no configuration to
+// choose: the sweep is skipped, saying why, and every light is kept (each
+// frame's Samples hold only its own). One frame without an entry: the sweep
+// runs as before.
+TEST(PlanTest, PerFrameLightingSkipsTheSweep) {
+  scene::Sequence s = MakeSequence(8, 3, false, true);
+  s.scene.mutable_frames()->set_count(3);
+  for (uint32_t t = 0; t < 2; ++t) {
+    auto* fl = s.scene.add_frame_lighting();
+    fl->set_frame(t);
+    fl->add_lights("L");
+  }
+  auto plan = MakePlan(s, {});
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  EXPECT_TRUE(plan->Has(Stage::kLightSweep));
+  s.scene.add_frame_lighting()->set_frame(2);
+  RunRequest request;
+  request.configuration = "config3";
+  plan = MakePlan(s, request);
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  EXPECT_FALSE(plan->Has(Stage::kLightSweep));
+  EXPECT_EQ(plan->fixed_configuration, "");
+  EXPECT_TRUE(plan->candidates.empty());
+  const v1::SkippedStage* sweep = FindSkipped(*plan, Stage::kLightSweep);
+  ASSERT_NE(sweep, nullptr);
+  EXPECT_EQ(sweep->reason(),
+            "lighting is given per frame (scene.frame_lighting names the lights of all 3 frames); --config config3 is "
+            "not used");
+  EXPECT_TRUE(plan->Has(Stage::kTexelPass));
+  EXPECT_TRUE(plan->Has(Stage::kCorrection));
+}
+
 }  // namespace
 }  // namespace mvbrdf::pipeline

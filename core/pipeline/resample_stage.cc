@@ -132,7 +132,10 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
       MVBRDF_RETURN_IF_ERROR(image::WriteExr(frame_dir / "position.exr", geometry.position));
       MVBRDF_RETURN_IF_ERROR(image::WriteExr(frame_dir / "normal.exr", geometry.normal));
     }
-    if (evaluator != nullptr) MVBRDF_RETURN_IF_ERROR(evaluator->SetFrame(positions));
+    if (evaluator != nullptr) {
+      MVBRDF_RETURN_IF_ERROR(
+          evaluator->SetFrame(positions, sequence.scene.frames().first() + static_cast<uint32_t>(t)));
+    }
 
     for (size_t c = 0; c < sequence.cameras.size(); ++c) {
       cv::Mat frame;

@@ -238,5 +238,69 @@ TEST(ForEachTexelSample, MatchesTheModelPerTexel) {
   EXPECT_EQ(count, 13);
 }
 
+// Issue #13: the lights on in each frame come from scene.frame_lighting
+// (absolute frame numbers), every light where a frame has no entry.
+TEST(FrameLightMasks, OwnLightsPerFrameAndAllElsewhere) {
+  scene::Sequence sequence;
+  sequence.lights = MakeFixture().lights;  // A, B, C
+  sequence.num_frames = 3;
+  sequence.scene.mutable_frames()->set_first(5);
+  sequence.scene.mutable_frames()->set_count(3);
+  v1::FrameLighting* fl = sequence.scene.add_frame_lighting();
+  fl->set_frame(6);
+  fl->add_lights("C");
+  fl->add_lights("A");
+  sequence.scene.add_frame_lighting()->set_frame(7);  // a dark frame
+  EXPECT_EQ(FrameLightMasks(sequence), (std::vector<LightMask>{0b111u, 0b101u, 0u}));
+  EXPECT_EQ(AllLights(3), 0b111u);
+  EXPECT_EQ(AllLights(16), 0xffffu);
+  EXPECT_FALSE(sequence.every_frame_lit_own());
+  sequence.scene.add_frame_lighting()->set_frame(5);
+  EXPECT_TRUE(sequence.every_frame_lit_own());
+}
+
+// A light off in its frame lights nothing: its shadow bits are cleared, so
+// the texel Samples' g and h of it are 0, those of the lights on unchanged.
+TEST(ApplyLightMask, LightsOffGiveZeroTermsOthersUnchanged) {
+  const Fixture f = MakeFixture();
+  resample::GeometryAtlas geometry;
+  geometry.position = cv::Mat(kSize, kSize, CV_32FC4);
+  geometry.normal = cv::Mat(kSize, kSize, CV_32FC4, cv::Scalar(0, 0, 1, 0));
+  for (int r = 0; r < kSize; ++r) {
+    for (int c = 0; c < kSize; ++c) geometry.position.at<cv::Vec4f>(r, c) = {(c + 0.5f) / kSize, (r + 0.5f) / kSize, 0, 1};
+  }
+  const cv::Mat resampled(kSize, kSize, CV_32FC4, cv::Scalar(0.2, 0.2, 0.2, 1));
+  const auto rows = [&](const cv::Mat& shadows) {
+    std::vector<float> g, h;
+    ForEachTexelSample(resampled, geometry, shadows, f.camera, f.lights, AssembleOptions{},
+                       [&](uint32_t, const glm::vec3&, const float* gr, const float* hr) {
+                         g.insert(g.end(), gr, gr + 3);
+                         h.insert(h.end(), hr, hr + 3);
+                       });
+    return std::make_pair(g, h);
+  };
+  cv::Mat all = f.shadows.clone();
+  ApplyLightMask(AllLights(3), 3, &all);
+  EXPECT_EQ(cv::countNonZero(all != f.shadows), 0);  // no-op: the studio path is untouched
+  cv::Mat only_a = f.shadows.clone();
+  ApplyLightMask(0b001u, 3, &only_a);
+  const auto [g_all, h_all] = rows(f.shadows);
+  const auto [g_a, h_a] = rows(only_a);
+  ASSERT_EQ(g_all.size(), 16u * 3u);
+  ASSERT_EQ(g_a.size(), g_all.size());
+  bool some_b_or_c = false;
+  for (size_t i = 0; i < g_all.size(); ++i) {
+    if (i % 3 == 0) {
+      EXPECT_EQ(g_a[i], g_all[i]);
+      EXPECT_EQ(h_a[i], h_all[i]);
+    } else {
+      EXPECT_EQ(g_a[i], 0.0f);
+      EXPECT_EQ(h_a[i], 0.0f);
+      some_b_or_c |= g_all[i] > 0.0f;
+    }
+  }
+  EXPECT_TRUE(some_b_or_c);  // the fixture lights some texels by B or C
+}
+
 }  // namespace
 }  // namespace mvbrdf::samples

@@ -90,6 +90,21 @@ std::vector<scene::Light> GroundTruth::ActiveLights() const {
   return lights;
 }
 
+std::vector<scene::Light> GroundTruth::FrameLights(uint32_t frame) const {
+  std::vector<scene::Light> all = ActiveLights();
+  for (const v1::FrameLighting& fl : truth_.frame_lighting()) {
+    if (fl.frame() != frame) continue;
+    std::vector<scene::Light> on;
+    for (const std::string& name : fl.lights()) {
+      for (const scene::Light& l : all) {
+        if (l.name == name) on.push_back(l);
+      }
+    }
+    return on;
+  }
+  return all;
+}
+
 std::vector<scene::CameraModel> GroundTruth::Cameras() const {
   std::vector<scene::CameraModel> cameras;
   for (const v1::Camera& c : truth_.cameras()) cameras.push_back(scene::CameraModelFromProto(c));

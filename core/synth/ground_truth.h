@@ -32,8 +32,12 @@ class GroundTruth {
   // `uv` its texture coordinate (used only by materials with a kd texture).
   render::PhongParams At(uint32_t triangle, const glm::vec3& rest_position, const glm::vec2& uv) const;
 
-  // The lights that lit every frame, with their true positions and intensities.
+  // The lights that lit every frame, with their true positions and intensities
+  // (with per-frame lighting: every light that lit some frame).
   std::vector<scene::Light> ActiveLights() const;
+  // The lights that lit absolute frame `frame`: its frame_lighting entry's
+  // (by name among ActiveLights), else ActiveLights.
+  std::vector<scene::Light> FrameLights(uint32_t frame) const;
   // The cameras as rendered (before any calibration error).
   std::vector<scene::CameraModel> Cameras() const;
   // The materials in the renderer's form (kd texture: see KdTexture()).

@@ -130,6 +130,78 @@ TEST_F(SynthesizerTest, VideoFramesMatchARenderOfTheTruth) {
   }
 }
 
+// Issue #13: --lighting olat lights frame t by the studio's light t mod 9
+// alone, says so in the scene (frame_lighting) and the truth, and the videos
+// hold exactly that: a render of the truth under FrameLights(t), not under
+// every light.
+TEST_F(SynthesizerTest, OlatLightsEachFrameByOneLightAndRecordsIt) {
+  SynthOptions o = SmallOptions("olat");
+  o.num_cameras = 1;
+  o.lighting = Lighting::kOlat;
+  auto result = Synthesize(o, *context_);
+  ASSERT_TRUE(result.ok()) << result.status();
+  auto sequence = scene::LoadSequence(result->scene_file);
+  ASSERT_TRUE(sequence.ok()) << sequence.status();
+  ASSERT_EQ(sequence->scene.frame_lighting_size(), 3);
+  EXPECT_TRUE(sequence->every_frame_lit_own());
+  const std::vector<std::string> expected_lights = {"C", "N", "E"};  // the studio's first three
+  for (int t = 0; t < 3; ++t) {
+    const v1::FrameLighting* fl = sequence->FrameLightingOf(t);
+    ASSERT_NE(fl, nullptr) << t;
+    EXPECT_EQ(std::vector<std::string>(fl->lights().begin(), fl->lights().end()),
+              std::vector<std::string>{expected_lights[t]});
+  }
+  auto truth = GroundTruth::Load(o.out_dir / "ground_truth" / "truth.json");
+  ASSERT_TRUE(truth.ok()) << truth.status();
+  EXPECT_EQ(truth->message().active_configuration(), scene::kPerFrameLighting);
+  EXPECT_EQ(truth->message().lights_size(), 9);
+  ASSERT_EQ(truth->message().frame_lighting_size(), 3);
+  EXPECT_EQ(truth->message().frame_lighting(1).lights(0), "N");
+  ASSERT_EQ(truth->FrameLights(1).size(), 1u);
+  EXPECT_EQ(truth->FrameLights(1)[0].name, "N");
+
+  render::RenderMesh mesh;
+  mesh.triangles = sequence->topology.triangles;
+  mesh.rest_positions = scene::ToRenderVertices(sequence->topology, sequence->rest_positions);
+  mesh.triangle_material.assign(truth->message().triangle_materials().begin(),
+                                truth->message().triangle_materials().end());
+  render::RendererOptions ro;
+  ro.shadow_map_size = static_cast<int>(truth->message().shadow_map_size());
+  auto renderer = render::PhongRenderer::Create(*context_, mesh, ro);
+  ASSERT_TRUE(renderer.ok()) << renderer.status();
+  ASSERT_TRUE((*renderer)->SetProceduralMaterials(truth->RendererMaterials()).ok());
+  auto video = scene::VideoSource::Open(sequence->scene.cameras(0), sequence->scene_dir, 0, "camera");
+  ASSERT_TRUE(video.ok()) << video.status();
+  const scene::CameraModel true_camera = truth->Cameras()[0];
+  const auto max_difference = [](const cv::Mat& a, const cv::Mat& b) {
+    cv::Mat diff;
+    cv::absdiff(a, b, diff);
+    double m = 0.0;
+    cv::minMaxLoc(diff.reshape(1), nullptr, &m);
+    return m;
+  };
+  for (int t = 0; t < 3; ++t) {
+    auto positions = sequence->LoadFrame(t);
+    ASSERT_TRUE(positions.ok());
+    render::Pose pose;
+    pose.positions = scene::ToRenderVertices(sequence->topology, *positions);
+    pose.normals =
+        scene::ToRenderVertices(sequence->topology, scene::ComputeFileVertexNormals(sequence->topology, *positions));
+    std::mt19937 rng(1);
+    auto frame = (*video)->ReadFrame(t);
+    ASSERT_TRUE(frame.ok()) << frame.status();
+    const cv::Mat decoded = EncodeSrgb8(*frame, {}, rng);
+    ASSERT_TRUE((*renderer)->SetLights(truth->FrameLights(static_cast<uint32_t>(t))).ok());
+    auto own = (*renderer)->Render(pose, true_camera);
+    ASSERT_TRUE(own.ok()) << own.status();
+    EXPECT_EQ(max_difference(EncodeSrgb8(own->radiance, {}, rng), decoded), 0.0) << "frame " << t;
+    ASSERT_TRUE((*renderer)->SetLights(truth->ActiveLights()).ok());
+    auto all = (*renderer)->Render(pose, true_camera);
+    ASSERT_TRUE(all.ok()) << all.status();
+    EXPECT_GT(max_difference(EncodeSrgb8(all->radiance, {}, rng), decoded), 10.0) << "frame " << t;
+  }
+}
+
 TEST_F(SynthesizerTest, CalibrationErrorChangesOnlyTheScenesCameras) {
   SynthOptions o = SmallOptions("calibration");
   o.num_frames = 1;
