@@ -78,7 +78,9 @@ absl::StatusOr<std::unique_ptr<ResampleEvaluator>> ResampleEvaluator::Create(
   if (!truth.KdTexture().empty()) MVBRDF_RETURN_IF_ERROR(e->renderer_->SetKdTexture(truth.KdTexture()));
   e->all_lights_ = truth.ActiveLights();
   MVBRDF_RETURN_IF_ERROR(e->renderer_->SetLights(e->all_lights_));
-  for (const v1::FrameLighting& fl : message.frame_lighting()) e->frame_lights_[fl.frame()] = truth.FrameLights(fl.frame());
+  for (const v1::FrameLighting& fl : message.frame_lighting()) {
+    e->frame_lights_[fl.frame()] = truth.FrameLights(fl.frame());
+  }
 
   return e;
 }

@@ -267,7 +267,9 @@ TEST(ApplyLightMask, LightsOffGiveZeroTermsOthersUnchanged) {
   geometry.position = cv::Mat(kSize, kSize, CV_32FC4);
   geometry.normal = cv::Mat(kSize, kSize, CV_32FC4, cv::Scalar(0, 0, 1, 0));
   for (int r = 0; r < kSize; ++r) {
-    for (int c = 0; c < kSize; ++c) geometry.position.at<cv::Vec4f>(r, c) = {(c + 0.5f) / kSize, (r + 0.5f) / kSize, 0, 1};
+    for (int c = 0; c < kSize; ++c) {
+      geometry.position.at<cv::Vec4f>(r, c) = {(c + 0.5f) / kSize, (r + 0.5f) / kSize, 0, 1};
+    }
   }
   const cv::Mat resampled(kSize, kSize, CV_32FC4, cv::Scalar(0.2, 0.2, 0.2, 1));
   const auto rows = [&](const cv::Mat& shadows) {

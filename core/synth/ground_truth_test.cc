@@ -88,6 +88,30 @@ TEST(GroundTruthTest, EvaluatesSolidAndImageTextures) {
   EXPECT_TRUE(materials[1].kd_from_texture);
 }
 
+// Issue #13: a frame with a frame_lighting entry is lit by its lights (by
+// name among the truth's), any other frame by every light.
+TEST(GroundTruthTest, FrameLightsAreTheFramesOwnElseAll) {
+  const auto dir = Dir("frame_lights");
+  v1::GroundTruth message = TwoMaterials();
+  message.mutable_materials(1)->clear_kd_texture_path();  // no texture file needed here
+  v1::Light* second = message.add_lights();
+  second->set_name("SW");
+  for (double p : {-1.0, 3.0, 1.0}) second->add_position(p);
+  v1::FrameLighting* fl = message.add_frame_lighting();
+  fl->set_frame(4);
+  fl->add_lights("SW");
+  message.add_frame_lighting()->set_frame(5);  // dark
+  ASSERT_TRUE(WriteJsonFile(dir / "truth.json", message).ok());
+  auto truth = GroundTruth::Load(dir / "truth.json");
+  ASSERT_TRUE(truth.ok()) << truth.status();
+  const auto own = truth->FrameLights(4);
+  ASSERT_EQ(own.size(), 1u);
+  EXPECT_EQ(own[0].name, "SW");
+  EXPECT_EQ(own[0].position, glm::vec3(-1.0f, 3.0f, 1.0f));
+  EXPECT_TRUE(truth->FrameLights(5).empty());
+  EXPECT_EQ(truth->FrameLights(0).size(), 2u);
+}
+
 TEST(GroundTruthTest, BadFilesAreErrorsNamingThem) {
   const auto dir = Dir("bad");
   EXPECT_EQ(GroundTruth::Load(dir / "missing.json").status().code(), absl::StatusCode::kNotFound);
