@@ -68,6 +68,21 @@ grep -q '"chosenConfiguration": "per-frame lighting"' "$work/direct/result.json"
   { echo "ok   result.json names per-frame lighting"; passes=$((passes + 1)); } ||
   { echo "FAIL result.json's chosenConfiguration"; failures=$((failures + 1)); }
 
+# Mixed: frame 0 without an entry, so a configuration is chosen; a frame's own
+# light outside it is not modelled in that frame, and the run says so.
+cp -r "$work/olat" "$work/mixed"
+python3 - "$work/mixed/scene.json" <<'EOF_PY'
+import json, sys
+scene = json.load(open(sys.argv[1]))
+scene["frameLighting"] = scene["frameLighting"][1:]
+json.dump(scene, open(sys.argv[1], "w"))
+EOF_PY
+check "mixed frame lighting: the sweep runs" 0 "run   light_sweep: 8 candidate configurations" -- \
+  "$bin" run --direct "$work/mixed/scene.json" --outputs light --out "$work/mixed_sweep"
+check "mixed frame lighting: own lights outside the configuration are a warning" 0 \
+  'warning: scene.frame_lighting: 8 of 8 frames with their own lights have lights outside configuration "C" (N, E,' -- \
+  "$bin" run --direct "$work/mixed/scene.json" --outputs light --config C --out "$work/mixed_c"
+
 # The resample evaluation renders the truth with each frame's own light
 # (measured RMSE 0.0097 per camera; 0.20 with every light on).
 check "resample against the truth" 0 "wrote" -- "$bin" resample "$olat" --atlas 256 --out "$work/resample"

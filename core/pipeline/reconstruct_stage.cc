@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "core/base/files.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
@@ -26,6 +27,7 @@
 #include "core/samples/sample_set.h"
 #include "core/scene/fingerprint.h"
 #include "core/scene/mesh_loader.h"
+#include "core/scene/names.h"
 #include "core/scene/video_source.h"
 
 namespace mvbrdf::pipeline {
@@ -189,6 +191,33 @@ inline glm::vec3 IlluminationOf(const float* g, const std::vector<glm::vec3>& in
   return s;
 }
 
+// Some frames with their own lights, others without: every Sample is modelled
+// with the configuration's lights, so a frame's own light outside the
+// configuration is not modelled in it. Said, not silent (empty when nothing
+// is lost).
+std::string MixedFrameLightingWarning(const scene::Sequence& sequence, const std::string& chosen,
+                                      samples::LightMask mask) {
+  if (sequence.every_frame_lit_own() || sequence.scene.frame_lighting_size() == 0) return "";
+  const std::vector<samples::LightMask> on = samples::FrameLightMasks(sequence);
+  samples::LightMask lost = 0;
+  int frames = 0;
+  for (int t = 0; t < sequence.num_frames; ++t) {
+    if (sequence.FrameLightingOf(t) == nullptr) continue;
+    const samples::LightMask outside = on[static_cast<size_t>(t)] & ~mask;
+    lost |= outside;
+    frames += outside != 0 ? 1 : 0;
+  }
+  if (lost == 0) return "";
+  std::vector<std::string> names;
+  for (size_t k = 0; k < sequence.lights.size(); ++k) {
+    if (lost & (samples::LightMask{1} << k)) names.push_back(scene::ShownName(sequence.lights[k].name));
+  }
+  return absl::StrCat("scene.frame_lighting: ", frames, " of ", sequence.scene.frame_lighting_size(),
+                      " frames with their own lights have lights outside configuration \"", scene::ShownName(chosen),
+                      "\" (", absl::StrJoin(names, ", "),
+                      "), which are not modelled in those frames: give every frame its own lights, or none");
+}
+
 }  // namespace
 
 absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, const ReconstructOptions& options,
@@ -348,6 +377,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
   }
   report.set_chosen_configuration(chosen);
+  if (const std::string w = MixedFrameLightingWarning(sequence, chosen, mask); !w.empty()) report.add_warnings(w);
   g.triangle_samples = samples::SampleSet();  // no longer needed
   if (!reflectance) {
     MVBRDF_RETURN_IF_ERROR(CheckMetricsFinite(report));
