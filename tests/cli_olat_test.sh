@@ -25,7 +25,8 @@ olat="$work/olat/scene.json"
 frames() { python3 -c 'import json,sys; print(" ".join(",".join(f["lights"]) for f in json.load(open(sys.argv[1]))["frameLighting"]))' "$1"; }
 expect "scene.json: frame t lit by studio light t mod 9" test "$(frames "$olat")" = "C N E W S NE NW SE SW"
 expect "the truth records the same frame lighting" test "$(frames "$work/olat/ground_truth/truth.json")" = "$(frames "$olat")"
-check "validate counts the frames with their own lights" 0 "Frame lighting: 9 frames with their own lights" -- \
+check "validate counts the frames with their own lights" 0 \
+  "Frame lighting: 9 frames with their own lights (every frame: no configuration to choose, no light sweep)" -- \
   "$bin" validate "$olat"
 
 check "run --direct: the sweep is skipped, lighting is given per frame" 0 \

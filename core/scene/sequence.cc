@@ -638,8 +638,10 @@ std::string Summarize(const Sequence& seq) {
     absl::StrAppend(&s, "  ", c.name(), ": ", absl::StrJoin(c.lights(), ", "), "\n");
   }
   if (scene.frame_lighting_size() != 0) {
-    absl::StrAppend(&s, "Frame lighting: ", scene.frame_lighting_size(),
-                    " frames with their own lights (the others: all lights of the configuration)\n");
+    absl::StrAppend(&s, "Frame lighting: ", scene.frame_lighting_size(), " frames with their own lights",
+                    seq.every_frame_lit_own()
+                        ? " (every frame: no configuration to choose, no light sweep)\n"
+                        : " (the others: all lights of the configuration)\n");
   }
   absl::StrAppend(&s, "Material seeds: ", scene.material_seeds_size(), "\n");
   for (const v1::MaterialSeed& m : scene.material_seeds()) {
