@@ -103,6 +103,12 @@ for field in camera light configuration seed segment; do
   done
 done
 echo "     ($n name cases through validate; $passes passed so far)"
+for k in 1 2 3; do  # ../x, ../../../sentinel/pwn, an absolute path: run (both paths) and run --report refuse them
+  check "run --direct --report refuses camera '${rejected[$((k - 1))]}'" 3 "scene.cameras\[0\].name" -- \
+    "$bin" run "$work/h$k/scene.json" --direct --atlas 64 --report --out "$work/h$k.run"
+  check "run refuses camera '${rejected[$((k - 1))]}'" 3 "scene.cameras\[0\].name" -- \
+    "$bin" run "$work/h$k/scene.json" --atlas 64 --out "$work/h$k.run"
+done
 rename camera 'a\u0000b' "$work/nul"
 check "a NUL in a camera name is not 'valid' (defect 13)" 3 "scene.cameras\[0\].name: must not contain control" -- \
   "$bin" validate "$work/nul/scene.json"
