@@ -71,10 +71,7 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
       return absl::InvalidArgumentError(absl::StrCat("--out: expected a .png or .exr file, got ", out));
     }
     std::vector<InputPath> inputs = SceneInputs(sequence);
-    inputs.push_back({"the run's result.json", run_dir / "result.json", false});
-    for (const char* atlases : {"atlas", "atlases", "atlases/correction"}) {
-      inputs.push_back({absl::StrCat("the run's ", atlases, "/*.exr"), run_dir / atlases / "%04d.exr", true});
-    }
+    for (InputPath& input : RunInputs(run_dir)) inputs.push_back(std::move(input));
     inputs.push_back({"--lights", lights_file, false});
     inputs.push_back({"--camera", camera_arg, false});
     MVBRDF_RETURN_IF_ERROR(CheckOutputFileSparesInputs("--out", out_path, inputs));

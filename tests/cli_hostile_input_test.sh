@@ -225,6 +225,30 @@ check "render --out a correction atlas is refused" 3 "would overwrite" -- "$bin"
 check "render --out a directory is refused" 3 "is a directory" -- "$bin" render "$work/run" --camera cam0 \
   --lights "$work/lights.json" --out "$work/dir.png"
 
+# report --out and evaluate --error-atlas likewise spare what they read (report --out DIR/result.json or
+# the scene file, evaluate --error-atlas DIR/atlases/kd.exr exited 0 and destroyed the run or the scene).
+run_sha=$(cd "$work/run" && find . -type f ! -name .mvbrdf.lock -print0 | sort -z | xargs -0 sha256sum | sha256sum)
+check "report --out the run's result.json is refused" 3 "would overwrite the run's result.json" -- \
+  "$bin" report "$work/run" --no-render --out "$work/run/result.json"
+check "report --out the scene file is refused" 3 "would overwrite the scene file" -- \
+  "$bin" report "$work/run" --no-render --out "$scene"
+check "report --out a video, through a symlink, is refused" 3 "would overwrite scene.cameras\[0\].video.path" -- \
+  "$bin" report "$work/run" --no-render --out "$work/link/videos/cam0.mkv"
+check "report --out an atlas preview is refused" 3 "would overwrite the run's atlases/\*.png" -- \
+  "$bin" report "$work/run" --no-render --out "$work/run/atlases/kd.png"
+check "report --out the --tradeoff file is refused" 3 "would overwrite --tradeoff" -- \
+  "$bin" report "$work/run" --no-render --tradeoff "$work/tradeoff.json" --out "$work/tradeoff.json"
+check "evaluate --error-atlas the run's kd atlas is refused" 3 "would overwrite the run's atlases/\*.exr" -- \
+  "$bin" evaluate "$work/run" --truth "$work/b" --error-atlas "$work/run/atlases/kd.exr"
+check "evaluate --error-atlas in the run's atlas/ is refused" 3 "would overwrite the run's atlas/\*.exr" -- \
+  "$bin" evaluate "$work/run" --truth "$work/b" --error-atlas "$work/run/atlas/kd.exr"
+check "render --out an atlas preview is refused" 3 "would overwrite the run's atlases/\*.png" -- "$bin" render \
+  "$work/run" --camera cam0 --lights "$work/lights.json" --out "$work/run/atlases/kd.png"
+run_sha_after=$(cd "$work/run" && find . -type f ! -name .mvbrdf.lock -print0 | sort -z | xargs -0 sha256sum | sha256sum)
+expect "the run's directory is unchanged" test "$run_sha" = "$run_sha_after"
+sha_after=$(cd "$work/b" && find . -type f -print0 | sort -z | xargs -0 sha256sum | sha256sum)
+expect "the scene's directory is still unchanged" test "$sha_before" = "$sha_after"
+
 # --- Defect 4 (part): --error-atlas that is no .png/.exr file.
 check "evaluate --error-atlas x.txt" 3 "expected a file name ending in .png or .exr" -- \
   "$bin" evaluate "$work/run" --truth "$work/b" --error-atlas "$work/x.txt"
