@@ -295,6 +295,9 @@ sleep 0.3
 check "run into a directory another command writes fails at once, exit 4" 4 "another mvbrdf command is writing" -- \
   "$bin" run "$scene" --direct "${opts[@]}" --out "$work/locked"
 check "resample likewise" 4 "$work/locked" -- "$bin" resample "$scene" --atlas 64 --out "$work/locked"
+check "synth likewise (two synths into one --out would mix their files)" 4 "another mvbrdf command is writing" -- \
+  "$bin" synth --cameras 2 --frames 2 --width 64 --height 48 --actor-segments 6 --out "$work/locked"
+expect "synth wrote nothing there" test ! -e "$work/locked/scene.json"
 kill "$holder" 2>/dev/null
 wait "$holder" 2>/dev/null
 "$bin" run "$scene" --direct "${opts[@]}" --out "$work/twice" > "$work/first.log" 2>&1 &
