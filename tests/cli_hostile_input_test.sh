@@ -279,6 +279,19 @@ if [ "$(id -u)" -eq 0 ] && unshare -m true 2>/dev/null; then
   check "run --direct to a full disk fails, exit 4" 4 "No space left on device" -- \
     full "$bin" run "$scene" --direct "${opts[@]}" --out "$work/full/run"
   expect "no truncated kd.exr or other file is left" test ! -s "$work/full.left"
+  # The embedded run copies the job's artifacts to --out: a disk that fills halfway through (100 KiB of the run's
+  # ~150) left a truncated kd.exr under its name and said "Input/output error".
+  partial() {  # partial CMD...: as full, on a 100 KiB tmpfs left empty; lists what is left with its size
+    unshare -m --propagation private sh -c "mount -t tmpfs -o size=100k full '$work/full' && \
+      \"\$@\" > '$work/full.out' 2>&1; rc=\$?; cat '$work/full.out'; \
+      (cd '$work/full' && find . -type f ! -name .mvbrdf.lock) > '$work/full.files'; \
+      (cd '$work/full' && for f in \$(cat '$work/full.files'); do cmp -s \"\$f\" '$work/run/'\"\${f#./r/}\" || echo \"\$f\"; done) \
+        > '$work/full.left'; exit \$rc" sh "$@"
+  }
+  check "run (embedded) to a disk that fills while copying fails, exit 4" 4 "No space left on device" -- \
+    partial "$bin" run "$scene" "${opts[@]}" --out "$work/full/r"
+  expect "every file it left is whole (no truncated kd.exr, no temporary, no result.json)" test ! -s "$work/full.left"
+  expect "it did copy some files before the disk filled" grep -q atlas "$work/full.files"
   check "resample to a full disk fails, exit 4" 4 "No space left on device" -- \
     full "$bin" resample "$scene" --atlas 64 --out "$work/full/rs"
   check "report to a full disk fails, exit 4" 4 "No space left on device" -- \
@@ -347,7 +360,7 @@ done
 # the work directory's own entries.
 expect "the sentinel directory is still empty" sentinel_empty
 expect "no file was written outside the work directory's subdirectories" \
-  test -z "$(find "$work" -maxdepth 1 -type f ! -name '*.json' ! -name '*.log' ! -name '*.out' ! -name 'full.left')"
+  test -z "$(find "$work" -maxdepth 1 -type f ! -name '*.json' ! -name '*.log' ! -name '*.out' ! -name 'full.left' ! -name 'full.files')"
 expect "no file named after a hostile name anywhere" test -z "$(find "$work" -name 'pwn*' -o -name 'abs*')"
 expect "no file named after a hostile name beside the frames" test -z "$(find "$work" -path '*/frames/x*')"
 summary
