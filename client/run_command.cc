@@ -18,6 +18,7 @@
 #include "client/job_flags.h"
 #include "client/output_dir.h"
 #include "client/progress.h"
+#include "core/base/files.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
 #include "core/bundle/bundle.h"
@@ -275,6 +276,16 @@ int RunRun(const std::vector<std::string>& args) {
   // Direct or through the in-process workers, the atlas is allocated here.
   if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(options->atlas.size); !fits.ok()) {
     return ReportFailure(fits, "mvbrdf run");
+  }
+  // A previous run's result.json goes first, so that an interrupted or failed
+  // run leaves no result.json beside a mix of new and old atlases (render and
+  // evaluate read it as a whole run); the new one is written last.
+  std::error_code stale_error;
+  std::filesystem::remove(std::filesystem::path(out) / "result.json", stale_error);
+  if (stale_error) {
+    return ReportFailure(ErrnoStatus(stale_error.value(), "cannot remove the previous run's result.json",
+                                     (std::filesystem::path(out) / "result.json").string()),
+                         "mvbrdf run");
   }
   std::fputs(plan->Describe().c_str(), stdout);
   std::fflush(stdout);

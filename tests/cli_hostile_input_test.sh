@@ -342,7 +342,8 @@ check "a directory as a mesh is named as one" 3 "is a directory" -- "$bin" valid
 # A background job of a script starts with SIGINT ignored: python resets it to
 # the default, as an interactive shell's Ctrl-C would find it.
 for sig in INT TERM; do
-  rm -rf "$work/tmp"/*
+  rm -rf "$work/tmp"/* "$work/interrupted"
+  cp -r "$work/run" "$work/interrupted"  # a previous run's outputs: its result.json must not survive beside new atlases
   /usr/bin/python3 -c 'import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); os.execv(sys.argv[1], sys.argv[1:])' \
     "$bin" run "$scene" --atlas 256 --no-powell --config "NE,NW,SE,SW" --out "$work/interrupted" > "$work/int.log" 2>&1 &
   runner=$!
@@ -354,6 +355,7 @@ for sig in INT TERM; do
   rc=$?
   expect "SIG$sig ends run by the signal (exit $rc)" test "$rc" -eq $((128 + $(kill -l "$sig")))
   expect "SIG$sig leaves no temporary state directory" test -z "$(ls -A "$work/tmp")"
+  expect "SIG$sig leaves no previous result.json beside the new outputs" test ! -e "$work/interrupted/result.json"
 done
 
 # Nothing outside --out: the sentinel is empty and no file appeared beside
