@@ -102,10 +102,11 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
   }
   if (!found) {
     MVBRDF_ASSIGN_OR_RETURN(const v1::Camera message, ReadJsonFileAs<v1::Camera>(camera_arg));
+    // As a scene's cameras are checked: a NaN or non-orthonormal rotation,
+    // an infinite cx or 3 distortion values rendered silently.
+    MVBRDF_RETURN_IF_ERROR(
+        scene::ValidateCameraGeometry(message, absl::StrCat("--camera ", scene::ShownName(camera_arg), ": camera")));
     camera = scene::CameraModelFromProto(message);
-    if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0) || !(camera.fy > 0)) {
-      return absl::InvalidArgumentError(absl::StrCat(camera_arg, ": width, height, fx and fy must be > 0"));
-    }
   }
   MVBRDF_ASSIGN_OR_RETURN(const std::vector<scene::Light> lights, ReadLights(lights_file));
   MVBRDF_ASSIGN_OR_RETURN(auto context, gl::EglContext::Create(platform));

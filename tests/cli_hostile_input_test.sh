@@ -224,6 +224,26 @@ check "render --out a correction atlas is refused" 3 "would overwrite" -- "$bin"
   --camera cam0 --lights "$work/lights.json" --out "$work/run/atlases/correction/0001.exr"
 check "render --out a directory is refused" 3 "is a directory" -- "$bin" render "$work/run" --camera cam0 \
   --lights "$work/lights.json" --out "$work/dir.png"
+# render --camera FILE is checked as a scene's camera (NaN or non-orthonormal rotations, an infinite cx, 3
+# distortion values rendered silently; 100000 pixels wide exited 1 with GL_INVALID_VALUE).
+/usr/bin/python3 - "$scene" "$work" <<'PY2'
+import json, sys
+cam = json.load(open(sys.argv[1]))["cameras"][0]
+def variant(name, edit):
+    c = json.loads(json.dumps(cam)); edit(c); json.dump(c, open(f"{sys.argv[2]}/cam_{name}.json", "w"))
+variant("rot_nan", lambda c: c["camFromWorld"]["rotation"].__setitem__(0, "NaN"))
+variant("rot_scaled", lambda c: c["camFromWorld"].__setitem__("rotation", [2, 0, 0, 0, 2, 0, 0, 0, 2]))
+variant("cx_inf", lambda c: c["intrinsics"].__setitem__("cx", "Infinity"))
+variant("dist3", lambda c: c["intrinsics"].__setitem__("distortion", [0, 0, 0]))
+variant("wide", lambda c: c.__setitem__("width", 100000))
+variant("wider", lambda c: c.__setitem__("width", 20000))
+PY2
+for v in "rot_nan:cam_from_world.rotation\[0\]: must be a finite number" "rot_scaled:must be orthonormal" \
+         "cx_inf:intrinsics.cx: must be a finite number" "dist3:intrinsics.distortion: expected 0, 4, 5 or 8" \
+         "wide:camera.width: must be in 1..65536" "wider:exceeds the largest render target"; do
+  check "render --camera a JSON camera with ${v%%:*} is refused" 3 "${v#*:}" -- "$bin" render "$work/run" \
+    --camera "$work/cam_${v%%:*}.json" --lights "$work/lights.json" --out "$work/cam_${v%%:*}.png"
+done
 
 # report --out and evaluate --error-atlas likewise spare what they read (report --out DIR/result.json or
 # the scene file, evaluate --error-atlas DIR/atlases/kd.exr exited 0 and destroyed the run or the scene).

@@ -148,9 +148,15 @@ absl::Status ValidateRotation(const std::string& field, const google::protobuf::
   return absl::OkStatus();
 }
 
-absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
-  if (camera.width() == 0) return Invalid(f + ".width", "must be > 0, got 0");
-  if (camera.height() == 0) return Invalid(f + ".height", "must be > 0, got 0");
+}  // namespace
+
+absl::Status ValidateCameraGeometry(const v1::Camera& camera, const std::string& f) {
+  if (camera.width() == 0 || camera.width() > kMaxImageSide) {
+    return Invalid(f + ".width", absl::StrCat("must be in 1..", kMaxImageSide, ", got ", camera.width()));
+  }
+  if (camera.height() == 0 || camera.height() > kMaxImageSide) {
+    return Invalid(f + ".height", absl::StrCat("must be in 1..", kMaxImageSide, ", got ", camera.height()));
+  }
   const v1::Intrinsics& in = camera.intrinsics();
   MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fx", in.fx()));
   MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fy", in.fy()));
@@ -166,6 +172,13 @@ absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
   const std::string t = f + ".cam_from_world.translation";
   MVBRDF_RETURN_IF_ERROR(CheckCount(t, camera.cam_from_world().translation_size(), 3, "x, y, z"));
   MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(t, camera.cam_from_world().translation()));
+  return absl::OkStatus();
+}
+
+namespace {
+
+absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
+  MVBRDF_RETURN_IF_ERROR(ValidateCameraGeometry(camera, f));
   const v1::Video& video = camera.video();
   if (video.path().empty()) {
     return Invalid(f + ".video.path", "required (a video file or an image pattern such as \"cam0/%04d.png\")");
