@@ -249,6 +249,11 @@ int RunRun(const std::vector<std::string>& args) {
   if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");
   if (usage.ok() && (threads < 1 || threads > 64)) usage = absl::InvalidArgumentError("--threads: must be in [1, 64]");
   if (usage.ok() && (workers < 1 || workers > 16)) usage = absl::InvalidArgumentError("--workers: must be in [1, 16]");
+  // As `report` checks it (99999999 made run --report render for hours; -5 was taken).
+  if (usage.ok() && (report_flags.relit_frames < 0 || report_flags.relit_frames > 360)) {
+    usage = absl::InvalidArgumentError(
+        absl::StrCat("--relit-frames: must be in [0, 360], got ", report_flags.relit_frames));
+  }
   if (!usage.ok()) {
     std::fprintf(stderr, "mvbrdf run: %s\n", std::string(usage.message()).c_str());
     return kExitUsage;
