@@ -114,7 +114,13 @@ json.dump(s, open(sys.argv[2], 'w'))" "$scene" "$work/b_named.json"
 cp "$work/b_named.json" "$work/b/named.json"
 check "a NUL and ESC in the free-form scene.name: validate's summary is whole and escaped" 0 'ab\\x00cd\\x1b\[31m' -- \
   "$bin" validate "$work/b/named.json"
-rm -f "$work/b/named.json"
+/usr/bin/python3 -c "
+import json, sys
+s = json.load(open(sys.argv[1])); s['name'] = 'n' * 1000000
+json.dump(s, open(sys.argv[2], 'w'))" "$scene" "$work/b/long_named.json"
+check "a 1 MB scene.name: validate's summary elides it" 0 "(1000000 characters)" -- "$bin" validate "$work/b/long_named.json"
+expect "and stays short (it was 1 MB)" test "$("$bin" validate "$work/b/long_named.json" | wc -c)" -lt 20000
+rm -f "$work/b/named.json" "$work/b/long_named.json"
 cp -r "$work/b" "$work/dupe"
 sed -i 's/"cam1"/"cam0"/' "$work/dupe/scene.json"
 check "duplicate camera names are refused" 3 "duplicate" -- "$bin" validate "$work/dupe/scene.json"

@@ -589,7 +589,8 @@ std::string Summarize(const Sequence& seq) {
   const v1::Scene& scene = seq.scene;
   const MeshTopology& topo = seq.topology;
   std::string s;
-  absl::StrAppend(&s, "Scene: ", scene.name().empty() ? "(unnamed)" : scene.name(), "\n");
+  // Free-form, unbounded: a 10 MB name made a 10 MB summary line.
+  absl::StrAppend(&s, "Scene: ", scene.name().empty() ? "(unnamed)" : ElideForMessage(scene.name(), 200), "\n");
   absl::StrAppend(&s, "  file: ", seq.scene_file.string(), "\n");
   absl::StrAppend(&s, "Frames: ", seq.num_frames, " from frame ", scene.frames().first(), " at ",
                   Num(scene.frames().fps()), " fps (", Num(seq.num_frames / scene.frames().fps()), " s)\n");
