@@ -18,6 +18,7 @@
 #include "client/connection.h"
 #include "client/flags.h"
 #include "core/bundle/sha256.h"
+#include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
 namespace mvbrdf::client {
@@ -105,7 +106,8 @@ int FetchOne(v1::Mvbrdf::Stub& stub, const std::string& address, const std::stri
   }
   auto fail = [&](const std::string& message, int code) {
     std::filesystem::remove(part, ec);
-    std::fprintf(stderr, "mvbrdf fetch: error: %s %s: %s\n", job_id.c_str(), name.c_str(), message.c_str());
+    std::fprintf(stderr, "mvbrdf fetch: error: %s %s: %s\n", scene::ShownName(job_id).c_str(),
+                 scene::ShownName(name).c_str(), scene::ShownName(message).c_str());
     return code;
   };
   if (!local_error.empty()) {
@@ -179,7 +181,8 @@ int RunFetch(const std::vector<std::string>& args) {
   names.insert(names.begin(), first_name);
   for (const std::string& name : names) {
     if (!SafeName(name)) {
-      std::fprintf(stderr, "mvbrdf fetch: NAME \"%s\": must be a relative path without \"..\"\n", name.c_str());
+      std::fprintf(stderr, "mvbrdf fetch: NAME \"%s\": must be a relative path without \"..\"\n",
+                   scene::ShownName(name).c_str());
       return kExitUsage;
     }
   }

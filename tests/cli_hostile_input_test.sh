@@ -193,6 +193,28 @@ for k in 1 2 4 6 7; do
   check "submit refuses camera '${rejected[$((k - 1))]}'" 3 "scene.cameras\[0\].name" -- \
     "$bin" submit "$work/h$k/scene.json" --server "$address" --client t
 done
+# What the user typed is echoed escaped in every error line, not only in ReportFailure's (an ESC in a job id,
+# an artifact name, a flag, its value or a command reached the terminal raw).
+esc=$'\e[2J'
+no_esc() {  # no_esc NAME CMD...: the command fails and no ESC byte reaches its output
+  local out rc
+  out=$("${@:2}" 2>&1)
+  rc=$?
+  if [ "$rc" -eq 0 ] || [ "$rc" -ge 128 ] || grep -q $'\e' <<<"$out"; then
+    echo "FAIL $1: exit $rc, or a raw ESC in: $(cat -v <<<"$out" | head -2)"; failures=$((failures + 1))
+  else
+    echo "ok   $1"; passes=$((passes + 1))
+  fi
+}
+no_esc "an unknown command with an ESC" "$bin" "x$esc"
+no_esc "an unknown flag with an ESC" "$bin" validate "--x$esc"
+no_esc "an unexpected argument with an ESC" "$bin" validate "$scene" "x$esc"
+no_esc "a flag value with an ESC" "$bin" run "$scene" --atlas "1$esc" --out "$work/esc"
+no_esc "fetch of a job id with an ESC" "$bin" fetch "j$esc" result.json --server "$address" --out "$work/esc"
+no_esc "fetch of an artifact name with an ESC" "$bin" fetch 0123 "n$esc" --server "$address" --out "$work/esc"
+no_esc "fetch of a name leaving --out, with an ESC" "$bin" fetch 0123 "../$esc" --server "$address" --out "$work/esc"
+no_esc "cancel of a job id with an ESC" "$bin" cancel "j$esc" --server "$address"
+no_esc "watch of a job id with an ESC" "$bin" watch "j$esc" --server "$address"
 kill -TERM "$pid" 2>/dev/null
 wait "$pid" 2>/dev/null
 
