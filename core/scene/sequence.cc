@@ -557,8 +557,19 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
   seq.topology = std::move(mesh.topology);
   seq.rest_positions = std::move(mesh.positions);
   if (!seq.topology.triangles.empty() && seq.topology.zero_area_triangles.size() == seq.topology.triangles.size()) {
+    // Zero relative to the mesh's size: one vertex at 1e30 makes every other
+    // triangle a speck, so the extent is named too.
+    glm::vec3 lo(0.0f), hi(0.0f);
+    if (!seq.rest_positions.empty()) lo = hi = seq.rest_positions[0];
+    for (const glm::vec3& p : seq.rest_positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
     return Invalid(mesh_field, absl::StrCat("all ", seq.topology.triangles.size(),
-                                            " triangles have zero area in frame 0: there is no surface to resample"));
+                                            " triangles have zero area in frame 0 (relative to the mesh's extent, (",
+                                            Num(lo.x), ", ", Num(lo.y), ", ", Num(lo.z), ") to (", Num(hi.x), ", ",
+                                            Num(hi.y), ", ", Num(hi.z),
+                                            "): a vertex far from the others?): there is no surface to resample"));
   }
   if (options.check_all_frames && !seq.is_static_mesh()) {
     for (int t = 1; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(seq.LoadFrame(t).status());
