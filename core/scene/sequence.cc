@@ -565,11 +565,11 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
       lo = glm::min(lo, p);
       hi = glm::max(hi, p);
     }
-    return Invalid(mesh_field, absl::StrCat("all ", seq.topology.triangles.size(),
-                                            " triangles have zero area in frame 0 (relative to the mesh's extent, (",
-                                            Num(lo.x), ", ", Num(lo.y), ", ", Num(lo.z), ") to (", Num(hi.x), ", ",
-                                            Num(hi.y), ", ", Num(hi.z),
-                                            "): a vertex far from the others?): there is no surface to resample"));
+    return Invalid(mesh_field,
+                   absl::StrCat("all ", seq.topology.triangles.size(),
+                                " triangles have zero area in frame 0 (relative to the mesh's extent, (", Num(lo.x),
+                                ", ", Num(lo.y), ", ", Num(lo.z), ") to (", Num(hi.x), ", ", Num(hi.y), ", ", Num(hi.z),
+                                "): a vertex far from the others?): there is no surface to resample"));
   }
   if (options.check_all_frames && !seq.is_static_mesh()) {
     for (int t = 1; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(seq.LoadFrame(t).status());
