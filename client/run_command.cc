@@ -271,6 +271,18 @@ int RunRun(const std::vector<std::string>& args) {
   if (absl::Status s = CheckOutputDirSparesInputs("--out", out, SceneInputs(*sequence)); !s.ok()) {
     return ReportFailure(s);
   }
+  if (!data_dir.empty() && !direct) {
+    // The server's state (state.db, artifacts/, bundles/, ...) is written
+    // there: neither among the scene's inputs nor mixed with --out's files.
+    std::vector<InputPath> kept = SceneInputs(*sequence);
+    kept.push_back({"--out", std::filesystem::path(out) / "result.json", false});
+    if (absl::Status s = CheckOutputDirSparesInputs("--data", data_dir, kept); !s.ok()) return ReportFailure(s);
+    if (absl::Status s = CheckOutputDirSparesInputs(
+            "--out", out, {{"--data (the server's state)", std::filesystem::path(data_dir) / "state.db", false}});
+        !s.ok()) {
+      return ReportFailure(s);
+    }
+  }
   auto options = worker::ReconstructOptionsFor(request, threads);
   if (!options.ok()) return ReportFailure(options.status());
   auto plan = pipeline::MakePlan(*sequence, options->request);

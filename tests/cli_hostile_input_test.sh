@@ -235,6 +235,13 @@ check "resample --out the scene's directory" 3 "holds the scene file" -- \
   "$bin" resample "$scene" --atlas 64 --out "$work/b"
 check "resample --out the meshes' directory" 3 "scene.mesh.path" -- \
   "$bin" resample "$scene" --atlas 64 --out "$work/b/meshes"
+# run --data (the in-process server's state) likewise: not in the scene's directory, not mixed with --out.
+check "run --data the scene's directory is refused" 3 "^mvbrdf: error: --data $work/b: holds the scene file" -- \
+  "$bin" run "$scene" "${opts[@]}" --data "$work/b" --out "$work/data_run"
+check "run --data equal to --out is refused" 3 "--data $work/data_run: holds --out" -- \
+  "$bin" run "$scene" "${opts[@]}" --data "$work/data_run" --out "$work/data_run"
+check "run --out holding --data is refused" 3 "--out $work/data_run: holds --data" -- \
+  "$bin" run "$scene" "${opts[@]}" --data "$work/data_run/state" --out "$work/data_run"
 sha_after=$(cd "$work/b" && find . -type f -print0 | sort -z | xargs -0 sha256sum | sha256sum)
 expect "the scene's directory is unchanged" test "$sha_before" = "$sha_after"
 
