@@ -9,6 +9,7 @@
 #include "client/connection.h"
 #include "client/flags.h"
 #include "core/base/proto_json.h"
+#include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
 namespace mvbrdf::client {
@@ -55,7 +56,8 @@ int RunCancel(const std::vector<std::string>& args) {
   v1::Job job;
   const grpc::Status status = stub->CancelJob(&context, request, &job);
   if (!status.ok()) {
-    std::fprintf(stderr, "mvbrdf cancel: error: %s: %s\n", job_id.c_str(), status.error_message().c_str());
+    std::fprintf(stderr, "mvbrdf cancel: error: %s: %s\n", scene::ShownName(job_id).c_str(),
+                 scene::ShownName(status.error_message()).c_str());
     return ExitCodeForRpc(status.error_code());
   }
   if (json) {

@@ -1,5 +1,6 @@
 #include "client/embedded_service.h"
 
+#include <algorithm>
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
@@ -64,8 +65,13 @@ absl::StatusOr<std::vector<std::string>> EmbeddedService::CopyArtifacts(const st
                                                                         const fs::path& out_dir) {
   MVBRDF_ASSIGN_OR_RETURN(const std::vector<store::Artifact> artifacts,
                           server_->artifacts().ArtifactsOfJob(job_id));
+  // result.json last: a directory with it holds a whole run (an interrupted
+  // copy leaves none, run removes the previous one first).
+  std::vector<store::Artifact> ordered = artifacts;
+  std::stable_partition(ordered.begin(), ordered.end(),
+                        [](const store::Artifact& a) { return a.name != "result.json"; });
   std::vector<std::string> names;
-  for (const store::Artifact& a : artifacts) {
+  for (const store::Artifact& a : ordered) {
     const fs::path name(a.name);
     bool parent = false;
     for (const fs::path& part : name) parent = parent || part == "..";
@@ -73,11 +79,9 @@ absl::StatusOr<std::vector<std::string>> EmbeddedService::CopyArtifacts(const st
       return absl::InvalidArgumentError(absl::StrCat("artifact \"", a.name, "\": not a relative path inside the output"));
     }
     MVBRDF_ASSIGN_OR_RETURN(const fs::path source, server_->artifacts().OpenVerified(a.sha256));
-    const fs::path target = out_dir / a.name;
-    std::error_code ec;
-    fs::create_directories(target.parent_path(), ec);
-    fs::copy_file(source, target, fs::copy_options::overwrite_existing, ec);
-    if (ec) return ErrnoStatus(ec.value(), "cannot write", target.string());
+    // Through a temporary renamed into place: copy_file left a truncated
+    // kd.exr on a full disk and said "Input/output error".
+    MVBRDF_RETURN_IF_ERROR(CopyFileReplacing(source, out_dir / a.name));
     names.push_back(a.name);
   }
   return names;

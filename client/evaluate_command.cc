@@ -1,8 +1,11 @@
 // `mvbrdf evaluate DIR --truth TRUTH_DIR`: a reconstruction against the truth.
 #include <cstdio>
+#include <filesystem>
+#include <vector>
 
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/output_dir.h"
 #include "core/base/proto_json.h"
 #include "core/evaluate/reconstruction_evaluator.h"
 
@@ -28,6 +31,21 @@ int RunEvaluate(const std::vector<std::string>& args) {
   if (truth.empty()) {
     std::fprintf(stderr, "mvbrdf evaluate: --truth: required\n");
     return kExitUsage;
+  }
+  if (!error_atlas.empty()) {
+    // The error atlas and its "_truth_kd" sibling must not replace a file of
+    // the run or its scene (--error-atlas DIR/atlases/kd.exr exited 0 and
+    // destroyed the reconstruction).
+    std::vector<InputPath> inputs = RunInputs(dir);
+    inputs.push_back({"--truth", std::filesystem::path(truth) / "truth.json", false});
+    inputs.push_back({"--truth", std::filesystem::path(truth) / "ground_truth" / "truth.json", false});
+    std::filesystem::path sibling = error_atlas;
+    sibling.replace_filename(sibling.stem().string() + "_truth_kd" + sibling.extension().string());
+    for (const std::filesystem::path& file : {std::filesystem::path(error_atlas), sibling}) {
+      if (absl::Status s = CheckOutputFileSparesInputs("--error-atlas", file, inputs); !s.ok()) {
+        return ReportFailure(s);
+      }
+    }
   }
   auto report = evaluate::EvaluateReconstruction(dir, truth, error_atlas);
   if (!report.ok()) return ReportFailure(report.status());

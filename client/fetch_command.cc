@@ -2,7 +2,9 @@
 // artifacts to DIR/NAME, each verified against the SHA-256 the server sends.
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -11,10 +13,12 @@
 #include <grpcpp/grpcpp.h>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/connection.h"
 #include "client/flags.h"
 #include "core/bundle/sha256.h"
+#include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
 namespace mvbrdf::client {
@@ -59,14 +63,17 @@ int FetchOne(v1::Mvbrdf::Stub& stub, const std::string& address, const std::stri
   bool first = true;
   uint64_t received = 0, total = 0;
   std::string sha256, local_error;
+  int write_errno = 0;
   v1::ArtifactChunk chunk;
   while (reader->Read(&chunk)) {
     if (first) {
       first = false;
       total = chunk.total_size();
       sha256 = absl::AsciiStrToLower(chunk.sha256());
+      errno = 0;
       out.open(part, std::ios::binary | std::ios::trunc);
       if (!out) {
+        write_errno = errno;
         local_error = part.string() + ": cannot write";
         context.TryCancel();
         break;
@@ -77,23 +84,41 @@ int FetchOne(v1::Mvbrdf::Stub& stub, const std::string& address, const std::stri
       context.TryCancel();
       break;
     }
+    errno = 0;
     out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
+    if (!out) {
+      // A full disk said "write failed" without why (exit 4 either way).
+      write_errno = errno;
+      local_error = part.string() + ": write failed";
+      context.TryCancel();
+      break;
+    }
     received += chunk.data().size();
   }
   const grpc::Status status = reader->Finish();
-  if (out.is_open()) out.close();
+  if (out.is_open()) {
+    errno = 0;
+    out.close();
+    if (!out && local_error.empty()) {
+      write_errno = errno;
+      local_error = part.string() + ": write failed";
+    }
+  }
   auto fail = [&](const std::string& message, int code) {
     std::filesystem::remove(part, ec);
-    std::fprintf(stderr, "mvbrdf fetch: error: %s %s: %s\n", job_id.c_str(), name.c_str(), message.c_str());
+    std::fprintf(stderr, "mvbrdf fetch: error: %s %s: %s\n", scene::ShownName(job_id).c_str(),
+                 scene::ShownName(name).c_str(), scene::ShownName(message).c_str());
     return code;
   };
-  if (!local_error.empty()) return fail(local_error, kExitEnvironment);
+  if (!local_error.empty()) {
+    if (write_errno != 0) local_error += absl::StrCat(": ", std::strerror(write_errno));
+    return fail(local_error, kExitEnvironment);
+  }
   if (!status.ok()) return fail(status.error_message(), ExitCodeForRpc(status.error_code()));
   if (first) {
     // An empty artifact still sends one chunk; nothing at all is a server bug.
     return fail("the server sent no data", kExitInternal);
   }
-  if (!out) return fail(part.string() + ": write failed", kExitEnvironment);
   if (received != total) {
     return fail("received " + std::to_string(received) + " of " + std::to_string(total) + " bytes", kExitInternal);
   }
@@ -156,7 +181,8 @@ int RunFetch(const std::vector<std::string>& args) {
   names.insert(names.begin(), first_name);
   for (const std::string& name : names) {
     if (!SafeName(name)) {
-      std::fprintf(stderr, "mvbrdf fetch: NAME \"%s\": must be a relative path without \"..\"\n", name.c_str());
+      std::fprintf(stderr, "mvbrdf fetch: NAME \"%s\": must be a relative path without \"..\"\n",
+                   scene::ShownName(name).c_str());
       return kExitUsage;
     }
   }

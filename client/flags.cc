@@ -6,12 +6,13 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
+#include "core/scene/names.h"
 
 namespace mvbrdf::client {
 namespace {
 
 absl::Status Expected(const std::string& flag, const char* what, const std::string& got) {
-  return absl::InvalidArgumentError(absl::StrCat(flag, ": expected ", what, ", got \"", got, "\""));
+  return absl::InvalidArgumentError(absl::StrCat(flag, ": expected ", what, ", got \"", scene::ShownName(got), "\""));
 }
 
 }  // namespace
@@ -100,8 +101,8 @@ absl::Status FlagParser::Parse(const std::vector<std::string>& args) {
         if (f.name == name) flag = &f;
       }
       if (flag == nullptr) {
-        return absl::InvalidArgumentError(absl::StrCat(name, ": unknown option for 'mvbrdf ", command_,
-                                                       "' (see 'mvbrdf ", command_, " --help')"));
+        return absl::InvalidArgumentError(absl::StrCat(scene::ShownName(name), ": unknown option for 'mvbrdf ",
+                                                       command_, "' (see 'mvbrdf ", command_, " --help')"));
       }
       std::string value;
       if (eq != std::string::npos) {
@@ -115,7 +116,8 @@ absl::Status FlagParser::Parse(const std::vector<std::string>& args) {
       continue;
     }
     if (next_positional >= positionals_.size()) {
-      return absl::InvalidArgumentError(absl::StrCat("unexpected argument \"", arg, "\" for 'mvbrdf ", command_, "'"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("unexpected argument \"", scene::ShownName(arg), "\" for 'mvbrdf ", command_, "'"));
     }
     *positionals_[next_positional++].value = arg;
   }

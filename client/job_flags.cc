@@ -54,8 +54,11 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   if (job.cluster_samples < 10) {
     return absl::InvalidArgumentError(absl::StrCat("--cluster-samples: must be >= 10, got ", job.cluster_samples));
   }
-  if (job.max_iterations < 1) {
-    return absl::InvalidArgumentError(absl::StrCat("--max-iterations: must be >= 1, got ", job.max_iterations));
+  // The request's bound (worker/job_options.cc) with the flag's name: above it
+  // the error named options.max_iterations and exited 3.
+  if (job.max_iterations < 1 || job.max_iterations > 100000) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--max-iterations: must be in [1, 100000], got ", job.max_iterations));
   }
   if (job.sweep_frame_stride < 0) {
     return absl::InvalidArgumentError(absl::StrCat("--sweep-frame-stride: must be >= 0, got ", job.sweep_frame_stride));

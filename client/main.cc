@@ -9,6 +9,7 @@
 
 #include "client/commands.h"
 #include "client/connection.h"
+#include "core/scene/names.h"
 
 namespace {
 
@@ -88,7 +89,7 @@ int Dispatch(int argc, char** argv) {
   if (command == "fetch") return mvbrdf::client::RunFetch(args);
   if (command == "cancel") return mvbrdf::client::RunCancel(args);
   if (command == "health") return mvbrdf::client::RunHealth(args);
-  std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", command.c_str(), kUsage);
+  std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", mvbrdf::scene::ShownName(command).c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }
 

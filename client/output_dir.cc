@@ -9,6 +9,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
+#include "core/base/proto_json.h"
+#include "mvbrdf/v1/run_report.pb.h"
 
 namespace mvbrdf::client {
 namespace {
@@ -39,18 +41,43 @@ std::string Shown(const InputPath& input) { return absl::StrCat(input.field, " (
 }  // namespace
 
 std::vector<InputPath> SceneInputs(const scene::Sequence& sequence) {
+  return SceneInputs(sequence.scene_file, sequence.scene);
+}
+
+std::vector<InputPath> SceneInputs(const fs::path& scene_file, const v1::Scene& s) {
   std::vector<InputPath> inputs;
-  inputs.push_back({"the scene file", sequence.scene_file, false});
-  const v1::Scene& s = sequence.scene;
+  inputs.push_back({"the scene file", scene_file, false});
+  const fs::path scene_dir = scene_file.has_parent_path() ? scene_file.parent_path() : fs::path(".");
   const auto add = [&](const std::string& field, const std::string& relative) {
     if (relative.empty()) return;
-    inputs.push_back({field, ResolvePath(sequence.scene_dir, relative), IsFramePattern(relative)});
+    inputs.push_back({field, ResolvePath(scene_dir, relative), IsFramePattern(relative)});
   };
   add("scene.mesh.path", s.mesh().path());
   for (int i = 0; i < s.cameras_size(); ++i) {
     add(absl::StrCat("scene.cameras[", i, "].video.path"), s.cameras(i).video().path());
   }
   add("scene.segmentation_path", s.segmentation_path());
+  return inputs;
+}
+
+std::vector<InputPath> RunInputs(const fs::path& run_dir) {
+  std::vector<InputPath> inputs;
+  inputs.push_back({"the run's result.json", run_dir / "result.json", false});
+  // A pattern stands for every file of its directory with its extension.
+  for (const char* dir : {"atlas", "atlases", "atlases/correction"}) {
+    for (const char* ext : {"exr", "png", "obj"}) {
+      inputs.push_back({absl::StrCat("the run's ", dir, "/*.", ext), run_dir / dir / absl::StrCat("%04d.", ext), true});
+    }
+  }
+  absl::StatusOr<v1::RunReport> run = ReadJsonFileAs<v1::RunReport>(run_dir / "result.json");
+  if (run.ok() && !run->scene().empty()) {
+    absl::StatusOr<v1::Scene> scene = scene::ReadScene(run->scene());
+    if (scene.ok()) {
+      for (InputPath& input : SceneInputs(run->scene(), *scene)) inputs.push_back(std::move(input));
+    } else {
+      inputs.push_back({"the run's scene file", run->scene(), false});
+    }
+  }
   return inputs;
 }
 

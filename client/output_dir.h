@@ -25,6 +25,14 @@ struct InputPath {
 
 // The scene file and every file the scene names (mesh, videos, segmentation).
 std::vector<InputPath> SceneInputs(const scene::Sequence& sequence);
+std::vector<InputPath> SceneInputs(const std::filesystem::path& scene_file, const v1::Scene& scene);
+
+// What a command reading the output directory of `mvbrdf run` (report,
+// evaluate) reads: its result.json, every file of atlas/, atlases/ and
+// atlases/correction/, and, when result.json names a scene that can be read,
+// that scene's inputs. What cannot be read is left out (the command reading
+// it fails on its own).
+std::vector<InputPath> RunInputs(const std::filesystem::path& run_dir);
 
 // INVALID_ARGUMENT when the directory `out_dir` (flag `flag`), or anything
 // below it, holds one of `inputs`; paths are compared canonically (symlinks

@@ -71,10 +71,7 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
       return absl::InvalidArgumentError(absl::StrCat("--out: expected a .png or .exr file, got ", out));
     }
     std::vector<InputPath> inputs = SceneInputs(sequence);
-    inputs.push_back({"the run's result.json", run_dir / "result.json", false});
-    for (const char* atlases : {"atlas", "atlases", "atlases/correction"}) {
-      inputs.push_back({absl::StrCat("the run's ", atlases, "/*.exr"), run_dir / atlases / "%04d.exr", true});
-    }
+    for (InputPath& input : RunInputs(run_dir)) inputs.push_back(std::move(input));
     inputs.push_back({"--lights", lights_file, false});
     inputs.push_back({"--camera", camera_arg, false});
     MVBRDF_RETURN_IF_ERROR(CheckOutputFileSparesInputs("--out", out_path, inputs));
@@ -105,10 +102,11 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
   }
   if (!found) {
     MVBRDF_ASSIGN_OR_RETURN(const v1::Camera message, ReadJsonFileAs<v1::Camera>(camera_arg));
+    // As a scene's cameras are checked: a NaN or non-orthonormal rotation,
+    // an infinite cx or 3 distortion values rendered silently.
+    MVBRDF_RETURN_IF_ERROR(
+        scene::ValidateCameraGeometry(message, absl::StrCat("--camera ", scene::ShownName(camera_arg), ": camera")));
     camera = scene::CameraModelFromProto(message);
-    if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0) || !(camera.fy > 0)) {
-      return absl::InvalidArgumentError(absl::StrCat(camera_arg, ": width, height, fx and fy must be > 0"));
-    }
   }
   MVBRDF_ASSIGN_OR_RETURN(const std::vector<scene::Light> lights, ReadLights(lights_file));
   MVBRDF_ASSIGN_OR_RETURN(auto context, gl::EglContext::Create(platform));

@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/output_dir.h"
 #include "core/base/files.h"
 #include "core/base/status_macros.h"
 #include "core/gl/egl_context.h"
@@ -20,6 +21,20 @@ namespace mvbrdf::client {
 namespace fs = std::filesystem;
 
 absl::Status WriteRunReport(const fs::path& run_dir, const fs::path& out, const ReportFlags& flags) {
+  // Up front: the page must not replace a file it is made of (--out
+  // DIR/result.json or the scene file exited 0 and destroyed it).
+  std::vector<InputPath> read = RunInputs(run_dir);
+  if (!flags.tradeoff.empty()) read.push_back({"--tradeoff", flags.tradeoff, false});
+  if (!flags.truth.empty()) {
+    read.push_back({"--truth", fs::path(flags.truth) / "truth.json", false});
+    read.push_back({"--truth", fs::path(flags.truth) / "ground_truth" / "truth.json", false});
+  }
+  MVBRDF_RETURN_IF_ERROR(CheckOutputFileSparesInputs("--out", out, read));
+  std::error_code dir_ec;
+  if (fs::is_directory(out, dir_ec)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--out ", out.string(), ": is a directory, expected an HTML file name"));
+  }
   report::ReportOptions options;
   options.truth = flags.truth;
   options.use_truth = !flags.no_truth;

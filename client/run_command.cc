@@ -18,6 +18,7 @@
 #include "client/job_flags.h"
 #include "client/output_dir.h"
 #include "client/progress.h"
+#include "core/base/files.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
 #include "core/bundle/bundle.h"
@@ -248,6 +249,11 @@ int RunRun(const std::vector<std::string>& args) {
   if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");
   if (usage.ok() && (threads < 1 || threads > 64)) usage = absl::InvalidArgumentError("--threads: must be in [1, 64]");
   if (usage.ok() && (workers < 1 || workers > 16)) usage = absl::InvalidArgumentError("--workers: must be in [1, 16]");
+  // As `report` checks it (99999999 made run --report render for hours; -5 was taken).
+  if (usage.ok() && (report_flags.relit_frames < 0 || report_flags.relit_frames > 360)) {
+    usage = absl::InvalidArgumentError(
+        absl::StrCat("--relit-frames: must be in [0, 360], got ", report_flags.relit_frames));
+  }
   if (!usage.ok()) {
     std::fprintf(stderr, "mvbrdf run: %s\n", std::string(usage.message()).c_str());
     return kExitUsage;
@@ -265,6 +271,18 @@ int RunRun(const std::vector<std::string>& args) {
   if (absl::Status s = CheckOutputDirSparesInputs("--out", out, SceneInputs(*sequence)); !s.ok()) {
     return ReportFailure(s);
   }
+  if (!data_dir.empty() && !direct) {
+    // The server's state (state.db, artifacts/, bundles/, ...) is written
+    // there: neither among the scene's inputs nor mixed with --out's files.
+    std::vector<InputPath> kept = SceneInputs(*sequence);
+    kept.push_back({"--out", std::filesystem::path(out) / "result.json", false});
+    if (absl::Status s = CheckOutputDirSparesInputs("--data", data_dir, kept); !s.ok()) return ReportFailure(s);
+    if (absl::Status s = CheckOutputDirSparesInputs(
+            "--out", out, {{"--data (the server's state)", std::filesystem::path(data_dir) / "state.db", false}});
+        !s.ok()) {
+      return ReportFailure(s);
+    }
+  }
   auto options = worker::ReconstructOptionsFor(request, threads);
   if (!options.ok()) return ReportFailure(options.status());
   auto plan = pipeline::MakePlan(*sequence, options->request);
@@ -275,6 +293,16 @@ int RunRun(const std::vector<std::string>& args) {
   // Direct or through the in-process workers, the atlas is allocated here.
   if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(options->atlas.size); !fits.ok()) {
     return ReportFailure(fits, "mvbrdf run");
+  }
+  // A previous run's result.json goes first, so that an interrupted or failed
+  // run leaves no result.json beside a mix of new and old atlases (render and
+  // evaluate read it as a whole run); the new one is written last.
+  std::error_code stale_error;
+  std::filesystem::remove(std::filesystem::path(out) / "result.json", stale_error);
+  if (stale_error) {
+    return ReportFailure(ErrnoStatus(stale_error.value(), "cannot remove the previous run's result.json",
+                                     (std::filesystem::path(out) / "result.json").string()),
+                         "mvbrdf run");
   }
   std::fputs(plan->Describe().c_str(), stdout);
   std::fflush(stdout);

@@ -4,6 +4,7 @@
 
 #include "client/commands.h"
 #include "client/flags.h"
+#include "client/output_dir.h"
 #include "core/gl/egl_context.h"
 #include "core/synth/synthesizer.h"
 
@@ -80,6 +81,9 @@ int RunSynth(const std::vector<std::string>& args) {
     return kExitUsage;
   }
 
+  // One writer per directory, as run and resample (two synths into one --out would mix their files).
+  absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
+  if (!lock.ok()) return ReportFailure(lock.status(), "mvbrdf synth");
   auto context = gl::EglContext::Create(*platform);
   if (!context.ok()) {
     std::fprintf(stderr, "mvbrdf synth: error: %s\n", std::string(context.status().message()).c_str());

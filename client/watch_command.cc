@@ -15,6 +15,7 @@
 #include "client/connection.h"
 #include "client/flags.h"
 #include "client/job_state_name.h"
+#include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
 namespace mvbrdf::client {
@@ -138,16 +139,16 @@ int WatchJobEvents(const std::string& command, const std::shared_ptr<grpc::Chann
   if (!json) printer.Finish();
   const grpc::Status status = reader->Finish();
   if (!status.ok()) {
-    std::fprintf(stderr, "mvbrdf %s: error: %s: %s\n", command.c_str(), job_id.c_str(),
-                 status.error_message().c_str());
+    std::fprintf(stderr, "mvbrdf %s: error: %s: %s\n", command.c_str(), scene::ShownName(job_id).c_str(),
+                 scene::ShownName(status.error_message()).c_str());
     return ExitCodeForRpc(status.error_code());
   }
   switch (last_state) {
     case v1::SUCCEEDED:
       return kExitOk;
     case v1::FAILED:
-      std::fprintf(stderr, "mvbrdf %s: job %s failed: %s\n", command.c_str(), job_id.c_str(),
-                   reason.empty() ? "(no reason given)" : reason.c_str());
+      std::fprintf(stderr, "mvbrdf %s: job %s failed: %s\n", command.c_str(), scene::ShownName(job_id).c_str(),
+                   reason.empty() ? "(no reason given)" : scene::ShownName(reason).c_str());
       return kExitJobFailed;
     case v1::CANCELLED:
       if (json) std::fprintf(stderr, "mvbrdf %s: job %s was cancelled\n", command.c_str(), job_id.c_str());

@@ -96,6 +96,10 @@ for path in glob.glob(sys.argv[1] + "/*.obj"):  # every vertex at the origin: ev
     open(path, "w").write("\n".join(lines))
 EOF_PY
 one_line "validate: a mesh of zero area" 3 "triangles have zero area in frame 0" -- "$bin" validate "$work/flat/scene.json"
+cp -r "$work/valid" "$work/far"
+sed -i '0,/^v .*/s//v 1e30 0 0/' "$work/far/meshes/mesh_0000.obj"  # one vertex at 1e30: the rest are specks beside it
+one_line "validate: a vertex at 1e30 names the mesh's extent" 3 "to (1e+30, " \
+  -- "$bin" validate "$work/far/scene.json"
 cp -r "$work/valid" "$work/dark"
 python3 - "$work/dark/scene.json" <<'EOF_PY'
 import json, sys

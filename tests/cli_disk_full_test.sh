@@ -92,6 +92,13 @@ check "with space again the next job succeeds" 0 "succeeded" -- "$bin" watch "$j
 check "its kd atlas can be fetched" 0 "" -- "$bin" fetch "$job2" atlases/kd.exr --server "$address" --client disk \
   --out "$work/after"
 expect "kd fetched" test -s "$work/after/atlases/kd.exr"
+# fetch to a full disk of the client's: exit 4 with the reason (it said only "write failed"), no .part left.
+mkdir -p "$work/client_full"
+check "fetch to a full disk fails, exit 4, and says why" 4 "kd.exr.part: write failed: No space left on device" -- \
+  unshare -m --propagation private sh -c "mount -t tmpfs -o size=64k client-full '$work/client_full' && \
+    (dd if=/dev/zero of='$work/client_full/filler' bs=4k 2>/dev/null; true) && \
+    '$bin' fetch '$job2' atlases/kd.exr --server '$address' --client disk --out '$work/client_full/f'; rc=\$?; \
+    if find '$work/client_full' -name '*.part' | grep -q .; then echo 'a .part file is left'; exit 99; fi; exit \$rc"
 expect "integrity_check ok at the end" sh -c \
   "nsenter -t $pid -m -- sqlite3 '$data/state.db' 'PRAGMA integrity_check' | grep -qx ok"
 

@@ -66,6 +66,16 @@ for flag in "--gutter 999" "--chart-angle 0" "--grazing-margin 100" "--depth-tol
   code 2 "resample $flag" "^mvbrdf resample: ${flag%% *}: must be in" -- \
     "$bin" resample "$work/b/scene.json" --out "$work/r_flags" $flag
 done
+# run's and submit's likewise (--max-iterations 100001 named options.max_iterations and exited 3;
+# run --report --relit-frames 99999999 rendered for hours, though `report` refuses it).
+for where in "run --out $work/r_flags" "submit --server 127.0.0.1:1"; do
+  code 2 "${where%% *} --max-iterations 100001" "^mvbrdf ${where%% *}: --max-iterations: must be in \[1, 100000\]" -- \
+    "$bin" ${where%% *} "$work/b/scene.json" ${where#* } --max-iterations 100001
+done
+for frames in 99999999 -5; do
+  code 2 "run --report --relit-frames $frames" "^mvbrdf run: --relit-frames: must be in \[0, 360\]" -- \
+    timeout 60 "$bin" run "$work/b/scene.json" --direct --report --relit-frames "$frames" --out "$work/r_flags"
+done
 code 2 "a --client label gRPC cannot carry" "--client: must be printable ASCII" -- \
   "$bin" jobs --server 127.0.0.1:1 --client 'café'
 

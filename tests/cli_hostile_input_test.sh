@@ -120,7 +120,13 @@ json.dump(s, open(sys.argv[2], 'w'))" "$scene" "$work/b_named.json"
 cp "$work/b_named.json" "$work/b/named.json"
 check "a NUL and ESC in the free-form scene.name: validate's summary is whole and escaped" 0 'ab\\x00cd\\x1b\[31m' -- \
   "$bin" validate "$work/b/named.json"
-rm -f "$work/b/named.json"
+/usr/bin/python3 -c "
+import json, sys
+s = json.load(open(sys.argv[1])); s['name'] = 'n' * 1000000
+json.dump(s, open(sys.argv[2], 'w'))" "$scene" "$work/b/long_named.json"
+check "a 1 MB scene.name: validate's summary elides it" 0 "(1000000 characters)" -- "$bin" validate "$work/b/long_named.json"
+expect "and stays short (it was 1 MB)" test "$("$bin" validate "$work/b/long_named.json" | wc -c)" -lt 20000
+rm -f "$work/b/named.json" "$work/b/long_named.json"
 cp -r "$work/b" "$work/dupe"
 sed -i 's/"cam1"/"cam0"/' "$work/dupe/scene.json"
 check "duplicate camera names are refused" 3 "duplicate" -- "$bin" validate "$work/dupe/scene.json"
@@ -193,6 +199,28 @@ for k in 1 2 4 6 7; do
   check "submit refuses camera '${rejected[$((k - 1))]}'" 3 "scene.cameras\[0\].name" -- \
     "$bin" submit "$work/h$k/scene.json" --server "$address" --client t
 done
+# What the user typed is echoed escaped in every error line, not only in ReportFailure's (an ESC in a job id,
+# an artifact name, a flag, its value or a command reached the terminal raw).
+esc=$'\e[2J'
+no_esc() {  # no_esc NAME CMD...: the command fails and no ESC byte reaches its output
+  local out rc
+  out=$("${@:2}" 2>&1)
+  rc=$?
+  if [ "$rc" -eq 0 ] || [ "$rc" -ge 128 ] || grep -q $'\e' <<<"$out"; then
+    echo "FAIL $1: exit $rc, or a raw ESC in: $(cat -v <<<"$out" | head -2)"; failures=$((failures + 1))
+  else
+    echo "ok   $1"; passes=$((passes + 1))
+  fi
+}
+no_esc "an unknown command with an ESC" "$bin" "x$esc"
+no_esc "an unknown flag with an ESC" "$bin" validate "--x$esc"
+no_esc "an unexpected argument with an ESC" "$bin" validate "$scene" "x$esc"
+no_esc "a flag value with an ESC" "$bin" run "$scene" --atlas "1$esc" --out "$work/esc"
+no_esc "fetch of a job id with an ESC" "$bin" fetch "j$esc" result.json --server "$address" --out "$work/esc"
+no_esc "fetch of an artifact name with an ESC" "$bin" fetch 0123 "n$esc" --server "$address" --out "$work/esc"
+no_esc "fetch of a name leaving --out, with an ESC" "$bin" fetch 0123 "../$esc" --server "$address" --out "$work/esc"
+no_esc "cancel of a job id with an ESC" "$bin" cancel "j$esc" --server "$address"
+no_esc "watch of a job id with an ESC" "$bin" watch "j$esc" --server "$address"
 kill -TERM "$pid" 2>/dev/null
 wait "$pid" 2>/dev/null
 
@@ -213,6 +241,13 @@ check "resample --out the scene's directory" 3 "holds the scene file" -- \
   "$bin" resample "$scene" --atlas 64 --out "$work/b"
 check "resample --out the meshes' directory" 3 "scene.mesh.path" -- \
   "$bin" resample "$scene" --atlas 64 --out "$work/b/meshes"
+# run --data (the in-process server's state) likewise: not in the scene's directory, not mixed with --out.
+check "run --data the scene's directory is refused" 3 "^mvbrdf: error: --data $work/b: holds the scene file" -- \
+  "$bin" run "$scene" "${opts[@]}" --data "$work/b" --out "$work/data_run"
+check "run --data equal to --out is refused" 3 "--data $work/data_run: holds --out" -- \
+  "$bin" run "$scene" "${opts[@]}" --data "$work/data_run" --out "$work/data_run"
+check "run --out holding --data is refused" 3 "--out $work/data_run: holds --data" -- \
+  "$bin" run "$scene" "${opts[@]}" --data "$work/data_run/state" --out "$work/data_run"
 sha_after=$(cd "$work/b" && find . -type f -print0 | sort -z | xargs -0 sha256sum | sha256sum)
 expect "the scene's directory is unchanged" test "$sha_before" = "$sha_after"
 
@@ -230,6 +265,50 @@ check "render --out a correction atlas is refused" 3 "would overwrite" -- "$bin"
   --camera cam0 --lights "$work/lights.json" --out "$work/run/atlases/correction/0001.exr"
 check "render --out a directory is refused" 3 "is a directory" -- "$bin" render "$work/run" --camera cam0 \
   --lights "$work/lights.json" --out "$work/dir.png"
+# render --camera FILE is checked as a scene's camera (NaN or non-orthonormal rotations, an infinite cx, 3
+# distortion values rendered silently; 100000 pixels wide exited 1 with GL_INVALID_VALUE).
+/usr/bin/python3 - "$scene" "$work" <<'PY2'
+import json, sys
+cam = json.load(open(sys.argv[1]))["cameras"][0]
+def variant(name, edit):
+    c = json.loads(json.dumps(cam)); edit(c); json.dump(c, open(f"{sys.argv[2]}/cam_{name}.json", "w"))
+variant("rot_nan", lambda c: c["camFromWorld"]["rotation"].__setitem__(0, "NaN"))
+variant("rot_scaled", lambda c: c["camFromWorld"].__setitem__("rotation", [2, 0, 0, 0, 2, 0, 0, 0, 2]))
+variant("cx_inf", lambda c: c["intrinsics"].__setitem__("cx", "Infinity"))
+variant("dist3", lambda c: c["intrinsics"].__setitem__("distortion", [0, 0, 0]))
+variant("wide", lambda c: c.__setitem__("width", 100000))
+variant("wider", lambda c: c.__setitem__("width", 20000))
+PY2
+for v in "rot_nan:cam_from_world.rotation\[0\]: must be a finite number" "rot_scaled:must be orthonormal" \
+         "cx_inf:intrinsics.cx: must be a finite number" "dist3:intrinsics.distortion: expected 0, 4, 5 or 8" \
+         "wide:camera.width: must be in 1..65536" "wider:exceeds the largest render target"; do
+  check "render --camera a JSON camera with ${v%%:*} is refused" 3 "${v#*:}" -- "$bin" render "$work/run" \
+    --camera "$work/cam_${v%%:*}.json" --lights "$work/lights.json" --out "$work/cam_${v%%:*}.png"
+done
+
+# report --out and evaluate --error-atlas likewise spare what they read (report --out DIR/result.json or
+# the scene file, evaluate --error-atlas DIR/atlases/kd.exr exited 0 and destroyed the run or the scene).
+run_sha=$(cd "$work/run" && find . -type f ! -name .mvbrdf.lock -print0 | sort -z | xargs -0 sha256sum | sha256sum)
+check "report --out the run's result.json is refused" 3 "would overwrite the run's result.json" -- \
+  "$bin" report "$work/run" --no-render --out "$work/run/result.json"
+check "report --out the scene file is refused" 3 "would overwrite the scene file" -- \
+  "$bin" report "$work/run" --no-render --out "$scene"
+check "report --out a video, through a symlink, is refused" 3 "would overwrite scene.cameras\[0\].video.path" -- \
+  "$bin" report "$work/run" --no-render --out "$work/link/videos/cam0.mkv"
+check "report --out an atlas preview is refused" 3 "would overwrite the run's atlases/\*.png" -- \
+  "$bin" report "$work/run" --no-render --out "$work/run/atlases/kd.png"
+check "report --out the --tradeoff file is refused" 3 "would overwrite --tradeoff" -- \
+  "$bin" report "$work/run" --no-render --tradeoff "$work/tradeoff.json" --out "$work/tradeoff.json"
+check "evaluate --error-atlas the run's kd atlas is refused" 3 "would overwrite the run's atlases/\*.exr" -- \
+  "$bin" evaluate "$work/run" --truth "$work/b" --error-atlas "$work/run/atlases/kd.exr"
+check "evaluate --error-atlas in the run's atlas/ is refused" 3 "would overwrite the run's atlas/\*.exr" -- \
+  "$bin" evaluate "$work/run" --truth "$work/b" --error-atlas "$work/run/atlas/kd.exr"
+check "render --out an atlas preview is refused" 3 "would overwrite the run's atlases/\*.png" -- "$bin" render \
+  "$work/run" --camera cam0 --lights "$work/lights.json" --out "$work/run/atlases/kd.png"
+run_sha_after=$(cd "$work/run" && find . -type f ! -name .mvbrdf.lock -print0 | sort -z | xargs -0 sha256sum | sha256sum)
+expect "the run's directory is unchanged" test "$run_sha" = "$run_sha_after"
+sha_after=$(cd "$work/b" && find . -type f -print0 | sort -z | xargs -0 sha256sum | sha256sum)
+expect "the scene's directory is still unchanged" test "$sha_before" = "$sha_after"
 
 # --- Defect 4 (part): --error-atlas that is no .png/.exr file.
 check "evaluate --error-atlas x.txt" 3 "expected a file name ending in .png or .exr" -- \
@@ -261,6 +340,19 @@ if [ "$(id -u)" -eq 0 ] && unshare -m true 2>/dev/null; then
   check "run --direct to a full disk fails, exit 4" 4 "No space left on device" -- \
     full "$bin" run "$scene" --direct "${opts[@]}" --out "$work/full/run"
   expect "no truncated kd.exr or other file is left" test ! -s "$work/full.left"
+  # The embedded run copies the job's artifacts to --out: a disk that fills halfway through (100 KiB of the run's
+  # ~150) left a truncated kd.exr under its name and said "Input/output error".
+  partial() {  # partial CMD...: as full, on a 100 KiB tmpfs left empty; lists what is left with its size
+    unshare -m --propagation private sh -c "mount -t tmpfs -o size=100k full '$work/full' && \
+      \"\$@\" > '$work/full.out' 2>&1; rc=\$?; cat '$work/full.out'; \
+      (cd '$work/full' && find . -type f ! -name .mvbrdf.lock) > '$work/full.files'; \
+      (cd '$work/full' && for f in \$(cat '$work/full.files'); do cmp -s \"\$f\" '$work/run/'\"\${f#./r/}\" || echo \"\$f\"; done) \
+        > '$work/full.left'; exit \$rc" sh "$@"
+  }
+  check "run (embedded) to a disk that fills while copying fails, exit 4" 4 "No space left on device" -- \
+    partial "$bin" run "$scene" "${opts[@]}" --out "$work/full/r"
+  expect "every file it left is whole (no truncated kd.exr, no temporary, no result.json)" test ! -s "$work/full.left"
+  expect "it did copy some files before the disk filled" grep -q atlas "$work/full.files"
   check "resample to a full disk fails, exit 4" 4 "No space left on device" -- \
     full "$bin" resample "$scene" --atlas 64 --out "$work/full/rs"
   check "report to a full disk fails, exit 4" 4 "No space left on device" -- \
@@ -277,6 +369,9 @@ sleep 0.3
 check "run into a directory another command writes fails at once, exit 4" 4 "another mvbrdf command is writing" -- \
   "$bin" run "$scene" --direct "${opts[@]}" --out "$work/locked"
 check "resample likewise" 4 "$work/locked" -- "$bin" resample "$scene" --atlas 64 --out "$work/locked"
+check "synth likewise (two synths into one --out would mix their files)" 4 "another mvbrdf command is writing" -- \
+  "$bin" synth --cameras 2 --frames 2 --width 64 --height 48 --actor-segments 6 --out "$work/locked"
+expect "synth wrote nothing there" test ! -e "$work/locked/scene.json"
 kill "$holder" 2>/dev/null
 wait "$holder" 2>/dev/null
 "$bin" run "$scene" --direct "${opts[@]}" --out "$work/twice" > "$work/first.log" 2>&1 &
@@ -308,7 +403,8 @@ check "a directory as a mesh is named as one" 3 "is a directory" -- "$bin" valid
 # A background job of a script starts with SIGINT ignored: python resets it to
 # the default, as an interactive shell's Ctrl-C would find it.
 for sig in INT TERM; do
-  rm -rf "$work/tmp"/*
+  rm -rf "$work/tmp"/* "$work/interrupted"
+  cp -r "$work/run" "$work/interrupted"  # a previous run's outputs: its result.json must not survive beside new atlases
   /usr/bin/python3 -c 'import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); os.execv(sys.argv[1], sys.argv[1:])' \
     "$bin" run "$scene" --atlas 256 --no-powell --config "NE,NW,SE,SW" --out "$work/interrupted" > "$work/int.log" 2>&1 &
   runner=$!
@@ -320,13 +416,14 @@ for sig in INT TERM; do
   rc=$?
   expect "SIG$sig ends run by the signal (exit $rc)" test "$rc" -eq $((128 + $(kill -l "$sig")))
   expect "SIG$sig leaves no temporary state directory" test -z "$(ls -A "$work/tmp")"
+  expect "SIG$sig leaves no previous result.json beside the new outputs" test ! -e "$work/interrupted/result.json"
 done
 
 # Nothing outside --out: the sentinel is empty and no file appeared beside
 # the work directory's own entries.
 expect "the sentinel directory is still empty" sentinel_empty
 expect "no file was written outside the work directory's subdirectories" \
-  test -z "$(find "$work" -maxdepth 1 -type f ! -name '*.json' ! -name '*.log' ! -name '*.out' ! -name 'full.left')"
+  test -z "$(find "$work" -maxdepth 1 -type f ! -name '*.json' ! -name '*.log' ! -name '*.out' ! -name 'full.left' ! -name 'full.files')"
 expect "no file named after a hostile name anywhere" test -z "$(find "$work" -name 'pwn*' -o -name 'abs*')"
 expect "no file named after a hostile name beside the frames" test -z "$(find "$work" -path '*/frames/x*')"
 summary

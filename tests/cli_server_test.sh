@@ -73,6 +73,26 @@ expect "SIGTERM stops the server cleanly (exit $rc)" test "$rc" -eq 0
 expect "state directory kept" test -f "$work/data/state.db"
 check "jobs without a server" 4 "mvbrdf jobs: error" -- "$bin" jobs --server "$address"
 
+# A unix socket likewise: gRPC unlinked the first server's socket and bound anew, so a second server took its
+# clients (and removed the socket when it stopped); the first said "listening on unix:1".
+sock="$work/mvbrdf.sock"
+"$bin" server --listen "unix:$sock" --data "$work/data_unix" > "$work/server_unix.log" 2>&1 &
+unix_pid=$!
+expect "a server listens on a unix socket and names it" wait_for "$work/server_unix.log" "listening on unix:$sock " 10
+"$bin" submit "$work/tiny/scene.json" --server "unix:$sock" --client unix --atlas 64 > /dev/null 2>&1
+check "a second server on the same unix socket is refused" 4 "another process is listening on $sock" -- \
+  timeout 10 "$bin" server --listen "unix:$sock" --data "$work/data_unix2"
+check "the first server still answers on it" 0 "queued" -- "$bin" jobs --server "unix:$sock" --client unix
+kill -KILL "$unix_pid"
+wait "$unix_pid" 2>/dev/null
+check "a stale socket file (its server killed) is taken over" 0 "" -- sh -c \
+  "'$bin' server --listen 'unix:$sock' --data '$work/data_unix2' > '$work/server_unix2.log' 2>&1 & p=\$!; \
+   for i in \$(seq 1 50); do grep -q listening '$work/server_unix2.log' && break; sleep 0.1; done; \
+   '$bin' jobs --server 'unix:$sock' > /dev/null; rc=\$?; kill -TERM \$p; wait \$p; exit \$rc"
+touch "$work/not_a_socket"
+check "a unix socket path that is a regular file is refused" 4 "exists and is not a socket" -- \
+  timeout 10 "$bin" server --listen "unix:$work/not_a_socket" --data "$work/data_unix2"
+
 expect "server restarts on the same data" start_server "$work/server2.log"
 check "jobs after the restart" 0 "no jobs" -- "$bin" jobs --server "$address"
 check "the queued job survived the restart" 0 "$queued" -- "$bin" jobs --server "$address" --client port

@@ -1,5 +1,6 @@
 #include "core/base/files.h"
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -73,6 +74,41 @@ absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_v
   }
   if (!written.ok()) ::unlink(tmp.c_str());
   return written;
+}
+
+absl::Status CopyFileReplacing(const std::filesystem::path& from, const std::filesystem::path& to) {
+  const int in = ::open(from.c_str(), O_RDONLY | O_CLOEXEC);
+  if (in < 0) return ErrnoStatus(errno, "cannot open", from.string());
+  std::error_code ec;
+  if (to.has_parent_path()) std::filesystem::create_directories(to.parent_path(), ec);
+  if (ec) {
+    ::close(in);
+    return ErrnoStatus(ec.value(), "cannot create directory", to.parent_path().string());
+  }
+  std::string tmp = to.string() + ".tmp-XXXXXX";
+  const int out = ::mkstemp(tmp.data());
+  if (out < 0) {
+    const int error = errno;
+    ::close(in);
+    return ErrnoStatus(error, "cannot create a temporary file", tmp);
+  }
+  ::fchmod(out, 0644);  // mkstemp creates 0600
+  absl::Status copied;
+  std::string buffer(1 << 20, '\0');
+  while (copied.ok()) {
+    const ssize_t n = ::read(in, buffer.data(), buffer.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) copied = ErrnoStatus(errno, "read failed", from.string());
+    if (n <= 0) break;
+    copied = WriteAllToFd(out, absl::string_view(buffer.data(), static_cast<size_t>(n)), to.string());
+  }
+  ::close(in);
+  if (::close(out) != 0 && copied.ok()) copied = ErrnoStatus(errno, "write failed", to.string());
+  if (copied.ok() && ::rename(tmp.c_str(), to.c_str()) != 0) {
+    copied = ErrnoStatus(errno, "cannot rename the temporary file over it", to.string());
+  }
+  if (!copied.ok()) ::unlink(tmp.c_str());
+  return copied;
 }
 
 namespace {

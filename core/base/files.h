@@ -29,6 +29,12 @@ absl::StatusOr<std::string> ReadFileToString(const std::filesystem::path& path);
 // (RESOURCE_EXHAUSTED, see ErrnoStatus) with nothing left behind.
 absl::Status WriteStringToFile(const std::filesystem::path& path, absl::string_view contents);
 
+// Copies the regular file `from` to `to` the way WriteStringToFile writes
+// (parent directories created, a temporary of its own beside `to`, every read
+// and write checked, renamed over `to`), streaming: a full disk leaves
+// neither a truncated `to` nor the temporary. Errors as ErrnoStatus.
+absl::Status CopyFileReplacing(const std::filesystem::path& from, const std::filesystem::path& to);
+
 // The status of a failed system call on `path`, from its errno `error`:
 // "path: what: strerror(error)", RESOURCE_EXHAUSTED for a full disk, quota or
 // file size limit, NOT_FOUND, PERMISSION_DENIED (also a read-only file

@@ -80,6 +80,23 @@ TEST(FilesTest, WriteThenReadRoundTrips) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(FilesTest, CopyFileReplacingCopiesOverAFileAndLeavesNoTemporary) {
+  const auto dir = std::filesystem::temp_directory_path() / "mvbrdf_files_copy_test";
+  std::filesystem::remove_all(dir);
+  const std::string big(3 << 20, 'b');  // more than one 1 MiB chunk
+  ASSERT_TRUE(WriteStringToFile(dir / "from.bin", big).ok());
+  ASSERT_TRUE(WriteStringToFile(dir / "out" / "to.bin", "old").ok());
+  ASSERT_TRUE(CopyFileReplacing(dir / "from.bin", dir / "out" / "to.bin").ok());
+  EXPECT_EQ(*ReadFileToString(dir / "out" / "to.bin"), big);
+  ASSERT_TRUE(CopyFileReplacing(dir / "from.bin", dir / "new" / "sub" / "to.bin").ok());  // directories made
+  int entries = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir / "out")) ++entries;
+  EXPECT_EQ(entries, 1) << "a temporary file is left beside to.bin";
+  EXPECT_EQ(CopyFileReplacing(dir / "nope", dir / "x").code(), absl::StatusCode::kNotFound);
+  EXPECT_FALSE(std::filesystem::exists(dir / "x"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(FilesTest, ResolvePathKeepsAbsolute) {
   EXPECT_EQ(ResolvePath("/a/b", "c/d.obj"), std::filesystem::path("/a/b/c/d.obj"));
   EXPECT_EQ(ResolvePath("/a/b", "/x.obj"), std::filesystem::path("/x.obj"));

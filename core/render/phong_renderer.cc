@@ -466,6 +466,11 @@ absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene
                                                    "\": need positive size and focal lengths, got ", camera.width, "x",
                                                    camera.height, ", fx ", camera.fx, ", fy ", camera.fy));
   }
+  if (const int max_side = MaxTargetSide(); camera.width > max_side || camera.height > max_side) {
+    return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name, "\": an image of ", camera.width, "x",
+                                                   camera.height, " exceeds the largest render target, ", max_side,
+                                                   " pixels a side (GL_MAX_RENDERBUFFER_SIZE)"));
+  }
   MVBRDF_RETURN_IF_ERROR(r.PreparePose(pose));
   MVBRDF_RETURN_IF_ERROR(r.camera_target.Ensure(camera.width, camera.height, "render target"));
   const glm::dmat4 clip_from_world =

@@ -148,9 +148,15 @@ absl::Status ValidateRotation(const std::string& field, const google::protobuf::
   return absl::OkStatus();
 }
 
-absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
-  if (camera.width() == 0) return Invalid(f + ".width", "must be > 0, got 0");
-  if (camera.height() == 0) return Invalid(f + ".height", "must be > 0, got 0");
+}  // namespace
+
+absl::Status ValidateCameraGeometry(const v1::Camera& camera, const std::string& f) {
+  if (camera.width() == 0 || camera.width() > kMaxImageSide) {
+    return Invalid(f + ".width", absl::StrCat("must be in 1..", kMaxImageSide, ", got ", camera.width()));
+  }
+  if (camera.height() == 0 || camera.height() > kMaxImageSide) {
+    return Invalid(f + ".height", absl::StrCat("must be in 1..", kMaxImageSide, ", got ", camera.height()));
+  }
   const v1::Intrinsics& in = camera.intrinsics();
   MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fx", in.fx()));
   MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fy", in.fy()));
@@ -166,6 +172,13 @@ absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
   const std::string t = f + ".cam_from_world.translation";
   MVBRDF_RETURN_IF_ERROR(CheckCount(t, camera.cam_from_world().translation_size(), 3, "x, y, z"));
   MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(t, camera.cam_from_world().translation()));
+  return absl::OkStatus();
+}
+
+namespace {
+
+absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
+  MVBRDF_RETURN_IF_ERROR(ValidateCameraGeometry(camera, f));
   const v1::Video& video = camera.video();
   if (video.path().empty()) {
     return Invalid(f + ".video.path", "required (a video file or an image pattern such as \"cam0/%04d.png\")");
@@ -559,8 +572,19 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
   seq.topology = std::move(mesh.topology);
   seq.rest_positions = std::move(mesh.positions);
   if (!seq.topology.triangles.empty() && seq.topology.zero_area_triangles.size() == seq.topology.triangles.size()) {
-    return Invalid(mesh_field, absl::StrCat("all ", seq.topology.triangles.size(),
-                                            " triangles have zero area in frame 0: there is no surface to resample"));
+    // Zero relative to the mesh's size: one vertex at 1e30 makes every other
+    // triangle a speck, so the extent is named too.
+    glm::vec3 lo(0.0f), hi(0.0f);
+    if (!seq.rest_positions.empty()) lo = hi = seq.rest_positions[0];
+    for (const glm::vec3& p : seq.rest_positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    return Invalid(mesh_field,
+                   absl::StrCat("all ", seq.topology.triangles.size(),
+                                " triangles have zero area in frame 0 (relative to the mesh's extent, (", Num(lo.x),
+                                ", ", Num(lo.y), ", ", Num(lo.z), ") to (", Num(hi.x), ", ", Num(hi.y), ", ", Num(hi.z),
+                                "): a vertex far from the others?): there is no surface to resample"));
   }
   if (options.check_all_frames && !seq.is_static_mesh()) {
     for (int t = 1; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(seq.LoadFrame(t).status());
@@ -591,7 +615,8 @@ std::string Summarize(const Sequence& seq) {
   const v1::Scene& scene = seq.scene;
   const MeshTopology& topo = seq.topology;
   std::string s;
-  absl::StrAppend(&s, "Scene: ", scene.name().empty() ? "(unnamed)" : scene.name(), "\n");
+  // Free-form, unbounded: a 10 MB name made a 10 MB summary line.
+  absl::StrAppend(&s, "Scene: ", scene.name().empty() ? "(unnamed)" : ElideForMessage(scene.name(), 200), "\n");
   absl::StrAppend(&s, "  file: ", seq.scene_file.string(), "\n");
   absl::StrAppend(&s, "Frames: ", seq.num_frames, " from frame ", scene.frames().first(), " at ",
                   Num(scene.frames().fps()), " fps (", Num(seq.num_frames / scene.frames().fps()), " s)\n");

@@ -65,6 +65,13 @@ absl::StatusOr<v1::Scene> ReadScene(const std::filesystem::path& scene_file);
 // Checks the message alone (no files): required fields, ranges, names.
 absl::Status ValidateSceneMessage(const v1::Scene& scene);
 
+// Checks a camera's image size, intrinsics, distortion and pose as the
+// scene's cameras are checked (finite, orthonormal rotation, sizes in
+// 1..kMaxImageSide), not its name or video; `field` prefixes the fields named
+// in errors (e.g. "scene.cameras[0]"). For cameras given alone (render --camera FILE).
+constexpr uint32_t kMaxImageSide = 65536;
+absl::Status ValidateCameraGeometry(const v1::Camera& camera, const std::string& field);
+
 // Parses, validates the message, loads the mesh and (as `options` say) every
 // frame and video.
 absl::StatusOr<Sequence> LoadSequence(const std::filesystem::path& scene_file, const LoadOptions& options = {});

@@ -2,6 +2,8 @@
 
 #include <netdb.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -91,6 +93,27 @@ std::string WhyNotListenable(const std::string& address) {
   }
   freeaddrinfo(found);
   return why;
+}
+
+// Why the unix socket `path` cannot be listened on: another process accepts
+// on it (gRPC unlinks an existing socket file and binds anew, so a second
+// server took the first one's clients and, exiting, removed the socket
+// file), or it is no socket. Empty when it can: no file, or a stale socket.
+std::string WhyNotUnixListenable(const std::string& path) {
+  struct stat st {};
+  if (lstat(path.c_str(), &st) != 0) return errno == ENOENT ? "" : std::strerror(errno);
+  if (!S_ISSOCK(st.st_mode)) return absl::StrCat(path, " exists and is not a socket");
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  if (path.size() >= sizeof(addr.sun_path)) {
+    return absl::StrCat("the socket path is longer than ", sizeof(addr.sun_path) - 1, " bytes");
+  }
+  std::memcpy(addr.sun_path, path.data(), path.size());
+  const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return std::strerror(errno);
+  const bool accepted = connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof(addr)) == 0;
+  close(fd);
+  return accepted ? absl::StrCat("another process is listening on ", path, " (is another server using it?)") : "";
 }
 
 }  // namespace
@@ -190,6 +213,12 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& optio
   // gRPC sets SO_REUSEPORT by default on Linux: a second server on a port
   // another one holds would start and take half of its clients' calls.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  const bool unix_socket = absl::StartsWith(options.listen_address, "unix:");
+  if (unix_socket) {
+    if (const std::string why = WhyNotUnixListenable(options.listen_address.substr(5)); !why.empty()) {
+      return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", options.listen_address, ": ", why));
+    }
+  }
   int port = 0;
   builder.AddListeningPort(options.listen_address, credentials, &port);
   builder.SetMaxReceiveMessageSize(static_cast<int>(options.limits.max_message_bytes) + (1 << 16));
@@ -204,7 +233,10 @@ absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& optio
         absl::StrCat("--listen: cannot listen on ", options.listen_address, why.empty() ? "" : ": ", why));
   }
   const std::string host = options.listen_address.substr(0, options.listen_address.rfind(':'));
-  s->address_ = absl::StrCat(host, ":", port);
+  // A unix socket has no port (gRPC reports 1): its address is the one given.
+  s->address_ = unix_socket || absl::StartsWith(options.listen_address, "unix-abstract:")
+                    ? options.listen_address
+                    : absl::StrCat(host, ":", port);
   s->data_dir_ = options.data_dir;
   s->health_thread_ = std::thread([self] { self->WatchDataDir(); });
   return s;
