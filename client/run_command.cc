@@ -25,6 +25,7 @@
 #include "core/gl/egl_context.h"
 #include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/reconstruct_stage.h"
+#include "core/scene/names.h"
 #include "core/scene/sequence.h"
 #include "worker/job_options.h"
 
@@ -177,7 +178,7 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
     context.AddMetadata("x-mvbrdf-client", "run");
     const grpc::Status status = stub->SubmitJob(&context, request, &submitted);
     if (!status.ok()) {
-      std::fprintf(stderr, "mvbrdf run: error: %s\n", status.error_message().c_str());
+      std::fprintf(stderr, "mvbrdf run: error: %s\n", scene::ShownName(status.error_message()).c_str());
       return ExitCodeForRpc(status.error_code());
     }
   }
@@ -185,7 +186,8 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
   absl::StatusOr<v1::JobState> state = FollowJob(*stub, submitted.job().id(), &error);
   if (!state.ok()) return ReportFailure(state.status(), "mvbrdf run");
   if (*state != v1::SUCCEEDED) {
-    std::fprintf(stderr, "mvbrdf run: error: %s\n", error.empty() ? "the job did not succeed" : error.c_str());
+    std::fprintf(stderr, "mvbrdf run: error: %s\n",
+                 error.empty() ? "the job did not succeed" : scene::ShownName(error).c_str());
     return *state == v1::CANCELLED ? kExitJobCancelled : kExitJobFailed;
   }
   absl::StatusOr<std::vector<std::string>> copied = (*service)->CopyArtifacts(submitted.job().id(), out);

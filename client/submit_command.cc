@@ -20,6 +20,7 @@
 #include "client/progress.h"
 #include "core/base/proto_json.h"
 #include "core/bundle/bundle.h"
+#include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
 namespace mvbrdf::client {
@@ -44,8 +45,8 @@ class TempFile {
 int LocalFailure(const absl::Status& status) { return ReportFailure(status, "mvbrdf submit"); }
 
 int RpcFailure(const std::string& what, const std::string& address, const grpc::Status& status) {
-  std::fprintf(stderr, "mvbrdf submit: error: %s %s: %s\n", what.c_str(), address.c_str(),
-               status.error_message().c_str());
+  std::fprintf(stderr, "mvbrdf submit: error: %s %s: %s\n", what.c_str(), scene::ShownName(address).c_str(),
+               scene::ShownName(status.error_message()).c_str());
   return ExitCodeForRpc(status.error_code());
 }
 

@@ -221,6 +221,8 @@ no_esc "fetch of an artifact name with an ESC" "$bin" fetch 0123 "n$esc" --serve
 no_esc "fetch of a name leaving --out, with an ESC" "$bin" fetch 0123 "../$esc" --server "$address" --out "$work/esc"
 no_esc "cancel of a job id with an ESC" "$bin" cancel "j$esc" --server "$address"
 no_esc "watch of a job id with an ESC" "$bin" watch "j$esc" --server "$address"
+no_esc "submit of a --config with an ESC (the server's answer echoes it)" "$bin" submit "$scene" --server "$address" \
+  --client t --config "c$esc"
 kill -TERM "$pid" 2>/dev/null
 wait "$pid" 2>/dev/null
 
