@@ -56,6 +56,13 @@ absl::StatusOr<std::string> ReadPem(const std::string& path, absl::string_view f
 
 absl::Status CheckToken(absl::string_view token, absl::string_view origin) {
   if (token.empty()) return absl::InvalidArgumentError(absl::StrCat(origin, ": the token is empty"));
+  // gRPC refuses metadata over its size limit (8 KiB by default) with an
+  // unhelpful "metadata size exceeds limit" (exit 4); a token is far shorter.
+  constexpr size_t kMaxTokenBytes = 4096;
+  if (token.size() > kMaxTokenBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(origin, ": the token must be at most ", kMaxTokenBytes, " characters, got ", token.size()));
+  }
   for (char c : token) {
     if (c <= ' ' || c > '~') {
       return absl::InvalidArgumentError(

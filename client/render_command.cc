@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
@@ -41,7 +42,10 @@ absl::StatusOr<std::vector<scene::Light>> ReadLights(const std::string& file) {
   cam->mutable_video()->set_path("v.mkv");
   *probe.mutable_lights() = list.lights();
   if (absl::Status s = scene::ValidateSceneMessage(probe); !s.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(file, ": ", s.message()));
+    // The checks are the scene's; the field is the file's ("lights[0]...", not "scene.lights[0]...").
+    std::string message(s.message());
+    if (absl::StartsWith(message, "scene.lights")) message = message.substr(6);
+    return absl::InvalidArgumentError(absl::StrCat(file, ": ", message));
   }
   std::vector<scene::Light> lights;
   for (const v1::Light& l : list.lights()) {

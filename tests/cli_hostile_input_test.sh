@@ -191,6 +191,12 @@ check "render --camera with an ESC is refused, shown escaped" 3 "x1b" -- "$bin" 
   --camera $'\e[2J' --lights "$work/all_lights.json" --out "$work/all_run/rendered_esc.png"
 expect "nothing was written to the sentinel directory" sentinel_empty
 
+cat > "$work/bad_lights.json" <<'JSON'
+{"lights": [{"name": "k", "position": [2.0, 3.0, 2.0], "intensity": [1.0, 1e30, 0.8]}]}
+JSON
+check "render --lights: an error names the file's field, not the scene's" 3 "bad_lights.json: lights\[0\].intensity\[1\]" -- \
+  "$bin" render "$work/all_run" --camera "café \"quote'" --lights "$work/bad_lights.json" --out "$work/all_run/x.png"
+
 # submit to a loopback server: refused names are refused there too.
 expect "server starts" start_server "$work/server.log"
 check "submit of markup names is accepted" 0 "" -- "$bin" submit "$all/scene.json" --server "$address" --client t \

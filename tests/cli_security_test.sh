@@ -126,6 +126,8 @@ expect "a client trusting another CA cannot connect" one_line 4 "error" \
   "$bin" jobs --server "$server" --tls-ca "$pki/other_ca.pem" --token-file "$work/alice.token"
 check "an unreadable token file is a usage error" 2 "--token-file" -- \
   "$bin" jobs --server "$server" "${tls[@]}" --token-file "$work/missing.token"
+check "a 10000-character token is a usage error naming its limit" 2 "at most 4096 characters" -- \
+  env MVBRDF_TOKEN="$(printf 'x%.0s' $(seq 1 10000))" "$bin" jobs --server "$server" "${tls[@]}"
 expect "the server log holds no token" bash -c \
   "! grep -qF -f <(cat '$work/alice.token' '$work/bob.token' '$work/worker.token' '$work/wrong.token') \
      '$work/server.log' '$work/worker.log'"

@@ -377,6 +377,16 @@ TEST_F(ServiceIntegrationTest, ASecondUploadOfTheSameBundleWaitsForTheFirst) {
   v1::UploadStatus first_status;
   auto writer = stub_->UploadBundle(&context, &first_status);
   ASSERT_TRUE(writer->Write(FirstMiB(upload)));
+  // Write() returning says only that the chunk is queued: wait until the
+  // server holds it (a loaded machine let the second upload claim first).
+  for (int i = 0; i < 500; ++i) {
+    grpc::ClientContext query_context;
+    v1::QueryUploadRequest query;
+    query.set_sha256(*sha256);
+    v1::UploadStatus progress;
+    if (stub_->QueryUpload(&query_context, query, &progress).ok() && progress.received_bytes() >= (1u << 20)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
   // The first stream holds the bundle; the second upload starts now.
   absl::Status second = absl::UnknownError("not run");
   client::UploadOutcome outcome;

@@ -300,6 +300,11 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
                    absl::StrCat("first + count must be < 2^31, got ", frames.first(), " + ", frames.count()));
   }
   MVBRDF_RETURN_IF_ERROR(CheckPositive("scene.frames.fps", frames.fps()));
+  // Durations are count / fps: 1e-320 fps made an infinite one.
+  if (frames.fps() < 1e-6 || frames.fps() > 1e6) {
+    return Invalid("scene.frames.fps",
+                   absl::StrCat("must be in [1e-06, 1e+06] frames per second, got ", Num(frames.fps())));
+  }
 
   // Cameras.
   if (scene.cameras_size() == 0) return Invalid("scene.cameras", "at least one camera is required");

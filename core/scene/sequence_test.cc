@@ -118,6 +118,8 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
        "scene.frames.count: must be > 0, got 0"},
       {"FramesOverflow", [](v1::Scene* s) { s->mutable_frames()->set_first(4000000000u); }, "scene.frames:"},
       {"FpsZero", [](v1::Scene* s) { s->mutable_frames()->set_fps(0); }, "scene.frames.fps: must be > 0, got 0"},
+      {"FpsSubnormal", [](v1::Scene* s) { s->mutable_frames()->set_fps(1e-320); },
+       "scene.frames.fps: must be in [1e-06, 1e+06] frames per second"},
       {"FpsNegative", [](v1::Scene* s) { s->mutable_frames()->set_fps(-25); },
        "scene.frames.fps: must be > 0, got -25"},
       {"FpsNan", [](v1::Scene* s) { s->mutable_frames()->set_fps(kNan); },
