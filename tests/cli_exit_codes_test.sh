@@ -116,12 +116,7 @@ fi
 # A server (and later a worker) for 4, 5, 6.
 "$bin" server --listen 127.0.0.1:0 --data "$work/data" > "$work/server.log" 2>&1 &
 spid=$!
-address=""
-for _ in $(seq 1 100); do
-  address=$(grep -o 'listening on [0-9.:]*' "$work/server.log" | awk '{print $3}')
-  [ -n "$address" ] && break
-  sleep 0.1
-done
+server_address "$work/server.log" || true
 expect "the server starts" test -n "$address"
 code 4 "a port another server holds" "already in use" -- timeout 10 "$bin" server --listen "$address" --data "$work/d2"
 

@@ -61,12 +61,7 @@ check "a tokens file others can read is warned about" 4 "tokens-open.txt is read
 "$bin" server --listen 127.0.0.1:0 --data "$work/data" --tokens-file "$work/tokens.txt" \
   --tls-cert "$pki/server.pem" --tls-key "$pki/server.key" > "$work/server.log" 2>&1 &
 pid=$!
-address=""
-for _ in $(seq 1 100); do
-  address=$(grep -o 'listening on [0-9.:]*' "$work/server.log" | awk '{print $3}')
-  [ -n "$address" ] && break
-  sleep 0.1
-done
+server_address "$work/server.log" || true
 expect "server starts with TLS and tokens" grep -q "TLS, tokens required" "$work/server.log"
 port=${address##*:}
 server="localhost:$port"

@@ -27,12 +27,7 @@ check "generate a sequence" 0 "" -- "$bin" synth --cameras 3 --frames 8 --width 
 opts=(--atlas 128 --no-powell)
 "$bin" server --listen 127.0.0.1:0 --data "$work/data" --lease-seconds 5 > "$work/server.log" 2>&1 &
 spid=$!
-address=""
-for _ in $(seq 1 100); do
-  address=$(grep -o 'listening on [0-9.:]*' "$work/server.log" | awk '{print $3}')
-  [ -n "$address" ] && break
-  sleep 0.1
-done
+server_address "$work/server.log" || true
 expect "the server starts" test -n "$address"
 
 # The bad worker: its cache on an 8 MiB tmpfs, full once it has registered.

@@ -31,6 +31,12 @@ expect() {
 start_server() {
   "$bin" server --listen 127.0.0.1:0 --data "$work/data" > "$1" 2>&1 &
   pid=$!
+  server_address "$1"
+}
+
+# server_address LOG: sets $address once the server writing LOG prints
+# "listening on ADDR" (10 s at most); fails if it never does.
+server_address() {
   address=""
   for _ in $(seq 1 100); do
     address=$(grep -o 'listening on [0-9.:]*' "$1" | awk '{print $3}')

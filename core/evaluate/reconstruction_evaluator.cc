@@ -28,16 +28,7 @@ v1::SceneFingerprint TruthFingerprint(const v1::GroundTruth& truth) {
   v1::SceneFingerprint fp = truth.scene();
   if (fp.mesh_triangles() == 0) fp.set_mesh_triangles(static_cast<uint64_t>(truth.triangle_materials_size()));
   if (fp.cameras_size() == 0) {
-    for (const v1::Camera& c : truth.cameras()) {
-      v1::CameraFingerprint* f = fp.add_cameras();
-      f->set_name(c.name());
-      f->set_width(c.width());
-      f->set_height(c.height());
-      f->set_fx(c.intrinsics().fx());
-      f->set_fy(c.intrinsics().fy());
-      f->set_cx(c.intrinsics().cx());
-      f->set_cy(c.intrinsics().cy());
-    }
+    for (const v1::Camera& c : truth.cameras()) *fp.add_cameras() = scene::CameraFingerprintOf(c);
   }
   return fp;
 }

@@ -40,17 +40,20 @@ v1::SceneFingerprint Fingerprint(const Sequence& sequence) {
     hash.Add(v, sizeof(v));
   }
   out.set_mesh_hash(absl::StrFormat("%016x", hash.value()));
-  for (const v1::Camera& c : sequence.scene.cameras()) {
-    v1::CameraFingerprint* f = out.add_cameras();
-    f->set_name(c.name());
-    f->set_width(c.width());
-    f->set_height(c.height());
-    f->set_fx(c.intrinsics().fx());
-    f->set_fy(c.intrinsics().fy());
-    f->set_cx(c.intrinsics().cx());
-    f->set_cy(c.intrinsics().cy());
-  }
+  for (const v1::Camera& c : sequence.scene.cameras()) *out.add_cameras() = CameraFingerprintOf(c);
   return out;
+}
+
+v1::CameraFingerprint CameraFingerprintOf(const v1::Camera& camera) {
+  v1::CameraFingerprint f;
+  f.set_name(camera.name());
+  f.set_width(camera.width());
+  f.set_height(camera.height());
+  f.set_fx(camera.intrinsics().fx());
+  f.set_fy(camera.intrinsics().fy());
+  f.set_cx(camera.intrinsics().cx());
+  f.set_cy(camera.intrinsics().cy());
+  return f;
 }
 
 absl::Status CompareFingerprints(const v1::SceneFingerprint& a, const v1::SceneFingerprint& b, absl::string_view a_name,

@@ -12,6 +12,9 @@ namespace mvbrdf::scene {
 
 v1::SceneFingerprint Fingerprint(const Sequence& sequence);
 
+// A camera's part of the fingerprint: name, size and intrinsics.
+v1::CameraFingerprint CameraFingerprintOf(const v1::Camera& camera);
+
 // OK when `b` describes the same mesh and cameras as `a`; else
 // INVALID_ARGUMENT naming the first difference, `a_name` and `b_name` saying
 // which is which ("the run", "the truth"). Fields `b` lacks (an older file)
