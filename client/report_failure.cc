@@ -3,7 +3,6 @@
 
 #include <grpcpp/support/status.h>
 
-#include "absl/strings/str_split.h"
 #include "client/commands.h"
 #include "core/scene/names.h"
 
@@ -31,13 +30,7 @@ int ExitCodeFor(const absl::Status& status) {
 int ReportFailure(const absl::Status& status, const std::string& command) {
   // Messages echo input (names, paths, flag values): control characters are
   // shown as \xNN, so none reaches the terminal (ESC) or cuts the line (NUL).
-  std::string shown;
-  bool first = true;
-  for (absl::string_view line : absl::StrSplit(status.message(), '\n')) {
-    absl::StrAppend(&shown, first ? "" : "\n", scene::ShownName(line));
-    first = false;
-  }
-  std::fprintf(stderr, "%s: error: %s\n", command.c_str(), shown.c_str());
+  std::fprintf(stderr, "%s: error: %s\n", command.c_str(), scene::ShownText(status.message()).c_str());
   return ExitCodeFor(status);
 }
 

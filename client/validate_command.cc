@@ -5,6 +5,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
+#include "core/scene/names.h"
 #include "core/scene/sequence.h"
 
 namespace mvbrdf::client {
@@ -33,15 +34,7 @@ int RunValidate(const std::vector<std::string>& args) {
   if (!sequence.ok()) return ReportFailure(sequence.status());
   // Written whole (a NUL in the free-form scene.name must not cut it short),
   // with control characters other than newlines shown as \xNN.
-  std::string summary;
-  for (const char c : scene::Summarize(*sequence)) {
-    const auto byte = static_cast<unsigned char>(c);
-    if ((byte < 0x20 && c != '\n') || byte == 0x7f) {
-      absl::StrAppend(&summary, "\\x", absl::Hex(byte, absl::kZeroPad2));
-    } else {
-      summary += c;
-    }
-  }
+  const std::string summary = scene::ShownText(scene::Summarize(*sequence));
   std::fwrite(summary.data(), 1, summary.size(), stdout);
   // What "valid" covers, so that it promises no more than was looked at.
   if (quick) {

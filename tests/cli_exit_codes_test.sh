@@ -142,12 +142,7 @@ chmod 600 "$work/tokens"
 printf 'wrong-token\n' > "$work/wrong_token"
 "$bin" server --listen 127.0.0.1:0 --data "$work/data_tokens" --tokens-file "$work/tokens" > "$work/server2.log" 2>&1 &
 spid=$!
-address=""
-for _ in $(seq 1 100); do
-  address=$(grep -o 'listening on [0-9.:]*' "$work/server2.log" | awk '{print $3}')
-  [ -n "$address" ] && break
-  sleep 0.1
-done
+server_address "$work/server2.log" || true
 expect "the server with tokens starts" test -n "$address"
 code 7 "no token" "" -- env -u MVBRDF_TOKEN "$bin" jobs --server "$address"
 code 7 "a wrong token" "" -- env -u MVBRDF_TOKEN "$bin" jobs --server "$address" --token-file "$work/wrong_token"

@@ -4,6 +4,7 @@
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 
 namespace mvbrdf::scene {
 namespace {
@@ -91,6 +92,16 @@ std::string ShownName(absl::string_view name) {
       shown.append(name.data() + i, n);
       i += n;
     }
+  }
+  return shown;
+}
+
+std::string ShownText(absl::string_view text) {
+  std::string shown;
+  bool first = true;
+  for (absl::string_view line : absl::StrSplit(text, '\n')) {
+    absl::StrAppend(&shown, first ? "" : "\n", ShownName(line));
+    first = false;
   }
   return shown;
 }

@@ -37,6 +37,9 @@ absl::StatusOr<std::filesystem::path> FileNameFor(const std::filesystem::path& d
 // a name that failed or escaped validation cannot send ESC or cut a line.
 std::string ShownName(absl::string_view name);
 
+// ShownName of each line of `text`, the newlines kept (messages, summaries).
+std::string ShownText(absl::string_view text);
+
 }  // namespace mvbrdf::scene
 
 #endif  // MVBRDF_CORE_SCENE_NAMES_H_

@@ -92,6 +92,8 @@ TEST(NamesTest, ShownNameKeepsPrintableUtf8AndEscapesControls) {
   EXPECT_EQ(ShownName("\xff"), "\\xff");          // not UTF-8
 }
 
+TEST(NamesTest, ShownTextKeepsNewlines) { EXPECT_EQ(ShownText("a\x1b\nb\n"), "a\\x1b\nb\n"); }
+
 TEST(NamesTest, ReferenceErrorsShowTheNameEscaped) {
   v1::Scene scene = testing::FixtureScene();
   ASSERT_GT(scene.light_configurations_size(), 0);
