@@ -3,6 +3,8 @@
 #ifndef MVBRDF_CORE_RENDER_CAMERA_PROJECTION_H_
 #define MVBRDF_CORE_RENDER_CAMERA_PROJECTION_H_
 
+#include <algorithm>
+#include <cmath>
 #include <glm/glm.hpp>
 
 #include "core/scene/camera_model.h"
@@ -39,6 +41,29 @@ inline glm::dmat4 CamFromWorldMatrix(const scene::CameraModel& camera) {
   glm::dmat4 m(camera.cam_from_world_rotation);
   m[3] = glm::dvec4(camera.cam_from_world_translation, 1.0);
   return m;
+}
+
+// Near and far planes of a camera for a scene within the sphere (center,
+// radius), world units: no fixed clip planes, so any world scale draws alike.
+// The planes enclose the sphere with a margin of 1 % of its radius (plus
+// 1e-6 of its distance, for a point-like scene); near is kept as far from 0
+// as the scene allows (depth precision), but at least 1e-5 of far when the
+// camera is inside the sphere. A scene wholly behind the camera gets an
+// arbitrary valid range (nothing is drawn).
+struct ClipRange {
+  double near_plane = 0.0;
+  double far_plane = 0.0;
+};
+
+inline ClipRange ClipRangeOf(const scene::CameraModel& camera, const glm::vec3& center, double radius) {
+  const double z = camera.CamFromWorld(glm::dvec3(center)).z;
+  const double scale = std::max({std::abs(z), radius, 1e-30});
+  const double margin = 0.01 * radius + 1e-6 * scale;
+  ClipRange range;
+  range.far_plane = z + radius + margin;
+  if (!(range.far_plane > 0.0)) range.far_plane = scale;
+  range.near_plane = std::max(z - radius - margin, range.far_plane * 1e-5);
+  return range;
 }
 
 }  // namespace mvbrdf::render

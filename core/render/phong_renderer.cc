@@ -20,7 +20,9 @@
 namespace mvbrdf::render {
 namespace {
 
-constexpr int kMaxLights = 16;  // shaders/phong.frag kMaxLights
+// Lights per shading pass (shaders/phong.frag kMaxLights); more lights are
+// drawn in several passes whose radiance is summed.
+constexpr int kLightsPerPass = 16;
 constexpr int kMaxMaterials = 64;
 
 // std140 mirror of GpuLight in shaders/phong.frag.
@@ -34,7 +36,7 @@ static_assert(sizeof(GpuLight) == 112, "std140 layout of GpuLight");
 
 struct GpuLightBlock {
   glm::ivec4 count;
-  GpuLight lights[kMaxLights];
+  GpuLight lights[kLightsPerPass];
 };
 
 // std430 mirror of GpuMaterial in shaders/phong.frag.
@@ -171,22 +173,34 @@ struct PhongRenderer::Impl {
   // Shadow maps depend on the positions and the lights only, not on the
   // camera: rendering one pose from several cameras renders them once.
   bool shadows_valid = false;
+  int shadow_pass = 0;                      // the light pass the shadow maps and light block hold
   std::vector<glm::vec3> shadow_positions;  // the positions the shadow maps were rendered for
+  BoundingSphere bounds;                    // of the pose of the last PreparePose
+
+  int NumLightPasses() const {
+    return std::max(1, static_cast<int>((lights.size() + kLightsPerPass - 1) / kLightsPerPass));
+  }
 
   // FAILED_PRECONDITION unless the context is current here; INVALID_ARGUMENT
   // unless the pose has one position and normal per render vertex.
   absl::Status CheckContextAndPose(absl::string_view caller, const Pose& pose) const;
   // FAILED_PRECONDITION unless the materials are complete.
   absl::Status CheckMaterials(absl::string_view caller) const;
-  // Uploads the pose's positions and normals and, unless still valid, renders
-  // the shadow maps for it.
-  absl::Status PreparePose(const Pose& pose);
-  // The main pass of phong.vert/phong.frag into `target` (cleared to 0):
-  // placed by `clip_from_world` (depth-tested) or, with `uv_space`, at the
-  // UVs (no depth test), shaded as seen from `camera_center`. Leaves the
-  // RGBA floats of the target, bottom window row first, in `readback`.
-  absl::Status DrawShaded(const glm::mat4& clip_from_world, const glm::vec3& camera_center, bool uv_space,
-                          RenderTarget& target);
+  // Uploads the pose's positions and normals and its bounds.
+  void PreparePose(const Pose& pose);
+  // Unless still valid, renders the shadow maps of light pass `pass` (lights
+  // [16 pass, 16 pass + 16)) for the pose's positions and uploads its lights.
+  absl::Status PrepareLightPass(const Pose& pose, int pass);
+  // The main pass of phong.vert/phong.frag into `target` (cleared to 0),
+  // once per light pass with the radiance summed: placed by
+  // `clip_from_world` (depth-tested) or, with `uv_space`, at the UVs (no
+  // depth test), shaded as seen from `camera_center`. Leaves the RGBA floats
+  // of the target, bottom window row first, in `readback`.
+  absl::Status DrawShaded(const Pose& pose, const glm::mat4& clip_from_world, const glm::vec3& camera_center,
+                          bool uv_space, RenderTarget& target);
+  absl::Status DrawShadedPass(const glm::mat4& clip_from_world, const glm::vec3& camera_center, bool uv_space,
+                              RenderTarget& target, std::vector<float>* out);
+  std::vector<float> pass_readback;
   void Draw() const {
     glBindVertexArray(vertex_array.id());
     glDrawElements(GL_TRIANGLES, num_indices, GL_UNSIGNED_INT, nullptr);
@@ -201,10 +215,6 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
   if (options.shadow_map_size < 1 || options.shadow_map_size > 8192) {
     return absl::InvalidArgumentError(
         absl::StrCat("options.shadow_map_size: must be in [1, 8192], got ", options.shadow_map_size));
-  }
-  if (!(options.near_plane > 0.0f) || !(options.far_plane > options.near_plane)) {
-    return absl::InvalidArgumentError(absl::StrCat("options.near_plane, far_plane: need 0 < near < far, got ",
-                                                   options.near_plane, ", ", options.far_plane));
   }
   const size_t n = mesh.rest_positions.size();
   if (n == 0) return absl::InvalidArgumentError("mesh.rest_positions: empty; it defines the render vertices");
@@ -343,10 +353,6 @@ absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& 
 }
 
 absl::Status PhongRenderer::SetLights(const std::vector<scene::Light>& lights) {
-  if (lights.size() > kMaxLights) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("lights: at most ", kMaxLights, " lights are supported, got ", lights.size()));
-  }
   for (size_t k = 0; k < lights.size(); ++k) {
     if (lights[k].directional && !(glm::length(lights[k].direction) > 0.0f)) {
       return absl::InvalidArgumentError(absl::StrCat("lights[", k, "].direction: must be non-zero"));
@@ -382,32 +388,59 @@ absl::Status PhongRenderer::Impl::CheckMaterials(absl::string_view caller) const
   return absl::OkStatus();
 }
 
-absl::Status PhongRenderer::Impl::PreparePose(const Pose& pose) {
+void PhongRenderer::Impl::PreparePose(const Pose& pose) {
   const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(num_vertices * sizeof(glm::vec3));
   glNamedBufferSubData(position_buffer.id(), 0, vec3_bytes, pose.positions.data());
   glNamedBufferSubData(normal_buffer.id(), 0, vec3_bytes, pose.normals.data());
-  if (!shadows_valid || shadow_positions != pose.positions) {
-    shadows_valid = false;
-    MVBRDF_RETURN_IF_ERROR(shadow_maps->Render(lights, ComputeBoundingSphere(pose.positions), [this] { Draw(); }));
-    GpuLightBlock block{};
-    block.count = glm::ivec4(static_cast<int>(lights.size()), 0, 0, 0);
-    for (size_t k = 0; k < lights.size(); ++k) {
-      const LightShadow& shadow = shadow_maps->light_shadows()[k];
-      GpuLight& gpu = block.lights[k];
-      gpu.position = shadow.position;
-      gpu.intensity = glm::vec4(lights[k].intensity, 0.0f);
-      gpu.shadow = shadow.shadow;
-      gpu.shadow_from_world = shadow.shadow_from_world;
+  bounds = ComputeBoundingSphere(pose.positions);
+}
+
+absl::Status PhongRenderer::Impl::PrepareLightPass(const Pose& pose, int pass) {
+  if (shadows_valid && shadow_pass == pass && shadow_positions == pose.positions) return absl::OkStatus();
+  shadows_valid = false;
+  const size_t begin = static_cast<size_t>(pass) * kLightsPerPass;
+  const size_t end = std::min(lights.size(), begin + kLightsPerPass);
+  const std::vector<scene::Light> pass_lights(lights.begin() + static_cast<std::ptrdiff_t>(begin),
+                                              lights.begin() + static_cast<std::ptrdiff_t>(end));
+  MVBRDF_RETURN_IF_ERROR(shadow_maps->Render(pass_lights, bounds, [this] { Draw(); }));
+  GpuLightBlock block{};
+  block.count = glm::ivec4(static_cast<int>(pass_lights.size()), 0, 0, 0);
+  for (size_t k = 0; k < pass_lights.size(); ++k) {
+    const LightShadow& shadow = shadow_maps->light_shadows()[k];
+    GpuLight& gpu = block.lights[k];
+    gpu.position = shadow.position;
+    gpu.intensity = glm::vec4(pass_lights[k].intensity, 0.0f);
+    gpu.shadow = shadow.shadow;
+    gpu.shadow_from_world = shadow.shadow_from_world;
+  }
+  glNamedBufferSubData(light_buffer.id(), 0, sizeof(GpuLightBlock), &block);
+  shadow_positions = pose.positions;
+  shadow_pass = pass;
+  shadows_valid = true;
+  return absl::OkStatus();
+}
+
+absl::Status PhongRenderer::Impl::DrawShaded(const Pose& pose, const glm::mat4& clip_from_world,
+                                             const glm::vec3& camera_center, bool uv_space, RenderTarget& target) {
+  // One light pass: the shadow maps stay valid across cameras. More: each
+  // pass renders its own (GPU memory for 16 lights, whatever their number)
+  // and the radiance is summed on the CPU (blending would also sum the
+  // fragments of overlapping UV triangles); coverage is the first pass's.
+  const int passes = NumLightPasses();
+  for (int pass = 0; pass < passes; ++pass) {
+    MVBRDF_RETURN_IF_ERROR(PrepareLightPass(pose, pass));
+    MVBRDF_RETURN_IF_ERROR(
+        DrawShadedPass(clip_from_world, camera_center, uv_space, target, pass == 0 ? &readback : &pass_readback));
+    if (pass == 0) continue;
+    for (size_t i = 0; i < readback.size(); i += 4) {
+      for (size_t c = 0; c < 3; ++c) readback[i + c] += pass_readback[i + c];
     }
-    glNamedBufferSubData(light_buffer.id(), 0, sizeof(GpuLightBlock), &block);
-    shadow_positions = pose.positions;
-    shadows_valid = true;
   }
   return absl::OkStatus();
 }
 
-absl::Status PhongRenderer::Impl::DrawShaded(const glm::mat4& clip_from_world, const glm::vec3& camera_center,
-                                             bool uv_space, RenderTarget& target) {
+absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_world, const glm::vec3& camera_center,
+                                                 bool uv_space, RenderTarget& target, std::vector<float>* out) {
   const GLuint program = phong_program.id();
   glProgramUniformMatrix4fv(program, kClipFromWorldLocation, 1, GL_FALSE, glm::value_ptr(clip_from_world));
   glProgramUniform3fv(program, kCameraCenterLocation, 1, glm::value_ptr(camera_center));
@@ -447,10 +480,10 @@ absl::Status PhongRenderer::Impl::DrawShaded(const glm::mat4& clip_from_world, c
   Draw();
 
   // Read back in the target's own format (PERF.md: the fast path).
-  readback.resize(static_cast<size_t>(target.width) * target.height * 4);
+  out->resize(static_cast<size_t>(target.width) * target.height * 4);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glPixelStorei(GL_PACK_ROW_LENGTH, 0);
-  glReadPixels(0, 0, target.width, target.height, GL_RGBA, GL_FLOAT, readback.data());
+  glReadPixels(0, 0, target.width, target.height, GL_RGBA, GL_FLOAT, out->data());
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glUseProgram(0);
   glBindVertexArray(0);
@@ -471,13 +504,14 @@ absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene
                                                    camera.height, " exceeds the largest render target, ", max_side,
                                                    " pixels a side (GL_MAX_RENDERBUFFER_SIZE)"));
   }
-  MVBRDF_RETURN_IF_ERROR(r.PreparePose(pose));
+  r.PreparePose(pose);
   MVBRDF_RETURN_IF_ERROR(r.camera_target.Ensure(camera.width, camera.height, "render target"));
+  const ClipRange clip = ClipRangeOf(camera, r.bounds.center, r.bounds.radius);
   const glm::dmat4 clip_from_world =
-      ClipFromCamera(camera, r.options.near_plane, r.options.far_plane) * CamFromWorldMatrix(camera);
+      ClipFromCamera(camera, clip.near_plane, clip.far_plane) * CamFromWorldMatrix(camera);
   // Window row 0 is image row 0 (see ClipFromCamera): no flip.
-  MVBRDF_RETURN_IF_ERROR(
-      r.DrawShaded(glm::mat4(clip_from_world), glm::vec3(camera.CenterInWorld()), /*uv_space=*/false, r.camera_target));
+  MVBRDF_RETURN_IF_ERROR(r.DrawShaded(pose, glm::mat4(clip_from_world), glm::vec3(camera.CenterInWorld()),
+                                      /*uv_space=*/false, r.camera_target));
 
   RenderOutput output;
   output.radiance.create(camera.height, camera.width, CV_32FC3);
@@ -511,9 +545,9 @@ absl::StatusOr<cv::Mat> PhongRenderer::RenderAtlas(const Pose& pose, const glm::
   if (!std::isfinite(camera_center.x) || !std::isfinite(camera_center.y) || !std::isfinite(camera_center.z)) {
     return absl::InvalidArgumentError("camera_center: must be finite");
   }
-  MVBRDF_RETURN_IF_ERROR(r.PreparePose(pose));
+  r.PreparePose(pose);
   MVBRDF_RETURN_IF_ERROR(r.atlas_target.Ensure(size, size, "atlas target"));
-  MVBRDF_RETURN_IF_ERROR(r.DrawShaded(glm::mat4(1.0f), camera_center, /*uv_space=*/true, r.atlas_target));
+  MVBRDF_RETURN_IF_ERROR(r.DrawShaded(pose, glm::mat4(1.0f), camera_center, /*uv_space=*/true, r.atlas_target));
 
   // Window row 0 is v = 0, the atlas's bottom row: flip.
   cv::Mat atlas(size, size, CV_32FC4);
@@ -556,8 +590,9 @@ absl::StatusOr<cv::Mat> PhongRenderer::RenderTriangleIds(const Pose& pose, const
                        pose.positions.data());
   RenderTarget& target = r.triangle_id_target;
   MVBRDF_RETURN_IF_ERROR(target.Ensure(scaled.width, scaled.height, "triangle-id target"));
-  const glm::mat4 clip_from_world(ClipFromCamera(scaled, r.options.near_plane, r.options.far_plane) *
-                                  CamFromWorldMatrix(scaled));
+  const BoundingSphere bounds = ComputeBoundingSphere(pose.positions);
+  const ClipRange clip = ClipRangeOf(scaled, bounds.center, bounds.radius);
+  const glm::mat4 clip_from_world(ClipFromCamera(scaled, clip.near_plane, clip.far_plane) * CamFromWorldMatrix(scaled));
   const GLuint program = r.triangle_id_program.id();
   glProgramUniformMatrix4fv(program, kClipFromWorldLocation, 1, GL_FALSE, glm::value_ptr(clip_from_world));
   glBindFramebuffer(GL_FRAMEBUFFER, target.framebuffer.id());

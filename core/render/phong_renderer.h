@@ -42,8 +42,9 @@ struct ProceduralMaterial {
 struct RendererOptions {
   int shadow_map_size = 1024;  // texels per cube face / directional map side
   bool inverse_square_falloff = false;
-  float near_plane = 0.05f;  // world units
-  float far_plane = 100.0f;
+  // No clip planes to set: near and far come from each pose's bounding
+  // sphere and the camera (ClipRangeOf in camera_projection.h), so a scene of
+  // any world scale draws alike.
 };
 
 // One frame's pose: per render vertex positions and unit normals, world units.
@@ -77,9 +78,12 @@ class PhongRenderer {
   // Atlas mode: kd, ks, ke as CV_32FC3 images in UV space (row 0 = v = 1).
   absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke);
 
-  // At most 16 lights; each gets a shadow map, rendered by Render whenever
-  // the lights or the pose's positions changed since the last Render (so one
-  // pose seen from several cameras costs the shadow passes once).
+  // Any number of lights, drawn in passes of 16 whose radiance is summed;
+  // each light gets a shadow map. With at most 16 lights the maps are
+  // rendered by Render whenever the lights or the pose's positions changed
+  // since the last Render (so one pose seen from several cameras costs the
+  // shadow passes once); with more, every Render renders each pass's maps
+  // (GPU memory for 16 lights' maps, whatever their number).
   absl::Status SetLights(const std::vector<scene::Light>& lights);
 
   // Renders the pose from the camera as an undistorted pinhole image with the
@@ -111,7 +115,7 @@ class PhongRenderer {
   // rendered at `supersample` times its resolution (width * s by height * s,
   // intrinsics f * s and (c + 0.5) * s - 0.5, so that pixel block
   // [s x, s x + s) x [s y, s y + s) covers camera pixel (x, y)); depth-tested
-  // with the renderer's near and far planes. CV_32SC1, row 0 at the top,
+  // with near and far planes around the pose (ClipRangeOf). CV_32SC1, row 0 at the top,
   // -1 where no triangle is. Needs no materials or lights. supersample >= 1
   // and the scaled size within the GL renderbuffer limit.
   absl::StatusOr<cv::Mat> RenderTriangleIds(const Pose& pose, const scene::CameraModel& camera, int supersample);

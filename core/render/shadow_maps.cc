@@ -86,11 +86,11 @@ absl::Status ShadowMaps::Allocate(const std::vector<scene::Light>& lights) {
   for (const scene::Light& light : lights) (light.directional ? num_directional : num_point)++;
   const int cubes = std::max(num_point, 1);
   const int maps = std::max(num_directional, 1);
-  if (!point_maps_ || num_cubes_ != cubes) {
+  if (!point_maps_ || num_cubes_ < cubes) {
     point_maps_ = CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, size_, 6 * cubes);
     num_cubes_ = cubes;
   }
-  if (!directional_maps_ || num_directional_ != maps) {
+  if (!directional_maps_ || num_directional_ < maps) {
     directional_maps_ = CreateShadowArray(GL_TEXTURE_2D_ARRAY, size_, maps);
     num_directional_ = maps;
   }

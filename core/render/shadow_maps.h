@@ -76,8 +76,8 @@ class ShadowMaps {
   // for a mesh within `bounds`, calling `draw_mesh` once per cube face or
   // directional map with the shadow program bound and the mesh's positions
   // at attribute 0 to be drawn (the callback binds its vertex array and
-  // draws). Reallocates the arrays when the number of point or directional
-  // lights changed. Changes the framebuffer, viewport, depth and cull state;
+  // draws). Reallocates the arrays when they have fewer layers than the
+  // point or directional lights need (they never shrink). Changes the framebuffer, viewport, depth and cull state;
   // leaves the default framebuffer, program 0 and vertex array 0 bound.
   absl::Status Render(const std::vector<scene::Light>& lights, const BoundingSphere& bounds,
                       absl::FunctionRef<void()> draw_mesh);
