@@ -1,7 +1,8 @@
-// Shadow atlas pass of core/resample/resampler.cc: for every texel, bit k of
-// the output is set where light k is visible from the texel's surface point
-// (shadow-map test only; the cosine is left to later stages). The light block
-// mirrors GpuShadowLight in resampler.cc.
+// Shadow atlas pass of core/resample/resampler.cc: for every texel, bit
+// shadow.w of the output is set where light k of this pass is visible from the
+// texel's surface point (shadow-map test only; the cosine is left to later
+// stages). One pass holds up to 16 lights, one 16-bit channel of the atlas.
+// The light block mirrors GpuShadowLight in resampler.cc.
 
 #include "resample_shadow_bias.glsl"
 
@@ -27,7 +28,7 @@ layout(binding = 1) uniform sampler2D u_normal_map;                // RGBA32F: u
 layout(binding = 2) uniform samplerCubeArray u_point_shadows;      // distance to the light / shadow.y
 layout(binding = 3) uniform sampler2DArray u_directional_shadows;  // orthographic depth
 
-layout(location = 0) out uint out_visible;  // bit k: light k visible
+layout(location = 0) out uint out_visible;  // bit shadow.w: that light visible
 
 bool PointLightVisible(GpuShadowLight light, vec3 p, vec3 n) {
   vec3 to_light = light.position.xyz - p;
@@ -57,7 +58,7 @@ void main() {
     GpuShadowLight light = u_lights[k];
     bool visible = light.position.w > 0.5 ? PointLightVisible(light, position.xyz, n)
                                           : DirectionalLightVisible(light, position.xyz, n);
-    if (visible) bits |= 1u << uint(k);
+    if (visible) bits |= 1u << uint(light.shadow.w);
   }
   out_visible = bits;
 }

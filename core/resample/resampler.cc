@@ -19,7 +19,9 @@
 namespace mvbrdf::resample {
 namespace {
 
-constexpr int kMaxLights = 16;  // shaders/resample_shadow.frag kMaxLights; the shadow atlas is 16 bits
+// Lights per shadow pass (shaders/resample_shadow.frag kMaxLights): one
+// 16-bit channel of the shadow atlas, light k at bit k % 16 of channel k / 16.
+constexpr int kLightsPerPass = 16;
 
 // Vertex attributes (shaders/resample_geometry.vert, resample_depth.vert and
 // render::ShadowMaps's shadow.vert all read the position at location 0).
@@ -59,7 +61,7 @@ static_assert(sizeof(GpuShadowLight) == 96, "std140 layout of GpuShadowLight");
 
 struct GpuShadowLightBlock {
   glm::ivec4 count;
-  GpuShadowLight lights[kMaxLights];
+  GpuShadowLight lights[kLightsPerPass];
 };
 
 // The camera's depth map: an undistorted pinhole with the camera's focal
@@ -201,7 +203,8 @@ struct Resampler::Impl {
   uint64_t frame = 0;
   render::BoundingSphere bounds;  // of the current pose
   uint64_t shadow_frame = 0;
-  cv::Mat shadow_atlas;  // CV_16UC1 of shadow_frame
+  cv::Mat shadow_atlas;             // CV_16UC(channels) of shadow_frame
+  std::vector<bool> shadow_lights;  // the lights computed in shadow_atlas
 
   absl::Status CheckReady(absl::string_view what) const {
     if (!context->IsCurrent()) {
@@ -277,10 +280,6 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
       return absl::InvalidArgumentError(
           absl::StrCat("atlas.topology.file_triangles[", t, "]: vertex index out of range, ", nf, " file vertices"));
     }
-  }
-  if (lights.size() > kMaxLights) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("lights: at most ", kMaxLights, " lights (bits of the shadow atlas), got ", lights.size()));
   }
   for (size_t k = 0; k < lights.size(); ++k) {
     if (lights[k].directional && !(glm::length(lights[k].direction) > 0.0f)) {
@@ -381,7 +380,10 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
 
   // Shadow maps: allocated here (their size is fixed), rendered lazily.
   if (!lights.empty()) {
-    MVBRDF_ASSIGN_OR_RETURN(r.shadow_maps, render::ShadowMaps::Create(options.shadow_map_size, lights));
+    // Sized for the first pass; the arrays grow to the largest pass drawn.
+    const std::vector<scene::Light> first_pass(lights.begin(),
+                                               lights.begin() + std::min<size_t>(lights.size(), kLightsPerPass));
+    MVBRDF_ASSIGN_OR_RETURN(r.shadow_maps, render::ShadowMaps::Create(options.shadow_map_size, first_pass));
     r.light_buffer = gl::CreateBuffer();
     glNamedBufferStorage(r.light_buffer.id(), sizeof(GpuShadowLightBlock), nullptr, GL_DYNAMIC_STORAGE_BIT);
     MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Create: shadow maps"));
@@ -469,10 +471,8 @@ absl::Status Resampler::Impl::EnsureDepthMap(CameraState& camera) {
   if (camera.depth_frame == frame) return absl::OkStatus();
   // Near and far planes around the pose's bounding sphere (the depth buffer
   // only selects the nearest surface; the stored value is the exact 1 / z).
-  const glm::dvec3 center_in_camera = camera.model.CamFromWorld(glm::dvec3(bounds.center));
-  const double radius = 1.01 * bounds.radius + 1e-6;
-  const double far_plane = std::max(center_in_camera.z + radius, 1e-3);
-  const double near_plane = std::max(center_in_camera.z - radius, far_plane * 1e-5);
+  const render::ClipRange clip = render::ClipRangeOf(camera.model, bounds.center, bounds.radius);
+  const double near_plane = clip.near_plane, far_plane = clip.far_plane;
   const DepthMapLayout& layout = camera.layout;
   const glm::dmat4 cam_from_world = render::CamFromWorldMatrix(camera.model);
   const glm::mat4 clip_from_world(render::ClipFromCamera(camera.model.fx, camera.model.fy, layout.cx, layout.cy, layout.width,
@@ -631,18 +631,40 @@ absl::StatusOr<GeometryAtlas> Resampler::Geometry() {
   return geometry;
 }
 
-absl::StatusOr<cv::Mat> Resampler::ShadowAtlas() {
+absl::StatusOr<cv::Mat> Resampler::ShadowAtlas(const std::vector<bool>& lights_needed) {
   Impl& r = *impl_;
   MVBRDF_RETURN_IF_ERROR(r.CheckReady("Resampler::ShadowAtlas"));
-  if (r.shadow_frame == r.frame && !r.shadow_atlas.empty()) return r.shadow_atlas.clone();
-  cv::Mat visible(r.size, r.size, CV_16UC1, cv::Scalar(0));
-  if (!r.lights.empty()) {
-    MVBRDF_RETURN_IF_ERROR(r.shadow_maps->Render(r.lights, r.bounds, [&r] { r.DrawMesh(); }));
+  const size_t num_lights = r.lights.size();
+  if (!lights_needed.empty() && lights_needed.size() != num_lights) {
+    return absl::InvalidArgumentError(absl::StrCat("lights_needed: expected empty or ", num_lights,
+                                                   " entries (one per light), got ", lights_needed.size()));
+  }
+  const std::vector<bool> needed = lights_needed.empty() ? std::vector<bool>(num_lights, true) : lights_needed;
+  if (r.shadow_frame == r.frame && !r.shadow_atlas.empty() && r.shadow_lights == needed) {
+    return r.shadow_atlas.clone();
+  }
+  const int channels = std::max(1, static_cast<int>((num_lights + kLightsPerPass - 1) / kLightsPerPass));
+  cv::Mat visible(r.size, r.size, CV_16UC(channels), cv::Scalar::all(0));
+  cv::Mat pass_bits(r.size, r.size, CV_16UC1);
+  // One pass per channel that has a needed light: shadow maps of just those
+  // lights, then the full-screen test writing their bits.
+  for (int c = 0; c < channels; ++c) {
+    std::vector<scene::Light> pass_lights;
+    std::vector<int> pass_bit;
+    for (size_t k = static_cast<size_t>(c) * kLightsPerPass;
+         k < std::min(num_lights, static_cast<size_t>(c + 1) * kLightsPerPass); ++k) {
+      if (!needed[k]) continue;
+      pass_lights.push_back(r.lights[k]);
+      pass_bit.push_back(static_cast<int>(k % kLightsPerPass));
+    }
+    if (pass_lights.empty()) continue;
+    MVBRDF_RETURN_IF_ERROR(r.shadow_maps->Render(pass_lights, r.bounds, [&r] { r.DrawMesh(); }));
     GpuShadowLightBlock block{};
-    block.count = glm::ivec4(static_cast<int>(r.lights.size()), 0, 0, 0);
-    for (size_t k = 0; k < r.lights.size(); ++k) {
-      const render::LightShadow& shadow = r.shadow_maps->light_shadows()[k];
-      block.lights[k] = {shadow.position, shadow.shadow, shadow.shadow_from_world};
+    block.count = glm::ivec4(static_cast<int>(pass_lights.size()), 0, 0, 0);
+    for (size_t i = 0; i < pass_lights.size(); ++i) {
+      const render::LightShadow& shadow = r.shadow_maps->light_shadows()[i];
+      block.lights[i] = {shadow.position, shadow.shadow, shadow.shadow_from_world};
+      block.lights[i].shadow.w = static_cast<float>(pass_bit[i]);  // the bit it sets
     }
     glNamedBufferSubData(r.light_buffer.id(), 0, sizeof(GpuShadowLightBlock), &block);
 
@@ -659,15 +681,21 @@ absl::StatusOr<cv::Mat> Resampler::ShadowAtlas() {
     glDisable(GL_COLOR_LOGIC_OP);
     glUseProgram(r.shadow_atlas_program.id());
     r.DrawFullScreen();  // writes every texel
-    r.ReadAtlas(r.shadow_atlas_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RED_INTEGER, GL_UNSIGNED_SHORT, &visible);
+    cv::Mat* target = channels == 1 ? &visible : &pass_bits;
+    r.ReadAtlas(r.shadow_atlas_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RED_INTEGER, GL_UNSIGNED_SHORT, target);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glUseProgram(0);
     glBindVertexArray(0);
     glBindBufferBase(GL_UNIFORM_BUFFER, kShadowLightBlockBinding, 0);
     for (GLuint unit = 0; unit < 4; ++unit) glBindTextureUnit(unit, 0);
     MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ShadowAtlas"));
+    if (channels > 1) {
+      const int from_to[2] = {0, c};
+      cv::mixChannels(&pass_bits, 1, &visible, 1, from_to, 1);
+    }
   }
   r.shadow_atlas = visible;
+  r.shadow_lights = needed;
   r.shadow_frame = r.frame;
   return visible.clone();
 }

@@ -82,7 +82,7 @@ struct CameraSurface {
 class Resampler {
  public:
   // `atlas` fixes the layout (its topology's render vertices and UVs);
-  // `cameras` and `lights` are the scene's (all candidate lights, at most 16).
+  // `cameras` and `lights` are the scene's (all candidate lights, any number).
   static absl::StatusOr<std::unique_ptr<Resampler>> Create(gl::EglContext& context, const atlas::Atlas& atlas,
                                                            const std::vector<scene::CameraModel>& cameras,
                                                            const std::vector<scene::Light>& lights,
@@ -109,13 +109,19 @@ class Resampler {
   // atlas's bilinear blur, for fitting highlights.
   absl::StatusOr<CameraSurface> Surface(int camera);
 
-  // CV_16UC1: bit k set where light k is visible from the texel's surface
-  // point (shadow test only; the cosine is computed by later stages); 0 at
-  // uncovered texels. Computed once per frame (later calls return a copy).
-  // Shadow maps as core/render's renderer (cube maps of the distance for
-  // point lights, an orthographic map for directional lights, slope-scaled
-  // bias from the interpolated normal).
-  absl::StatusOr<cv::Mat> ShadowAtlas();
+  // CV_16UC(n), n = max(1, ceil(lights / 16)): bit k % 16 of channel k / 16
+  // set where light k is visible from the texel's surface point (shadow test
+  // only; the cosine is computed by later stages); 0 at uncovered texels.
+  // `lights_needed` (empty: every light; else one entry per light) says which
+  // lights the frame needs: bits of the others are 0 and cost nothing (an
+  // OLAT frame computes one shadow map). Lights are drawn in passes of up to
+  // 16, one per channel with a needed light, the shadow maps of a pass's
+  // lights only (GPU memory for at most 16 lights). Computed once per frame
+  // and set of lights (later calls return a copy). Shadow maps as
+  // core/render's renderer (cube maps of the distance for point lights, an
+  // orthographic map for directional lights, slope-scaled bias from the
+  // interpolated normal).
+  absl::StatusOr<cv::Mat> ShadowAtlas(const std::vector<bool>& lights_needed = {});
 
  private:
   struct Impl;

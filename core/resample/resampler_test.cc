@@ -513,6 +513,153 @@ TEST_F(ResamplerTest, ShadowAtlasHasOneBitPerLight) {
   check(glm::dvec3(0.3, -0.2, 0.1));
 }
 
+// More than 16 lights: light k is bit k % 16 of channel k / 16, each exact
+// against the segment-to-light test; lights not asked for are 0 and the
+// asked-for ones are the same as in the full atlas.
+TEST_F(ResamplerTest, ShadowAtlasOfFortyLightsHasOneBitPerLightInChannels) {
+  constexpr double kOccluderHalf = 0.25, kOccluderHeight = 1.0;
+  constexpr int kLights = 40;
+  const QuadScene scene =
+      MakeQuadScene({GroundQuad(0.02, 0.66), SquareQuad(kOccluderHalf, kOccluderHeight, 0.70, 0.98)}, 256);
+  std::vector<scene::Light> lights;
+  for (int k = 0; k < kLights; ++k) {
+    const float azimuth = 2.399963f * static_cast<float>(k);
+    const float r = 0.1f + 0.5f * static_cast<float>(k % 5) / 4.0f;
+    if (k % 3 == 2) {
+      scene::Light directional;
+      directional.directional = true;
+      directional.direction = glm::normalize(glm::vec3(r * std::cos(azimuth), r * std::sin(azimuth), 1.0f));
+      lights.push_back(directional);
+    } else {
+      lights.push_back(PointLight({r * std::cos(azimuth), r * std::sin(azimuth), 2.0f + 0.25f * (k % 4)}));
+    }
+  }
+  ResamplerOptions options;
+  options.shadow_map_size = 512;
+  auto resampler = Make(scene, {}, lights, options);
+  ASSERT_NE(resampler, nullptr);
+  auto visible = resampler->ShadowAtlas();
+  ASSERT_TRUE(visible.ok()) << visible.status();
+  ASSERT_EQ(visible->type(), CV_16UC3);
+  auto bit = [](const cv::Mat& atlas, int y, int x, int k) {
+    return (atlas.ptr<uint16_t>(y)[3 * x + k / 16] >> (k % 16)) & 1;
+  };
+  std::vector<int> shadowed(kLights, 0), lit(kLights, 0), wrong(kLights, 0);
+  int wrong_occluder = 0, wrong_uncovered = 0, unused_bits = 0;
+  for (int y = 0; y < 256; ++y) {
+    for (int x = 0; x < 256; ++x) {
+      const uint16_t* bits = visible->ptr<uint16_t>(y) + 3 * x;
+      unused_bits += (bits[2] & 0xff00) != 0;  // lights 40..47 do not exist
+      const auto point = scene.TexelPoint(x, y);
+      if (!point.has_value()) {
+        wrong_uncovered += (bits[0] | bits[1] | bits[2]) != 0;
+        continue;
+      }
+      if (point->first == 1) {
+        wrong_occluder += bits[0] != 0xffff || bits[1] != 0xffff || bits[2] != 0xff;
+        continue;
+      }
+      for (int k = 0; k < kLights; ++k) {
+        const glm::dvec3 p = point->second;
+        const glm::dvec3 towards =
+            lights[k].directional ? p + 10.0 * glm::dvec3(lights[k].direction) : glm::dvec3(lights[k].position);
+        const std::optional<glm::dvec3> cross = CrossPlaneZ(p, towards, kOccluderHeight);
+        const double inside = cross.has_value() ? InsideSquare(*cross, glm::dvec2(0.0), kOccluderHalf) : -1.0;
+        if (std::abs(inside) < kShadowBandWorld) continue;
+        const bool blocked = inside > 0.0;
+        (blocked ? shadowed : lit)[k]++;
+        if (bit(*visible, y, x, k) == (blocked ? 1 : 0)) ++wrong[k];
+      }
+    }
+  }
+  for (int k = 0; k < kLights; ++k) {
+    SCOPED_TRACE(::testing::Message() << "light " << k);
+    EXPECT_GT(shadowed[k], 1000);
+    EXPECT_GT(lit[k], 10000);
+    EXPECT_EQ(wrong[k], 0);
+  }
+  EXPECT_EQ(wrong_occluder, 0);
+  EXPECT_EQ(wrong_uncovered, 0);
+  EXPECT_EQ(unused_bits, 0);
+
+  // Only lights 3, 17 and 39 asked for (as for a frame lit by those).
+  std::vector<bool> needed(kLights, false);
+  needed[3] = needed[17] = needed[39] = true;
+  auto some = resampler->ShadowAtlas(needed);
+  ASSERT_TRUE(some.ok()) << some.status();
+  ASSERT_EQ(some->type(), CV_16UC3);
+  int differs = 0, extra = 0, set = 0;
+  for (int y = 0; y < 256; ++y) {
+    for (int x = 0; x < 256; ++x) {
+      for (int k = 0; k < kLights; ++k) {
+        const int b = bit(*some, y, x, k);
+        if (needed[k]) {
+          differs += b != bit(*visible, y, x, k);
+          set += b;
+        } else {
+          extra += b;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(differs, 0);
+  EXPECT_EQ(extra, 0);
+  EXPECT_GT(set, 3 * 10000);
+  EXPECT_TRUE(absl::IsInvalidArgument(resampler->ShadowAtlas(std::vector<bool>(3, true)).status()));
+  // At most 16 lights: one channel, as before.
+  auto sixteen = Make(scene, {}, std::vector<scene::Light>(lights.begin(), lights.begin() + 16), options);
+  ASSERT_NE(sixteen, nullptr);
+  auto one_channel = sixteen->ShadowAtlas();
+  ASSERT_TRUE(one_channel.ok()) << one_channel.status();
+  EXPECT_EQ(one_channel->type(), CV_16UC1);
+}
+
+// No fixed clip planes or absolute tolerances: the scene, camera translation
+// and light positions scaled by 1000 resample the same atlas and shadows.
+TEST_F(ResamplerTest, WorldScaledBy1000ResamplesTheSameAtlas) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.02, 0.66), SquareQuad(0.25, 1.0, 0.70, 0.98)}, 256);
+  scene::Light directional;
+  directional.directional = true;
+  directional.direction = glm::normalize(glm::vec3(0.3f, -0.2f, 1.0f));
+  ResamplerOptions options;
+  options.shadow_map_size = 512;
+  auto run = [&](double s, cv::Mat* rgba, cv::Mat* shadows) {
+    const scene::CameraModel camera = LookAtCamera(s * glm::dvec3(0.4, -2.5, 3.0), {0, 0, 0}, 320, 240, 300.0);
+    auto resampler = Make(scene, {camera}, {PointLight(static_cast<float>(s) * glm::vec3(0.7f, 0.4f, 2.5f)), directional},
+                          options);
+    ASSERT_NE(resampler, nullptr);
+    ASSERT_TRUE(resampler->SetFrame(testing::Transformed(scene, glm::scale(glm::dmat4(1.0), glm::dvec3(s)))).ok());
+    auto resampled = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
+    ASSERT_TRUE(resampled.ok()) << resampled.status();
+    *rgba = *resampled;
+    auto visible = resampler->ShadowAtlas();
+    ASSERT_TRUE(visible.ok()) << visible.status();
+    *shadows = *visible;
+  };
+  cv::Mat rgba1, shadows1, rgba1000, shadows1000;
+  run(1.0, &rgba1, &shadows1);
+  run(1000.0, &rgba1000, &shadows1000);
+  ASSERT_FALSE(rgba1.empty());
+  ASSERT_FALSE(rgba1000.empty());
+  int valid = 0, validity_differs = 0, far_off = 0, lit = 0;
+  for (int y = 0; y < 256; ++y) {
+    for (int x = 0; x < 256; ++x) {
+      valid += Valid(rgba1, x, y);
+      validity_differs += Valid(rgba1, x, y) != Valid(rgba1000, x, y);
+      if (Valid(rgba1, x, y) && Valid(rgba1000, x, y)) {
+        const cv::Vec4f a = rgba1.at<cv::Vec4f>(y, x), b = rgba1000.at<cv::Vec4f>(y, x);
+        far_off += std::abs(a[0] - b[0]) * 320 > 0.01 || std::abs(a[1] - b[1]) * 240 > 0.01;  // pixels
+      }
+      lit += shadows1.at<uint16_t>(y, x) == 0x3;
+    }
+  }
+  EXPECT_GT(valid, 20000);
+  EXPECT_LE(validity_differs, valid / 1000);  // boundary texels where float rounding decides
+  EXPECT_EQ(far_off, 0);
+  EXPECT_GT(lit, 20000);
+  EXPECT_LE(cv::countNonZero(shadows1 != shadows1000), 64);
+}
+
 // Spot (a closed, curved mesh with its own UVs and seams): a camera's
 // visibility and the shadow atlas of a point light at the camera's centre
 // are the same question asked by two different passes, so they must agree up
