@@ -4,6 +4,22 @@
 #include "core/base/status_macros.h"
 
 namespace mvbrdf::pipeline {
+namespace {
+
+// The lights on in frame t, one entry per light, for the resampler's shadow
+// passes (an OLAT frame computes one shadow map); empty: every light.
+std::vector<bool> LightsOnIn(const scene::Sequence& sequence, int t) {
+  const v1::FrameLighting* fl = sequence.FrameLightingOf(t);
+  if (fl == nullptr) return {};
+  std::vector<bool> on(sequence.lights.size(), false);
+  for (const std::string& name : fl->lights()) {
+    const int k = sequence.FindLight(name);
+    if (k >= 0) on[static_cast<size_t>(k)] = true;  // validation refuses unknown names
+  }
+  return on;
+}
+
+}  // namespace
 
 absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequence& sequence,
                                                                gl::EglContext& context, const atlas::Atlas& atlas,
@@ -31,7 +47,7 @@ absl::Status FrameStream::SetFrame(int t) {
   }
   MVBRDF_ASSIGN_OR_RETURN(positions_, sequence_.LoadFrame(t));
   MVBRDF_RETURN_IF_ERROR(resampler_->SetFrame(positions_));
-  MVBRDF_ASSIGN_OR_RETURN(shadows_, resampler_->ShadowAtlas());
+  MVBRDF_ASSIGN_OR_RETURN(shadows_, resampler_->ShadowAtlas(LightsOnIn(sequence_, t)));
   samples::ApplyLightMask(frame_lights_[static_cast<size_t>(t)], sequence_.lights.size(), &shadows_);
   MVBRDF_ASSIGN_OR_RETURN(geometry_, resampler_->Geometry());
   frame_ = t;
