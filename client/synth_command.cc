@@ -23,7 +23,9 @@ int RunSynth(const std::vector<std::string>& args) {
                    "Renders a synthetic multi-view sequence in a studio like the thesis's (8 cameras on a ring,\n"
                    "9 ceiling lights, one light configuration active) and writes DIR/scene.json, the videos,\n"
                    "the meshes and DIR/ground_truth/ (lights, cameras, materials as rendered).");
-  flags.AddString("--preset", &preset, "actor (procedural, no data needed), spot or samba (read from --data)");
+  flags.AddString("--preset", &preset,
+                  "actor (procedural, no data needed), sphere (a static UV sphere of one material, no data), spot or "
+                  "samba (read from --data)");
   flags.AddString("--out", &out, "output directory (required)");
   flags.AddInt("--cameras", &o.num_cameras, "number of cameras on the ring");
   flags.AddInt("--frames", &o.num_frames, "number of frames");
@@ -31,10 +33,15 @@ int RunSynth(const std::vector<std::string>& args) {
   flags.AddInt("--height", &o.height, "image height in pixels");
   flags.AddDouble("--fps", &o.fps, "frames per second");
   flags.AddDouble("--noise", &o.noise_sigma, "sensor noise sigma in 8-bit code values");
-  flags.AddString("--config", &o.configuration, "active light configuration, e.g. \"NE,NW,SE,SW\" or \"C\"");
+  flags.AddString("--config", &o.configuration,
+                  "active light configuration, e.g. \"NE,NW,SE,SW\" (the default) or \"C\"; with --dome \"all\" "
+                  "(the default) or dome light names, e.g. \"D000,D007\"");
+  flags.AddInt("--dome", &o.dome,
+               "N > 0: N directional lights D000.. spread over the upper hemisphere replace the 9 ceiling lights "
+               "(with --lighting olat frame t is lit by dome light t mod N); 0: the ceiling lights");
   flags.AddString("--lighting", &lighting,
                   "studio (every frame lit by --config) or olat (one light at a time: frame t by ceiling light "
-                  "t mod 9; in scene.json's frameLighting and the truth)");
+                  "t mod 9, or dome light t mod N; in scene.json's frameLighting and the truth)");
   flags.AddUint("--seed", &o.seed, "random seed (noise, perturbations)");
   flags.AddString("--format", &format, "ffv1 (lossless .mkv) or png (image sequences)");
   flags.AddBool("--lossy", &o.lossy_video, "write lossy MPEG-4 video instead (a perturbation)");

@@ -625,8 +625,8 @@ TEST_F(ResamplerTest, WorldScaledBy1000ResamplesTheSameAtlas) {
   options.shadow_map_size = 512;
   auto run = [&](double s, cv::Mat* rgba, cv::Mat* shadows) {
     const scene::CameraModel camera = LookAtCamera(s * glm::dvec3(0.4, -2.5, 3.0), {0, 0, 0}, 320, 240, 300.0);
-    auto resampler = Make(scene, {camera}, {PointLight(static_cast<float>(s) * glm::vec3(0.7f, 0.4f, 2.5f)), directional},
-                          options);
+    auto resampler =
+        Make(scene, {camera}, {PointLight(static_cast<float>(s) * glm::vec3(0.7f, 0.4f, 2.5f)), directional}, options);
     ASSERT_NE(resampler, nullptr);
     ASSERT_TRUE(resampler->SetFrame(testing::Transformed(scene, glm::scale(glm::dmat4(1.0), glm::dvec3(s)))).ok());
     auto resampled = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));

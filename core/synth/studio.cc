@@ -1,6 +1,8 @@
 #include "core/synth/studio.h"
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "core/scene/video_source.h"
 
@@ -19,6 +21,26 @@ glm::dmat3 LookAt(const glm::dvec3& eye, const glm::dvec3& target) {
 }
 
 }  // namespace
+
+std::vector<scene::Light> MakeDomeLights(int n, float intensity) {
+  std::vector<scene::Light> lights;
+  const double golden_angle = 3.14159265358979 * (3.0 - std::sqrt(5.0));
+  const int digits = std::max(3, static_cast<int>(std::to_string(std::max(n - 1, 0)).size()));
+  for (int i = 0; i < n; ++i) {
+    // Heights uniform in (0, 1): equal solid angle per light.
+    const double y = (i + 0.5) / n;
+    const double r = std::sqrt(std::max(0.0, 1.0 - y * y));
+    const double phi = golden_angle * i;
+    scene::Light light;
+    const std::string number = std::to_string(i);  // at most `digits` long
+    light.name = "D" + std::string(static_cast<size_t>(digits) - number.size(), '0') + number;
+    light.directional = true;
+    light.direction = glm::normalize(glm::vec3(glm::dvec3(r * std::cos(phi), y, r * std::sin(phi))));
+    light.intensity = glm::vec3(intensity);
+    lights.push_back(light);
+  }
+  return lights;
+}
 
 std::string ConfigurationName(const std::vector<std::string>& lights) {
   std::string name;

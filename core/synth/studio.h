@@ -48,6 +48,11 @@ struct Studio {
 
 Studio MakeStudio(const StudioOptions& options, const SubjectBounds& subject);
 
+// `n` directional lights spread evenly over the upper hemisphere (world
+// y > 0; a Fibonacci spiral of equal-area bands), named "D000", "D001", ...
+// (at least three digits), each of `intensity`.
+std::vector<scene::Light> MakeDomeLights(int n, float intensity);
+
 // Name of configuration "NE,NW,SE,SW"-style from its light names.
 std::string ConfigurationName(const std::vector<std::string>& lights);
 

@@ -1,6 +1,7 @@
 #include "core/synth/subject.h"
 
 #include <cmath>
+#include <utility>
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -71,6 +72,56 @@ absl::StatusOr<Subject> MakeSpotSubject(const std::filesystem::path& data_dir) {
   spot.ke = glm::vec3(12.0f);
   s.materials = {spot};
   s.triangle_material.assign(s.topology.triangles.size(), 0);
+  return s;
+}
+
+Subject MakeSphereSubject() {
+  constexpr int kRings = 24, kSegments = 48;
+  constexpr float kRadius = 0.5f;
+  const glm::vec3 center(0.0f, 1.0f, 0.0f);
+  Subject s;
+  s.preset = "sphere";
+  scene::FramePositions& p = s.rest_positions;
+  p.push_back(center + glm::vec3(0.0f, kRadius, 0.0f));  // north pole
+  for (int i = 1; i < kRings; ++i) {
+    const float theta = 3.14159265f * static_cast<float>(i) / kRings;
+    for (int j = 0; j < kSegments; ++j) {
+      const float phi = 2.0f * 3.14159265f * static_cast<float>(j) / kSegments;
+      p.push_back(center + kRadius * glm::vec3(std::sin(theta) * std::cos(phi), std::cos(theta),
+                                               std::sin(theta) * std::sin(phi)));
+    }
+  }
+  const uint32_t south = static_cast<uint32_t>(p.size());
+  p.push_back(center - glm::vec3(0.0f, kRadius, 0.0f));
+  const auto ring = [](int i, int j) { return static_cast<uint32_t>(1 + (i - 1) * kSegments + (j % kSegments)); };
+  std::vector<glm::uvec3>& tris = s.topology.file_triangles;
+  for (int j = 0; j < kSegments; ++j) tris.emplace_back(0, ring(1, j + 1), ring(1, j));
+  for (int i = 1; i + 1 < kRings; ++i) {
+    for (int j = 0; j < kSegments; ++j) {
+      tris.emplace_back(ring(i, j), ring(i, j + 1), ring(i + 1, j + 1));
+      tris.emplace_back(ring(i, j), ring(i + 1, j + 1), ring(i + 1, j));
+    }
+  }
+  for (int j = 0; j < kSegments; ++j) tris.emplace_back(south, ring(kRings - 1, j), ring(kRings - 1, j + 1));
+  for (glm::uvec3& t : tris) {  // counter-clockwise seen from outside
+    const glm::vec3 a = p[t.x], b = p[t.y], c = p[t.z];
+    if (glm::dot(glm::cross(b - a, c - a), (a + b + c) / 3.0f - center) < 0.0f) std::swap(t.y, t.z);
+  }
+  const uint32_t n = static_cast<uint32_t>(p.size());
+  s.topology.num_file_vertices = n;
+  s.topology.triangles = tris;
+  s.topology.render_to_file_vertex.resize(n);
+  for (uint32_t i = 0; i < n; ++i) s.topology.render_to_file_vertex[i] = i;
+  const scene::FramePositions rest = p;
+  s.pose = [rest](int) -> absl::StatusOr<scene::FramePositions> { return rest; };
+  StudioMaterial m;
+  m.name = "sphere";
+  m.kd = {glm::vec3(0.55f, 0.35f, 0.25f), 0.0f, 1.0f, glm::vec3(0.0f)};
+  m.seed_srgb8 = {196, 160, 137};  // sRGB of kd
+  m.ks = glm::vec3(0.2f);
+  m.ke = glm::vec3(15.0f);
+  s.materials = {m};
+  s.triangle_material.assign(tris.size(), 0);
   return s;
 }
 

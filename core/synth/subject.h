@@ -38,6 +38,8 @@ struct Subject {
 Subject MakeActorSubject(int segments, double fps);
 // Spot on a turntable (one revolution per 120 frames), kd from its texture.
 absl::StatusOr<Subject> MakeSpotSubject(const std::filesystem::path& data_dir);
+// A static UV sphere (procedural, no data) of one material with constant kd.
+Subject MakeSphereSubject();
 // The samba performance, 175 frames; materials assigned by height (hair on
 // top of the head, skin on the face and neck, cloth below).
 absl::StatusOr<Subject> MakeSambaSubject(const std::filesystem::path& data_dir);

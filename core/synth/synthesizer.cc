@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -82,7 +83,9 @@ absl::StatusOr<Preset> ParsePreset(absl::string_view name) {
   if (name == "actor") return Preset::kActor;
   if (name == "spot") return Preset::kSpot;
   if (name == "samba") return Preset::kSamba;
-  return absl::InvalidArgumentError(absl::StrCat("--preset: expected actor, spot or samba, got \"", name, "\""));
+  if (name == "sphere") return Preset::kSphere;
+  return absl::InvalidArgumentError(
+      absl::StrCat("--preset: expected actor, spot, samba or sphere, got \"", name, "\""));
 }
 
 const char* PresetName(Preset preset) {
@@ -90,6 +93,7 @@ const char* PresetName(Preset preset) {
     case Preset::kActor: return "actor";
     case Preset::kSpot: return "spot";
     case Preset::kSamba: return "samba";
+    case Preset::kSphere: return "sphere";
   }
   return "?";
 }
@@ -114,6 +118,7 @@ absl::Status SynthOptions::Check() const {
   MVBRDF_RETURN_IF_ERROR(CheckRange("--distortion", distortion_k1, -1, 1));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--actor-segments", actor_segments, 6, 256));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--shadow-map-size", shadow_map_size, 64, 8192));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--dome", dome, 0, 1024));
   if (out_dir.empty()) return absl::InvalidArgumentError("--out: required");
   return absl::OkStatus();
 }
@@ -126,6 +131,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     case Preset::kActor: subject = MakeActorSubject(options.actor_segments, options.fps); break;
     case Preset::kSpot: { MVBRDF_ASSIGN_OR_RETURN(subject, MakeSpotSubject(options.data_dir)); break; }
     case Preset::kSamba: { MVBRDF_ASSIGN_OR_RETURN(subject, MakeSambaSubject(options.data_dir)); break; }
+    case Preset::kSphere: subject = MakeSphereSubject(); break;
   }
   if (subject.max_frames > 0 && options.num_frames > subject.max_frames) {
     return absl::InvalidArgumentError(absl::StrCat("--frames: the ", subject.preset, " preset has ", subject.max_frames,
@@ -142,9 +148,40 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   studio_options.width = options.width;
   studio_options.height = options.height;
   studio_options.distortion_k1 = options.distortion_k1;
-  const Studio studio = MakeStudio(studio_options, bounds);
-
-  const std::string wanted = StripSpaces(options.configuration);
+  Studio studio = MakeStudio(studio_options, bounds);
+  const bool olat = options.lighting == Lighting::kOlat;
+  std::string wanted = StripSpaces(options.configuration);
+  if (options.dome > 0) {
+    // The dome replaces the ceiling lights; its one configuration is the
+    // lights asked for ("all" or names; every light with olat).
+    std::vector<scene::Light> dome = MakeDomeLights(options.dome, 0.8f);
+    Studio::Configuration config;
+    if (wanted.empty() || wanted == "all" || olat) {
+      config.name = "all";
+      for (const scene::Light& l : dome) config.lights.push_back(l.name);
+    } else {
+      for (absl::string_view name : absl::StrSplit(wanted, ',')) {
+        const auto it = std::find_if(dome.begin(), dome.end(), [&](const scene::Light& l) { return l.name == name; });
+        if (it == dome.end()) {
+          return absl::InvalidArgumentError(absl::StrCat("--config: no dome light \"", name, "\"; expected \"all\" or ",
+                                                         dome.front().name, " .. ", dome.back().name));
+        }
+        if (std::find(config.lights.begin(), config.lights.end(), it->name) != config.lights.end()) {
+          return absl::InvalidArgumentError(absl::StrCat("--config: dome light \"", name, "\" named twice"));
+        }
+        config.lights.push_back(it->name);
+      }
+      config.name = ConfigurationName(config.lights);
+    }
+    const int on = olat ? 1 : static_cast<int>(config.lights.size());
+    const float intensity = 0.8f / std::max(1.0f, static_cast<float>(on) / 4.0f);
+    for (scene::Light& l : dome) l.intensity = glm::vec3(intensity);
+    studio.lights = std::move(dome);
+    studio.configurations = {config};
+    wanted = config.name;
+  } else if (wanted.empty()) {
+    wanted = "NE,NW,SE,SW";
+  }
   const Studio::Configuration* active = nullptr;
   for (const auto& c : studio.configurations) {
     if (c.name == wanted) active = &c;
@@ -161,7 +198,6 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
       if (l.name == name) active_lights.push_back(l);
     }
   }
-  const bool olat = options.lighting == Lighting::kOlat;
   // The lights of frame t.
   const auto frame_lights = [&](int t) -> std::vector<scene::Light> {
     if (!olat) return active_lights;
@@ -257,7 +293,11 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   for (const scene::Light& l : studio.lights) {
     v1::Light* light = scene.add_lights();
     light->set_name(l.name);
-    SetVec3(l.position, light->mutable_position());
+    if (l.directional) {
+      SetVec3(l.direction, light->mutable_direction());
+    } else {
+      SetVec3(l.position, light->mutable_position());
+    }
     SetVec3(l.intensity, light->mutable_intensity());
   }
   for (const auto& c : studio.configurations) {
@@ -310,7 +350,11 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   for (const scene::Light& l : active_lights) {
     v1::Light* light = truth.add_lights();
     light->set_name(l.name);
-    SetVec3(l.position, light->mutable_position());
+    if (l.directional) {
+      SetVec3(l.direction, light->mutable_direction());
+    } else {
+      SetVec3(l.position, light->mutable_position());
+    }
     SetVec3(l.intensity, light->mutable_intensity());
   }
   truth.set_inverse_square_falloff(renderer_options.inverse_square_falloff);

@@ -25,7 +25,7 @@
 
 namespace mvbrdf::synth {
 
-enum class Preset { kActor, kSpot, kSamba };
+enum class Preset { kActor, kSpot, kSamba, kSphere };
 absl::StatusOr<Preset> ParsePreset(absl::string_view name);
 const char* PresetName(Preset preset);
 
@@ -33,8 +33,8 @@ enum class VideoFormat { kFfv1, kPng };
 
 // How the frames are lit. kStudio: every frame by the active configuration.
 // kOlat (one light at a time): frame t by the studio's light t mod 9 alone
-// (C, N, E, W, S, NE, NW, SE, SW), recorded in the scene's frame_lighting and
-// the truth's frame_lighting.
+// (C, N, E, W, S, NE, NW, SE, SW), or with a dome by dome light t mod N,
+// recorded in the scene's frame_lighting and the truth's frame_lighting.
 enum class Lighting { kStudio, kOlat };
 absl::StatusOr<Lighting> ParseLighting(absl::string_view name);
 
@@ -46,8 +46,13 @@ struct SynthOptions {
   int height = 240;
   double fps = 15.0;
   // Active light configuration by name (one of the thesis's eight, e.g.
-  // "NE,NW,SE,SW"; spaces are ignored).
-  std::string configuration = "NE,NW,SE,SW";
+  // "NE,NW,SE,SW"; spaces are ignored). With a dome: "all" or a list of dome
+  // light names ("D000,D007"). Empty: "NE,NW,SE,SW", with a dome "all".
+  std::string configuration;
+  // > 0: instead of the nine ceiling lights, this many directional lights
+  // over the upper hemisphere (MakeDomeLights: "D000", ...), each of
+  // intensity 0.8 / max(1, lights on in a frame / 4). 0: the ceiling lights.
+  int dome = 0;
   // kOlat leaves `configuration` unused.
   Lighting lighting = Lighting::kStudio;
   uint32_t seed = 1;

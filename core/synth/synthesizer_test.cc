@@ -202,6 +202,96 @@ TEST_F(SynthesizerTest, OlatLightsEachFrameByOneLightAndRecordsIt) {
   }
 }
 
+// Issue #13: --preset sphere --dome 20 --lighting olat: a closed sphere of
+// one material, 20 directional lights over the upper hemisphere named D000..,
+// frame t lit by dome light t mod 20 (in the scene and the truth), and each
+// video frame a render of the truth under that light. With every light on
+// (--lighting studio, 20 lights: two renderer passes) the video is the render
+// of the truth's 20 lights.
+TEST_F(SynthesizerTest, SphereUnderADomeOfDirectionalLights) {
+  for (const Lighting lighting : {Lighting::kOlat, Lighting::kStudio}) {
+    SynthOptions o = SmallOptions(lighting == Lighting::kOlat ? "dome_olat" : "dome_studio");
+    o.preset = Preset::kSphere;
+    o.num_cameras = 1;
+    o.dome = 20;
+    o.lighting = lighting;
+    auto result = Synthesize(o, *context_);
+    ASSERT_TRUE(result.ok()) << result.status();
+    auto sequence = scene::LoadSequence(result->scene_file);
+    ASSERT_TRUE(sequence.ok()) << sequence.status();
+    ASSERT_EQ(sequence->lights.size(), 20u);
+    for (size_t k = 0; k < 20; ++k) {
+      const scene::Light& l = sequence->lights[k];
+      char name[8];
+      std::snprintf(name, sizeof(name), "D%03d", static_cast<int>(k));
+      EXPECT_EQ(l.name, name);
+      EXPECT_TRUE(l.directional);
+      EXPECT_NEAR(glm::length(l.direction), 1.0f, 1e-6f);
+      EXPECT_GT(l.direction.y, 0.0f);  // the upper hemisphere (y up)
+    }
+    // A closed sphere of radius 0.5: every vertex at 0.5 from the centre, one material.
+    glm::vec3 center(0.0f);
+    for (const glm::vec3& p : sequence->rest_positions) center += p;
+    center /= static_cast<float>(sequence->rest_positions.size());
+    for (const glm::vec3& p : sequence->rest_positions) EXPECT_NEAR(glm::length(p - center), 0.5f, 1e-5f);
+    auto truth = GroundTruth::Load(o.out_dir / "ground_truth" / "truth.json");
+    ASSERT_TRUE(truth.ok()) << truth.status();
+    EXPECT_EQ(truth->message().preset(), "sphere");
+    ASSERT_EQ(truth->message().materials_size(), 1);
+    EXPECT_EQ(truth->ActiveLights().size(), 20u);
+    EXPECT_TRUE(truth->ActiveLights()[7].directional);
+    if (lighting == Lighting::kOlat) {
+      ASSERT_EQ(sequence->scene.frame_lighting_size(), 3);
+      EXPECT_EQ(truth->message().active_configuration(), scene::kPerFrameLighting);
+      EXPECT_EQ(truth->FrameLights(2).size(), 1u);
+      EXPECT_EQ(truth->FrameLights(2)[0].name, "D002");
+    } else {
+      EXPECT_EQ(sequence->scene.frame_lighting_size(), 0);
+      EXPECT_EQ(truth->message().active_configuration(), "all");
+    }
+
+    render::RenderMesh mesh;
+    mesh.triangles = sequence->topology.triangles;
+    mesh.rest_positions = scene::ToRenderVertices(sequence->topology, sequence->rest_positions);
+    mesh.triangle_material.assign(truth->message().triangle_materials().begin(),
+                                  truth->message().triangle_materials().end());
+    render::RendererOptions ro;
+    ro.shadow_map_size = static_cast<int>(truth->message().shadow_map_size());
+    auto renderer = render::PhongRenderer::Create(*context_, mesh, ro);
+    ASSERT_TRUE(renderer.ok()) << renderer.status();
+    ASSERT_TRUE((*renderer)->SetProceduralMaterials(truth->RendererMaterials()).ok());
+    auto video = scene::VideoSource::Open(sequence->scene.cameras(0), sequence->scene_dir, 0, "camera");
+    ASSERT_TRUE(video.ok()) << video.status();
+    for (int t = 0; t < 3; ++t) {
+      auto positions = sequence->LoadFrame(t);
+      ASSERT_TRUE(positions.ok());
+      render::Pose pose;
+      pose.positions = scene::ToRenderVertices(sequence->topology, *positions);
+      pose.normals =
+          scene::ToRenderVertices(sequence->topology, scene::ComputeFileVertexNormals(sequence->topology, *positions));
+      ASSERT_TRUE((*renderer)
+                      ->SetLights(lighting == Lighting::kOlat ? truth->FrameLights(static_cast<uint32_t>(t))
+                                                              : truth->ActiveLights())
+                      .ok());
+      auto image = (*renderer)->Render(pose, truth->Cameras()[0]);
+      ASSERT_TRUE(image.ok()) << image.status();
+      std::mt19937 rng(1);
+      const cv::Mat expected = EncodeSrgb8(image->radiance, {}, rng);
+      auto frame = (*video)->ReadFrame(t);
+      ASSERT_TRUE(frame.ok()) << frame.status();
+      cv::Mat diff;
+      cv::absdiff(expected, EncodeSrgb8(*frame, {}, rng), diff);
+      double max_diff = 0.0;
+      cv::minMaxLoc(diff.reshape(1), nullptr, &max_diff);
+      EXPECT_EQ(max_diff, 0.0) << "frame " << t;
+      // Not black (an OLAT frame may be lit from behind the camera: D002 is).
+      if (lighting == Lighting::kStudio || t == 0) {
+        EXPECT_GT(cv::countNonZero(expected.reshape(1)), expected.rows * expected.cols / 20) << "frame " << t;
+      }
+    }
+  }
+}
+
 TEST_F(SynthesizerTest, CalibrationErrorChangesOnlyTheScenesCameras) {
   SynthOptions o = SmallOptions("calibration");
   o.num_frames = 1;
@@ -228,6 +318,15 @@ TEST_F(SynthesizerTest, BadOptionsNameTheFlag) {
   o = SmallOptions("bad2");
   o.num_cameras = 0;
   EXPECT_NE(Synthesize(o, *context_).status().message().find("--cameras"), std::string::npos);
+  o = SmallOptions("bad3");
+  o.dome = -1;
+  EXPECT_NE(Synthesize(o, *context_).status().message().find("--dome"), std::string::npos);
+  o = SmallOptions("bad4");
+  o.dome = 4;
+  o.configuration = "D001,NE";  // a ceiling light's name with a dome
+  auto no_such_light = Synthesize(o, *context_);
+  EXPECT_EQ(no_such_light.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(no_such_light.status().message().find("--config: no dome light \"NE\""), std::string::npos);
 }
 
 std::filesystem::path SharedData() { return MVBRDF_SHARED_DATA_DIR; }
