@@ -13,7 +13,7 @@ check "no command is a usage error" 2 "usage: mvbrdf" -- "$bin"
 check "help" 0 "synth" -- "$bin" --help
 check "synth help" 0 "--preset" -- "$bin" synth --help
 check "unknown flag" 2 "--colour: unknown option" -- "$bin" synth --colour red --out "$work/x"
-check "bad preset" 2 "--preset: expected actor, spot or samba" -- "$bin" synth --preset cow --out "$work/x"
+check "bad preset" 2 "--preset: expected actor, spot, samba or sphere" -- "$bin" synth --preset cow --out "$work/x"
 check "bad camera count" 2 "--cameras: must be in" -- "$bin" synth --cameras 0 --out "$work/x"
 check "unknown configuration" 3 "--config: unknown configuration" -- \
   "$bin" synth --config "NE,XX" --frames 1 --cameras 1 --width 64 --height 48 --out "$work/x"
