@@ -120,7 +120,13 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
     {
       StageTimer::Scope s(&timer, "shadows");
       MVBRDF_ASSIGN_OR_RETURN(const cv::Mat shadows, resampler->ShadowAtlas());
-      if (save) MVBRDF_RETURN_IF_ERROR(image::WriteExr(frame_dir / "shadows.exr", shadows));
+      // One file per 16 lights (channel c: lights 16 c ..): shadows.exr, shadows_1.exr, ...
+      for (int c = 0; save && c < shadows.channels(); ++c) {
+        cv::Mat channel = shadows;
+        if (shadows.channels() > 1) cv::extractChannel(shadows, channel, c);
+        MVBRDF_RETURN_IF_ERROR(image::WriteExr(
+            frame_dir / (c == 0 ? std::string("shadows.exr") : absl::StrCat("shadows_", c, ".exr")), channel));
+      }
     }
     resample::GeometryAtlas geometry;
     if (evaluator != nullptr || save) {

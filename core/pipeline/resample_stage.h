@@ -12,7 +12,8 @@
 //   frames/NNNN/CAM_averaged.exr (+.png)  per-triangle means (thesis Fig. 5.5)
 //   frames/NNNN/CAM_grown.exr (+.png)     grown for rendering (thesis Fig. 5.4)
 //   frames/NNNN/position.exr, normal.exr  the frame's geometry atlas
-//   frames/NNNN/shadows.exr               light-visibility bitmask (bit k = light k, see resample.json)
+//   frames/NNNN/shadows.exr               light-visibility bitmask (bit k = light k, see resample.json);
+//   frames/NNNN/shadows_C.exr             with more than 16 lights, lights 16 C .. 16 C + 15 (bit k - 16 C)
 #ifndef MVBRDF_CORE_PIPELINE_RESAMPLE_STAGE_H_
 #define MVBRDF_CORE_PIPELINE_RESAMPLE_STAGE_H_
 
