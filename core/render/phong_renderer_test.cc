@@ -260,11 +260,11 @@ TEST_F(PhongRendererTest, FortyLightsMatchTheCpuModel) {
   RecordProperty("max_relative_error", std::to_string(max_error / scale));
 }
 
-// No fixed clip planes: the same scene with the world scaled by 1000 (mesh,
-// camera translation, point-light positions; no fall-off) renders the same
-// image, shadows included (with planes at 0.05 and 100 it was black), and
-// its triangle ids agree.
-TEST_F(PhongRendererTest, WorldScaledBy1000RendersTheSameImage) {
+// No fixed clip planes: the same scene with the world scaled by 1000 or 0.001
+// (mesh, camera translation, point-light positions; no fall-off) renders the
+// same image, shadows included (with planes at 0.05 and 100 it was black),
+// and its triangle ids agree.
+TEST_F(PhongRendererTest, WorldScaledBy1000Or0001RendersTheSameImage) {
   RenderMesh mesh;
   Pose pose;
   AppendGrid(20, 1.0, 0.0, 0, &mesh, &pose);
@@ -299,27 +299,31 @@ TEST_F(PhongRendererTest, WorldScaledBy1000RendersTheSameImage) {
     ASSERT_TRUE(triangle_ids.ok()) << triangle_ids.status();
     *ids = *triangle_ids;
   };
-  cv::Mat radiance1, coverage1, ids1, radiance1000, coverage1000, ids1000;
+  cv::Mat radiance1, coverage1, ids1;
   render(1.0, &radiance1, &coverage1, &ids1);
-  render(1000.0, &radiance1000, &coverage1000, &ids1000);
-  ASSERT_FALSE(radiance1.empty());
-  ASSERT_FALSE(radiance1000.empty());
-  const float scale = MaxValue(radiance1);
-  ASSERT_GT(scale, 0.0f);
-  int covered = 0, coverage_differs = 0, ids_differ = 0, radiance_differs = 0;
-  for (int v = 0; v < radiance1.rows; ++v) {
-    for (int u = 0; u < radiance1.cols; ++u) {
-      covered += coverage1.at<uint8_t>(v, u) != 0;
-      coverage_differs += coverage1.at<uint8_t>(v, u) != coverage1000.at<uint8_t>(v, u);
-      ids_differ += ids1.at<int>(v, u) != ids1000.at<int>(v, u);
-      const cv::Vec3f a = radiance1.at<cv::Vec3f>(v, u), b = radiance1000.at<cv::Vec3f>(v, u);
-      radiance_differs += MaxChannelError(a, glm::vec3(b[0], b[1], b[2])) > kRelativeTolerance * scale;
+  for (const double s : {1000.0, 0.001}) {
+    SCOPED_TRACE(::testing::Message() << "scale " << s);
+    cv::Mat radiance_s, coverage_s, ids_s;
+    render(s, &radiance_s, &coverage_s, &ids_s);
+    ASSERT_FALSE(radiance1.empty());
+    ASSERT_FALSE(radiance_s.empty());
+    const float scale = MaxValue(radiance1);
+    ASSERT_GT(scale, 0.0f);
+    int covered = 0, coverage_differs = 0, ids_differ = 0, radiance_differs = 0;
+    for (int v = 0; v < radiance1.rows; ++v) {
+      for (int u = 0; u < radiance1.cols; ++u) {
+        covered += coverage1.at<uint8_t>(v, u) != 0;
+        coverage_differs += coverage1.at<uint8_t>(v, u) != coverage_s.at<uint8_t>(v, u);
+        ids_differ += ids1.at<int>(v, u) != ids_s.at<int>(v, u);
+        const cv::Vec3f a = radiance1.at<cv::Vec3f>(v, u), b = radiance_s.at<cv::Vec3f>(v, u);
+        radiance_differs += MaxChannelError(a, glm::vec3(b[0], b[1], b[2])) > kRelativeTolerance * scale;
+      }
     }
+    EXPECT_GT(covered, 8000);
+    EXPECT_LE(coverage_differs, 4);
+    EXPECT_LE(ids_differ, 8);
+    EXPECT_LE(radiance_differs, covered / 200);  // a few pixels on shadow edges
   }
-  EXPECT_GT(covered, 8000);
-  EXPECT_LE(coverage_differs, 4);
-  EXPECT_LE(ids_differ, 8);
-  EXPECT_LE(radiance_differs, covered / 200);  // a few pixels on shadow edges
 }
 
 // A coarse UV sphere: rest pose = pose, smooth vertex normals, three materials

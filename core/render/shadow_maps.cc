@@ -101,8 +101,9 @@ absl::Status ShadowMaps::Render(const std::vector<scene::Light>& lights, const B
                                 absl::FunctionRef<void()> draw_mesh) {
   MVBRDF_RETURN_IF_ERROR(Allocate(lights));
   // The maps cover the bounding sphere with a little room, so that nothing of
-  // the mesh is clipped by a light's far plane or a map's border.
-  const float radius = bounds.radius * 1.01f + 1e-4f;
+  // the mesh is clipped by a light's far plane or a map's border (relative
+  // room: the world's scale is the caller's).
+  const float radius = bounds.radius * 1.01f + 1e-6f * glm::length(bounds.center) + 1e-30f;
   glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
   glViewport(0, 0, size_, size_);
   glEnable(GL_DEPTH_TEST);
