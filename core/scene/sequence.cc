@@ -535,7 +535,12 @@ absl::Status CheckCameraSeesMesh(const Sequence& seq, int i) {
                                                 : "below its image";
   return Invalid(absl::StrCat("scene.cameras[", i, "]"),
                  absl::StrCat("sees none of the mesh in frame 0: all ", seq.rest_positions.size(), " vertices lie ",
-                              where, " (check cam_from_world: world to camera, OpenCV axes with z forward)"));
+                              where, " (check cam_from_world: world to camera, OpenCV axes with z forward",
+                              camera.orthographic() && (inside_some & 1u) == 0
+                                  ? "; an orthographic camera sees only z_cam > 0: choose translation[2] so that "
+                                    "the mesh lies in front of it"
+                                  : "",
+                              ")"));
 }
 
 Light LightFromProto(const v1::Light& l) {

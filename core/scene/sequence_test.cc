@@ -517,6 +517,16 @@ TEST(SequenceTest, OrthographicCameraLoadsAndOneBesideTheMeshIsRefused) {
   EXPECT_NE(refused.status().message().find("scene.cameras[0]: sees none of the mesh in frame 0"), std::string::npos)
       << refused.status();
   EXPECT_NE(refused.status().message().find("right of its image"), std::string::npos) << refused.status();
+  // A telecentric calibration cannot tell the depth origin: the message says where to put it.
+  TempDir behind;
+  cam->mutable_cam_from_world()->set_translation(0, -0.5);
+  cam->mutable_cam_from_world()->set_translation(2, -10.0);
+  refused = LoadSequence(WriteFixture(behind.path(), scene));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("behind the camera (check cam_from_world: world to camera, OpenCV axes "
+                                            "with z forward; an orthographic camera sees only z_cam > 0"),
+            std::string::npos)
+      << refused.status();
 }
 
 }  // namespace
