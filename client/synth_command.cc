@@ -17,6 +17,7 @@ int RunSynth(const std::vector<std::string>& args) {
   std::string format = "ffv1";
   std::string egl = "auto";
   std::string lighting = "studio";
+  std::string camera_model = "pinhole";
   const char* env_data = std::getenv("MVBRDF_DATA_DIR");
   std::string data_dir = env_data != nullptr ? env_data : MVBRDF_DEFAULT_DATA_DIR;
   FlagParser flags("synth",
@@ -42,6 +43,9 @@ int RunSynth(const std::vector<std::string>& args) {
   flags.AddString("--lighting", &lighting,
                   "studio (every frame lit by --config) or olat (one light at a time: frame t by ceiling light "
                   "t mod 9, or dome light t mod N; in scene.json's frameLighting and the truth)");
+  flags.AddString("--camera-model", &camera_model,
+                  "pinhole or orthographic (telecentric: the same ring of viewpoints, the pixel size the "
+                  "pinhole's at the subject; scene.json's cameras[].model and pixelSize, and the truth)");
   flags.AddUint("--seed", &o.seed, "random seed (noise, perturbations)");
   flags.AddString("--format", &format, "ffv1 (lossless .mkv) or png (image sequences)");
   flags.AddBool("--lossy", &o.lossy_video, "write lossy MPEG-4 video instead (a perturbation)");
@@ -68,7 +72,9 @@ int RunSynth(const std::vector<std::string>& args) {
   auto parsed_preset = synth::ParsePreset(preset);
   auto platform = gl::ParseEglPlatform(egl);
   auto parsed_lighting = synth::ParseLighting(lighting);
-  for (const absl::Status& s : {parsed_preset.status(), platform.status(), parsed_lighting.status()}) {
+  auto parsed_camera_model = synth::ParseCameraModel(camera_model);
+  for (const absl::Status& s :
+       {parsed_preset.status(), platform.status(), parsed_lighting.status(), parsed_camera_model.status()}) {
     if (!s.ok()) {
       std::fprintf(stderr, "mvbrdf synth: %s\n", std::string(s.message()).c_str());
       return kExitUsage;
@@ -80,6 +86,7 @@ int RunSynth(const std::vector<std::string>& args) {
   }
   o.preset = *parsed_preset;
   o.lighting = *parsed_lighting;
+  o.camera_model = *parsed_camera_model;
   o.video_format = format == "png" ? synth::VideoFormat::kPng : synth::VideoFormat::kFfv1;
   o.out_dir = out;
   o.data_dir = data_dir;

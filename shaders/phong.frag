@@ -34,7 +34,10 @@ struct GpuMaterial {
 layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial u_materials[]; };
 layout(std430, binding = 2) readonly buffer TriangleMaterialBlock { uint u_triangle_material[]; };
 
-layout(location = 1) uniform vec3 u_camera_center;  // world units
+// The viewpoint, homogeneous (scene::CameraModel::ViewOrigin), world units:
+// (centre, 1) for a pinhole, (unit direction towards the camera, 0) for an
+// orthographic camera, whose v is constant.
+layout(location = 1) uniform vec4 u_camera_center;
 layout(location = 2) uniform int u_atlas_mode;      // 0: procedural materials, 1: kd/ks/ke atlases
 layout(location = 3) uniform int u_inverse_square_falloff;
 
@@ -100,7 +103,7 @@ void main() {
     ke = m.ke.rgb;
   }
 
-  vec3 v = normalize(u_camera_center - v_position);
+  vec3 v = normalize(u_camera_center.xyz - u_camera_center.w * v_position);
   vec3 f = vec3(0.0);
   for (int k = 0; k < u_light_count.x; ++k) {
     GpuLight light = u_lights[k];

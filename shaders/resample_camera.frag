@@ -11,15 +11,38 @@ layout(binding = 2) uniform sampler2D u_depth_map;     // R32F: 1 / eye z of the
 layout(binding = 3) uniform sampler2D u_frame;         // RGB32F linear, row 0 = image top, bilinear
 
 layout(location = 0) uniform mat4 u_cam_from_world;
-layout(location = 1) uniform vec3 u_camera_center;    // world units
-layout(location = 2) uniform vec4 u_intrinsics;       // fx, fy, cx, cy (pixels; (0,0) = centre of top-left pixel)
+// The viewpoint, homogeneous (scene::CameraModel::ViewOrigin): (centre, 1) for
+// a pinhole, (unit direction towards the camera, 0) for an orthographic camera.
+layout(location = 1) uniform vec4 u_camera_center;    // world units
+// fx, fy, cx, cy (pixels; (0,0) = centre of top-left pixel); orthographic:
+// fx = fy = 1 / pixel_size.
+layout(location = 2) uniform vec4 u_intrinsics;
 layout(location = 3) uniform vec2 u_depth_principal;  // cx, cy of the depth map (same focal lengths)
 layout(location = 4) uniform vec4 u_distortion_a;     // k1, k2, p1, p2
 layout(location = 5) uniform vec4 u_distortion_b;     // k3, k4, k5, k6
 layout(location = 6) uniform float u_min_cos_view;    // sin(grazing margin): dot(n, v) must exceed it
 layout(location = 7) uniform float u_depth_scale;     // 1 + relative depth tolerance
+layout(location = 16) uniform int u_orthographic;     // nonzero: (x, y) instead of (x/z, y/z); no distortion
 
 layout(location = 0) out vec4 out_radiance;
+
+// Orthographic: z (not 1 / z) is affine in image coordinates over a plane, so
+// interpolate z between the four depth-map pixels around `pixel` (bilinear
+// 1 / z would overestimate it on slanted surfaces, by convexity, and make them
+// occlude themselves). Where one of them shows no surface, keep `bilinear`.
+float OrthographicInverseDepth(vec2 pixel, float bilinear) {
+  ivec2 depth_max = textureSize(u_depth_map, 0) - 1;
+  vec2 at = clamp(pixel, vec2(0.0), vec2(depth_max));
+  ivec2 base = min(ivec2(floor(at)), max(depth_max - 1, ivec2(0)));
+  vec2 f = at - vec2(base);
+  float d00 = texelFetch(u_depth_map, min(base, depth_max), 0).r;
+  float d10 = texelFetch(u_depth_map, min(base + ivec2(1, 0), depth_max), 0).r;
+  float d01 = texelFetch(u_depth_map, min(base + ivec2(0, 1), depth_max), 0).r;
+  float d11 = texelFetch(u_depth_map, min(base + ivec2(1, 1), depth_max), 0).r;
+  if (!(min(min(d00, d10), min(d01, d11)) > 0.0)) return bilinear;
+  float z = mix(mix(1.0 / d00, 1.0 / d10, f.x), mix(1.0 / d01, 1.0 / d11, f.x), f.y);
+  return 1.0 / z;
+}
 
 void main() {
   out_radiance = vec4(0.0);
@@ -27,12 +50,12 @@ void main() {
   vec4 position = texelFetch(u_position_map, texel, 0);
   if (position.w < 0.5) return;  // uncovered
   vec3 n = texelFetch(u_normal_map, texel, 0).xyz;
-  vec3 v = normalize(u_camera_center - position.xyz);
+  vec3 v = normalize(u_camera_center.xyz - u_camera_center.w * position.xyz);
   if (!(dot(n, v) > u_min_cos_view)) return;  // back-facing or grazing
 
   vec3 q = (u_cam_from_world * vec4(position.xyz, 1.0)).xyz;
   if (!(q.z > 0.0)) return;  // behind the camera
-  vec2 undistorted = q.xy / q.z;
+  vec2 undistorted = u_orthographic != 0 ? q.xy : q.xy / q.z;
 
   // Visibility: the depth map (inverse depth, bilinear: exact on the point's
   // own triangle, so slanted surfaces do not occlude themselves) at the
@@ -43,6 +66,7 @@ void main() {
     return;  // outside the undistorted field of view (also rejects distortion fold-over)
   }
   float inverse_depth = textureLod(u_depth_map, (pinhole + 0.5) / depth_size, 0.0).r;
+  if (u_orthographic != 0) inverse_depth = OrthographicInverseDepth(pinhole, inverse_depth);
   if (q.z * inverse_depth > u_depth_scale) return;  // occluded
 
   // Sampling: the distorted pixel, inside [0, w-1] x [0, h-1] so that the

@@ -494,6 +494,59 @@ std::vector<BadInputCase> Cases() {
        Expect::kRejected,
        kInvalid,
        {"scene.cameras[0].intrinsics.fy: must be > 0, got -3"}},
+      // Issue #13: the orthographic camera model (pixel_size, no focal
+      // lengths, no distortion), and pixel_size only for it.
+      {"OrthographicWithoutPixelSize",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->set_model(v1::ORTHOGRAPHIC); }); },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[1].pixel_size: must be > 0, got 0"}},
+      {"OrthographicNegativePixelSize",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           s->mutable_cameras(0)->set_model(v1::ORTHOGRAPHIC);
+           s->mutable_cameras(0)->set_pixel_size(-0.5);
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[0].pixel_size: must be > 0, got -0.5"}},
+      {"OrthographicWithFocalLength",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           s->mutable_cameras(1)->set_model(v1::ORTHOGRAPHIC);
+           s->mutable_cameras(1)->set_pixel_size(0.01);
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[1].intrinsics.fx: must be 0 (or absent) for an ORTHOGRAPHIC camera, whose scale is pixel_size"}},
+      {"OrthographicWithDistortion",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           v1::Camera* c = s->mutable_cameras(1);
+           c->set_model(v1::ORTHOGRAPHIC);
+           c->set_pixel_size(0.01);
+           c->mutable_intrinsics()->set_fx(0);
+           c->mutable_intrinsics()->set_fy(0);
+           for (double k : {0.1, 0.0, 0.0, 0.0}) c->mutable_intrinsics()->add_distortion(k);
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[1].intrinsics.distortion: must be empty for an ORTHOGRAPHIC camera"}},
+      {"PinholeWithPixelSize",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_cameras(0)->set_pixel_size(0.01); }); },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[0].pixel_size: only for an ORTHOGRAPHIC camera"}},
+      {"UnknownCameraModel",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) { s->mutable_cameras(0)->set_model(static_cast<v1::CameraModel>(7)); });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[0].model: unknown value 7"}},
       {"RotationNotOrthonormal",
        [](CaseInput& in) {
          in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->mutable_cam_from_world()->set_rotation(0, 2.0); });

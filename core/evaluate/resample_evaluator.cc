@@ -121,8 +121,7 @@ absl::StatusOr<ResampleTally> ResampleEvaluator::Evaluate(int camera, const cv::
     return absl::OutOfRangeError(absl::StrCat("ground truth has no camera ", camera));
   }
   const scene::CameraModel& cam = true_cameras_[camera];
-  const glm::dvec3 center = cam.CenterInWorld();
-  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat truth, renderer_->RenderAtlas(pose_, glm::vec3(center), atlas_->size));
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat truth, renderer_->RenderAtlas(pose_, cam, atlas_->size));
   MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ids, renderer_->RenderTriangleIds(pose_, cam, kIdSupersample));
   const double min_cos = std::sin(options_.grazing_margin_deg * 3.14159265358979 / 180.0);
   const double s = kIdSupersample;
@@ -144,7 +143,8 @@ absl::StatusOr<ResampleTally> ResampleEvaluator::Evaluate(int camera, const cv::
         const glm::dvec3 n(nor[x][0], nor[x][1], nor[x][2]);
         const glm::dvec3 in_cam = cam.CamFromWorld(p);
         const glm::dvec2 pixel = cam.Project(p);
-        const bool facing = glm::dot(n, glm::normalize(center - p)) > min_cos;
+        const glm::dvec3 v = cam.ViewDirection(p);
+        const bool facing = glm::dot(n, v) > min_cos;
         const bool inside = in_cam.z > 0.0 && pixel.x >= 0.0 && pixel.y >= 0.0 && pixel.x <= cam.width - 1.0 &&
                             pixel.y <= cam.height - 1.0;
         if (facing && inside) {
@@ -154,12 +154,16 @@ absl::StatusOr<ResampleTally> ResampleEvaluator::Evaluate(int camera, const cv::
           // camera ray in front of it (exact ray-triangle test). The id buffer
           // only names the front surfaces; the decision is geometric, so thin
           // foreshortened triangles near silhouettes do not count as occluders.
-          const double px = (cam.fx * in_cam.x / in_cam.z + cam.cx + 0.5) * s - 0.5;
-          const double py = (cam.fy * in_cam.y / in_cam.z + cam.cy + 0.5) * s - 0.5;
+          const glm::dvec2 undistorted = cam.ProjectUndistorted(p);
+          const double px = (undistorted.x + 0.5) * s - 0.5;
+          const double py = (undistorted.y + 0.5) * s - 0.5;
           const int ix = static_cast<int>(std::lround(px));
           const int iy = static_cast<int>(std::lround(py));
-          const double distance = glm::length(p - center);
-          const glm::dvec3 dir = (p - center) / distance;
+          // The camera ray through p: from the centre (pinhole), or from the
+          // plane z = 0 along the axis (orthographic).
+          const double distance = cam.orthographic() ? in_cam.z : glm::length(p - cam.CenterInWorld());
+          const glm::dvec3 center = p + distance * v;
+          const glm::dvec3 dir = -v;
           visible = true;
           for (int dy = -1; dy <= 1 && visible; ++dy) {
             for (int dx = -1; dx <= 1 && visible; ++dx) {

@@ -324,8 +324,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   }
   // A copy: the triangle Samples are released after the sweep.
   const std::vector<glm::vec3> intensity = g.triangle_samples.light_intensity;
-  std::vector<glm::vec3> camera_centers;
-  for (const scene::CameraModel& cam : sequence.cameras) camera_centers.push_back(glm::vec3(cam.CenterInWorld()));
+  std::vector<glm::vec4> camera_views;  // scene::CameraModel::ViewOrigin
+  for (const scene::CameraModel& cam : sequence.cameras) camera_views.push_back(glm::vec4(cam.ViewOrigin()));
   if (!g.rest_position.empty()) {
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "rest_position.exr", g.rest_position));
   }
@@ -527,7 +527,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
                   static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
               const cv::Vec4f& nor = stream->geometry().normal.at<cv::Vec4f>(
                   static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
-              const glm::vec3 view = glm::normalize(camera_centers[static_cast<size_t>(c)] - glm::vec3(pos[0], pos[1], pos[2]));
+              const glm::vec3 view =
+                  scene::ViewDirection(camera_views[static_cast<size_t>(c)], glm::vec3(pos[0], pos[1], pos[2]));
               const float cos_view = std::max(0.0f, glm::dot(glm::vec3(nor[0], nor[1], nor[2]), view));
               const float w = cos_view * cos_view;
               diffuse.Add(texel, w * res, w * G);

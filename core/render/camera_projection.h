@@ -1,5 +1,6 @@
-// GL matrices of an OpenCV camera, shared by every pass that draws from a
-// camera (the renderer, the resampler's depth maps, the id buffer).
+// GL matrices of an OpenCV camera (pinhole or orthographic), shared by every
+// pass that draws from a camera (the renderer, the resampler's depth maps,
+// the id buffer).
 #ifndef MVBRDF_CORE_RENDER_CAMERA_PROJECTION_H_
 #define MVBRDF_CORE_RENDER_CAMERA_PROJECTION_H_
 
@@ -31,9 +32,35 @@ inline glm::dmat4 ClipFromCamera(double fx, double fy, double cx, double cy, int
   return p;
 }
 
+// The orthographic camera u = x / pixel_size + cx, v = y / pixel_size + cy
+// (z forward) with the same window and depth conventions: pixel (u, v) maps
+// to window (u + 0.5, v + 0.5); camera z = near -> -1, far -> +1 (linear).
+inline glm::dmat4 ClipFromOrthographicCamera(double pixel_size, double cx, double cy, int width, int height,
+                                             double near_plane, double far_plane) {
+  glm::dmat4 p(0.0);  // p[column][row]
+  p[0][0] = 2.0 / (pixel_size * width);
+  p[3][0] = 2.0 * (cx + 0.5) / width - 1.0;
+  p[1][1] = 2.0 / (pixel_size * height);
+  p[3][1] = 2.0 * (cy + 0.5) / height - 1.0;
+  p[2][2] = 2.0 / (far_plane - near_plane);
+  p[3][2] = -(far_plane + near_plane) / (far_plane - near_plane);
+  p[3][3] = 1.0;
+  return p;
+}
+
+// The camera's own projection (pinhole or orthographic), without distortion,
+// with its principal point moved to (cx, cy) on a `width` x `height` grid
+// (the resampler's depth maps are the image grid shifted).
+inline glm::dmat4 ClipFromCamera(const scene::CameraModel& camera, double cx, double cy, int width, int height,
+                                 double near_plane, double far_plane) {
+  if (camera.orthographic()) {
+    return ClipFromOrthographicCamera(camera.pixel_size, cx, cy, width, height, near_plane, far_plane);
+  }
+  return ClipFromCamera(camera.fx, camera.fy, cx, cy, width, height, near_plane, far_plane);
+}
+
 inline glm::dmat4 ClipFromCamera(const scene::CameraModel& camera, double near_plane, double far_plane) {
-  return ClipFromCamera(camera.fx, camera.fy, camera.cx, camera.cy, camera.width, camera.height, near_plane,
-                        far_plane);
+  return ClipFromCamera(camera, camera.cx, camera.cy, camera.width, camera.height, near_plane, far_plane);
 }
 
 // The camera's rigid transform as a 4x4 matrix.

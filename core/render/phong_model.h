@@ -2,7 +2,8 @@
 // This is the reference every GPU path and every fitter is checked against.
 //
 //   l_k = normalize(L_k - x)      (point light)   or the light's direction
-//   v   = normalize(C - x)        C = camera centre
+//   v   = normalize(C - x)        C = camera centre; an orthographic camera's
+//                                 v is its constant -z axis (scene::CameraModel)
 //   g_k = max(0, l_k . n)
 //   R_k = 2 (l_k . n) n - l_k
 //   h_k = max(0, R_k . v)          and h_k = 0 wherever g_k = 0
@@ -35,10 +36,18 @@ struct LightCosines {
 
 LightCosines ComputeLightCosines(const scene::Light& light, const glm::vec3& point, const glm::vec3& unit_normal,
                                  const glm::vec3& camera_center, bool inverse_square_falloff);
+// The same from a homogeneous viewpoint (scene::CameraModel::ViewOrigin:
+// w = 1 a camera centre, w = 0 the constant direction towards an orthographic
+// camera).
+LightCosines ComputeLightCosines(const scene::Light& light, const glm::vec3& point, const glm::vec3& unit_normal,
+                                 const glm::vec4& view_origin, bool inverse_square_falloff);
 
 // `visible[k]` is light k's visibility at the point (empty: all visible).
 glm::vec3 EvaluatePhong(const PhongParams& params, const glm::vec3& point, const glm::vec3& unit_normal,
                         const glm::vec3& camera_center, const std::vector<scene::Light>& lights,
+                        const std::vector<bool>& visible, bool inverse_square_falloff);
+glm::vec3 EvaluatePhong(const PhongParams& params, const glm::vec3& point, const glm::vec3& unit_normal,
+                        const glm::vec4& view_origin, const std::vector<scene::Light>& lights,
                         const std::vector<bool>& visible, bool inverse_square_falloff);
 
 }  // namespace mvbrdf::render

@@ -196,9 +196,9 @@ struct PhongRenderer::Impl {
   // `clip_from_world` (depth-tested) or, with `uv_space`, at the UVs (no
   // depth test), shaded as seen from `camera_center`. Leaves the RGBA floats
   // of the target, bottom window row first, in `readback`.
-  absl::Status DrawShaded(const Pose& pose, const glm::mat4& clip_from_world, const glm::vec3& camera_center,
+  absl::Status DrawShaded(const Pose& pose, const glm::mat4& clip_from_world, const glm::vec4& camera_center,
                           bool uv_space, RenderTarget& target);
-  absl::Status DrawShadedPass(const glm::mat4& clip_from_world, const glm::vec3& camera_center, bool uv_space,
+  absl::Status DrawShadedPass(const glm::mat4& clip_from_world, const glm::vec4& camera_center, bool uv_space,
                               RenderTarget& target, std::vector<float>* out);
   std::vector<float> pass_readback;
   void Draw() const {
@@ -421,7 +421,7 @@ absl::Status PhongRenderer::Impl::PrepareLightPass(const Pose& pose, int pass) {
 }
 
 absl::Status PhongRenderer::Impl::DrawShaded(const Pose& pose, const glm::mat4& clip_from_world,
-                                             const glm::vec3& camera_center, bool uv_space, RenderTarget& target) {
+                                             const glm::vec4& camera_center, bool uv_space, RenderTarget& target) {
   // One light pass: the shadow maps stay valid across cameras. More: each
   // pass renders its own (GPU memory for 16 lights, whatever their number)
   // and the radiance is summed on the CPU (blending would also sum the
@@ -439,11 +439,11 @@ absl::Status PhongRenderer::Impl::DrawShaded(const Pose& pose, const glm::mat4& 
   return absl::OkStatus();
 }
 
-absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_world, const glm::vec3& camera_center,
+absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_world, const glm::vec4& camera_center,
                                                  bool uv_space, RenderTarget& target, std::vector<float>* out) {
   const GLuint program = phong_program.id();
   glProgramUniformMatrix4fv(program, kClipFromWorldLocation, 1, GL_FALSE, glm::value_ptr(clip_from_world));
-  glProgramUniform3fv(program, kCameraCenterLocation, 1, glm::value_ptr(camera_center));
+  glProgramUniform4fv(program, kCameraCenterLocation, 1, glm::value_ptr(camera_center));
   glProgramUniform1i(program, kAtlasModeLocation, mode == Mode::kAtlas ? 1 : 0);
   glProgramUniform1i(program, kFalloffLocation, options.inverse_square_falloff ? 1 : 0);
   glProgramUniform1i(program, kUvSpaceLocation, uv_space ? 1 : 0);
@@ -490,15 +490,27 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   return gl::CheckGlError("PhongRenderer: shading pass");
 }
 
+namespace {
+
+// A positive size and focal lengths (pinhole) or pixel size (orthographic).
+absl::Status CheckCameraScale(const scene::CameraModel& camera) {
+  const bool scale_ok = camera.orthographic() ? camera.pixel_size > 0.0 && std::isfinite(camera.pixel_size)
+                                              : camera.fx > 0.0 && camera.fy > 0.0;
+  if (camera.width > 0 && camera.height > 0 && scale_ok) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat("camera \"", camera.name, "\": need positive size and ",
+                   camera.orthographic() ? "pixel size" : "focal lengths", ", got ", camera.width, "x", camera.height,
+                   camera.orthographic() ? absl::StrCat(", pixel size ", camera.pixel_size)
+                                         : absl::StrCat(", fx ", camera.fx, ", fy ", camera.fy)));
+}
+
+}  // namespace
+
 absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene::CameraModel& camera) {
   Impl& r = *impl_;
   MVBRDF_RETURN_IF_ERROR(r.CheckContextAndPose("Render", pose));
   MVBRDF_RETURN_IF_ERROR(r.CheckMaterials("Render"));
-  if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0.0) || !(camera.fy > 0.0)) {
-    return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name,
-                                                   "\": need positive size and focal lengths, got ", camera.width, "x",
-                                                   camera.height, ", fx ", camera.fx, ", fy ", camera.fy));
-  }
+  MVBRDF_RETURN_IF_ERROR(CheckCameraScale(camera));
   if (const int max_side = MaxTargetSide(); camera.width > max_side || camera.height > max_side) {
     return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name, "\": an image of ", camera.width, "x",
                                                    camera.height, " exceeds the largest render target, ", max_side,
@@ -510,7 +522,7 @@ absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene
   const glm::dmat4 clip_from_world =
       ClipFromCamera(camera, clip.near_plane, clip.far_plane) * CamFromWorldMatrix(camera);
   // Window row 0 is image row 0 (see ClipFromCamera): no flip.
-  MVBRDF_RETURN_IF_ERROR(r.DrawShaded(pose, glm::mat4(clip_from_world), glm::vec3(camera.CenterInWorld()),
+  MVBRDF_RETURN_IF_ERROR(r.DrawShaded(pose, glm::mat4(clip_from_world), glm::vec4(camera.ViewOrigin()),
                                       /*uv_space=*/false, r.camera_target));
 
   RenderOutput output;
@@ -531,6 +543,14 @@ absl::StatusOr<RenderOutput> PhongRenderer::Render(const Pose& pose, const scene
 }
 
 absl::StatusOr<cv::Mat> PhongRenderer::RenderAtlas(const Pose& pose, const glm::vec3& camera_center, int size) {
+  return RenderAtlas(pose, glm::vec4(camera_center, 1.0f), size);
+}
+
+absl::StatusOr<cv::Mat> PhongRenderer::RenderAtlas(const Pose& pose, const scene::CameraModel& camera, int size) {
+  return RenderAtlas(pose, glm::vec4(camera.ViewOrigin()), size);
+}
+
+absl::StatusOr<cv::Mat> PhongRenderer::RenderAtlas(const Pose& pose, const glm::vec4& camera_center, int size) {
   Impl& r = *impl_;
   MVBRDF_RETURN_IF_ERROR(r.CheckContextAndPose("RenderAtlas", pose));
   if (!r.has_uvs) {
@@ -542,7 +562,8 @@ absl::StatusOr<cv::Mat> PhongRenderer::RenderAtlas(const Pose& pose, const glm::
   if (size < 1 || size > max_side) {
     return absl::InvalidArgumentError(absl::StrCat("size: must be in [1, ", max_side, "], got ", size));
   }
-  if (!std::isfinite(camera_center.x) || !std::isfinite(camera_center.y) || !std::isfinite(camera_center.z)) {
+  if (!std::isfinite(camera_center.x) || !std::isfinite(camera_center.y) || !std::isfinite(camera_center.z) ||
+      !std::isfinite(camera_center.w)) {
     return absl::InvalidArgumentError("camera_center: must be finite");
   }
   r.PreparePose(pose);
@@ -563,11 +584,7 @@ absl::StatusOr<cv::Mat> PhongRenderer::RenderTriangleIds(const Pose& pose, const
                                                          int supersample) {
   Impl& r = *impl_;
   MVBRDF_RETURN_IF_ERROR(r.CheckContextAndPose("RenderTriangleIds", pose));
-  if (camera.width <= 0 || camera.height <= 0 || !(camera.fx > 0.0) || !(camera.fy > 0.0)) {
-    return absl::InvalidArgumentError(absl::StrCat("camera \"", camera.name,
-                                                   "\": need positive size and focal lengths, got ", camera.width, "x",
-                                                   camera.height, ", fx ", camera.fx, ", fy ", camera.fy));
-  }
+  MVBRDF_RETURN_IF_ERROR(CheckCameraScale(camera));
   const int max_side = MaxTargetSide();
   if (supersample < 1 || static_cast<int64_t>(camera.width) * supersample > max_side ||
       static_cast<int64_t>(camera.height) * supersample > max_side) {
@@ -583,6 +600,7 @@ absl::StatusOr<cv::Mat> PhongRenderer::RenderTriangleIds(const Pose& pose, const
   scaled.height = camera.height * supersample;
   scaled.fx = camera.fx * s;
   scaled.fy = camera.fy * s;
+  scaled.pixel_size = camera.pixel_size / s;  // orthographic: u = X / pixel_size + c likewise
   scaled.cx = (camera.cx + 0.5) * s - 0.5;
   scaled.cy = (camera.cy + 0.5) * s - 0.5;
 

@@ -86,8 +86,8 @@ class PhongRenderer {
   // (GPU memory for 16 lights' maps, whatever their number).
   absl::Status SetLights(const std::vector<scene::Light>& lights);
 
-  // Renders the pose from the camera as an undistorted pinhole image with the
-  // camera's size and intrinsics (distortion is applied by the caller, e.g.
+  // Renders the pose from the camera as an undistorted pinhole (or
+  // orthographic) image with the camera's size and intrinsics (distortion is applied by the caller, e.g.
   // synth, with a remap). Changes the context's bindings (framebuffer,
   // program, textures, buffers); it leaves none of its objects bound that a
   // caller could rely on.
@@ -109,6 +109,11 @@ class PhongRenderer {
   // [1, the GL renderbuffer limit]. Shares the shadow-map cache with Render;
   // the same binding caveats apply.
   absl::StatusOr<cv::Mat> RenderAtlas(const Pose& pose, const glm::vec3& camera_center, int size);
+  // The same seen from `camera` (pinhole or orthographic: v as
+  // scene::CameraModel::ViewDirection), or from a homogeneous viewpoint
+  // (CameraModel::ViewOrigin: w = 1 a centre, w = 0 a constant direction).
+  absl::StatusOr<cv::Mat> RenderAtlas(const Pose& pose, const scene::CameraModel& camera, int size);
+  absl::StatusOr<cv::Mat> RenderAtlas(const Pose& pose, const glm::vec4& camera_center, int size);
 
   // Visibility truth: the index into RenderMesh::triangles of the triangle
   // visible at every pixel centre of the camera's undistorted pinhole image

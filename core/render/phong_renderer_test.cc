@@ -326,6 +326,82 @@ TEST_F(PhongRendererTest, WorldScaledBy1000Or0001RendersTheSameImage) {
   }
 }
 
+// Issue #13: an orthographic (telecentric) camera. Every pixel's ray is
+// parallel to the axis, starting at the pixel's point on the plane z_cam = 0,
+// and the specular term's v is the constant -z axis: the GPU image must match
+// the CPU ray cast and model pixel by pixel (coverage shows the projection
+// u = x / pixel_size + cx lands where CameraModel::Project says), and must not
+// match the model evaluated with a pinhole's v towards the camera centre.
+TEST_F(PhongRendererTest, OrthographicPixelsMatchTheCpuModelWithAConstantViewVector) {
+  RenderMesh mesh;
+  Pose pose;
+  constexpr double kHalf = 1.0;
+  AppendGrid(40, kHalf, 0.0, 0, &mesh, &pose);
+  RendererOptions options;
+  options.shadow_map_size = 512;
+  auto renderer = MakeRenderer(mesh, options);
+  ASSERT_NE(renderer, nullptr);
+  ProceduralMaterial material;
+  material.kd.base = {0.5f, 0.4f, 0.3f};
+  material.ks = {0.5f, 0.5f, 0.5f};
+  material.ke = {20.0f, 20.0f, 20.0f};
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+  const std::vector<scene::Light> lights = {PointLight({0.5f, 0.3f, 1.5f}, {1.0f, 0.9f, 0.8f})};
+  ASSERT_TRUE(renderer->SetLights(lights).ok());
+
+  scene::CameraModel camera = LookAtCamera({0.3, -2.2, 1.8}, {0, 0, 0}, 160, 120, 150.0);
+  camera.projection = scene::Projection::kOrthographic;
+  camera.fx = camera.fy = 0.0;
+  camera.pixel_size = 2.4 / 120.0;  // the quad (~2 x 1.3 seen at this slant) fills most of the image
+  absl::StatusOr<RenderOutput> output = renderer->Render(pose, camera);
+  ASSERT_TRUE(output.ok()) << output.status();
+  const float scale = MaxValue(output->radiance);
+  ASSERT_GT(scale, 0.0f);
+
+  const glm::dmat3 world_from_cam = glm::transpose(camera.cam_from_world_rotation);
+  const glm::dvec3 axis = world_from_cam * glm::dvec3(0, 0, 1);
+  PhongParams params;
+  params.kd = material.kd.base;
+  params.ks = material.ks;
+  params.ke = material.ke;
+  const glm::vec4 view(camera.ViewOrigin());
+  const glm::vec3 pinhole_center(camera.CenterInWorld());
+  int compared = 0, background = 0, pinhole_v_wrong = 0;
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const glm::dvec3 origin =
+          world_from_cam * (glm::dvec3((u - camera.cx) * camera.pixel_size, (v - camera.cy) * camera.pixel_size, 0.0) -
+                            camera.cam_from_world_translation);
+      const std::optional<glm::dvec3> hit = HitPlaneZ(origin, axis, 0.0);
+      const double inside = hit ? InsideSquare(*hit, kHalf) : -1.0;
+      if (std::abs(inside) < kEdgeMargin) continue;
+      if (hit) {  // the ray cast and the projection agree
+        const glm::dvec2 pixel = camera.Project(*hit);
+        ASSERT_NEAR(pixel.x, u, 1e-9);
+        ASSERT_NEAR(pixel.y, v, 1e-9);
+      }
+      const uint8_t coverage = output->coverage.at<uint8_t>(v, u);
+      if (inside < 0.0) {
+        EXPECT_EQ(coverage, 0) << "pixel " << u << ", " << v;
+        ++background;
+        continue;
+      }
+      ASSERT_EQ(coverage, 255) << "pixel " << u << ", " << v;
+      const glm::vec3 point(*hit);
+      const glm::vec3 expected = EvaluatePhong(params, point, {0, 0, 1}, view, lights, {}, false);
+      const cv::Vec3f actual = output->radiance.at<cv::Vec3f>(v, u);
+      EXPECT_LE(MaxChannelError(actual, expected), kRelativeTolerance * scale) << "pixel " << u << ", " << v;
+      const glm::vec3 as_pinhole = EvaluatePhong(params, point, {0, 0, 1}, pinhole_center, lights, {}, false);
+      if (MaxChannelError(actual, as_pinhole) > 10.0f * kRelativeTolerance * scale) ++pinhole_v_wrong;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 5000);
+  EXPECT_GT(background, 1000);
+  // The highlight moves: a pinhole's v would be wrong on much of the quad.
+  EXPECT_GT(pinhole_v_wrong, compared / 10);
+}
+
 // A coarse UV sphere: rest pose = pose, smooth vertex normals, three materials
 // in bands of rings (exercises the per-triangle material lookup).
 void MakeSphere(int rings, int segments, float radius, RenderMesh* mesh, Pose* pose) {

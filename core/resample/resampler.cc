@@ -41,6 +41,7 @@ constexpr GLint kDistortionA = 4;
 constexpr GLint kDistortionB = 5;
 constexpr GLint kMinCosView = 6;
 constexpr GLint kDepthScale = 7;
+constexpr GLint kOrthographic = 16;
 
 // Texture units of the full-screen passes.
 constexpr GLuint kPositionMapUnit = 0;
@@ -129,7 +130,15 @@ absl::Status CheckCamera(const scene::CameraModel& camera, size_t index) {
     return absl::InvalidArgumentError(
         absl::StrCat(field, ".width, height: must be > 0, got ", camera.width, "x", camera.height));
   }
-  if (!(camera.fx > 0.0) || !(camera.fy > 0.0) || !std::isfinite(camera.fx) || !std::isfinite(camera.fy)) {
+  if (camera.orthographic()) {
+    if (!(camera.pixel_size > 0.0) || !std::isfinite(camera.pixel_size)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ".pixel_size: must be finite and > 0, got ", camera.pixel_size));
+    }
+    if (camera.has_distortion()) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ".distortion: an orthographic camera has none"));
+    }
+  } else if (!(camera.fx > 0.0) || !(camera.fy > 0.0) || !std::isfinite(camera.fx) || !std::isfinite(camera.fy)) {
     return absl::InvalidArgumentError(
         absl::StrCat(field, ".fx, fy: must be finite and > 0, got ", camera.fx, ", ", camera.fy));
   }
@@ -475,9 +484,9 @@ absl::Status Resampler::Impl::EnsureDepthMap(CameraState& camera) {
   const double near_plane = clip.near_plane, far_plane = clip.far_plane;
   const DepthMapLayout& layout = camera.layout;
   const glm::dmat4 cam_from_world = render::CamFromWorldMatrix(camera.model);
-  const glm::mat4 clip_from_world(render::ClipFromCamera(camera.model.fx, camera.model.fy, layout.cx, layout.cy, layout.width,
-                                                 layout.height, near_plane, far_plane) *
-                                  cam_from_world);
+  const glm::mat4 clip_from_world(
+      render::ClipFromCamera(camera.model, layout.cx, layout.cy, layout.width, layout.height, near_plane, far_plane) *
+      cam_from_world);
   const glm::mat4 cam_from_world_f(cam_from_world);
   glProgramUniformMatrix4fv(depth_program.id(), kDepthClipFromWorld, 1, GL_FALSE, glm::value_ptr(clip_from_world));
   glProgramUniformMatrix4fv(depth_program.id(), kDepthCamFromWorld, 1, GL_FALSE, glm::value_ptr(cam_from_world_f));
@@ -553,11 +562,13 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   const scene::CameraModel& m = state.model;
   const GLuint program = r.camera_program.id();
   const glm::mat4 cam_from_world(render::CamFromWorldMatrix(m));
-  const glm::vec3 center(m.CenterInWorld());
+  const glm::vec4 view_origin(m.ViewOrigin());
+  const glm::dvec2 scale = m.PixelScale();
   glProgramUniformMatrix4fv(program, kCamFromWorld, 1, GL_FALSE, glm::value_ptr(cam_from_world));
-  glProgramUniform3fv(program, kCameraCenter, 1, glm::value_ptr(center));
-  glProgramUniform4f(program, kIntrinsics, static_cast<float>(m.fx), static_cast<float>(m.fy), static_cast<float>(m.cx),
-                     static_cast<float>(m.cy));
+  glProgramUniform4fv(program, kCameraCenter, 1, glm::value_ptr(view_origin));
+  glProgramUniform4f(program, kIntrinsics, static_cast<float>(scale.x), static_cast<float>(scale.y),
+                     static_cast<float>(m.cx), static_cast<float>(m.cy));
+  glProgramUniform1i(program, kOrthographic, m.orthographic() ? 1 : 0);
   glProgramUniform2f(program, kDepthPrincipal, static_cast<float>(state.layout.cx),
                      static_cast<float>(state.layout.cy));
   const std::vector<double>& k = m.distortion;

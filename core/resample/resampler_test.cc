@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <glm/gtc/matrix_transform.hpp>
+#include <limits>
 #include <vector>
 
 #include "core/gl/gl_api.h"
@@ -115,9 +116,16 @@ class ResamplerTest : public ::testing::Test {
 // Does the camera ray through `pixel` (distorted image coordinates) hit one
 // of the scene's quads?
 bool PixelSeesScene(const QuadScene& scene, const scene::CameraModel& camera, const glm::dvec2& pixel) {
-  const glm::dvec2 u = camera.Undistort({(pixel.x - camera.cx) / camera.fx, (pixel.y - camera.cy) / camera.fy});
-  const glm::dvec3 origin = camera.CenterInWorld();
-  const glm::dvec3 dir = glm::transpose(camera.cam_from_world_rotation) * glm::dvec3(u.x, u.y, 1.0);
+  const glm::dmat3 world_from_cam = glm::transpose(camera.cam_from_world_rotation);
+  glm::dvec3 origin = camera.CenterInWorld(), dir;
+  if (camera.orthographic()) {  // parallel rays from the plane z_cam = 0
+    const glm::dvec2 xy = (pixel - glm::dvec2(camera.cx, camera.cy)) * camera.pixel_size;
+    origin = world_from_cam * (glm::dvec3(xy, 0.0) - camera.cam_from_world_translation);
+    dir = world_from_cam * glm::dvec3(0.0, 0.0, 1.0);
+  } else {
+    const glm::dvec2 u = camera.Undistort({(pixel.x - camera.cx) / camera.fx, (pixel.y - camera.cy) / camera.fy});
+    dir = world_from_cam * glm::dvec3(u.x, u.y, 1.0);
+  }
   for (const Quad& q : scene.quads) {
     const glm::dvec3 n = glm::cross(q.edge_s, q.edge_t);
     const double denom = glm::dot(dir, n);
@@ -352,6 +360,60 @@ TEST_F(ResamplerTest, ShallowViewIsNotSelfOccluded) {
   EXPECT_GT(check.interior, check.covered / 2);  // measured: 35304 of 52900
   EXPECT_LT(check.max_error, kPixelTolerance);
   EXPECT_LT(check.max_band_error, kSilhouetteBandPixels);
+}
+
+// Issue #13: an orthographic camera with the same pose, pixel size
+// `pixel_size`, moved along its axis so that the nearest of `points` lies at
+// z_cam = `nearest_z` (an orthographic camera's depth origin is arbitrary).
+scene::CameraModel Orthographic(scene::CameraModel camera, double pixel_size, const std::vector<glm::dvec3>& points,
+                                double nearest_z) {
+  camera.projection = scene::Projection::kOrthographic;
+  camera.fx = camera.fy = 0.0;
+  camera.pixel_size = pixel_size;
+  double z = std::numeric_limits<double>::max();
+  for (const glm::dvec3& p : points) z = std::min(z, camera.CamFromWorld(p).z);
+  camera.cam_from_world_translation.z += nearest_z - z;
+  return camera;
+}
+
+const std::vector<glm::dvec3> kGroundCorners = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+
+TEST_F(ResamplerTest, OrthographicPlaneSamplesTheProjectedPixel) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 256);
+  const scene::CameraModel camera =
+      Orthographic(LookAtCamera({0.4, -0.5, 3.0}, {0.0, 0.0, 0.0}, 640, 480, 450.0), 2.9 / 480, kGroundCorners, 1.0);
+  auto resampler = Make(scene, {camera});
+  ASSERT_NE(resampler, nullptr);
+  auto rgba = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  const ProjectionCheck check = CheckProjection(scene, camera, *rgba);
+  EXPECT_GT(check.covered, 200 * 200);
+  EXPECT_EQ(check.interior_valid, check.interior);
+  EXPECT_GT(check.interior, check.covered * 9 / 10);
+  EXPECT_LT(check.max_error, kPixelTolerance);
+  EXPECT_LT(check.max_band_error, kSilhouetteBandPixels);
+}
+
+// At a grazing view with the plane z_cam = 0 just in front of the quad, the
+// depth changes by more than the relative tolerance between neighbouring
+// depth-map pixels; interpolating 1 / z (exact for a pinhole, not here)
+// would make the near rows occlude themselves (measured: 8740 of 50140
+// interior texels invalid). The facing test's v must be the axis: v towards
+// the "centre" on the plane z_cam = 0 made 25670 of them grazing.
+TEST_F(ResamplerTest, OrthographicShallowViewIsNotSelfOccluded) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.05, 0.95)}, 256);
+  const scene::CameraModel camera =
+      Orthographic(LookAtCamera({0.0, -10.0, 1.0}, {0.0, 0.0, 0.0}, 640, 480, 500.0), 2.2 / 640, kGroundCorners, 0.02);
+  auto resampler = Make(scene, {camera});
+  ASSERT_NE(resampler, nullptr);
+  auto rgba = resampler->ResampleCamera(0, PixelPositionFrame(camera.width, camera.height));
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  const ProjectionCheck check = CheckProjection(scene, camera, *rgba);
+  EXPECT_GT(check.covered, 40000);
+  EXPECT_EQ(check.interior_valid, check.interior);
+  EXPECT_GT(check.interior, check.covered / 3);
+  EXPECT_LT(check.max_error, kPixelTolerance);
+  RecordProperty("interior", check.interior);
 }
 
 TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {

@@ -79,7 +79,7 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
   for (uint32_t t : atlas.topology.zero_area_triangles) {
     if (t < zero_area.size()) zero_area[t] = true;
   }
-  const glm::vec3 center(camera.CenterInWorld());
+  const glm::vec4 view(camera.ViewOrigin());  // v: scene::ViewDirection (pinhole or orthographic)
   const size_t num_lights = lights.size();
   float g_row[kMaxLights], h_row[kMaxLights], falloff_row[kMaxLights];
   int visible_texels[kMaxLights];
@@ -96,7 +96,7 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
     if (!(length > 0.0f) || !std::isfinite(length)) continue;  // zero area in this pose
     const glm::vec3 n = cross / length;
     const glm::vec3 c = (p0 + p1 + p2) / 3.0f;
-    if (!(glm::dot(n, center - c) > 0.0f)) continue;  // back-facing (or edge-on)
+    if (!(glm::dot(n, scene::ViewDirection(view, c)) > 0.0f)) continue;  // back-facing (or edge-on)
 
     // Visibility of each light: the share of the triangle's texels whose
     // shadow bit is set.
@@ -115,7 +115,7 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
                                                   static_cast<double>(options.min_visible_fraction) * texels.size();
       if (visible) visible_bits |= 1u << k;
     }
-    const bool any_falloff = assemble_internal::LightRows(lights, c, n, center, visible_bits,
+    const bool any_falloff = assemble_internal::LightRows(lights, c, n, view, visible_bits,
                                                           options.inverse_square_falloff, g_row, h_row, falloff_row);
     out->Add(static_cast<uint32_t>(t), frame, camera_index, means[t].rgb, g_row, h_row,
              any_falloff || !out->falloff.empty() ? falloff_row : nullptr);

@@ -20,12 +20,12 @@ void Check(bool condition, const char* message);
 // g = a V max(0, l.n), h = V max(0, R(l).v) (0 where g = 0), a = fall-off.
 // `visible_bits`: bit k = light k visible. Returns whether any a != 1.
 inline bool LightRows(const std::vector<scene::Light>& lights, const glm::vec3& point, const glm::vec3& unit_normal,
-                      const glm::vec3& camera_center, uint32_t visible_bits, bool inverse_square_falloff,
-                      float* g_row, float* h_row, float* falloff_row) {
+                      const glm::vec4& view_origin, uint32_t visible_bits, bool inverse_square_falloff, float* g_row,
+                      float* h_row, float* falloff_row) {
   bool any_falloff = false;
   for (size_t k = 0; k < lights.size(); ++k) {
     const render::LightCosines c =
-        render::ComputeLightCosines(lights[k], point, unit_normal, camera_center, inverse_square_falloff);
+        render::ComputeLightCosines(lights[k], point, unit_normal, view_origin, inverse_square_falloff);
     const bool visible = (visible_bits >> k) & 1u;
     g_row[k] = visible ? c.g * c.attenuation : 0.0f;
     h_row[k] = visible ? c.h : 0.0f;
@@ -52,7 +52,7 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
         "ForEachTexelSample: shadows must be CV_16UC1 of the atlas size");
   Check(lights.size() <= static_cast<size_t>(kMaxLights), "ForEachTexelSample: more than kMaxLights lights");
 
-  const glm::vec3 center(camera.CenterInWorld());
+  const glm::vec4 view(camera.ViewOrigin());  // v: scene::ViewDirection (pinhole or orthographic)
   std::array<float, kMaxLights> g_row{}, h_row{}, falloff_row{};
   const int size = resampled.cols;
   for (int row = 0; row < size; ++row) {
@@ -71,9 +71,9 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
       const glm::vec3 n = n_raw / length;
       // The resampler already rejects back-facing texels; this guards against
       // a camera centre that differs from the one resampled with.
-      if (!(glm::dot(n, center - point) > 0.0f)) continue;
-      assemble_internal::LightRows(lights, point, n, center, bits[column], options.inverse_square_falloff,
-                                   g_row.data(), h_row.data(), falloff_row.data());
+      if (!(glm::dot(n, scene::ViewDirection(view, point)) > 0.0f)) continue;
+      assemble_internal::LightRows(lights, point, n, view, bits[column], options.inverse_square_falloff, g_row.data(),
+                                   h_row.data(), falloff_row.data());
       const uint32_t texel = static_cast<uint32_t>(row) * static_cast<uint32_t>(size) + static_cast<uint32_t>(column);
       const glm::vec3 rgb(value[column][0], value[column][1], value[column][2]);
       // A visitor taking a fifth argument also receives the fall-off row
@@ -100,7 +100,7 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
         "ForEachPixelSample: surface maps must be CV_32FC4 of one size");
   Check(shadows.type() == CV_16UC1 && shadows.rows == shadows.cols, "ForEachPixelSample: shadows must be CV_16UC1");
   Check(lights.size() <= static_cast<size_t>(kMaxLights), "ForEachPixelSample: more than kMaxLights lights");
-  const glm::vec3 center(camera.CenterInWorld());
+  const glm::vec4 view(camera.ViewOrigin());
   const int size = shadows.cols;
   const int map_w = surface.position_texel.cols, map_h = surface.position_texel.rows;
   const bool distorted = camera.has_distortion();
@@ -131,12 +131,12 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
       const float length = glm::length(n);
       if (!(length > 0.0f) || !std::isfinite(length)) continue;
       n /= length;
-      const glm::vec3 v = glm::normalize(center - point);
+      const glm::vec3 v = scene::ViewDirection(view, point);
       if (!(glm::dot(n, v) > static_cast<float>(min_cos_view))) continue;
       const int64_t texel = static_cast<int64_t>(p[3]) - 1;
       if (texel < 0 || texel >= static_cast<int64_t>(size) * size) continue;
       const uint16_t bits = shadows.at<uint16_t>(static_cast<int>(texel / size), static_cast<int>(texel % size));
-      assemble_internal::LightRows(lights, point, n, center, bits, options.inverse_square_falloff, g_row.data(),
+      assemble_internal::LightRows(lights, point, n, view, bits, options.inverse_square_falloff, g_row.data(),
                                    h_row.data(), falloff_row.data());
       const cv::Vec3f& rgb = frame.at<cv::Vec3f>(y, x);
       visit(static_cast<uint32_t>(texel), glm::vec3(rgb[0], rgb[1], rgb[2]), static_cast<const float*>(g_row.data()),

@@ -84,6 +84,33 @@ glm::vec3 Centre(const Fixture& f, int t) {
   return (f.positions[tri.x] + f.positions[tri.y] + f.positions[tri.z]) / 3.0f;
 }
 
+// Issue #13: an orthographic camera's v is its constant -z axis, here world
+// +z (looking down), so h = max(0, R(l).z) = l.z at every point; treating the
+// same camera as a pinhole at its centre (v towards (0.5, 0.5, 3)) gives
+// another h, and with it another fitted lobe.
+TEST(AppendTriangleSamples, OrthographicCameraHasAConstantViewVector) {
+  Fixture f = MakeFixture();
+  scene::CameraModel ortho = f.camera;
+  ortho.projection = scene::Projection::kOrthographic;
+  ortho.fx = ortho.fy = 0.0;
+  ortho.pixel_size = 1.0 / 64.0;
+  SampleSet set = MakeSampleSet(f.lights);
+  AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, ortho, 0, 0, f.lights, AssembleOptions{}, &set);
+  SampleSet as_pinhole = MakeSampleSet(f.lights);
+  AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, AssembleOptions{},
+                        &as_pinhole);
+  ASSERT_EQ(set.size(), 2u);
+  ASSERT_EQ(as_pinhole.size(), 2u);
+  const glm::vec3 c = Centre(f, 0);
+  const glm::vec3 l = glm::normalize(f.lights[0].position - c);  // light A, visible on triangle 0
+  const glm::vec3 r(-l.x, -l.y, l.z);                            // R(l) = 2 (l.n) n - l, n = +z
+  EXPECT_NEAR(set.h[0], l.z, kTolerance);
+  const float pinhole_h = glm::dot(r, glm::normalize(glm::vec3(0.5f, 0.5f, 3.0f) - c));
+  EXPECT_NEAR(as_pinhole.h[0], pinhole_h, kTolerance);
+  EXPECT_GT(std::abs(set.h[0] - as_pinhole.h[0]), 0.02f);  // measured 0.024: h^40 differs by a factor ~3
+  EXPECT_EQ(set.g[0], as_pinhole.g[0]);                    // g does not depend on the camera
+}
+
 TEST(MakeSampleSet, CopiesNamesAndIntensities) {
   const Fixture f = MakeFixture();
   const SampleSet set = MakeSampleSet(f.lights);

@@ -16,6 +16,30 @@ glm::dvec3 CameraModel::CenterInWorld() const {
   return -(glm::transpose(cam_from_world_rotation) * cam_from_world_translation);
 }
 
+glm::dvec4 CameraModel::ViewOrigin() const {
+  if (orthographic()) {
+    // -z_cam in world coordinates: minus the third row of R.
+    const glm::dmat3& r = cam_from_world_rotation;  // r[col][row]
+    return {-r[0][2], -r[1][2], -r[2][2], 0.0};
+  }
+  return glm::dvec4(CenterInWorld(), 1.0);
+}
+
+glm::dvec3 CameraModel::ViewDirection(const glm::dvec3& point_in_world) const {
+  const glm::dvec4 o = ViewOrigin();
+  return glm::normalize(glm::dvec3(o) - o.w * point_in_world);
+}
+
+glm::dvec2 CameraModel::PixelScale() const {
+  if (orthographic()) return glm::dvec2(1.0 / pixel_size);
+  return {fx, fy};
+}
+
+glm::dvec2 CameraModel::NormalizedCoordinates(const glm::dvec3& p) const {
+  if (orthographic()) return {p.x, p.y};
+  return {p.x / p.z, p.y / p.z};
+}
+
 glm::dvec3 CameraModel::CamFromWorld(const glm::dvec3& point_in_world) const {
   return cam_from_world_rotation * point_in_world + cam_from_world_translation;
 }
@@ -47,8 +71,17 @@ glm::dvec2 CameraModel::Project(const glm::dvec3& point_in_world) const {
     const double nan = std::numeric_limits<double>::quiet_NaN();
     return {nan, nan};
   }
-  const glm::dvec2 d = Distort({p.x / p.z, p.y / p.z});
-  return {fx * d.x + cx, fy * d.y + cy};
+  const glm::dvec2 d = Distort(NormalizedCoordinates(p));
+  return PixelScale() * d + glm::dvec2(cx, cy);
+}
+
+glm::dvec2 CameraModel::ProjectUndistorted(const glm::dvec3& point_in_world) const {
+  const glm::dvec3 p = CamFromWorld(point_in_world);
+  if (!(p.z > 0.0)) {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    return {nan, nan};
+  }
+  return PixelScale() * NormalizedCoordinates(p) + glm::dvec2(cx, cy);
 }
 
 CameraModel CameraModelFromProto(const v1::Camera& camera) {
@@ -56,6 +89,8 @@ CameraModel CameraModelFromProto(const v1::Camera& camera) {
   m.name = camera.name();
   m.width = static_cast<int>(camera.width());
   m.height = static_cast<int>(camera.height());
+  m.projection = camera.model() == v1::ORTHOGRAPHIC ? Projection::kOrthographic : Projection::kPinhole;
+  m.pixel_size = camera.pixel_size();
   m.fx = camera.intrinsics().fx();
   m.fy = camera.intrinsics().fy();
   m.cx = camera.intrinsics().cx();
@@ -76,6 +111,14 @@ void CameraModelToProto(const CameraModel& m, v1::Camera* camera) {
   camera->set_name(m.name);
   camera->set_width(static_cast<uint32_t>(m.width));
   camera->set_height(static_cast<uint32_t>(m.height));
+  // An unspecified model stays unspecified (the scene files of pinhole
+  // cameras keep their form); an orthographic one is written out.
+  if (m.orthographic()) {
+    camera->set_model(v1::ORTHOGRAPHIC);
+  } else if (camera->model() == v1::ORTHOGRAPHIC) {
+    camera->set_model(v1::PINHOLE);
+  }
+  camera->set_pixel_size(m.orthographic() ? m.pixel_size : 0.0);
   auto* in = camera->mutable_intrinsics();
   in->set_fx(m.fx);
   in->set_fy(m.fy);

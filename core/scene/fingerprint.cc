@@ -53,6 +53,10 @@ v1::CameraFingerprint CameraFingerprintOf(const v1::Camera& camera) {
   f.set_fy(camera.intrinsics().fy());
   f.set_cx(camera.intrinsics().cx());
   f.set_cy(camera.intrinsics().cy());
+  if (camera.model() == v1::ORTHOGRAPHIC) {
+    f.set_model(v1::ORTHOGRAPHIC);
+    f.set_pixel_size(camera.pixel_size());
+  }
   return f;
 }
 
@@ -86,6 +90,13 @@ absl::Status CompareFingerprints(const v1::SceneFingerprint& a, const v1::SceneF
       return differ(named + "image sizes", absl::StrCat(x.width(), "x", x.height()),
                     absl::StrCat(y.width(), "x", y.height()));
     }
+    const auto model_name = [](const v1::CameraFingerprint& c) {
+      return c.model() == v1::ORTHOGRAPHIC ? "orthographic" : "pinhole";
+    };
+    if (std::string(model_name(x)) != model_name(y)) {
+      return differ(named + "camera models", model_name(x), model_name(y));
+    }
+    if (x.pixel_size() != y.pixel_size()) return differ(named + "pixel sizes", x.pixel_size(), y.pixel_size());
     if (x.fx() != y.fx() || x.fy() != y.fy() || x.cx() != y.cx() || x.cy() != y.cy()) {
       return differ(named + "intrinsics (fx, fy, cx, cy)",
                     absl::StrFormat("(%g, %g, %g, %g)", x.fx(), x.fy(), x.cx(), x.cy()),

@@ -50,6 +50,29 @@ TEST(FingerprintTest, SameSceneMatchesAndEachDifferenceIsNamed) {
   b.mutable_cameras(0)->set_fx(b.cameras(0).fx() + 1);
   s = CompareFingerprints(a, b, "the run", "the truth");
   EXPECT_NE(s.message().find("camera \"cam0\": intrinsics (fx, fy, cx, cy) differ"), std::string::npos) << s.message();
+  // Issue #13: the camera model and pixel size (an orthographic camera taken
+  // for a pinhole is another scene).
+  v1::Camera ortho = seq->scene.cameras(0);
+  ortho.set_model(v1::ORTHOGRAPHIC);
+  ortho.set_pixel_size(0.01);
+  b = a;
+  *b.mutable_cameras(0) = CameraFingerprintOf(ortho);
+  s = CompareFingerprints(a, b, "the run", "the truth");
+  EXPECT_NE(s.message().find("camera \"cam0\": camera models differ: the run has pinhole, the truth has orthographic"),
+            std::string::npos)
+      << s.message();
+  v1::SceneFingerprint c = b;
+  c.mutable_cameras(0)->set_pixel_size(0.02);
+  s = CompareFingerprints(b, c, "the run", "the truth");
+  EXPECT_NE(s.message().find("camera \"cam0\": pixel sizes differ: the run has 0.01, the truth has 0.02"),
+            std::string::npos)
+      << s.message();
+  // PINHOLE and unspecified are the same model.
+  v1::Camera pinhole = seq->scene.cameras(0);
+  pinhole.set_model(v1::PINHOLE);
+  b = a;
+  *b.mutable_cameras(0) = CameraFingerprintOf(pinhole);
+  EXPECT_TRUE(CompareFingerprints(a, b, "the run", "the truth").ok());
   b = a;
   b.mutable_cameras()->RemoveLast();
   EXPECT_NE(CompareFingerprints(a, b, "the run", "the truth").message().find("camera counts differ"),

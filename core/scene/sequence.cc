@@ -158,8 +158,33 @@ absl::Status ValidateCameraGeometry(const v1::Camera& camera, const std::string&
     return Invalid(f + ".height", absl::StrCat("must be in 1..", kMaxImageSide, ", got ", camera.height()));
   }
   const v1::Intrinsics& in = camera.intrinsics();
-  MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fx", in.fx()));
-  MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fy", in.fy()));
+  if (!v1::CameraModel_IsValid(camera.model())) {
+    return Invalid(f + ".model", absl::StrCat("unknown value ", camera.model(), " (PINHOLE or ORTHOGRAPHIC)"));
+  }
+  if (camera.model() == v1::ORTHOGRAPHIC) {
+    // u = x_cam / pixel_size + cx: the focal lengths have no meaning, and a
+    // telecentric lens's distortion is not modelled.
+    MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".pixel_size", camera.pixel_size()));
+    for (const auto& [name, value] :
+         {std::pair<const char*, double>{".intrinsics.fx", in.fx()}, {".intrinsics.fy", in.fy()}}) {
+      if (value != 0.0) {
+        return Invalid(f + name, absl::StrCat("must be 0 (or absent) for an ORTHOGRAPHIC camera, whose scale is "
+                                              "pixel_size; got ",
+                                              Num(value)));
+      }
+    }
+    if (in.distortion_size() != 0) {
+      return Invalid(f + ".intrinsics.distortion", "must be empty for an ORTHOGRAPHIC camera (no distortion model)");
+    }
+  } else {
+    if (camera.pixel_size() != 0.0) {
+      return Invalid(f + ".pixel_size", absl::StrCat("only for an ORTHOGRAPHIC camera (set \"model\": "
+                                                     "\"ORTHOGRAPHIC\"); a pinhole camera's scale is fx, fy; got ",
+                                                     Num(camera.pixel_size())));
+    }
+    MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fx", in.fx()));
+    MVBRDF_RETURN_IF_ERROR(CheckPositive(f + ".intrinsics.fy", in.fy()));
+  }
   MVBRDF_RETURN_IF_ERROR(CheckFinite(f + ".intrinsics.cx", in.cx()));
   MVBRDF_RETURN_IF_ERROR(CheckFinite(f + ".intrinsics.cy", in.cy()));
   const int nd = in.distortion_size();
@@ -483,20 +508,24 @@ absl::Status CheckMeshFramesExist(const Sequence& seq) {
 // of a coarse mesh whose vertices are all outside the image still passes.
 absl::Status CheckCameraSeesMesh(const Sequence& seq, int i) {
   const CameraModel& camera = seq.cameras[static_cast<size_t>(i)];
-  // Frustum in normalised coordinates (x/z, y/z), widened by half the image.
-  const double x_lo = (-0.5 - 0.5 * camera.width - camera.cx) / camera.fx;
-  const double x_hi = (1.5 * camera.width - 0.5 - camera.cx) / camera.fx;
-  const double y_lo = (-0.5 - 0.5 * camera.height - camera.cy) / camera.fy;
-  const double y_hi = (1.5 * camera.height - 0.5 - camera.cy) / camera.fy;
-  // Bit k set: some vertex is inside plane k (z > 0, x >= x_lo z, x <= x_hi z, y >= y_lo z, y <= y_hi z).
+  // Frustum in normalised coordinates (x/z, y/z; orthographic: x, y),
+  // widened by half the image.
+  const glm::dvec2 scale = camera.PixelScale();
+  const double x_lo = (-0.5 - 0.5 * camera.width - camera.cx) / scale.x;
+  const double x_hi = (1.5 * camera.width - 0.5 - camera.cx) / scale.x;
+  const double y_lo = (-0.5 - 0.5 * camera.height - camera.cy) / scale.y;
+  const double y_hi = (1.5 * camera.height - 0.5 - camera.cy) / scale.y;
+  // Bit k set: some vertex is inside plane k (z > 0, x >= x_lo z, x <= x_hi z, y >= y_lo z, y <= y_hi z;
+  // orthographic: the planes x >= x_lo, ... parallel to the axis).
   unsigned inside_some = 0;
   for (const glm::vec3& p : seq.rest_positions) {
     const glm::dvec3 q = camera.CamFromWorld(glm::dvec3(p));
+    const double w = camera.orthographic() ? 1.0 : q.z;
     if (q.z > 0.0) inside_some |= 1u;
-    if (q.x >= x_lo * q.z) inside_some |= 2u;
-    if (q.x <= x_hi * q.z) inside_some |= 4u;
-    if (q.y >= y_lo * q.z) inside_some |= 8u;
-    if (q.y <= y_hi * q.z) inside_some |= 16u;
+    if (q.x >= x_lo * w) inside_some |= 2u;
+    if (q.x <= x_hi * w) inside_some |= 4u;
+    if (q.y >= y_lo * w) inside_some |= 8u;
+    if (q.y <= y_hi * w) inside_some |= 16u;
     if (inside_some == 31u) return absl::OkStatus();
   }
   const char* where = (inside_some & 1u) == 0   ? "behind the camera"
@@ -506,7 +535,12 @@ absl::Status CheckCameraSeesMesh(const Sequence& seq, int i) {
                                                 : "below its image";
   return Invalid(absl::StrCat("scene.cameras[", i, "]"),
                  absl::StrCat("sees none of the mesh in frame 0: all ", seq.rest_positions.size(), " vertices lie ",
-                              where, " (check cam_from_world: world to camera, OpenCV axes with z forward)"));
+                              where, " (check cam_from_world: world to camera, OpenCV axes with z forward",
+                              camera.orthographic() && (inside_some & 1u) == 0
+                                  ? "; an orthographic camera sees only z_cam > 0: choose translation[2] so that "
+                                    "the mesh lies in front of it"
+                                  : "",
+                              ")"));
 }
 
 Light LightFromProto(const v1::Light& l) {
@@ -649,10 +683,11 @@ std::string Summarize(const Sequence& seq) {
     const v1::Camera& c = scene.cameras(i);
     const CameraModel& m = seq.cameras[static_cast<size_t>(i)];
     const glm::dvec3 centre = m.CenterInWorld();
-    absl::StrAppend(&s, "  ", c.name(), ": ", c.width(), "x", c.height(), ", f = (", Num(m.fx), ", ", Num(m.fy),
-                    ") px, centre (", Num(centre.x), ", ", Num(centre.y), ", ", Num(centre.z), ")",
-                    m.has_distortion() ? ", distorted" : "", ", video ", c.video().path(), " (",
-                    c.video().encoding() == v1::LINEAR ? "linear" : "sRGB", ", ",
+    const std::string scale = m.orthographic() ? absl::StrCat("orthographic, pixel size ", Num(m.pixel_size))
+                                               : absl::StrCat("f = (", Num(m.fx), ", ", Num(m.fy), ") px");
+    absl::StrAppend(&s, "  ", c.name(), ": ", c.width(), "x", c.height(), ", ", scale, ", centre (", Num(centre.x),
+                    ", ", Num(centre.y), ", ", Num(centre.z), ")", m.has_distortion() ? ", distorted" : "", ", video ",
+                    c.video().path(), " (", c.video().encoding() == v1::LINEAR ? "linear" : "sRGB", ", ",
                     c.video().bit_depth() == 0 ? 8u : c.video().bit_depth(), "-bit)\n");
   }
   absl::StrAppend(&s, "Lights: ", seq.lights.size(),

@@ -493,5 +493,41 @@ TEST(SequenceTest, CloseUpOfACoarseMeshPasses) {
   EXPECT_TRUE(seq.ok()) << seq.status();
 }
 
+// Issue #13: an orthographic camera's frustum is a box along its axis
+// (normalised coordinates x, y, not x/z, y/z): it loads when it sees the
+// mesh, and one moved sideways off it is refused as a pinhole would be.
+TEST(SequenceTest, OrthographicCameraLoadsAndOneBesideTheMeshIsRefused) {
+  TempDir dir;
+  v1::Scene scene = FixtureScene();
+  v1::Camera* cam = scene.mutable_cameras(0);
+  cam->set_model(v1::ORTHOGRAPHIC);
+  cam->set_pixel_size(0.05);  // 32 x 24 pixels: 1.6 x 1.2 world units
+  cam->mutable_intrinsics()->clear_fx();
+  cam->mutable_intrinsics()->clear_fy();
+  auto seq = LoadSequence(WriteFixture(dir.path(), scene));
+  ASSERT_TRUE(seq.ok()) << seq.status();
+  EXPECT_TRUE(seq->cameras[0].orthographic());
+  EXPECT_EQ(seq->cameras[0].pixel_size, 0.05);
+  EXPECT_NE(Summarize(*seq).find("cam0: 32x24, orthographic, pixel size 0.05"), std::string::npos) << Summarize(*seq);
+
+  TempDir beside;
+  cam->mutable_cam_from_world()->set_translation(0, 4.5);  // the mesh 4 to 5.5 units right of the axis
+  auto refused = LoadSequence(WriteFixture(beside.path(), scene));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("scene.cameras[0]: sees none of the mesh in frame 0"), std::string::npos)
+      << refused.status();
+  EXPECT_NE(refused.status().message().find("right of its image"), std::string::npos) << refused.status();
+  // A telecentric calibration cannot tell the depth origin: the message says where to put it.
+  TempDir behind;
+  cam->mutable_cam_from_world()->set_translation(0, -0.5);
+  cam->mutable_cam_from_world()->set_translation(2, -10.0);
+  refused = LoadSequence(WriteFixture(behind.path(), scene));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().message().find("behind the camera (check cam_from_world: world to camera, OpenCV axes "
+                                            "with z forward; an orthographic camera sees only z_cam > 0"),
+            std::string::npos)
+      << refused.status();
+}
+
 }  // namespace
 }  // namespace mvbrdf::scene

@@ -76,6 +76,12 @@ Studio MakeStudio(const StudioOptions& options, const SubjectBounds& subject) {
     cam.cx = 0.5 * options.width - 0.5;
     cam.cy = 0.5 * options.height - 0.5;
     cam.distortion[0] = options.distortion_k1;
+    if (options.projection == scene::Projection::kOrthographic) {
+      cam.projection = scene::Projection::kOrthographic;
+      cam.pixel_size = glm::length(center - eye) / fy;
+      cam.fx = cam.fy = 0.0;
+      cam.distortion[0] = 0.0;
+    }
     cam.cam_from_world_rotation = LookAt(eye, center);
     cam.cam_from_world_translation = -(cam.cam_from_world_rotation * eye);
     studio.cameras.push_back(cam);

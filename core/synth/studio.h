@@ -24,8 +24,12 @@ struct StudioOptions {
   int height = 240;
   // Vertical field of view of every camera, degrees.
   double vertical_fov_deg = 40.0;
-  // Radial distortion k1 of every camera (0 = pinhole).
+  // Radial distortion k1 of every camera (0 = pinhole); pinhole cameras only.
   double distortion_k1 = 0.0;
+  // kOrthographic: the same ring of viewpoints and image sizes with
+  // orthographic cameras whose pixel size is the pinhole's at the subject's
+  // centre (distance / fy), so the subject fills the image alike.
+  scene::Projection projection = scene::Projection::kPinhole;
   // Light intensity (linear RGB, equal channels) of every ceiling light.
   float light_intensity = 0.6f;
 };

@@ -104,6 +104,13 @@ absl::StatusOr<Lighting> ParseLighting(absl::string_view name) {
   return absl::InvalidArgumentError(absl::StrCat("--lighting: expected studio or olat, got \"", name, "\""));
 }
 
+absl::StatusOr<scene::Projection> ParseCameraModel(absl::string_view name) {
+  if (name == "pinhole") return scene::Projection::kPinhole;
+  if (name == "orthographic") return scene::Projection::kOrthographic;
+  return absl::InvalidArgumentError(
+      absl::StrCat("--camera-model: expected pinhole or orthographic, got \"", name, "\""));
+}
+
 absl::Status SynthOptions::Check() const {
   MVBRDF_RETURN_IF_ERROR(CheckRange("--cameras", num_cameras, 1, 64));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--frames", num_frames, 1, 100000));
@@ -116,6 +123,9 @@ absl::Status SynthOptions::Check() const {
   MVBRDF_RETURN_IF_ERROR(CheckRange("--vertex-noise", vertex_noise, 0, 1));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--exposure", exposure, 0.01, 100));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--distortion", distortion_k1, -1, 1));
+  if (camera_model == scene::Projection::kOrthographic && distortion_k1 != 0.0) {
+    return absl::InvalidArgumentError("--distortion: an orthographic camera has no distortion (--camera-model)");
+  }
   MVBRDF_RETURN_IF_ERROR(CheckRange("--actor-segments", actor_segments, 6, 256));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--shadow-map-size", shadow_map_size, 64, 8192));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--dome", dome, 0, 1024));
@@ -148,6 +158,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   studio_options.width = options.width;
   studio_options.height = options.height;
   studio_options.distortion_k1 = options.distortion_k1;
+  studio_options.projection = options.camera_model;
   Studio studio = MakeStudio(studio_options, bounds);
   const bool olat = options.lighting == Lighting::kOlat;
   std::string wanted = StripSpaces(options.configuration);

@@ -21,6 +21,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/gl/egl_context.h"
+#include "core/scene/camera_model.h"
 #include "mvbrdf/v1/ground_truth.pb.h"
 
 namespace mvbrdf::synth {
@@ -37,6 +38,9 @@ enum class VideoFormat { kFfv1, kPng };
 // recorded in the scene's frame_lighting and the truth's frame_lighting.
 enum class Lighting { kStudio, kOlat };
 absl::StatusOr<Lighting> ParseLighting(absl::string_view name);
+
+// "pinhole" or "orthographic" (--camera-model).
+absl::StatusOr<scene::Projection> ParseCameraModel(absl::string_view name);
 
 struct SynthOptions {
   Preset preset = Preset::kActor;
@@ -65,6 +69,9 @@ struct SynthOptions {
   bool lossy_video = false;
   double exposure = 1.0;
   double distortion_k1 = 0.0;
+  // Pinhole or orthographic cameras (StudioOptions::projection); an
+  // orthographic camera has no distortion.
+  scene::Projection camera_model = scene::Projection::kPinhole;
   // Actor tessellation (ActorOptions::segments).
   int actor_segments = 24;
   int shadow_map_size = 1024;
