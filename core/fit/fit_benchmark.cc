@@ -47,7 +47,7 @@ void BM_FitPhong(benchmark::State& state) {
   int iterations = 0;
   double cost = 0.0;
   for (auto _ : state) {
-    absl::StatusOr<PhongFitResult> result = FitPhong(set, {}, 0xF, options);
+    absl::StatusOr<PhongFitResult> result = FitPhong(set, {}, samples::LightMask::FromBits(0xF), options);
     benchmark::DoNotOptimize(result);
     iterations = result->channels[0].iterations + result->channels[1].iterations + result->channels[2].iterations;
     cost = result->channels[0].final_cost + result->channels[1].final_cost + result->channels[2].final_cost;
@@ -69,7 +69,8 @@ void BM_SolveDiffuse(benchmark::State& state) {
   const samples::SampleSet& set = Samples(static_cast<size_t>(state.range(0)));
   const PhongRgb specular = testing::MakePhong({0, 0, 0}, {0.3, 0.6, 0.15}, {40, 40, 40});
   for (auto _ : state) {
-    DiffuseSolution solution = SolveDiffuse(set, 0xF, specular, kElements, DiffuseOptions());
+    DiffuseSolution solution =
+        SolveDiffuse(set, samples::LightMask::FromBits(0xF), specular, kElements, DiffuseOptions());
     benchmark::DoNotOptimize(solution);
   }
   state.counters["samples_per_s"] =
@@ -85,7 +86,7 @@ void BM_DiffuseAccumulator(benchmark::State& state) {
   for (auto _ : state) {
     DiffuseAccumulator accumulator(kElements);
     for (size_t i = 0; i < set.size(); ++i)
-      accumulator.Add(set.element[i], set.reflectance[i], set.Illumination(i, 0xF));
+      accumulator.Add(set.element[i], set.reflectance[i], set.Illumination(i, samples::LightMask::FromBits(0xF)));
     DiffuseSolution solution = accumulator.Solve(DiffuseOptions());
     benchmark::DoNotOptimize(solution);
   }
@@ -100,7 +101,7 @@ BENCHMARK(BM_DiffuseAccumulator)->Arg(1000000)->Unit(benchmark::kMillisecond);
 // build it (clamped cosines, ln h or kNoHighlight, w_k = I_k / I_max, r /
 // r_scale), for the evaluation benchmarks only.
 struct ChannelProblem {
-  std::vector<double> log_h;
+  internal::PhongTerms terms;
   internal::PhongChannelData data;
   size_t highlight_terms = 0;  // (i, k) pairs with h > 0: the exp() calls per evaluation
 };
@@ -109,30 +110,33 @@ std::unique_ptr<ChannelProblem> MakeChannelProblem(const samples::SampleSet& set
   auto problem = std::make_unique<ChannelProblem>();
   const int num_lights = set.num_lights();
   internal::PhongChannelData& data = problem->data;
-  data.num_lights = num_lights;
   double i_max = 0.0;
   for (int k = 0; k < num_lights; ++k) i_max = std::max(i_max, static_cast<double>(set.light_intensity[k][c]));
   for (int k = 0; k < num_lights; ++k) data.weight.push_back(set.light_intensity[k][c] / i_max);
   data.r.resize(set.size());
   data.diffuse.resize(set.size());
-  problem->log_h.resize(set.size() * num_lights);
   double sum_rr = 0.0;
   for (size_t i = 0; i < set.size(); ++i) {
     double g_sum = 0.0;
-    for (int k = 0; k < num_lights; ++k) {
-      const double g = internal::ClampedCosine(set.g[i * num_lights + k]);
-      const double h = internal::ClampedHighlight(g, set.h[i * num_lights + k]);
+    for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+      const int k = set.light[j];
+      const double g = internal::ClampedCosine(set.g[j]);
+      const double h = internal::ClampedHighlight(g, set.h[j]);
       g_sum += data.weight[k] * g;
-      problem->log_h[i * num_lights + k] = h > 0.0 ? std::log(h) : internal::kNoHighlight;
-      if (h > 0.0) ++problem->highlight_terms;
+      if (h > 0.0) {
+        problem->terms.slot.push_back(static_cast<uint16_t>(k));
+        problem->terms.log_h.push_back(std::log(h));
+        ++problem->highlight_terms;
+      }
     }
+    problem->terms.begin.push_back(problem->terms.slot.size());
     data.r[i] = set.reflectance[i][c];
     data.diffuse[i] = g_sum;
     sum_rr += data.r[i] * data.r[i];
   }
   const double r_scale = std::sqrt(sum_rr / static_cast<double>(set.size()));
   for (double& r : data.r) r /= r_scale;
-  data.log_h = problem->log_h.data();
+  problem->terms.Attach(&data);
   return problem;
 }
 
@@ -226,7 +230,7 @@ const TexelInputs& TexelAddInputs() {
     in.element = set.element;
     in.residual = set.reflectance;
     in.illumination.resize(set.size());
-    for (size_t i = 0; i < set.size(); ++i) in.illumination[i] = set.Illumination(i, 0xF);
+    for (size_t i = 0; i < set.size(); ++i) in.illumination[i] = set.Illumination(i, samples::LightMask::FromBits(0xF));
     return in;
   }();
   return inputs;
@@ -268,7 +272,8 @@ void BM_TexelSolveDiffuse(benchmark::State& state) {
   const PhongRgb specular = testing::MakePhong({0, 0, 0}, {0.3, 0.6, 0.15}, {40, 40, 40});
   const int threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    DiffuseSolution solution = SolveDiffuse(set, 0xF, specular, kTexels, DiffuseOptions(), threads);
+    DiffuseSolution solution =
+        SolveDiffuse(set, samples::LightMask::FromBits(0xF), specular, kTexels, DiffuseOptions(), threads);
     benchmark::DoNotOptimize(solution);
   }
   state.counters["observations_per_s"] =

@@ -60,14 +60,14 @@ std::string ToString(const PhongRgb &p) {
   return out.str();
 }
 
-glm::dvec3 ModelValue(const samples::SampleSet &set, size_t i, samples::LightMask mask, const PhongRgb &p,
+glm::dvec3 ModelValue(const samples::SampleSet &set, size_t i, const samples::LightMask &mask, const PhongRgb &p,
                       const glm::vec3 &kd) {
-  const int num_lights = set.num_lights();
   glm::dvec3 f(0.0);
-  for (int k = 0; k < num_lights; ++k) {
-    if (!(mask & (samples::LightMask{1} << k))) continue;
-    const double g = set.g[i * num_lights + k];
-    const double h = set.h[i * num_lights + k];
+  for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+    const int k = set.light[j];
+    if (!mask.Test(static_cast<size_t>(k))) continue;
+    const double g = set.g[j];
+    const double h = set.h[j];
     if (!(g > 0.0)) continue;
     for (int c = 0; c < 3; ++c) {
       const double spec = h > 0.0 ? std::pow(h, p[c].ke) : 0.0;
@@ -84,7 +84,7 @@ samples::SampleSet MakeSamples(const PhongRgb &truth, const GeneratorOptions &op
   std::normal_distribution<double> normal;
   const int num_lights = options.num_lights;
   const samples::LightMask mask =
-      options.true_mask != 0 ? options.true_mask : (samples::LightMask{1} << num_lights) - 1;
+      options.true_mask.Any() ? options.true_mask : samples::LightMask::FirstN(static_cast<size_t>(num_lights));
   double max_ke = 1.0;
   for (const PhongChannel &p : truth) max_ke = std::max(max_ke, p.ke);
   const double spread = options.highlight_spread > 0.0 ? options.highlight_spread : 1.5 / std::sqrt(max_ke);

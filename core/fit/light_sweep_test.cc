@@ -27,7 +27,7 @@ samples::SampleSet MakeSweepSamples() {
   GeneratorOptions generator;
   generator.num_samples = 4000;
   generator.num_lights = 6;
-  generator.true_mask = 0b011100;
+  generator.true_mask = samples::LightMask::FromBits(0b011100);
   generator.num_elements = kTriangles;
   generator.noise = 0.02;
   return MakeSamples(truth, generator, kd_of_element);
@@ -56,7 +56,7 @@ TEST(LightSweepTest, PicksTheGeneratingConfiguration) {
     EXPECT_EQ(row.lit_triangles, kTriangles);
     EXPECT_GT(row.seconds, 0.0);
   }
-  EXPECT_EQ(result->rows[1].mask, 0b011100u);
+  EXPECT_EQ(result->rows[1].mask, samples::LightMask::FromBits(0b011100u));
   // B's E_d is the noise level: sigma = 0.02 * mean reflectance.
   EXPECT_LT(result->rows[1].e_d, 0.5 * result->rows[0].e_d);
   EXPECT_LT(result->rows[1].e_d, 0.5 * result->rows[2].e_d);
