@@ -530,5 +530,45 @@ TEST(FitPhongTest, RejectsBadArguments) {
             absl::StatusCode::kInvalidArgument);
 }
 
+// Issue #13: 256 candidate lights, noise-free samples from a known truth.
+// OLAT (one light per sample, the lights >= 16 included) and a dense case
+// (16 lights per sample) recover kd, ks and ke exactly, with either solver;
+// a mask of the lights 128..255 fits only the samples they reach.
+TEST(FitPhongTest, TwoHundredFiftySixLightsRecoverTheTruth) {
+  const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40});
+  const LightMask all = LightMask::FirstN(256);
+  for (int on : {1, 16}) {
+    const SampleSet set = testing::MakeManyLightSamples(truth, 256, on, 8000);
+    EXPECT_EQ(set.num_terms(), set.size() * static_cast<size_t>(on));
+    for (Solver solver : {Solver::kLevenbergMarquardt, Solver::kPowell}) {
+      PhongFitOptions options;
+      options.solver = solver;
+      const PhongFitResult result = Fit(set, all, options);
+      EXPECT_EQ(result.samples_used, set.size());
+      const Errors e = WorstErrors(result.params, truth);
+      Report(std::string("256 lights, ") + std::to_string(on) + " on, " + SolverName(solver), e);
+      EXPECT_LT(e.kd, kExactTolerance);
+      EXPECT_LT(e.ks, kExactTolerance);
+      EXPECT_LT(e.ke, kExactKeTolerance);
+      EXPECT_EQ(result.flags() & (kKsKeNotIdentifiable | kKdNotIdentifiable | kNonFiniteInput), 0u);
+    }
+  }
+  // OLAT, only the upper half of the lights in the mask: the samples of the
+  // lower half are unlit (G = 0) and add nothing; the fit is still exact.
+  const SampleSet olat = testing::MakeManyLightSamples(truth, 256, 1, 8000);
+  LightMask upper;
+  for (size_t k = 128; k < 256; ++k) upper.Set(k);
+  const PhongFitResult result = Fit(olat, upper, PhongFitOptions());
+  const Errors e = WorstErrors(result.params, truth);
+  EXPECT_LT(e.kd, kExactTolerance);
+  EXPECT_LT(e.ke, kExactKeTolerance);
+  // EvaluateSample and SolveDiffuse see the same lights.
+  for (size_t i : {size_t{3}, size_t{200}, size_t{7999}}) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(EvaluateSample(olat, i, all, truth[c], c), olat.reflectance[i][c], 1e-5);
+  }
+  const DiffuseSolution diffuse = SolveDiffuse(olat, all, truth, 1, DiffuseOptions());
+  for (int c = 0; c < 3; ++c) EXPECT_LT(RelativeError(diffuse.kd[0][c], truth[c].kd), kExactTolerance);
+}
+
 }  // namespace
 }  // namespace mvbrdf::fit

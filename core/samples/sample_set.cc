@@ -481,13 +481,16 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
     return absl::DataLossError(absl::StrCat("sample set encoding: the samples' term counts add up to ", set.offset[n],
                                             ", the header says ", terms, " terms"));
   }
-  for (size_t j = 0; j < terms; ++j) set.light[j] = r.U16();
   for (size_t i = 0; i < n; ++i) {
+    int previous = -1;
     for (uint64_t j = set.offset[i]; j < set.offset[i + 1]; ++j) {
-      if (set.light[j] >= num_lights || (j > set.offset[i] && set.light[j] <= set.light[j - 1])) {
+      const uint16_t k = r.U16();
+      if (k >= num_lights || static_cast<int>(k) <= previous) {
         return absl::DataLossError(absl::StrCat("sample set encoding: sample ", i, " term ", j - set.offset[i],
-                                                ": light ", set.light[j], " is not ascending below ", num_lights));
+                                                ": light ", k, " is not ascending below ", num_lights));
       }
+      set.light[j] = k;
+      previous = k;
     }
   }
   for (float& v : set.g) v = r.Real(compact);
