@@ -210,8 +210,8 @@ samples::SampleSet MakeManyLightSamples(const PhongRgb &truth, int num_lights, i
       g[m] = static_cast<float>(glm::dot(l[m], n));
       h[m] = static_cast<float>(std::clamp(glm::dot(Reflect(l[m], n), v), 0.0, 1.0));
     }
-    set.AddTerms(static_cast<uint32_t>(i % num_elements), 0, 0, glm::vec3(0.0f), lights.size(), lights.data(),
-                 g.data(), h.data());
+    set.AddTerms(static_cast<uint32_t>(i % num_elements), 0, 0, glm::vec3(0.0f), lights.size(), lights.data(), g.data(),
+                 h.data());
   }
   const samples::LightMask all = samples::LightMask::FirstN(static_cast<size_t>(num_lights));
   for (size_t i = 0; i < set.size(); ++i) {

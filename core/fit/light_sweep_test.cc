@@ -193,8 +193,8 @@ TEST(LightSweepTest, PicksAmongTwoHundredFiftySixLights) {
       SweepConfigurations(set, kTriangles, configurations, PhongFitOptions(), DiffuseOptions());
   ASSERT_TRUE(result.ok()) << result.status();
   for (const SweepRow& row : result->rows) {
-    std::printf("MEASURED sweep (256 lights) %s: lit %u  E_a %.4g  E_d %.4g  %s\n", row.name.c_str(),
-                row.lit_triangles, row.e_a, row.e_d, testing::ToString(row.fit.params).c_str());
+    std::printf("MEASURED sweep (256 lights) %s: lit %u  E_a %.4g  E_d %.4g  %s\n", row.name.c_str(), row.lit_triangles,
+                row.e_a, row.e_d, testing::ToString(row.fit.params).c_str());
   }
   EXPECT_EQ(result->best, 1);
   EXPECT_EQ(result->rows[1].mask.Count(), 56u);
