@@ -20,8 +20,9 @@
 
 #include <filesystem>
 #include <functional>
-#include <opencv2/core.hpp>
 #include <string>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
