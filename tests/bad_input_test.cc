@@ -643,6 +643,22 @@ std::vector<BadInputCase> Cases() {
        C::OK,
        {}},
 
+      // Issue #13: up to 1024 candidate lights (samples::kMaxLights); more
+      // are refused at submit, naming scene.lights.
+      {"MoreThanTheMostLights",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           const v1::Light first = s->lights(0);
+           while (s->lights_size() < 1025) {
+             v1::Light* light = s->add_lights();
+             *light = first;
+             light->set_name(absl::StrCat("extra", s->lights_size()));
+           }
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.lights: at most 1024 lights, got 1025"}},
       // Issue #19 defect 7: 1e30 gave "mseBrdf": "Infinity" in a SUCCEEDED job.
       {"IntensityThatOverflowsFloatMaths",
        [](CaseInput& in) {

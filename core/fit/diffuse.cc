@@ -95,13 +95,11 @@ DiffuseSolution DiffuseAccumulator::Solve(const DiffuseOptions& options, const s
   return solution;
 }
 
-DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& specular,
+DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::LightMask& mask, const PhongRgb& specular,
                              size_t num_elements, const DiffuseOptions& options, int threads) {
-  const int num_lights = set.num_lights();
-  std::vector<int> lights;
-  for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
-    if (mask & (samples::LightMask{1} << k)) lights.push_back(k);
-  }
+  const size_t num_lights = static_cast<size_t>(set.num_lights());
+  std::vector<uint8_t> in_mask(num_lights, 0);
+  for (size_t k = 0; k < num_lights; ++k) in_mask[k] = mask.Test(k) ? 1 : 0;
   DiffuseAccumulator accumulator(num_elements);
   const bool same_exponent = specular[0].ke == specular[1].ke && specular[0].ke == specular[2].ke;
   const glm::dvec3 ks(specular[0].ks, specular[1].ks, specular[2].ks);
@@ -117,23 +115,23 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, samples::LightMask m
       if (element < first || element >= last) continue;  // not part of this solve / thread
       const glm::vec3& r = set.reflectance[i];
       if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z)) continue;
-      const float* g_row = set.g.data() + i * num_lights;
-      const float* h_row = set.h.data() + i * num_lights;
       glm::dvec3 illumination(0.0), spec(0.0);
       bool finite = true;
-      for (int k : lights) {
-        if (!std::isfinite(g_row[k]) || !std::isfinite(h_row[k])) {
+      for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+        const int k = set.light[j];
+        if (!in_mask[static_cast<size_t>(k)]) continue;
+        if (!std::isfinite(set.g[j]) || !std::isfinite(set.h[j])) {
           finite = false;
           break;
         }
-        const double g = internal::ClampedCosine(g_row[k]);
+        const double g = internal::ClampedCosine(set.g[j]);
         if (g == 0.0) continue;
-        const double h = internal::ClampedHighlight(g, h_row[k]);
+        const double h = internal::ClampedHighlight(g, set.h[j]);
         const glm::dvec3 intensity(set.light_intensity[k]);
         illumination += intensity * g;
         if (h > 0.0) {
           // Fall-off is folded into g but not into h (SampleSet::falloff).
-          const double a = set.Falloff(i, k);
+          const double a = set.TermFalloff(j);
           if (same_exponent) {
             spec += a * intensity * internal::SpecularPower(h, specular[0].ke);
           } else {

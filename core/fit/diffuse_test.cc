@@ -145,7 +145,8 @@ TEST(SolveDiffuseTest, RecoversPerElementKdWithSpecularRemoved) {
   // A NaN sample and one outside the element range are skipped.
   set.reflectance[0].x = std::nanf("");
   set.element[1] = 1000;
-  const DiffuseSolution solution = SolveDiffuse(set, 0xF, truth, kElements, DiffuseOptions());
+  const DiffuseSolution solution =
+      SolveDiffuse(set, samples::LightMask::FromBits(0xF), truth, kElements, DiffuseOptions());
   ASSERT_EQ(solution.kd.size(), kElements);
   double worst = 0.0;
   for (uint32_t e = 0; e < kElements; ++e) {
@@ -160,7 +161,8 @@ TEST(SolveDiffuseTest, RecoversPerElementKdWithSpecularRemoved) {
   EXPECT_EQ(solution.samples[0] + solution.samples[1], 2 * (3000 / kElements) - 2);
   // Threads split the elements; every number stays the same bit for bit.
   for (int threads : {2, 7}) {
-    const DiffuseSolution split = SolveDiffuse(set, 0xF, truth, kElements, DiffuseOptions(), threads);
+    const DiffuseSolution split =
+        SolveDiffuse(set, samples::LightMask::FromBits(0xF), truth, kElements, DiffuseOptions(), threads);
     EXPECT_EQ(split.mean_element_mse, solution.mean_element_mse) << threads;
     for (uint32_t e = 0; e < kElements; ++e) {
       EXPECT_EQ(split.kd[e], solution.kd[e]) << e;

@@ -3,13 +3,22 @@
 //   SolveDiffuse throughput over the same sets (per-element closed form);
 //   the Phong residual and Jacobian alone, block by block as Ceres calls it
 //   (PhongBlockCost, blocks of 1024 like FitPhong), with a flop estimate;
-//   the per-texel kd pass over a 512^2 atlas with ~10 observations a texel.
+//   the per-texel kd pass over a 512^2 atlas with ~10 observations a texel;
+//   issue #13: assembling texel Samples (ForEachTexelSample over a shadow
+//   atlas of ceil(L/16) channels, ApplyLightMask per frame) and fitting them
+//   (FitPhong LM) at 96 and 256 candidate lights, OLAT (one light on per
+//   frame) and dense (16 on), with the Samples' bytes, the bytes the dense
+//   layout of encoding v1 would have taken, and the process's peak RSS.
 // Run: scripts/bench-micro (JSON into out/bench/), or
 //      ninja -C build fit_benchmark && build/core/fit/fit_benchmark
+#include <sys/resource.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <memory>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -19,6 +28,7 @@
 #include "core/fit/phong_cost.h"
 #include "core/fit/phong_fit.h"
 #include "core/fit/phong_terms.h"
+#include "core/samples/assemble.h"
 
 namespace mvbrdf::fit {
 namespace {
@@ -47,7 +57,7 @@ void BM_FitPhong(benchmark::State& state) {
   int iterations = 0;
   double cost = 0.0;
   for (auto _ : state) {
-    absl::StatusOr<PhongFitResult> result = FitPhong(set, {}, 0xF, options);
+    absl::StatusOr<PhongFitResult> result = FitPhong(set, {}, samples::LightMask::FromBits(0xF), options);
     benchmark::DoNotOptimize(result);
     iterations = result->channels[0].iterations + result->channels[1].iterations + result->channels[2].iterations;
     cost = result->channels[0].final_cost + result->channels[1].final_cost + result->channels[2].final_cost;
@@ -69,7 +79,8 @@ void BM_SolveDiffuse(benchmark::State& state) {
   const samples::SampleSet& set = Samples(static_cast<size_t>(state.range(0)));
   const PhongRgb specular = testing::MakePhong({0, 0, 0}, {0.3, 0.6, 0.15}, {40, 40, 40});
   for (auto _ : state) {
-    DiffuseSolution solution = SolveDiffuse(set, 0xF, specular, kElements, DiffuseOptions());
+    DiffuseSolution solution =
+        SolveDiffuse(set, samples::LightMask::FromBits(0xF), specular, kElements, DiffuseOptions());
     benchmark::DoNotOptimize(solution);
   }
   state.counters["samples_per_s"] =
@@ -85,7 +96,7 @@ void BM_DiffuseAccumulator(benchmark::State& state) {
   for (auto _ : state) {
     DiffuseAccumulator accumulator(kElements);
     for (size_t i = 0; i < set.size(); ++i)
-      accumulator.Add(set.element[i], set.reflectance[i], set.Illumination(i, 0xF));
+      accumulator.Add(set.element[i], set.reflectance[i], set.Illumination(i, samples::LightMask::FromBits(0xF)));
     DiffuseSolution solution = accumulator.Solve(DiffuseOptions());
     benchmark::DoNotOptimize(solution);
   }
@@ -100,7 +111,7 @@ BENCHMARK(BM_DiffuseAccumulator)->Arg(1000000)->Unit(benchmark::kMillisecond);
 // build it (clamped cosines, ln h or kNoHighlight, w_k = I_k / I_max, r /
 // r_scale), for the evaluation benchmarks only.
 struct ChannelProblem {
-  std::vector<double> log_h;
+  internal::PhongTerms terms;
   internal::PhongChannelData data;
   size_t highlight_terms = 0;  // (i, k) pairs with h > 0: the exp() calls per evaluation
 };
@@ -109,30 +120,33 @@ std::unique_ptr<ChannelProblem> MakeChannelProblem(const samples::SampleSet& set
   auto problem = std::make_unique<ChannelProblem>();
   const int num_lights = set.num_lights();
   internal::PhongChannelData& data = problem->data;
-  data.num_lights = num_lights;
   double i_max = 0.0;
   for (int k = 0; k < num_lights; ++k) i_max = std::max(i_max, static_cast<double>(set.light_intensity[k][c]));
   for (int k = 0; k < num_lights; ++k) data.weight.push_back(set.light_intensity[k][c] / i_max);
   data.r.resize(set.size());
   data.diffuse.resize(set.size());
-  problem->log_h.resize(set.size() * num_lights);
   double sum_rr = 0.0;
   for (size_t i = 0; i < set.size(); ++i) {
     double g_sum = 0.0;
-    for (int k = 0; k < num_lights; ++k) {
-      const double g = internal::ClampedCosine(set.g[i * num_lights + k]);
-      const double h = internal::ClampedHighlight(g, set.h[i * num_lights + k]);
+    for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+      const int k = set.light[j];
+      const double g = internal::ClampedCosine(set.g[j]);
+      const double h = internal::ClampedHighlight(g, set.h[j]);
       g_sum += data.weight[k] * g;
-      problem->log_h[i * num_lights + k] = h > 0.0 ? std::log(h) : internal::kNoHighlight;
-      if (h > 0.0) ++problem->highlight_terms;
+      if (h > 0.0) {
+        problem->terms.slot.push_back(static_cast<uint16_t>(k));
+        problem->terms.log_h.push_back(std::log(h));
+        ++problem->highlight_terms;
+      }
     }
+    problem->terms.begin.push_back(problem->terms.slot.size());
     data.r[i] = set.reflectance[i][c];
     data.diffuse[i] = g_sum;
     sum_rr += data.r[i] * data.r[i];
   }
   const double r_scale = std::sqrt(sum_rr / static_cast<double>(set.size()));
   for (double& r : data.r) r /= r_scale;
-  data.log_h = problem->log_h.data();
+  problem->terms.Attach(&data);
   return problem;
 }
 
@@ -226,7 +240,7 @@ const TexelInputs& TexelAddInputs() {
     in.element = set.element;
     in.residual = set.reflectance;
     in.illumination.resize(set.size());
-    for (size_t i = 0; i < set.size(); ++i) in.illumination[i] = set.Illumination(i, 0xF);
+    for (size_t i = 0; i < set.size(); ++i) in.illumination[i] = set.Illumination(i, samples::LightMask::FromBits(0xF));
     return in;
   }();
   return inputs;
@@ -268,7 +282,8 @@ void BM_TexelSolveDiffuse(benchmark::State& state) {
   const PhongRgb specular = testing::MakePhong({0, 0, 0}, {0.3, 0.6, 0.15}, {40, 40, 40});
   const int threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    DiffuseSolution solution = SolveDiffuse(set, 0xF, specular, kTexels, DiffuseOptions(), threads);
+    DiffuseSolution solution =
+        SolveDiffuse(set, samples::LightMask::FromBits(0xF), specular, kTexels, DiffuseOptions(), threads);
     benchmark::DoNotOptimize(solution);
   }
   state.counters["observations_per_s"] =
@@ -283,6 +298,126 @@ BENCHMARK(BM_TexelSolveDiffuse)
     ->UseRealTime()
     ->Repetitions(3)
     ->ReportAggregatesOnly(true);
+
+// Issue #13: a 32 x 32 texel patch of the plane z = 0 (normals tilted per
+// texel), seen from above, under `lights` point lights on a ring; L frames,
+// frame f with lights f, f + L/16, ... on (OLAT: light f alone). Every light
+// is visible from every texel in the shadow atlas; the frame's mask clears
+// the others (FrameStream's ApplyLightMask).
+struct ManyLightScene {
+  cv::Mat resampled;
+  resample::GeometryAtlas geometry;
+  cv::Mat shadows;
+  scene::CameraModel camera;
+  std::vector<scene::Light> lights;
+};
+
+constexpr int kPatch = 32;
+
+ManyLightScene MakeManyLightScene(int num_lights) {
+  ManyLightScene s;
+  s.resampled = cv::Mat(kPatch, kPatch, CV_32FC4, cv::Scalar(0.3, 0.3, 0.3, 1.0));
+  s.geometry.position = cv::Mat(kPatch, kPatch, CV_32FC4);
+  s.geometry.normal = cv::Mat(kPatch, kPatch, CV_32FC4);
+  for (int r = 0; r < kPatch; ++r) {
+    for (int c = 0; c < kPatch; ++c) {
+      s.geometry.position.at<cv::Vec4f>(r, c) = {(c + 0.5f) / kPatch, (r + 0.5f) / kPatch, 0.0f, 1.0f};
+      const glm::vec3 n = glm::normalize(glm::vec3(0.3f * std::sin(0.7f * c), 0.3f * std::cos(0.5f * r), 1.0f));
+      s.geometry.normal.at<cv::Vec4f>(r, c) = {n.x, n.y, n.z, 1.0f};
+    }
+  }
+  s.shadows = cv::Mat(kPatch, kPatch, samples::ShadowAtlasType(static_cast<size_t>(num_lights)), cv::Scalar::all(0));
+  for (int r = 0; r < kPatch; ++r) {
+    for (int c = 0; c < kPatch; ++c) {
+      for (int k = 0; k < num_lights; ++k) samples::SetShadowBit(&s.shadows, r, c, static_cast<size_t>(k));
+    }
+  }
+  s.camera.name = "above";
+  s.camera.width = s.camera.height = 64;
+  s.camera.fx = s.camera.fy = 64;
+  s.camera.cx = s.camera.cy = 31.5;
+  s.camera.cam_from_world_rotation = glm::dmat3(glm::dvec3(1, 0, 0), glm::dvec3(0, -1, 0), glm::dvec3(0, 0, -1));
+  s.camera.cam_from_world_translation = -(s.camera.cam_from_world_rotation * glm::dvec3(0.5, 0.5, 3.0));
+  for (int k = 0; k < num_lights; ++k) {
+    scene::Light l;
+    l.name = "L" + std::to_string(k);
+    const float angle = 6.2831853f * static_cast<float>(k) / static_cast<float>(num_lights);
+    const float height = 0.5f + 2.0f * static_cast<float>(k % 7) / 7.0f;
+    l.position = {0.5f + 1.5f * std::cos(angle), 0.5f + 1.5f * std::sin(angle), height};
+    l.intensity = glm::vec3(1.0f + 0.002f * static_cast<float>(k));
+    s.lights.push_back(l);
+  }
+  return s;
+}
+
+int64_t PeakRssBytes() {
+  struct rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<int64_t>(usage.ru_maxrss) * 1024;
+}
+
+// Args: candidate lights, lights on per frame. One iteration assembles L
+// frames of texel Samples and fits them (LM, all lights in the mask).
+void BM_AssembleAndFitManyLights(benchmark::State& state) {
+  const int num_lights = static_cast<int>(state.range(0));
+  const int on = static_cast<int>(state.range(1));
+  const ManyLightScene s = MakeManyLightScene(num_lights);
+  const PhongRgb truth = testing::MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40});
+  const samples::LightMask all = samples::AllLights(static_cast<size_t>(num_lights));
+  double assemble_seconds = 0.0, fit_seconds = 0.0;
+  size_t sample_bytes = 0, samples_count = 0, terms = 0;
+  double kd_error = 0.0;
+  for (auto _ : state) {
+    auto t0 = std::chrono::steady_clock::now();
+    samples::SampleSet set = samples::MakeSampleSet(s.lights);
+    for (int f = 0; f < num_lights; ++f) {
+      samples::LightMask frame_on;
+      for (int m = 0; m < on; ++m) frame_on.Set(static_cast<size_t>((f + m * (num_lights / on)) % num_lights));
+      cv::Mat shadows = s.shadows.clone();
+      samples::ApplyLightMask(frame_on, static_cast<size_t>(num_lights), &shadows);
+      samples::ForEachTexelSample(s.resampled, s.geometry, shadows, s.camera, s.lights, samples::AssembleOptions{},
+                                  [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& t) {
+                                    set.AddTerms(texel, f, 0, rgb, t.count, t.light, t.g, t.h);
+                                  });
+    }
+    auto t1 = std::chrono::steady_clock::now();
+    // Reflectance from the truth, so that the fit has something to recover.
+    for (size_t i = 0; i < set.size(); ++i) {
+      for (int c = 0; c < 3; ++c) set.reflectance[i][c] = static_cast<float>(EvaluateSample(set, i, all, truth[c], c));
+    }
+    auto t2 = std::chrono::steady_clock::now();
+    absl::StatusOr<PhongFitResult> result = FitPhong(set, {}, all, PhongFitOptions());
+    auto t3 = std::chrono::steady_clock::now();
+    if (!result.ok()) {
+      state.SkipWithError(std::string(result.status().message()).c_str());
+      return;
+    }
+    assemble_seconds += std::chrono::duration<double>(t1 - t0).count();
+    fit_seconds += std::chrono::duration<double>(t3 - t2).count();
+    sample_bytes = set.MemoryBytes();
+    samples_count = set.size();
+    terms = set.num_terms();
+    kd_error = std::fabs(result->params[0].kd - truth[0].kd) / truth[0].kd;
+    benchmark::DoNotOptimize(result);
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["assemble_s"] = assemble_seconds / n;
+  state.counters["fit_s"] = fit_seconds / n;
+  state.counters["samples"] = static_cast<double>(samples_count);
+  state.counters["terms"] = static_cast<double>(terms);
+  state.counters["sample_bytes"] = static_cast<double>(sample_bytes);
+  // Encoding v1's in-memory layout: 19 bytes per sample + g and h per light.
+  state.counters["dense_bytes"] = static_cast<double>(samples_count) * (19.0 + 8.0 * num_lights);
+  state.counters["peak_rss_bytes"] = static_cast<double>(PeakRssBytes());
+  state.counters["kd_rel_error"] = kd_error;
+}
+BENCHMARK(BM_AssembleAndFitManyLights)
+    ->Args({96, 1})
+    ->Args({96, 16})
+    ->Args({256, 1})
+    ->Args({256, 16})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 }  // namespace
 }  // namespace mvbrdf::fit

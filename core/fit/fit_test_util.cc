@@ -60,14 +60,14 @@ std::string ToString(const PhongRgb &p) {
   return out.str();
 }
 
-glm::dvec3 ModelValue(const samples::SampleSet &set, size_t i, samples::LightMask mask, const PhongRgb &p,
+glm::dvec3 ModelValue(const samples::SampleSet &set, size_t i, const samples::LightMask &mask, const PhongRgb &p,
                       const glm::vec3 &kd) {
-  const int num_lights = set.num_lights();
   glm::dvec3 f(0.0);
-  for (int k = 0; k < num_lights; ++k) {
-    if (!(mask & (samples::LightMask{1} << k))) continue;
-    const double g = set.g[i * num_lights + k];
-    const double h = set.h[i * num_lights + k];
+  for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+    const int k = set.light[j];
+    if (!mask.Test(static_cast<size_t>(k))) continue;
+    const double g = set.g[j];
+    const double h = set.h[j];
     if (!(g > 0.0)) continue;
     for (int c = 0; c < 3; ++c) {
       const double spec = h > 0.0 ? std::pow(h, p[c].ke) : 0.0;
@@ -84,7 +84,7 @@ samples::SampleSet MakeSamples(const PhongRgb &truth, const GeneratorOptions &op
   std::normal_distribution<double> normal;
   const int num_lights = options.num_lights;
   const samples::LightMask mask =
-      options.true_mask != 0 ? options.true_mask : (samples::LightMask{1} << num_lights) - 1;
+      options.true_mask.Any() ? options.true_mask : samples::LightMask::FirstN(static_cast<size_t>(num_lights));
   double max_ke = 1.0;
   for (const PhongChannel &p : truth) max_ke = std::max(max_ke, p.ke);
   const double spread = options.highlight_spread > 0.0 ? options.highlight_spread : 1.5 / std::sqrt(max_ke);
@@ -162,6 +162,62 @@ samples::SampleSet MakeSamples(const PhongRgb &truth, const GeneratorOptions &op
     }
     if (options.clip > 0.0) r = glm::clamp(r, 0.0, options.clip);
     set.reflectance[i] = glm::vec3(r);
+  }
+  return set;
+}
+
+samples::SampleSet MakeManyLightSamples(const PhongRgb &truth, int num_lights, int lights_on, size_t num_samples,
+                                        uint32_t num_elements, const std::vector<glm::vec3> &kd_of_element,
+                                        uint64_t seed) {
+  Rng rng(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal;
+  samples::SampleSet set;
+  for (int k = 0; k < num_lights; ++k) {
+    set.light_names.push_back("L" + std::to_string(k));
+    set.light_intensity.emplace_back(0.5f + 0.01f * static_cast<float>(k % 100), 1.0f,
+                                     1.5f - 0.004f * static_cast<float>(k % 200));
+  }
+  double max_ke = 1.0;
+  for (const PhongChannel &p : truth) max_ke = std::max(max_ke, p.ke);
+  const double spread = 1.5 / std::sqrt(max_ke);
+  const int on = std::min(lights_on, num_lights);
+  const int stride = std::max(1, num_lights / std::max(on, 1));
+  std::vector<uint16_t> lights(static_cast<size_t>(on));
+  std::vector<float> g(static_cast<size_t>(on)), h(static_cast<size_t>(on));
+  for (size_t i = 0; i < num_samples; ++i) {
+    for (int m = 0; m < on; ++m) {
+      lights[static_cast<size_t>(m)] = static_cast<uint16_t>((i + static_cast<size_t>(m * stride)) % num_lights);
+    }
+    std::sort(lights.begin(), lights.end());
+    lights.erase(std::unique(lights.begin(), lights.end()), lights.end());
+    const glm::dvec3 n = RandomUnit(rng);
+    std::vector<glm::dvec3> l(lights.size());
+    for (glm::dvec3 &d : l) d = UpperHemisphere(n, 0.95, rng);
+    glm::dvec3 v = UpperHemisphere(n, 1.0, rng);
+    if (uniform(rng) < 0.5) {
+      const glm::dvec3 mirror = Reflect(l[0], n);
+      for (int attempt = 0; attempt < 20; ++attempt) {
+        const double angle = std::fabs(normal(rng)) * spread;
+        const glm::dvec3 candidate = std::cos(angle) * mirror + std::sin(angle) * RandomPerpendicular(mirror, rng);
+        if (glm::dot(candidate, n) > 0.0) {
+          v = candidate;
+          break;
+        }
+      }
+    }
+    for (size_t m = 0; m < lights.size(); ++m) {
+      g[m] = static_cast<float>(glm::dot(l[m], n));
+      h[m] = static_cast<float>(std::clamp(glm::dot(Reflect(l[m], n), v), 0.0, 1.0));
+    }
+    set.AddTerms(static_cast<uint32_t>(i % num_elements), 0, 0, glm::vec3(0.0f), lights.size(), lights.data(), g.data(),
+                 h.data());
+  }
+  const samples::LightMask all = samples::LightMask::FirstN(static_cast<size_t>(num_lights));
+  for (size_t i = 0; i < set.size(); ++i) {
+    const glm::vec3 kd =
+        kd_of_element.empty() ? glm::vec3(truth[0].kd, truth[1].kd, truth[2].kd) : kd_of_element[set.element[i]];
+    set.reflectance[i] = glm::vec3(ModelValue(set, i, all, truth, kd));
   }
   return set;
 }

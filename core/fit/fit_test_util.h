@@ -19,7 +19,7 @@ struct GeneratorOptions {
   size_t num_samples = 4000;
   int num_lights = 4;
   // Lights that produce the reflectance (all when 0); the set holds all.
-  samples::LightMask true_mask = 0;
+  samples::LightMask true_mask;
   glm::vec3 intensity{1.0f};  // every light's intensity
   uint32_t num_elements = 1;  // element = sample % num_elements
   // Fraction of samples viewed close to the mirror direction of one of their
@@ -45,8 +45,18 @@ struct GeneratorOptions {
 samples::SampleSet MakeSamples(const PhongRgb& truth, const GeneratorOptions& options,
                                const std::vector<glm::vec3>& kd_of_element = {});
 
+// Issue #13: `num_lights` candidate lights (intensities differ per light and
+// channel), each sample lit by `lights_on` of them (1: OLAT; the lights of
+// sample i are i, i + s, ... mod num_lights for a stride s), so a sample holds
+// only those terms. Half of the samples view the first light's mirror
+// direction closely (highlights for ks and ke). Reflectance from `truth`,
+// element = sample % num_elements, kd per element when `kd_of_element`.
+samples::SampleSet MakeManyLightSamples(const PhongRgb& truth, int num_lights, int lights_on, size_t num_samples,
+                                        uint32_t num_elements = 1, const std::vector<glm::vec3>& kd_of_element = {},
+                                        uint64_t seed = 1);
+
 // The model on sample i of `set` for `mask` with the given parameters (double).
-glm::dvec3 ModelValue(const samples::SampleSet& set, size_t i, samples::LightMask mask, const PhongRgb& p,
+glm::dvec3 ModelValue(const samples::SampleSet& set, size_t i, const samples::LightMask& mask, const PhongRgb& p,
                       const glm::vec3& kd);
 
 PhongRgb MakePhong(const glm::dvec3& kd, const glm::dvec3& ks, const glm::dvec3& ke);

@@ -25,15 +25,13 @@ bool NearlyEqual(double a, double b) {
 }
 
 // Triangles with at least one finite sample lit by a light of the mask.
-uint32_t CountLitTriangles(const samples::SampleSet& set, samples::LightMask mask, size_t num_triangles) {
-  const int num_lights = set.num_lights();
+uint32_t CountLitTriangles(const samples::SampleSet& set, const samples::LightMask& mask, size_t num_triangles) {
   std::vector<uint8_t> lit(num_triangles, 0);
   for (size_t i = 0; i < set.size(); ++i) {
     const uint32_t t = set.element[i];
     if (t >= num_triangles || lit[t]) continue;
-    const float* g_row = set.g.data() + i * num_lights;
-    for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
-      if ((mask & (samples::LightMask{1} << k)) && std::isfinite(g_row[k]) && g_row[k] > 0.0f) {
+    for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+      if (mask.Test(set.light[j]) && std::isfinite(set.g[j]) && set.g[j] > 0.0f) {
         lit[t] = 1;
         break;
       }
@@ -45,7 +43,8 @@ uint32_t CountLitTriangles(const samples::SampleSet& set, samples::LightMask mas
 // E_a (Eq. 6.7) over every finite Sample: mean over Samples and channels.
 // Summed in fixed chunks of Samples, then the chunks in order, so the value
 // does not depend on how many threads computed the chunks.
-double MeanSquaredError(const samples::SampleSet& set, samples::LightMask mask, const PhongRgb& params, int threads) {
+double MeanSquaredError(const samples::SampleSet& set, const samples::LightMask& mask, const PhongRgb& params,
+                        int threads) {
   constexpr size_t kChunk = size_t{1} << 16;
   const size_t chunks = (set.size() + kChunk - 1) / kChunk;
   std::vector<double> sums(chunks, 0.0);

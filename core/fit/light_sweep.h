@@ -25,7 +25,7 @@ struct LightConfiguration {
 struct SweepRow {
   std::string name;
   std::vector<std::string> lights;
-  samples::LightMask mask = 0;
+  samples::LightMask mask;
   uint32_t lit_triangles = 0;  // triangles with at least one sample lit (G > 0) by the configuration
   double e_a = 0.0;            // Eq. 6.7
   double e_d = 0.0;            // Eq. 6.8

@@ -55,13 +55,13 @@ struct Problem {
   std::string description;
   PhongRgb truth;
   samples::SampleSet set;
-  samples::LightMask mask = 0;
+  samples::LightMask mask;
 };
 
 // Our model (EvaluateSample, which honours fall-off) plus Gaussian noise of
 // sigma = noise * mean per channel: the generator's reflectances recomputed
 // after the intensities or fall-off were changed.
-void RecomputeReflectance(const PhongRgb& truth, samples::LightMask mask, double noise, uint64_t seed,
+void RecomputeReflectance(const PhongRgb& truth, const samples::LightMask& mask, double noise, uint64_t seed,
                           samples::SampleSet* set) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal;
@@ -88,7 +88,8 @@ std::vector<Problem> MakeProblems() {
     generator.num_elements = 1;
     generator.noise = noise;
     generator.seed = 17 + problems.size();
-    problems.push_back(Problem{name, description, truth, testing::MakeSamples(truth, generator), 0xF});
+    problems.push_back(
+        Problem{name, description, truth, testing::MakeSamples(truth, generator), samples::LightMask::FromBits(0xF)});
     return problems.back();
   };
   const PhongRgb ke40 = testing::MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40});
@@ -105,7 +106,7 @@ std::vector<Problem> MakeProblems() {
     // specular term.
     Problem& p = add("n1e5_falloff", "1e5 samples, lights 0-2 of 4, unequal RGB intensities, fall-off, noise 5%", ke40,
                      100000, 0.0);
-    p.mask = 0x7;
+    p.mask = samples::LightMask::FromBits(0x7);
     p.set.light_intensity = {glm::vec3(2.0f, 1.0f, 0.5f), glm::vec3(0.5f, 1.5f, 1.0f), glm::vec3(1.0f, 1.0f, 3.0f),
                              glm::vec3(4.0f, 4.0f, 4.0f)};
     std::mt19937_64 rng(5);
@@ -115,6 +116,17 @@ std::vector<Problem> MakeProblems() {
     RecomputeReflectance(p.truth, p.mask, 0.05, 6, &p.set);
   }
   return problems;
+}
+
+// Sample x light rows of a per-term array (SampleSet's CSR), `absent` where a
+// light does not reach a sample: the peers read dense rows.
+std::vector<double> DenseRows(const samples::SampleSet& set, const std::vector<float>& terms, double absent) {
+  const size_t num = static_cast<size_t>(set.num_lights());
+  std::vector<double> rows(set.size() * num, absent);
+  for (size_t i = 0; i < set.size(); ++i) {
+    for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) rows[i * num + set.light[j]] = terms[j];
+  }
+  return rows;
 }
 
 bool WriteF64(const std::filesystem::path& path, const std::vector<double>& values) {
@@ -174,31 +186,36 @@ std::string CeresDiagnosticsJson(const Problem& p, bool projected_line_search) {
   const PhongFitOptions options;
   std::vector<int> lights;
   for (int k = 0; k < set.num_lights(); ++k) {
-    if (p.mask & (samples::LightMask{1} << k)) lights.push_back(k);
+    if (p.mask.Test(static_cast<size_t>(k))) lights.push_back(k);
   }
   const int num_lights = static_cast<int>(lights.size());
   const size_t n = set.size();
-  std::vector<double> g(n * num_lights), log_h(n * num_lights), log_a;
-  if (!set.falloff.empty()) log_a.resize(n * num_lights);
+  std::vector<double> g(n * num_lights, 0.0), log_h(n * num_lights, internal::kNoHighlight), log_a;
+  if (!set.falloff.empty()) log_a.resize(n * num_lights, 0.0);
   for (size_t i = 0; i < n; ++i) {
     for (int m = 0; m < num_lights; ++m) {
       const int k = lights[m];
-      const double gc = internal::ClampedCosine(set.g[i * set.num_lights() + k]);
-      const double h = internal::ClampedHighlight(gc, set.h[i * set.num_lights() + k]);
-      g[i * num_lights + m] = gc;
-      log_h[i * num_lights + m] = h > 0.0 ? std::log(h) : internal::kNoHighlight;
-      if (!log_a.empty()) {
-        const double a = set.Falloff(i, k);
-        log_a[i * num_lights + m] = a > 0.0 && std::isfinite(a) ? std::log(a) : internal::kNoHighlight;
+      for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+        if (set.light[j] != k) continue;
+        const double gc = internal::ClampedCosine(set.g[j]);
+        const double h = internal::ClampedHighlight(gc, set.h[j]);
+        g[i * num_lights + m] = gc;
+        log_h[i * num_lights + m] = h > 0.0 ? std::log(h) : internal::kNoHighlight;
+        if (!log_a.empty()) {
+          const double a = set.TermFalloff(j);
+          log_a[i * num_lights + m] = a > 0.0 && std::isfinite(a) ? std::log(a) : internal::kNoHighlight;
+        }
       }
     }
+  }
+  internal::PhongTerms terms;
+  for (size_t i = 0; i < n; ++i) {
+    terms.AddDense(num_lights, log_h.data() + i * num_lights, log_a.empty() ? nullptr : log_a.data() + i * num_lights);
   }
   std::vector<std::string> channels;
   for (int c = 0; c < 3; ++c) {
     internal::PhongChannelData data;
-    data.num_lights = num_lights;
-    data.log_h = log_h.data();
-    data.log_a = log_a.empty() ? nullptr : log_a.data();
+    terms.Attach(&data);
     double i_max = 0.0;
     for (int k : lights) {
       data.weight.push_back(set.light_intensity[k][c]);
@@ -310,12 +327,10 @@ int Main(int argc, char** argv) {
     std::vector<double> reflectance, intensity;
     for (const glm::vec3& r : set.reflectance) reflectance.insert(reflectance.end(), {r.x, r.y, r.z});
     for (const glm::vec3& i : set.light_intensity) intensity.insert(intensity.end(), {i.x, i.y, i.z});
-    bool ok = WriteF64(dir / "reflectance.f64", reflectance) &&
-              WriteF64(dir / "g.f64", std::vector<double>(set.g.begin(), set.g.end())) &&
-              WriteF64(dir / "h.f64", std::vector<double>(set.h.begin(), set.h.end())) &&
-              WriteF64(dir / "intensity.f64", intensity);
+    bool ok = WriteF64(dir / "reflectance.f64", reflectance) && WriteF64(dir / "g.f64", DenseRows(set, set.g, 0.0)) &&
+              WriteF64(dir / "h.f64", DenseRows(set, set.h, 0.0)) && WriteF64(dir / "intensity.f64", intensity);
     if (!set.falloff.empty()) {
-      ok = ok && WriteF64(dir / "falloff.f64", std::vector<double>(set.falloff.begin(), set.falloff.end()));
+      ok = ok && WriteF64(dir / "falloff.f64", DenseRows(set, set.falloff, 1.0));
     }
     if (!ok) {
       std::fprintf(stderr, "fit_peer: %s: cannot write the arrays\n", dir.c_str());
@@ -331,7 +346,7 @@ int Main(int argc, char** argv) {
     }
     entries.push_back(absl::StrCat(
         "    {\"name\": \"", p.name, "\", \"description\": \"", p.description, "\", \"dir\": \"", p.name,
-        "\", \"samples\": ", set.size(), ", \"lights\": ", set.num_lights(), ", \"mask\": ", p.mask,
+        "\", \"samples\": ", set.size(), ", \"lights\": ", set.num_lights(), ", \"mask\": ", p.mask.Word(0),
         ", \"falloff\": ", set.falloff.empty() ? "false" : "true", ", \"truth\": [", absl::StrJoin(truth, ", "),
         "],\n     \"ours\": {\"lm\": ", SolverJson(lm), ",\n              \"powell\": ", SolverJson(powell),
         "},\n     \"ceres_lm_diagnostics\": ", CeresDiagnosticsJson(p, true),

@@ -35,6 +35,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -45,18 +46,45 @@ namespace mvbrdf::fit::internal {
 // Marks L_ik for h_ik = 0.
 constexpr double kNoHighlight = -std::numeric_limits<double>::infinity();
 
-// One channel's data. `log_h` (n * num_lights values, row per sample) is
-// shared by the three channels and owned by the caller.
+// One channel's data. The specular terms (lights with h > 0) of sample i
+// are j in [begin[i], begin[i + 1]) (CSR, size() + 1 offsets): slot[j]
+// indexes `weight`, log_h[j] = ln h. Shared by the three channels and owned
+// by the caller (PhongTerms).
 struct PhongChannelData {
-  int num_lights = 0;
+  const uint64_t* begin = nullptr;
+  const uint16_t* slot = nullptr;
   const double* log_h = nullptr;
-  // Optional, like log_h: ln a_ik of the inverse-square fall-off
+  // Optional, per term like log_h: ln a of the inverse-square fall-off
   // (SampleSet::falloff), added to the exponent: a h^ke = exp(ke ln h + ln a).
   const double* log_a = nullptr;
-  std::vector<double> weight;   // w_k, num_lights values
+  std::vector<double> weight;   // w per light slot
   std::vector<double> r;        // r_i
   std::vector<double> diffuse;  // G_i
   size_t size() const { return r.size(); }
+};
+
+// Owner of PhongChannelData's term arrays.
+struct PhongTerms {
+  std::vector<uint64_t> begin = {0};
+  std::vector<uint16_t> slot;
+  std::vector<double> log_h, log_a;
+  // Appends one sample from a dense row of `num_slots` ln h values
+  // (kNoHighlight: no term) and optionally ln a values.
+  void AddDense(int num_slots, const double* log_h_row, const double* log_a_row = nullptr) {
+    for (int k = 0; k < num_slots; ++k) {
+      if (log_h_row[k] == -std::numeric_limits<double>::infinity()) continue;
+      slot.push_back(static_cast<uint16_t>(k));
+      log_h.push_back(log_h_row[k]);
+      if (log_a_row != nullptr) log_a.push_back(log_a_row[k]);
+    }
+    begin.push_back(slot.size());
+  }
+  void Attach(PhongChannelData* data) const {
+    data->begin = begin.data();
+    data->slot = slot.data();
+    data->log_h = log_h.data();
+    data->log_a = log_a.empty() ? nullptr : log_a.data();
+  }
 };
 
 // Below this exp() returns a subnormal or 0.
@@ -64,19 +92,19 @@ constexpr double kExpUnderflow = -708.0;
 
 // S_i and D_i of sample i at exponent ke.
 inline void SpecularSums(const PhongChannelData& data, size_t i, double ke, double* s, double* d) {
-  const double* log_h = data.log_h + i * static_cast<size_t>(data.num_lights);
-  const double* log_a = data.log_a == nullptr ? nullptr : data.log_a + i * static_cast<size_t>(data.num_lights);
+  const size_t first = static_cast<size_t>(data.begin[i]), last = static_cast<size_t>(data.begin[i + 1]);
   double sum = 0.0, dsum = 0.0;
-  for (int k = 0; k < data.num_lights; ++k) {
-    if (log_h[k] == kNoHighlight) continue;
-    const double e = ke * log_h[k] + (log_a == nullptr ? 0.0 : log_a[k]);
+  for (size_t j = first; j < last; ++j) {
+    const double log_h = data.log_h[j];
+    if (log_h == kNoHighlight) continue;
+    const double e = ke * log_h + (data.log_a == nullptr ? 0.0 : data.log_a[j]);
     // exp underflows below ~-708 (to subnormals, then 0) and is several times
     // slower there; such a term adds nothing a double can hold beside the
     // others (measured: a third of the terms at ke = 1000).
     if (e < kExpUnderflow) continue;
-    const double p = data.weight[k] * std::exp(e);
+    const double p = data.weight[data.slot[j]] * std::exp(e);
     sum += p;
-    dsum += p * log_h[k];
+    dsum += p * log_h;
   }
   *s = sum;
   *d = dsum;

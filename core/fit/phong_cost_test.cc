@@ -25,9 +25,11 @@ constexpr double kGradientTolerance = 1e-6;
 //   J   = (-G, -S, -b * 0.9^10 * ln 0.9 * 10) = (-0.9, -0.3486784401, 0.073473880495405)
 TEST(PhongCostTest, HandComputedResidualAndJacobian) {
   const std::vector<double> log_h = {std::log(0.9), kNoHighlight};
+  PhongTerms terms;
+  terms.AddDense(2, log_h.data());
+  EXPECT_EQ(terms.slot, std::vector<uint16_t>{0});  // h = 0: no term
   PhongChannelData data;
-  data.num_lights = 2;
-  data.log_h = log_h.data();
+  terms.Attach(&data);
   data.weight = {1.0, 0.5};
   data.r = {0.7};
   data.diffuse = {1.0 * 0.5 + 0.5 * 0.8};
@@ -51,6 +53,7 @@ TEST(PhongCostTest, HandComputedResidualAndJacobian) {
 // highlight (h = 0) and one exact mirror (h = 1).
 struct RandomData {
   std::vector<double> log_h;
+  PhongTerms terms;
   PhongChannelData data;
 };
 
@@ -61,7 +64,6 @@ std::unique_ptr<RandomData> MakeRandomData(double spread, uint64_t seed) {
   constexpr int kLights = 3;
   constexpr size_t kSamples = 50;
   PhongChannelData& data = random->data;
-  data.num_lights = kLights;
   data.weight = {1.0, 0.3, 0.7};
   for (size_t i = 0; i < kSamples; ++i) {
     double g = 0.0;
@@ -70,10 +72,11 @@ std::unique_ptr<RandomData> MakeRandomData(double spread, uint64_t seed) {
       random->log_h.push_back(u < 0.25 ? kNoHighlight : (i == 3 && k == 0 ? 0.0 : std::log1p(-spread * u)));
       g += data.weight[k] * uniform(rng);
     }
+    random->terms.AddDense(kLights, random->log_h.data() + i * kLights);
     data.diffuse.push_back(g);
     data.r.push_back(uniform(rng));
   }
-  data.log_h = random->log_h.data();
+  random->terms.Attach(&data);
   return random;
 }
 
@@ -103,9 +106,10 @@ TEST(PhongCostTest, GradientCheckerAgreesWithAnalyticJacobian) {
 // Far beyond the lobe (ke = 1e4, h = 0.5) every term underflows to exactly 0.
 TEST(PhongCostTest, HugeExponentUnderflowsCleanly) {
   const std::vector<double> log_h = {std::log(0.5)};
+  PhongTerms terms;
+  terms.AddDense(1, log_h.data());
   PhongChannelData data;
-  data.num_lights = 1;
-  data.log_h = log_h.data();
+  terms.Attach(&data);
   data.weight = {1.0};
   data.r = {0.25};
   data.diffuse = {0.5};

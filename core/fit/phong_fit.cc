@@ -47,47 +47,58 @@ constexpr double kParameterTolerance = 1e-10;
 bool IsFinite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // The samples of one fit restricted to the lights of the mask; shared by the
-// three channels.
+// three channels. Per used sample its terms (CSR, like SampleSet's): the lit
+// ones (g > 0) for the diffuse sum, the highlight ones (h > 0) for the cost.
 struct PreparedSamples {
   std::vector<int> lights;     // light index per mask slot
   std::vector<uint32_t> used;  // sample indices whose inputs are finite
-  std::vector<double> g;       // used.size() * lights.size(): clamped cosines
-  std::vector<double> log_h;   // likewise: ln h, or kNoHighlight
-  std::vector<double> log_a;   // likewise: ln a (fall-off), empty without fall-off
-  bool non_finite = false;     // some sample was skipped
+  std::vector<uint64_t> g_begin = {0};
+  std::vector<uint16_t> g_slot;
+  std::vector<double> g;          // clamped cosines
+  internal::PhongTerms specular;  // ln h (and ln a) of the terms with h > 0
+  bool non_finite = false;        // some sample was skipped
 };
 
-PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indices, LightMask mask) {
+PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indices, const LightMask& mask) {
   PreparedSamples prep;
   const int num_lights = set.num_lights();
-  for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
-    if (mask & (LightMask{1} << k)) prep.lights.push_back(k);
-  }
+  std::vector<int> slot_of(static_cast<size_t>(num_lights), -1);
+  mask.ForEach([&](size_t k) {
+    if (k >= static_cast<size_t>(num_lights)) return;
+    slot_of[k] = static_cast<int>(prep.lights.size());
+    prep.lights.push_back(static_cast<int>(k));
+  });
   const size_t count = indices.empty() ? set.size() : indices.size();
   prep.used.reserve(count);
-  prep.g.reserve(count * prep.lights.size());
-  prep.log_h.reserve(count * prep.lights.size());
-  for (size_t j = 0; j < count; ++j) {
-    const size_t i = indices.empty() ? j : indices[j];
+  for (size_t u = 0; u < count; ++u) {
+    const size_t i = indices.empty() ? u : indices[u];
     bool finite = IsFinite(set.reflectance[i]);
-    const float* g_row = set.g.data() + i * num_lights;
-    const float* h_row = set.h.data() + i * num_lights;
-    for (int k : prep.lights) finite = finite && std::isfinite(g_row[k]) && std::isfinite(h_row[k]);
+    for (size_t j = set.TermsBegin(i); finite && j < set.TermsEnd(i); ++j) {
+      finite = slot_of[set.light[j]] < 0 || (std::isfinite(set.g[j]) && std::isfinite(set.h[j]));
+    }
     if (!finite) {
       prep.non_finite = true;
       continue;
     }
     prep.used.push_back(static_cast<uint32_t>(i));
-    for (int k : prep.lights) {
-      const double g = internal::ClampedCosine(g_row[k]);
-      const double h = internal::ClampedHighlight(g, h_row[k]);
+    for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+      const int slot = slot_of[set.light[j]];
+      if (slot < 0) continue;
+      const double g = internal::ClampedCosine(set.g[j]);
+      if (g == 0.0) continue;
+      const double h = internal::ClampedHighlight(g, set.h[j]);
+      prep.g_slot.push_back(static_cast<uint16_t>(slot));
       prep.g.push_back(g);
-      prep.log_h.push_back(h > 0.0 ? std::log(h) : kNoHighlight);
+      if (!(h > 0.0)) continue;
+      prep.specular.slot.push_back(static_cast<uint16_t>(slot));
+      prep.specular.log_h.push_back(std::log(h));
       if (!set.falloff.empty()) {
-        const double a = set.Falloff(i, k);
-        prep.log_a.push_back(a > 0.0 && std::isfinite(a) ? std::log(a) : kNoHighlight);
+        const double a = set.TermFalloff(j);
+        prep.specular.log_a.push_back(a > 0.0 && std::isfinite(a) ? std::log(a) : kNoHighlight);
       }
     }
+    prep.g_begin.push_back(prep.g.size());
+    prep.specular.begin.push_back(prep.specular.slot.size());
   }
   return prep;
 }
@@ -196,13 +207,10 @@ void SolvePowell(const PhongChannelData& data, const bool* free, const double* l
 
 ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int c, const PhongFitOptions& options) {
   ChannelOutcome out;
-  const int num_lights = static_cast<int>(prep.lights.size());
   const size_t n = prep.used.size();
 
   PhongChannelData data;
-  data.num_lights = num_lights;
-  data.log_h = prep.log_h.data();
-  data.log_a = prep.log_a.empty() ? nullptr : prep.log_a.data();
+  prep.specular.Attach(&data);
   double i_max = 0.0;
   for (int k : prep.lights) {
     const double intensity = set.light_intensity[k][c];
@@ -219,7 +227,7 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
     const double r = set.reflectance[prep.used[i]][c];
     sum_rr += r * r;
     double g_sum = 0.0;
-    for (int k = 0; k < num_lights; ++k) g_sum += data.weight[k] * prep.g[i * num_lights + k];
+    for (uint64_t j = prep.g_begin[i]; j < prep.g_begin[i + 1]; ++j) g_sum += data.weight[prep.g_slot[j]] * prep.g[j];
     data.r[i] = r;
     data.diffuse[i] = g_sum;
   }
@@ -234,9 +242,9 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   size_t diffuse_samples = 0, highlight_samples = 0;
   for (size_t i = 0; i < n; ++i) {
     if (data.diffuse[i] > options.min_cosine) ++diffuse_samples;
-    for (int k = 0; k < num_lights; ++k) {
-      const double log_h = prep.log_h[i * num_lights + k];
-      if (data.weight[k] > 0.0 && log_h != kNoHighlight && log_h > log_highlight) {
+    for (uint64_t j = data.begin[i]; j < data.begin[i + 1]; ++j) {
+      const double log_h = data.log_h[j];
+      if (data.weight[data.slot[j]] > 0.0 && log_h != kNoHighlight && log_h > log_highlight) {
         ++highlight_samples;
         break;
       }
@@ -346,26 +354,33 @@ absl::Status PhongFitOptions::Check() const {
   return absl::OkStatus();
 }
 
-absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<uint32_t>& indices, LightMask mask,
-                                        const PhongFitOptions& options) {
+absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<uint32_t>& indices,
+                                        const LightMask& mask, const PhongFitOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   if (absl::Status status = options.Check(); !status.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("PhongFitOptions.", status.message()));
   }
   const size_t num_lights = static_cast<size_t>(set.num_lights());
-  if (set.light_intensity.size() != num_lights || set.g.size() != set.size() * num_lights ||
-      set.h.size() != set.size() * num_lights || set.reflectance.size() != set.size()) {
-    return absl::InvalidArgumentError(absl::StrCat("SampleSet: inconsistent sizes (", set.size(), " samples, ",
-                                                   num_lights, " lights, ", set.light_intensity.size(),
-                                                   " intensities, ", set.g.size(), " g, ", set.h.size(), " h, ",
-                                                   set.reflectance.size(), " reflectances)"));
-  }
-  if (num_lights < static_cast<size_t>(samples::kMaxLights) && (mask >> num_lights) != 0) {
+  if (set.light_intensity.size() != num_lights || set.offset.size() != set.size() + 1 ||
+      set.offset.back() != set.num_terms() || set.g.size() != set.num_terms() || set.h.size() != set.num_terms() ||
+      (!set.falloff.empty() && set.falloff.size() != set.num_terms()) || set.reflectance.size() != set.size()) {
     return absl::InvalidArgumentError(
-        absl::StrCat("mask: selects lights beyond the set's ", num_lights, " lights (mask ", mask, ")"));
+        absl::StrCat("SampleSet: inconsistent sizes (", set.size(), " samples, ", num_lights, " lights, ",
+                     set.light_intensity.size(), " intensities, ", set.offset.size(), " offsets, ", set.num_terms(),
+                     " terms, ", set.g.size(), " g, ", set.h.size(), " h, ", set.reflectance.size(), " reflectances)"));
+  }
+  for (size_t j = 0; j < set.num_terms(); ++j) {
+    if (set.light[j] >= num_lights) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("SampleSet: term ", j, " names light ", set.light[j], " of ", num_lights));
+    }
+  }
+  if (mask.End() > num_lights) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mask: selects lights beyond the set's ", num_lights, " lights (mask ", mask.ToString(), ")"));
   }
   for (size_t k = 0; k < num_lights; ++k) {
-    if (!(mask & (LightMask{1} << k))) continue;
+    if (!mask.Test(k)) continue;
     const glm::vec3& intensity = set.light_intensity[k];
     if (!IsFinite(intensity) || intensity.x < 0.0f || intensity.y < 0.0f || intensity.z < 0.0f) {
       return absl::InvalidArgumentError(absl::StrCat("light_intensity[", k, "] (", set.light_names[k],
@@ -396,16 +411,14 @@ absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<
   return result;
 }
 
-double EvaluateSample(const SampleSet& set, size_t i, LightMask mask, const PhongChannel& p, int c) {
-  const int num_lights = set.num_lights();
-  const float* g_row = set.g.data() + i * num_lights;
-  const float* h_row = set.h.data() + i * num_lights;
+double EvaluateSample(const SampleSet& set, size_t i, const LightMask& mask, const PhongChannel& p, int c) {
   double f = 0.0;
-  for (int k = 0; k < num_lights && k < samples::kMaxLights; ++k) {
-    if (!(mask & (LightMask{1} << k))) continue;
-    const double g = internal::ClampedCosine(g_row[k]);
-    const double h = internal::ClampedHighlight(g, h_row[k]);
-    f += set.light_intensity[k][c] * (p.kd * g + p.ks * set.Falloff(i, k) * internal::SpecularPower(h, p.ke));
+  for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+    const int k = set.light[j];
+    if (!mask.Test(static_cast<size_t>(k))) continue;
+    const double g = internal::ClampedCosine(set.g[j]);
+    const double h = internal::ClampedHighlight(g, set.h[j]);
+    f += set.light_intensity[k][c] * (p.kd * g + p.ks * set.TermFalloff(j) * internal::SpecularPower(h, p.ke));
   }
   return f;
 }

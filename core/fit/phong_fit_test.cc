@@ -39,7 +39,30 @@ constexpr double kSolverCostAgreement = 1e-6;
 // Same data under a different intensity scale: relative difference.
 constexpr double kScaleInvariance = 1e-6;
 
-constexpr LightMask kAllFour = 0xF;
+const LightMask kAllFour = LightMask::FromBits(0xF);
+
+// `set` with a term for every light of every sample (the ones that did not
+// reach it with g = 0 and h = `h_absent`), built on the arrays directly: term
+// i * L + k is light k of sample i, as in a dense layout. A compact set can
+// hold g = 0 terms (a tiny g rounded to 0 in the half encoding); the fits
+// must treat them as unlit whatever h says.
+SampleSet WithEveryLight(const SampleSet& set, float h_absent) {
+  SampleSet out = set;
+  const size_t num = static_cast<size_t>(set.num_lights());
+  out.offset.assign(1, 0);
+  out.light.clear();
+  out.g.clear();
+  out.h.clear();
+  for (size_t i = 0; i < set.size(); ++i) {
+    for (size_t k = 0; k < num; ++k) {
+      out.light.push_back(static_cast<uint16_t>(k));
+      out.g.push_back(set.GOf(i, static_cast<int>(k)));
+      out.h.push_back(out.g.back() == 0.0f ? h_absent : set.HOf(i, static_cast<int>(k)));
+    }
+    out.offset.push_back(out.light.size());
+  }
+  return out;
+}
 
 double RelativeError(double value, double truth) {
   return std::fabs(value - truth) / std::max(std::fabs(truth), 1e-300);
@@ -81,7 +104,7 @@ void Report(const std::string& name, const Errors& e) {
   std::printf("MEASURED %-40s kd %.3g  ks %.3g  ke %.3g\n", name.c_str(), e.kd, e.ks, e.ke);
 }
 
-PhongFitResult Fit(const SampleSet& set, LightMask mask, const PhongFitOptions& options,
+PhongFitResult Fit(const SampleSet& set, const LightMask& mask, const PhongFitOptions& options,
                    const std::vector<uint32_t>& indices = {}) {
   absl::StatusOr<PhongFitResult> result = FitPhong(set, indices, mask, options);
   EXPECT_TRUE(result.ok()) << result.status();
@@ -129,8 +152,10 @@ TEST(FitPhongTest, FalloffScalesTheSpecularTermLinearly) {
   // Hand check of one sample: sum_k I (kd g + ks a h^ke).
   double expected = 0.0;
   for (int k = 0; k < 4; ++k) {
-    const double g = std::max(0.0f, set.g[k]), h = g > 0.0 ? std::min(1.0f, std::max(0.0f, set.h[k])) : 0.0;
-    expected += truth[0].kd * g + truth[0].ks * set.falloff[k] * (h > 0.0 ? std::pow(h, truth[0].ke) : 0.0);
+    const size_t j = set.TermsBegin(0) + static_cast<size_t>(k);
+    if (j >= set.TermsEnd(0)) break;
+    const double g = std::max(0.0f, set.g[j]), h = g > 0.0 ? std::min(1.0f, std::max(0.0f, set.h[j])) : 0.0;
+    expected += truth[0].kd * g + truth[0].ks * set.falloff[j] * (h > 0.0 ? std::pow(h, truth[0].ke) : 0.0);
   }
   EXPECT_NEAR(EvaluateSample(set, 0, kAllFour, truth[0], 0), expected, 1e-12);
   const PhongFitResult result = Fit(set, kAllFour, PhongFitOptions());
@@ -215,14 +240,14 @@ TEST(FitPhongTest, OneToThreeSamples) {
   for (size_t count = 1; count <= 3; ++count) {
     GeneratorOptions generator;
     generator.num_samples = count;
-    generator.true_mask = 1;
+    generator.true_mask = LightMask::FromBits(1);
     generator.num_lights = 1;
     generator.max_light_cosine = 0.9;  // every sample lit
     const SampleSet set = MakeSamples(truth, generator);
     for (Solver solver : {Solver::kLevenbergMarquardt, Solver::kPowell}) {
       PhongFitOptions options;
       options.solver = solver;
-      const PhongFitResult result = Fit(set, 1, options);
+      const PhongFitResult result = Fit(set, LightMask::FromBits(1), options);
       EXPECT_EQ(result.samples_used, count);
       for (int c = 0; c < 3; ++c) {
         EXPECT_NE(result.channels[c].flags & kKsKeNotIdentifiable, 0u);
@@ -245,7 +270,7 @@ TEST(FitPhongTest, NoSamplesOrNoLightFlags) {
   EXPECT_NE(result.flags() & kNoSamples, 0u);
   EXPECT_EQ(result.mse, 0.0);
   // An empty mask: nothing lit, both flagged, fallback values.
-  result = Fit(set, 0, options);
+  result = Fit(set, LightMask(), options);
   for (int c = 0; c < 3; ++c) {
     EXPECT_NE(result.channels[c].flags & kKdNotIdentifiable, 0u);
     EXPECT_NE(result.channels[c].flags & kKsKeNotIdentifiable, 0u);
@@ -342,7 +367,7 @@ TEST(FitPhongTest, IntensityScalesOfOneMillionthAndOneMillion) {
 // a light at the surface point gives g = h = 0 or NaN.
 TEST(FitPhongTest, LightsBehindOrAtTheSurfacePoint) {
   const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40});
-  SampleSet set = MakeSamples(truth, GeneratorOptions());
+  SampleSet set = WithEveryLight(MakeSamples(truth, GeneratorOptions()), 0.0f);
   const int num_lights = set.num_lights();
   size_t behind = 0;
   for (size_t i = 0; i < set.size(); ++i) {
@@ -358,7 +383,8 @@ TEST(FitPhongTest, LightsBehindOrAtTheSurfacePoint) {
   for (size_t i = 0; i < 100; ++i) {
     set.g[i * num_lights + 3] = 0.0f;
     set.h[i * num_lights + 3] = 0.0f;
-    set.reflectance[i] = glm::vec3(testing::ModelValue(set, i, 0x7, truth, glm::vec3(0.5f, 0.3f, 0.2f)));
+    set.reflectance[i] =
+        glm::vec3(testing::ModelValue(set, i, LightMask::FromBits(0x7), truth, glm::vec3(0.5f, 0.3f, 0.2f)));
   }
   PhongFitResult result = Fit(set, kAllFour, PhongFitOptions());
   Errors e = WorstErrors(result.params, truth);
@@ -379,14 +405,14 @@ TEST(FitPhongTest, LightsBehindOrAtTheSurfacePoint) {
   Report("lights at the point (NaN)", e);
   EXPECT_LT(e.kd, kExactTolerance);
   // Without light 3 in the mask its NaNs do not matter.
-  result = Fit(set, 0x7, PhongFitOptions());
+  result = Fit(set, LightMask::FromBits(0x7), PhongFitOptions());
   EXPECT_EQ(result.flags() & kNonFiniteInput, 0u);
   EXPECT_EQ(result.samples_used, set.size());
 }
 
 TEST(FitPhongTest, NonFiniteInputsAreSkippedAndFlagged) {
   const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40});
-  SampleSet set = MakeSamples(truth, GeneratorOptions());
+  SampleSet set = WithEveryLight(MakeSamples(truth, GeneratorOptions()), 0.0f);
   const int num_lights = set.num_lights();
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
   set.reflectance[1].y = nan;
@@ -484,8 +510,9 @@ TEST(FitPhongTest, EvaluateSampleMatchesHandComputedValue) {
   const double expected = 1.0 * (0.4 * 0.5 + 0.2 * std::pow(double{0.9f}, 10)) +
                           2.0 * (0.4 * double{0.8f} + 0.2 * std::pow(double{0.3f}, 10));
   EXPECT_NEAR(expected, 0.90973804998, 1e-7);
-  EXPECT_NEAR(EvaluateSample(set, 0, 0x3, p, 0), expected, 1e-15);
-  EXPECT_NEAR(EvaluateSample(set, 0, 0x1, p, 0), 0.4 * 0.5 + 0.2 * std::pow(double{0.9f}, 10), 1e-15);
+  EXPECT_NEAR(EvaluateSample(set, 0, LightMask::FromBits(0x3), p, 0), expected, 1e-15);
+  EXPECT_NEAR(EvaluateSample(set, 0, LightMask::FromBits(0x1), p, 0), 0.4 * 0.5 + 0.2 * std::pow(double{0.9f}, 10),
+              1e-15);
 }
 
 TEST(FitPhongTest, RejectsBadArguments) {
@@ -494,9 +521,53 @@ TEST(FitPhongTest, RejectsBadArguments) {
   PhongFitOptions options;
   options.ke_max = 0.5;
   EXPECT_EQ(FitPhong(set, {}, kAllFour, options).status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(FitPhong(set, {}, 0x10, PhongFitOptions()).status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(FitPhong(set, {}, LightMask::FromBits(0x10), PhongFitOptions()).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  LightMask far;
+  far.Set(300);
+  EXPECT_EQ(FitPhong(set, {}, far, PhongFitOptions()).status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(FitPhong(set, {static_cast<uint32_t>(set.size())}, kAllFour, PhongFitOptions()).status().code(),
             absl::StatusCode::kInvalidArgument);
+}
+
+// Issue #13: 256 candidate lights, noise-free samples from a known truth.
+// OLAT (one light per sample, the lights >= 16 included) and a dense case
+// (16 lights per sample) recover kd, ks and ke exactly, with either solver;
+// a mask of the lights 128..255 fits only the samples they reach.
+TEST(FitPhongTest, TwoHundredFiftySixLightsRecoverTheTruth) {
+  const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40});
+  const LightMask all = LightMask::FirstN(256);
+  for (int on : {1, 16}) {
+    const SampleSet set = testing::MakeManyLightSamples(truth, 256, on, 8000);
+    EXPECT_EQ(set.num_terms(), set.size() * static_cast<size_t>(on));
+    for (Solver solver : {Solver::kLevenbergMarquardt, Solver::kPowell}) {
+      PhongFitOptions options;
+      options.solver = solver;
+      const PhongFitResult result = Fit(set, all, options);
+      EXPECT_EQ(result.samples_used, set.size());
+      const Errors e = WorstErrors(result.params, truth);
+      Report(std::string("256 lights, ") + std::to_string(on) + " on, " + SolverName(solver), e);
+      EXPECT_LT(e.kd, kExactTolerance);
+      EXPECT_LT(e.ks, kExactTolerance);
+      EXPECT_LT(e.ke, kExactKeTolerance);
+      EXPECT_EQ(result.flags() & (kKsKeNotIdentifiable | kKdNotIdentifiable | kNonFiniteInput), 0u);
+    }
+  }
+  // OLAT, only the upper half of the lights in the mask: the samples of the
+  // lower half are unlit (G = 0) and add nothing; the fit is still exact.
+  const SampleSet olat = testing::MakeManyLightSamples(truth, 256, 1, 8000);
+  LightMask upper;
+  for (size_t k = 128; k < 256; ++k) upper.Set(k);
+  const PhongFitResult result = Fit(olat, upper, PhongFitOptions());
+  const Errors e = WorstErrors(result.params, truth);
+  EXPECT_LT(e.kd, kExactTolerance);
+  EXPECT_LT(e.ke, kExactKeTolerance);
+  // EvaluateSample and SolveDiffuse see the same lights.
+  for (size_t i : {size_t{3}, size_t{200}, size_t{7999}}) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(EvaluateSample(olat, i, all, truth[c], c), olat.reflectance[i][c], 1e-5);
+  }
+  const DiffuseSolution diffuse = SolveDiffuse(olat, all, truth, 1, DiffuseOptions());
+  for (int c = 0; c < 3; ++c) EXPECT_LT(RelativeError(diffuse.kd[0][c], truth[c].kd), kExactTolerance);
 }
 
 }  // namespace

@@ -63,9 +63,13 @@ class MemoryOStream : public Imf::OStream {
 absl::Status WriteExr(const std::filesystem::path& file, const cv::Mat& image, const ExrOptions& options) {
   const int channels = image.channels();
   const bool is_uint = image.depth() == CV_16U || image.depth() == CV_32S;
-  if (image.empty() || !(image.depth() == CV_32F || (is_uint && channels == 1)) || channels > 4) {
-    return absl::InvalidArgumentError(absl::StrCat(file.string(), ": WriteExr takes CV_32F with 1-4 channels or a "
-                                                   "single-channel CV_16U/CV_32S image"));
+  // Integer images: one channel, or several with their names (the shadow
+  // atlas of more than 16 lights, core/samples/assemble.h).
+  const bool uint_ok = is_uint && (channels == 1 || (static_cast<int>(options.channel_names.size()) == channels));
+  if (image.empty() || !(image.depth() == CV_32F || uint_ok) || (!is_uint && channels > 4)) {
+    return absl::InvalidArgumentError(absl::StrCat(file.string(),
+                                                   ": WriteExr takes CV_32F with 1-4 channels or a "
+                                                   "CV_16U/CV_32S image (one channel, or named channels)"));
   }
   const std::vector<std::string> names =
       options.channel_names.empty() ? DefaultNames(channels) : options.channel_names;
@@ -124,14 +128,18 @@ absl::StatusOr<ExrImage> ReadExr(const std::filesystem::path& file) {
     }
     std::stable_sort(names.begin(), names.end(),
                      [](const std::string& a, const std::string& b) { return ChannelRank(a) < ChannelRank(b); });
-    if (names.empty() || names.size() > 4 || (has_uint && names.size() != 1)) {
-      return absl::InvalidArgumentError(absl::StrCat(file.string(), ": expected 1-4 float channels or one uint channel, got ",
-                                                     names.size(), " channels"));
+    bool all_uint = true;
+    for (auto it = in.header().channels().begin(); it != in.header().channels().end(); ++it) {
+      all_uint = all_uint && it.channel().type == Imf::UINT;
+    }
+    if (names.empty() || (!has_uint && names.size() > 4) || (has_uint && (!all_uint || names.size() > CV_CN_MAX))) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          file.string(), ": expected 1-4 float channels or uint channels, got ", names.size(), " channels"));
     }
     ExrImage result;
     result.channel_names = names;
     const int channels = static_cast<int>(names.size());
-    result.image = has_uint ? cv::Mat(height, width, CV_32SC1) : cv::Mat(height, width, CV_32FC(channels));
+    result.image = has_uint ? cv::Mat(height, width, CV_32SC(channels)) : cv::Mat(height, width, CV_32FC(channels));
     const size_t element = sizeof(float);
     const size_t pixel_stride = element * static_cast<size_t>(channels);
     Imf::FrameBuffer frame_buffer;

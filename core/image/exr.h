@@ -24,18 +24,18 @@ struct ExrOptions {
 };
 
 // Writes CV_32F (1-4 channels) as float/half channels, or CV_16U / CV_32S
-// single-channel images as a UINT channel (masks, triangle ids; -1 becomes
-// 0xffffffff). ZIP compression. Written to a temporary file and renamed,
+// images as UINT channels (masks, triangle ids; -1 becomes 0xffffffff): one
+// channel, or any number with options.channel_names. ZIP compression. Written to a temporary file and renamed,
 // every write checked (a full disk is RESOURCE_EXHAUSTED, nothing left behind).
 absl::Status WriteExr(const std::filesystem::path& file, const cv::Mat& image, const ExrOptions& options = {});
 
 struct ExrImage {
-  cv::Mat image;                       // CV_32FC(n) for float/half files, CV_32SC1 for a UINT channel
+  cv::Mat image;                           // CV_32FC(n) for float/half files, CV_32SC(n) for UINT channels
   std::vector<std::string> channel_names;  // in the order of image's channels
 };
 
-// Reads an EXR written by WriteExr (or any scanline EXR with up to 4 float,
-// half or uint channels): channels come back in the order R, G, B, A, Y, then
+// Reads an EXR written by WriteExr (or any scanline EXR with up to 4 float
+// or half channels, or only uint channels): channels come back in the order R, G, B, A, Y, then
 // any others by name.
 absl::StatusOr<ExrImage> ReadExr(const std::filesystem::path& file);
 

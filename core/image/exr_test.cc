@@ -70,6 +70,21 @@ TEST(ExrTest, NamedChannelsAndIntegerMasks) {
   ASSERT_EQ(ids_back->image.type(), CV_32SC1);
   EXPECT_EQ(ids_back->image.at<int32_t>(2, 3), 12345);
   EXPECT_EQ(ids_back->image.at<int32_t>(0, 0), -1);
+
+  // Several named UINT channels (a shadow atlas of 40 lights: CV_16UC3);
+  // without names they are refused.
+  cv::Mat bits(4, 4, CV_16UC3, cv::Scalar(1, 2, 0x80));
+  bits.at<cv::Vec<uint16_t, 3>>(3, 1) = {0xffff, 0, 7};
+  ExrOptions named;
+  named.channel_names = {"lights0000-0015", "lights0016-0031", "lights0032-0047"};
+  ASSERT_TRUE(WriteExr(TempFile("bits.exr"), bits, named).ok());
+  EXPECT_FALSE(WriteExr(TempFile("bits_unnamed.exr"), bits).ok());
+  auto bits_back = ReadExr(TempFile("bits.exr"));
+  ASSERT_TRUE(bits_back.ok()) << bits_back.status();
+  ASSERT_EQ(bits_back->image.type(), CV_32SC3);
+  EXPECT_EQ(bits_back->channel_names, named.channel_names);
+  EXPECT_EQ(bits_back->image.at<cv::Vec3i>(0, 0), cv::Vec3i(1, 2, 0x80));
+  EXPECT_EQ(bits_back->image.at<cv::Vec3i>(3, 1), cv::Vec3i(0xffff, 0, 7));
 }
 
 TEST(ExrTest, ErrorsNameTheFile) {

@@ -25,10 +25,6 @@ absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequ
                                                                gl::EglContext& context, const atlas::Atlas& atlas,
                                                                const resample::ResamplerOptions& options) {
   auto s = std::unique_ptr<FrameStream>(new FrameStream(sequence));
-  if (sequence.lights.size() > static_cast<size_t>(samples::kMaxLights)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("scene.lights: at most ", samples::kMaxLights, " lights, got ", sequence.lights.size()));
-  }
   s->frame_lights_ = samples::FrameLightMasks(sequence);
   MVBRDF_ASSIGN_OR_RETURN(s->resampler_,
                           resample::Resampler::Create(context, atlas, sequence.cameras, sequence.lights, options));

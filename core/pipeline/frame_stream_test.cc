@@ -54,11 +54,11 @@ TEST(FrameStreamTest, ShadowBitsHoldOnlyEachFramesOwnLights) {
       const uint32_t seen = BitsSeen((*stream)->shadows());
       if (lighting == synth::Lighting::kOlat) {
         // Frame t: light t (C, N, E) alone.
-        EXPECT_EQ(on[static_cast<size_t>(t)], 1u << t);
+        EXPECT_EQ(on[static_cast<size_t>(t)], samples::LightMask::FromBits(1u << t));
         EXPECT_EQ(seen, 1u << t) << "frame " << t;
       } else {
         // Every light lights some texel: nothing is masked.
-        EXPECT_EQ(on[static_cast<size_t>(t)], 0x1ffu);
+        EXPECT_EQ(on[static_cast<size_t>(t)], samples::LightMask::FromBits(0x1ffu));
         EXPECT_EQ(seen, 0x1ffu) << "frame " << t;
       }
     }

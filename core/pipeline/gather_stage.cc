@@ -14,10 +14,6 @@ namespace mvbrdf::pipeline {
 absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglContext& context,
                                     const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
                                     bool texels) {
-  if (sequence.lights.size() > static_cast<size_t>(samples::kMaxLights)) {
-    return absl::InvalidArgumentError(absl::StrCat("scene.lights: at most ", samples::kMaxLights, " lights, got ",
-                                                   sequence.lights.size()));
-  }
   samples::AssembleOptions assemble = options.assemble;
   assemble.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
@@ -30,9 +26,12 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
     g.texels->texel_sum.assign(num_texels, glm::dvec3(0.0));
     g.texels->texel_count.assign(num_texels, 0);
     g.texels->texel_g_sum.assign(num_texels * num_lights, 0.0f);
+    // A Sample holds only the lights on in its frame: the reservoir's rows
+    // are that long, not as long as the candidate list.
+    const size_t max_terms = samples::MaxLightsOn(samples::FrameLightMasks(sequence), num_lights);
     g.texels->reservoir = std::make_unique<TexelReservoir>(num_texels, static_cast<int>(num_lights),
                                                            options.reservoir_uniform, options.reservoir_highlight,
-                                                           assemble.inverse_square_falloff);
+                                                           assemble.inverse_square_falloff, max_terms);
   }
   TexelStatistics* st = g.texels.get();
   const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
@@ -58,11 +57,11 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
       if (st == nullptr) continue;
       samples::ForEachTexelSample(resampled, stream->geometry(), stream->shadows(), sequence.cameras[c],
                                   sequence.lights, assemble,
-                                  [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float*) {
+                                  [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
                                     st->texel_sum[texel] += glm::dvec3(rgb);
                                     ++st->texel_count[texel];
                                     float* gs = st->texel_g_sum.data() + static_cast<size_t>(texel) * num_lights;
-                                    for (size_t k = 0; k < num_lights; ++k) gs[k] += gr[k];
+                                    for (size_t j = 0; j < terms.count; ++j) gs[terms.light[j]] += terms.g[j];
                                   });
       // The cluster fits take per-pixel Samples: the video's own pixels at
       // the exact surface points they show, so highlights reach ks and ke
@@ -71,8 +70,9 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
       MVBRDF_ASSIGN_OR_RETURN(const resample::CameraSurface surface, stream->Surface(c));
       samples::ForEachPixelSample(stream->last_frame(), surface, stream->shadows(), sequence.cameras[c],
                                   sequence.lights, assemble, min_cos_view,
-                                  [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr,
-                                      const float* ar) { st->reservoir->Offer(texel, t, c, rgb, gr, hr, ar); });
+                                  [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
+                                    st->reservoir->Offer(texel, t, c, rgb, terms);
+                                  });
     }
   }
   if (options.progress) options.progress("gather_samples", sequence.num_frames, sequence.num_frames);

@@ -145,20 +145,21 @@ absl::Status WriteRgbAtlas(const std::filesystem::path& stem, const cv::Mat& rgb
 }
 
 // Sum of I_k a_k h_k^ke over the lights in `mask`, channel c (a: the
-// fall-off row, all 1 without fall-off).
-inline float SpecularSum(const float* h, const float* a, const std::vector<glm::vec3>& intensity,
-                         samples::LightMask mask, int c, double ke) {
+// fall-off, 1 without fall-off).
+inline float SpecularSum(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
+                         const samples::LightMask& mask, int c, double ke) {
   double s = 0.0;
-  for (size_t k = 0; k < intensity.size(); ++k) {
-    if (!(mask & (1u << k)) || !(h[k] > 0.0f)) continue;
-    s += intensity[k][c] * a[k] * std::exp(ke * std::log(static_cast<double>(h[k])));
+  for (size_t j = 0; j < terms.count; ++j) {
+    const size_t k = terms.light[j];
+    if (!mask.Test(k) || !(terms.h[j] > 0.0f)) continue;
+    s += intensity[k][c] * terms.falloff[j] * std::exp(ke * std::log(static_cast<double>(terms.h[j])));
   }
   return static_cast<float>(s);
 }
 
 // Why no texel was seen lit, as precisely as pass 1's statistics tell.
 absl::Status NothingLit(const scene::Sequence& sequence, const TexelStatistics& texels, const std::string& chosen,
-                        samples::LightMask mask) {
+                        const samples::LightMask& mask) {
   bool observed = false;
   for (uint32_t n : texels.texel_count) observed = observed || n > 0;
   if (!observed) {
@@ -170,7 +171,7 @@ absl::Status NothingLit(const scene::Sequence& sequence, const TexelStatistics& 
   bool some_intensity = false;
   for (size_t k = 0; k < sequence.lights.size(); ++k) {
     const glm::vec3& i = sequence.lights[k].intensity;
-    if ((mask & (1u << k)) && i.x > 0.0f && i.y > 0.0f && i.z > 0.0f) some_intensity = true;
+    if (mask.Test(k) && i.x > 0.0f && i.y > 0.0f && i.z > 0.0f) some_intensity = true;
   }
   if (!some_intensity) {
     return absl::FailedPreconditionError(absl::StrCat("light configuration \"", chosen,
@@ -183,10 +184,11 @@ absl::Status NothingLit(const scene::Sequence& sequence, const TexelStatistics& 
       "shadowed on all of them; check scene.lights' positions and directions)"));
 }
 
-inline glm::vec3 IlluminationOf(const float* g, const std::vector<glm::vec3>& intensity, samples::LightMask mask) {
+inline glm::vec3 IlluminationOf(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
+                                const samples::LightMask& mask) {
   glm::vec3 s(0.0f);
-  for (size_t k = 0; k < intensity.size(); ++k) {
-    if (mask & (1u << k)) s += intensity[k] * g[k];
+  for (size_t j = 0; j < terms.count; ++j) {
+    if (mask.Test(terms.light[j])) s += intensity[terms.light[j]] * terms.g[j];
   }
   return s;
 }
@@ -196,21 +198,21 @@ inline glm::vec3 IlluminationOf(const float* g, const std::vector<glm::vec3>& in
 // configuration is not modelled in it. Said, not silent (empty when nothing
 // is lost).
 std::string MixedFrameLightingWarning(const scene::Sequence& sequence, const std::string& chosen,
-                                      samples::LightMask mask) {
+                                      const samples::LightMask& mask) {
   if (sequence.every_frame_lit_own() || sequence.scene.frame_lighting_size() == 0) return "";
   const std::vector<samples::LightMask> on = samples::FrameLightMasks(sequence);
-  samples::LightMask lost = 0;
+  samples::LightMask lost;
   int frames = 0;
   for (int t = 0; t < sequence.num_frames; ++t) {
     if (sequence.FrameLightingOf(t) == nullptr) continue;
-    const samples::LightMask outside = on[static_cast<size_t>(t)] & ~mask;
+    const samples::LightMask outside = on[static_cast<size_t>(t)].Without(mask);
     lost |= outside;
-    frames += outside != 0 ? 1 : 0;
+    frames += outside.Any() ? 1 : 0;
   }
-  if (lost == 0) return "";
+  if (!lost.Any()) return "";
   std::vector<std::string> names;
   for (size_t k = 0; k < sequence.lights.size(); ++k) {
-    if (lost & (samples::LightMask{1} << k)) names.push_back(scene::ShownName(sequence.lights[k].name));
+    if (lost.Test(k)) names.push_back(scene::ShownName(sequence.lights[k].name));
   }
   return absl::StrCat("scene.frame_lighting: ", frames, " of ", sequence.scene.frame_lighting_size(),
                       " frames with their own lights have lights outside configuration \"", scene::ShownName(chosen),
@@ -287,10 +289,6 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   const auto start = Clock::now();
   MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, NewRunReport(sequence, options, context.Describe()));
   MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
-  if (sequence.lights.size() > static_cast<size_t>(samples::kMaxLights)) {
-    return absl::InvalidArgumentError(absl::StrCat("scene.lights: at most ", samples::kMaxLights, " lights, got ",
-                                                   sequence.lights.size()));
-  }
   const std::filesystem::path& out = options.out_dir;
   const int num_cameras = static_cast<int>(sequence.cameras.size());
   samples::AssembleOptions assemble = options.assemble;
@@ -334,7 +332,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
 
   // The light configuration.
   t0 = Clock::now();
-  samples::LightMask mask = 0;
+  samples::LightMask mask;
   std::string chosen = plan.fixed_configuration;
   if (options.light_table.has_value()) {
     // Swept elsewhere (the service's sweep and choose tasks).
@@ -361,7 +359,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     AddStage(&report, "light_sweep", Since(t0), options.progress);
   }
   if (chosen.empty()) {
-    for (size_t k = 0; k < sequence.lights.size(); ++k) mask |= 1u << k;
+    mask = samples::AllLights(sequence.lights.size());
     // With every frame's own lights the Samples hold only those (FrameStream).
     chosen = sequence.every_frame_lit_own() ? scene::kPerFrameLighting : "all lights";
   } else {
@@ -400,7 +398,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     glm::dvec3 illumination(0.0);
     const float* gs = g.texels->texel_g_sum.data() + i * num_lights;
     for (size_t k = 0; k < num_lights; ++k) {
-      if (mask & (1u << k)) illumination += glm::dvec3(intensity[k]) * static_cast<double>(gs[k]);
+      if (mask.Test(k)) illumination += glm::dvec3(intensity[k]) * static_cast<double>(gs[k]);
     }
     if (!(illumination.x > 0.0 && illumination.y > 0.0 && illumination.z > 0.0)) continue;  // never lit
     seen_texels.push_back(static_cast<uint32_t>(i));
@@ -509,14 +507,14 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
         samples::ForEachTexelSample(
             frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
             sequence.lights, assemble,
-            [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr, const float* ar) {
+            [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
               const int32_t k = texel_cluster[texel];
               if (k < 0) return;
               const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-              const glm::vec3 G = IlluminationOf(gr, intensity, mask);
+              const glm::vec3 G = IlluminationOf(terms, intensity, mask);
               glm::vec3 res;
               for (int ch = 0; ch < 3; ++ch) {
-                res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) * SpecularSum(hr, ar, intensity, mask, ch, p[ch].ke);
+                res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) * SpecularSum(terms, intensity, mask, ch, p[ch].ke);
               }
               // Weighted by (n.v)^4: near-grazing observations come from
               // stretched image footprints and smear across silhouettes
@@ -567,15 +565,15 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
           samples::ForEachTexelSample(
               frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
               sequence.lights, assemble,
-              [&](uint32_t texel, const glm::vec3& rgb, const float* gr, const float* hr, const float* ar) {
+              [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
                 const int32_t k = texel_cluster[texel];
                 if (k < 0) return;
                 const cv::Vec4f& o =
                     observed.at<cv::Vec4f>(static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
                 const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-                const glm::vec3 G = IlluminationOf(gr, intensity, mask);
+                const glm::vec3 G = IlluminationOf(terms, intensity, mask);
                 for (int ch = 0; ch < 3; ++ch) {
-                  const double s = p[ch].ks * SpecularSum(hr, ar, intensity, mask, ch, p[ch].ke);
+                  const double s = p[ch].ks * SpecularSum(terms, intensity, mask, ch, p[ch].ke);
                   const double model = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
                   const double d = o[3] > 0.5f ? rgb[ch] - model : 0.0;
                   cam_corr_sq[static_cast<size_t>(c)] += d * d;

@@ -50,6 +50,16 @@ absl::Status WriteAtlas(const std::filesystem::path& stem, const cv::Mat& rgba) 
 
 }  // namespace
 
+absl::Status WriteShadowAtlas(const std::filesystem::path& file, const cv::Mat& shadows) {
+  if (shadows.channels() == 1) return image::WriteExr(file, shadows);
+  image::ExrOptions options;
+  for (int c = 0; c < shadows.channels(); ++c) {
+    options.channel_names.push_back(
+        absl::StrCat("lights", absl::Dec(16 * c, absl::kZeroPad4), "-", absl::Dec(16 * c + 15, absl::kZeroPad4)));
+  }
+  return image::WriteExr(file, shadows, options);
+}
+
 absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& sequence, gl::EglContext& context,
                                                     const ResampleStageOptions& options) {
   const auto start = std::chrono::steady_clock::now();
@@ -120,13 +130,7 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
     {
       StageTimer::Scope s(&timer, "shadows");
       MVBRDF_ASSIGN_OR_RETURN(const cv::Mat shadows, resampler->ShadowAtlas());
-      // One file per 16 lights (channel c: lights 16 c ..): shadows.exr, shadows_1.exr, ...
-      for (int c = 0; save && c < shadows.channels(); ++c) {
-        cv::Mat channel = shadows;
-        if (shadows.channels() > 1) cv::extractChannel(shadows, channel, c);
-        MVBRDF_RETURN_IF_ERROR(image::WriteExr(
-            frame_dir / (c == 0 ? std::string("shadows.exr") : absl::StrCat("shadows_", c, ".exr")), channel));
-      }
+      if (save) MVBRDF_RETURN_IF_ERROR(WriteShadowAtlas(frame_dir / "shadows.exr", shadows));
     }
     resample::GeometryAtlas geometry;
     if (evaluator != nullptr || save) {

@@ -12,8 +12,9 @@
 //   frames/NNNN/CAM_averaged.exr (+.png)  per-triangle means (thesis Fig. 5.5)
 //   frames/NNNN/CAM_grown.exr (+.png)     grown for rendering (thesis Fig. 5.4)
 //   frames/NNNN/position.exr, normal.exr  the frame's geometry atlas
-//   frames/NNNN/shadows.exr               light-visibility bitmask (bit k = light k, see resample.json);
-//   frames/NNNN/shadows_C.exr             with more than 16 lights, lights 16 C .. 16 C + 15 (bit k - 16 C)
+//   frames/NNNN/shadows.exr               light-visibility bitmask (bit k = light k, see resample.json): one
+//                                         UINT channel "Y" for <= 16 lights, else one per 16 lights named
+//                                         "lightsAAAA-BBBB" (bit k % 16 of channel k / 16, samples::ShadowChannels)
 #ifndef MVBRDF_CORE_PIPELINE_RESAMPLE_STAGE_H_
 #define MVBRDF_CORE_PIPELINE_RESAMPLE_STAGE_H_
 
@@ -21,6 +22,9 @@
 #include <functional>
 #include <string>
 
+#include <opencv2/core.hpp>
+
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "core/atlas/atlas.h"
 #include "core/gl/egl_context.h"
@@ -47,6 +51,10 @@ struct ResampleStageOptions {
   // Called on the calling thread with frames done and the total; may be empty.
   std::function<void(const std::string& stage, int done, int total)> progress;
 };
+
+// Writes a shadow atlas (CV_16UC(n), samples::ShadowChannels) as the
+// shadows.exr above.
+absl::Status WriteShadowAtlas(const std::filesystem::path& file, const cv::Mat& shadows);
 
 absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& sequence, gl::EglContext& context,
                                                     const ResampleStageOptions& options);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "core/image/exr.h"
+#include "core/samples/assemble.h"
 #include "core/synth/synthesizer.h"
 
 namespace mvbrdf::pipeline {
@@ -99,6 +100,31 @@ TEST_F(ResampleStageTest, CalibrationErrorShowsInTheError) {
   const v1::ResampleReport clean = SynthAndResample("reference", 0.0);
   const v1::ResampleReport rotated = SynthAndResample("rotated", 1.0);
   EXPECT_GT(rotated.overall().rmse(), kMinRmseRatioWithCalibrationError * clean.overall().rmse());
+}
+
+// Issue #13: the shadow atlas of more than 16 lights on disk: one UINT
+// channel per 16 lights, every bit kept (40 lights: three channels).
+TEST(WriteShadowAtlasTest, ChannelsPerSixteenLights) {
+  constexpr int kLights = 40;
+  cv::Mat shadows(8, 8, samples::ShadowAtlasType(kLights), cv::Scalar::all(0));
+  samples::SetShadowBit(&shadows, 1, 2, 39);
+  samples::SetShadowBit(&shadows, 1, 2, 16);
+  samples::SetShadowBit(&shadows, 5, 7, 3);
+  const auto file = std::filesystem::temp_directory_path() / "mvbrdf_write_shadow_atlas_test.exr";
+  ASSERT_TRUE(WriteShadowAtlas(file, shadows).ok());
+  auto back = image::ReadExr(file);
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->image.type(), CV_32SC3);
+  EXPECT_EQ(back->channel_names, (std::vector<std::string>{"lights0000-0015", "lights0016-0031", "lights0032-0047"}));
+  EXPECT_EQ(back->image.at<cv::Vec3i>(1, 2), cv::Vec3i(0, 1, 1 << 7));
+  EXPECT_EQ(back->image.at<cv::Vec3i>(5, 7), cv::Vec3i(1 << 3, 0, 0));
+  // Up to 16 lights: one channel, as before.
+  const cv::Mat one(8, 8, CV_16UC1, cv::Scalar(5));
+  ASSERT_TRUE(WriteShadowAtlas(file, one).ok());
+  back = image::ReadExr(file);
+  ASSERT_TRUE(back.ok());
+  EXPECT_EQ(back->image.type(), CV_32SC1);
+  EXPECT_EQ(back->image.at<int32_t>(3, 3), 5);
 }
 
 }  // namespace

@@ -7,15 +7,17 @@
 // largest highlight cosine max_k h_k. Choosing samples by the regressors (the
 // cosines) and never by the response (the reflectance) keeps least squares
 // unbiased, and the highlight slots make sure ks and ke see highlights, which
-// are rare per texel. Memory: slots x texels x (3 + 2K) floats.
+// are rare per texel. Memory: slots x texels x (3 + 2M floats + M u16), M
+// the most lights a Sample can hold (those on in one frame; an OLAT capture
+// has M = 1 whatever the candidate count).
 #ifndef MVBRDF_CORE_PIPELINE_TEXEL_RESERVOIR_H_
 #define MVBRDF_CORE_PIPELINE_TEXEL_RESERVOIR_H_
 
 #include <cstdint>
+#include <glm/glm.hpp>
 #include <vector>
 
-#include <glm/glm.hpp>
-
+#include "core/samples/assemble.h"
 #include "core/samples/sample_set.h"
 
 namespace mvbrdf::pipeline {
@@ -24,10 +26,14 @@ class TexelReservoir {
  public:
   // `falloff`: also keep the per-light fall-off a_k of each sample (scenes
   // with inverse-square fall-off; SampleSet::falloff).
-  TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots, bool falloff = false);
+  // `max_terms`: the most terms an observation has (0: num_lights).
+  TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots, bool falloff = false,
+                 size_t max_terms = 0);
 
-  // One observation of `texel` (g, h and a hold num_lights values; a is
-  // ignored without fall-off).
+  // One observation of `texel`: its terms (at most max_terms; a is ignored
+  // without fall-off).
+  void Offer(uint32_t texel, int frame, int camera, const glm::vec3& rgb, const samples::LightTerms& terms);
+  // The same from dense rows (g, h and a hold num_lights values).
   void Offer(uint32_t texel, int frame, int camera, const glm::vec3& rgb, const float* g, const float* h,
              const float* a = nullptr);
 
@@ -43,19 +49,21 @@ class TexelReservoir {
     float hmax = -1.0f;  // < 0: empty
     uint16_t frame = 0;
     uint8_t camera = 0;
+    uint16_t count = 0;  // terms
   };
   float* Row(size_t slot) { return rows_.data() + slot * row_floats_; }
   const float* Row(size_t slot) const { return rows_.data() + slot * row_floats_; }
-  void Store(size_t slot, int frame, int camera, float hmax, const glm::vec3& rgb, const float* g, const float* h,
-             const float* a);
+  void Store(size_t slot, int frame, int camera, float hmax, const glm::vec3& rgb, const samples::LightTerms& terms);
 
   int num_lights_;
+  size_t max_terms_;
   bool falloff_;
   int uniform_, highlight_, slots_per_texel_;
   size_t row_floats_;
   std::vector<uint32_t> seen_;  // observations offered per texel
   std::vector<Slot> slots_;
-  std::vector<float> rows_;     // per slot: rgb, g[K], h[K] (, a[K])
+  std::vector<float> rows_;       // per slot: rgb, g[M], h[M] (, a[M])
+  std::vector<uint16_t> lights_;  // per slot: light[M]
 };
 
 }  // namespace mvbrdf::pipeline

@@ -1,9 +1,10 @@
 #include "core/pipeline/texel_reservoir.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <set>
-
-#include <gtest/gtest.h>
+#include <string>
 
 namespace mvbrdf::pipeline {
 namespace {
@@ -77,7 +78,46 @@ TEST(TexelReservoirTest, CapAndFalloff) {
   reservoir.Collect({0, 1, 2}, 3, &set);
   EXPECT_LE(set.size(), 4u);  // whole texels: stops once the cap is reached
   ASSERT_FALSE(set.falloff.empty());
-  EXPECT_FLOAT_EQ(set.Falloff(0, 0), 0.25f);
+  EXPECT_FLOAT_EQ(set.TermFalloff(0), 0.25f);
+}
+
+// Issue #13: 256 candidate lights, one on per observation (OLAT). The rows
+// hold the one term, not 256, and keep its light index beyond 16.
+TEST(TexelReservoirTest, OneTermOfManyLights) {
+  constexpr int kLights = 256;
+  TexelReservoir dense(100, kLights, 2, 2), sparse(100, kLights, 2, 2, false, /*max_terms=*/1);
+  EXPECT_GT(dense.MemoryBytes(), 50 * sparse.MemoryBytes());
+  for (uint32_t texel = 0; texel < 100; ++texel) {
+    for (int i = 0; i < 8; ++i) {
+      const uint16_t light = static_cast<uint16_t>((texel + 40 * i) % kLights);
+      const float g = 0.5f, h = 0.1f * static_cast<float>(i), a = 1.0f;
+      samples::LightTerms terms;
+      terms.count = 1;
+      terms.light = &light;
+      terms.g = &g;
+      terms.h = &h;
+      terms.falloff = &a;
+      sparse.Offer(texel, i, 0, glm::vec3(static_cast<float>(light)), terms);
+    }
+  }
+  samples::SampleSet set;
+  for (int k = 0; k < kLights; ++k) {
+    set.light_names.push_back("L" + std::to_string(k));
+    set.light_intensity.emplace_back(1.0f);
+  }
+  std::vector<uint32_t> all(100);
+  for (uint32_t t = 0; t < 100; ++t) all[t] = t;
+  sparse.Collect(all, 1u << 30, &set);
+  ASSERT_EQ(set.size(), 400u);
+  ASSERT_EQ(set.num_terms(), 400u);
+  bool beyond_sixteen = false;
+  for (size_t i = 0; i < set.size(); ++i) {
+    EXPECT_EQ(set.light[i], static_cast<uint16_t>(set.reflectance[i].x));  // the term stays with its observation
+    EXPECT_EQ(set.light[i], (set.element[i] + 40 * set.frame[i]) % kLights);
+    EXPECT_FLOAT_EQ(set.h[i], 0.1f * set.frame[i]);
+    beyond_sixteen |= set.light[i] >= 16;
+  }
+  EXPECT_TRUE(beyond_sixteen);
 }
 
 }  // namespace

@@ -4,9 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <string>
-
+#include <memory>
 #include <opencv2/core.hpp>
+#include <string>
 
 #include "core/render/phong_model.h"
 
@@ -23,9 +23,27 @@ void Check(bool condition, const char* message) {
 
 using assemble_internal::Check;
 
+int ShadowChannels(size_t num_lights) { return std::max(1, static_cast<int>((num_lights + 15) / 16)); }
+
+int ShadowAtlasType(size_t num_lights) { return CV_16UC(ShadowChannels(num_lights)); }
+
+bool ShadowBit(const cv::Mat& shadows, int row, int column, size_t k) {
+  const int channels = shadows.channels();
+  Check(shadows.depth() == CV_16U && k / 16 < static_cast<size_t>(channels), "ShadowBit: light beyond the atlas");
+  const uint16_t* bits = shadows.ptr<uint16_t>(row) + static_cast<size_t>(column) * static_cast<size_t>(channels);
+  return (bits[k / 16] >> (k % 16)) & 1u;
+}
+
+void SetShadowBit(cv::Mat* shadows, int row, int column, size_t k) {
+  Check(shadows != nullptr && shadows->depth() == CV_16U && k / 16 < static_cast<size_t>(shadows->channels()),
+        "SetShadowBit: light beyond the atlas");
+  uint16_t* bits = shadows->ptr<uint16_t>(row) + static_cast<size_t>(column) * static_cast<size_t>(shadows->channels());
+  bits[k / 16] = static_cast<uint16_t>(bits[k / 16] | (1u << (k % 16)));
+}
+
 LightMask AllLights(size_t num_lights) {
   Check(num_lights <= static_cast<size_t>(kMaxLights), "AllLights: more than kMaxLights lights");
-  return num_lights >= 32 ? ~LightMask{0} : (LightMask{1} << num_lights) - 1u;
+  return LightMask::FirstN(num_lights);
 }
 
 std::vector<LightMask> FrameLightMasks(const scene::Sequence& sequence) {
@@ -34,22 +52,39 @@ std::vector<LightMask> FrameLightMasks(const scene::Sequence& sequence) {
   for (int t = 0; t < sequence.num_frames; ++t) {
     const v1::FrameLighting* fl = sequence.FrameLightingOf(t);
     if (fl == nullptr) continue;
-    LightMask on = 0;
+    LightMask on;
     for (const std::string& name : fl->lights()) {
       const int k = sequence.FindLight(name);
       // Validation (core/scene/sequence.cc) refuses unknown names.
       Check(k >= 0, "FrameLightMasks: scene.frame_lighting names an unknown light");
-      on |= LightMask{1} << k;
+      on.Set(static_cast<size_t>(k));
     }
-    masks[static_cast<size_t>(t)] = on;
+    masks[static_cast<size_t>(t)] = std::move(on);
   }
   return masks;
 }
 
-void ApplyLightMask(LightMask on, size_t num_lights, cv::Mat* shadows) {
-  Check(shadows != nullptr && shadows->type() == CV_16UC1, "ApplyLightMask: shadows must be CV_16UC1");
-  if ((on & AllLights(num_lights)) == AllLights(num_lights)) return;
-  cv::bitwise_and(*shadows, cv::Scalar(static_cast<double>(on & 0xffffu)), *shadows);
+size_t MaxLightsOn(const std::vector<LightMask>& frame_masks, size_t num_lights) {
+  size_t most = 0;
+  for (const LightMask& m : frame_masks) most = std::max(most, (m & AllLights(num_lights)).Count());
+  return frame_masks.empty() ? num_lights : most;
+}
+
+void ApplyLightMask(const LightMask& on, size_t num_lights, cv::Mat* shadows) {
+  Check(shadows != nullptr && shadows->type() == ShadowAtlasType(num_lights),
+        "ApplyLightMask: shadows must be CV_16UC(ShadowChannels)");
+  const LightMask all = AllLights(num_lights);
+  if ((on & all) == all) return;
+  const int channels = shadows->channels();
+  std::vector<uint16_t> keep(static_cast<size_t>(channels));
+  for (int c = 0; c < channels; ++c) keep[static_cast<size_t>(c)] = on.Bits16(static_cast<size_t>(c));
+  for (int row = 0; row < shadows->rows; ++row) {
+    uint16_t* bits = shadows->ptr<uint16_t>(row);
+    for (int column = 0; column < shadows->cols; ++column) {
+      for (int c = 0; c < channels; ++c) bits[c] &= keep[static_cast<size_t>(c)];
+      bits += channels;
+    }
+  }
 }
 
 SampleSet MakeSampleSet(const std::vector<scene::Light>& lights) {
@@ -72,8 +107,8 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
         "AppendTriangleSamples: the sample set was made for other lights (MakeSampleSet)");
   Check(means.size() == triangles.size() && atlas.triangle_texels.size() == triangles.size(),
         "AppendTriangleSamples: one TriangleMean and one texel list per triangle expected");
-  Check(shadows.type() == CV_16UC1 && shadows.rows == atlas.size && shadows.cols == atlas.size,
-        "AppendTriangleSamples: shadows must be CV_16UC1 of the atlas size");
+  Check(shadows.type() == ShadowAtlasType(lights.size()) && shadows.rows == atlas.size && shadows.cols == atlas.size,
+        "AppendTriangleSamples: shadows must be CV_16UC(ShadowChannels) of the atlas size");
 
   std::vector<bool> zero_area(triangles.size(), false);
   for (uint32_t t : atlas.topology.zero_area_triangles) {
@@ -81,8 +116,10 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
   }
   const glm::vec4 view(camera.ViewOrigin());  // v: scene::ViewDirection (pinhole or orthographic)
   const size_t num_lights = lights.size();
-  float g_row[kMaxLights], h_row[kMaxLights], falloff_row[kMaxLights];
-  int visible_texels[kMaxLights];
+  const size_t channels = static_cast<size_t>(ShadowChannels(num_lights));
+  std::vector<int> visible_texels(num_lights);
+  std::vector<uint16_t> visible_bits(channels);
+  auto buffers = std::make_unique<assemble_internal::TermBuffers>();
   for (size_t t = 0; t < triangles.size(); ++t) {
     if (!means[t].valid || zero_area[t]) continue;
     const glm::uvec3& tri = triangles[t];
@@ -106,19 +143,23 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
       const int row = static_cast<int>(texel / static_cast<uint32_t>(atlas.size));
       const int column = static_cast<int>(texel % static_cast<uint32_t>(atlas.size));
       Check(row < atlas.size, "AppendTriangleSamples: texel outside the atlas");
-      const uint16_t bits = shadows.at<uint16_t>(row, column);
-      for (size_t k = 0; k < num_lights; ++k) visible_texels[k] += (bits >> k) & 1;
+      const uint16_t* bits = shadows.ptr<uint16_t>(row) + static_cast<size_t>(column) * channels;
+      for (size_t ch = 0; ch < channels; ++ch) {
+        for (uint32_t word = bits[ch]; word != 0; word &= word - 1) {
+          const size_t k = 16 * ch + static_cast<size_t>(__builtin_ctz(word));
+          if (k < num_lights) ++visible_texels[k];
+        }
+      }
     }
-    uint32_t visible_bits = 0;
+    std::fill(visible_bits.begin(), visible_bits.end(), uint16_t{0});
     for (size_t k = 0; k < num_lights; ++k) {
       const bool visible = !texels.empty() && static_cast<double>(visible_texels[k]) >=
                                                   static_cast<double>(options.min_visible_fraction) * texels.size();
-      if (visible) visible_bits |= 1u << k;
+      if (visible) visible_bits[k / 16] = static_cast<uint16_t>(visible_bits[k / 16] | (1u << (k % 16)));
     }
-    const bool any_falloff = assemble_internal::LightRows(lights, c, n, view, visible_bits,
-                                                          options.inverse_square_falloff, g_row, h_row, falloff_row);
-    out->Add(static_cast<uint32_t>(t), frame, camera_index, means[t].rgb, g_row, h_row,
-             any_falloff || !out->falloff.empty() ? falloff_row : nullptr);
+    const LightTerms terms = buffers->Fill(lights, c, n, view, visible_bits.data(), options.inverse_square_falloff);
+    out->AddTerms(static_cast<uint32_t>(t), frame, camera_index, means[t].rgb, terms.count, terms.light, terms.g,
+                  terms.h, terms.any_falloff || !out->falloff.empty() ? terms.falloff : nullptr);
   }
 }
 

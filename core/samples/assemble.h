@@ -31,20 +31,45 @@ struct AssembleOptions {
   float min_visible_fraction = 0.5f;
 };
 
+// The shadow atlas of L lights (core/resample/resampler.h ShadowAtlas) is a
+// cv::Mat of type CV_16UC(n), n = ShadowChannels(L) = max(1, ceil(L / 16));
+// light k is visible where bit k % 16 of channel k / 16 is set. For L <= 16
+// that is CV_16UC1.
+int ShadowChannels(size_t num_lights);
+int ShadowAtlasType(size_t num_lights);
+// Whether light k is visible at (row, column) of a shadow atlas.
+bool ShadowBit(const cv::Mat& shadows, int row, int column, size_t k);
+// Sets that bit (tests, and CPU-made atlases).
+void SetShadowBit(cv::Mat* shadows, int row, int column, size_t k);
+
+// The terms of one Sample as the assemblers hand them to visitors: `count`
+// lights (ascending) with their g, h and fall-off a (SampleSet's terms;
+// g > 0 for each; a = 1 without fall-off).
+struct LightTerms {
+  size_t count = 0;
+  const uint16_t* light = nullptr;
+  const float* g = nullptr;
+  const float* h = nullptr;
+  const float* falloff = nullptr;
+  bool any_falloff = false;  // some a != 1
+};
+
 // Per frame t of `sequence`, the lights that are on (bit k =
 // sequence.lights[k]): those of the frame's scene.frame_lighting entry, every
 // light for a frame without one (the configuration under test selects among
 // them later). Requires at most kMaxLights lights.
+// The most lights on in any one frame (the most terms a Sample can have).
+size_t MaxLightsOn(const std::vector<LightMask>& frame_masks, size_t num_lights);
 std::vector<LightMask> FrameLightMasks(const scene::Sequence& sequence);
 
 // Every light on: the mask of a frame without its own lighting.
 LightMask AllLights(size_t num_lights);
 
-// Clears in a shadow atlas (CV_16UC1, bit k = light k visible) the bits of the
+// Clears in a shadow atlas (CV_16UC(ShadowChannels), see above) the bits of the
 // lights that are off in its frame, so that every Sample assembled from it
 // (triangle, texel and pixel Samples) has g = h = 0 for them: a light that is
 // off lights nothing. A no-op when `on` covers every light of the atlas.
-void ApplyLightMask(LightMask on, size_t num_lights, cv::Mat* shadows);
+void ApplyLightMask(const LightMask& on, size_t num_lights, cv::Mat* shadows);
 
 // An empty set for `lights` (names and intensities filled in).
 SampleSet MakeSampleSet(const std::vector<scene::Light>& lights);
@@ -59,8 +84,8 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
                            const std::vector<scene::Light>& lights, const AssembleOptions& options, SampleSet* out);
 
 // Per-texel cosines of one (frame, camera) without storing samples: calls
-// `visit(texel, rgb, g_row, h_row)` for every valid texel of `resampled`
-// (g_row/h_row hold lights.size() values). The reflectance passes stream
+// `visit(texel, rgb, const LightTerms& terms)` for every valid texel of
+// `resampled` (the terms are valid during the call). The reflectance passes stream
 // through this instead of materialising every texel sample.
 template <typename Visit>
 void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
@@ -71,7 +96,7 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
 // shows the mesh (with its four neighbours, so silhouettes are left out) and
 // faces the camera by more than `min_cos_view`, with the exact surface point
 // and normal under it (Resampler::Surface) and its atlas texel; calls
-// visit(texel, rgb, g_row, h_row, falloff_row). Unlike texel Samples these
+// visit(texel, rgb, const LightTerms& terms). Unlike texel Samples these
 // carry no resampling blur, which matters for highlights (ks, ke).
 template <typename Visit>
 void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& surface, const cv::Mat& shadows,

@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cmath>
+#include <memory>
 #include <type_traits>
 #include <utility>
 
@@ -16,24 +17,53 @@ namespace assemble_internal {
 // types or sizes).
 void Check(bool condition, const char* message);
 
-// The cosines of every light at one surface point, as SampleSet stores them:
-// g = a V max(0, l.n), h = V max(0, R(l).v) (0 where g = 0), a = fall-off.
-// `visible_bits`: bit k = light k visible. Returns whether any a != 1.
-inline bool LightRows(const std::vector<scene::Light>& lights, const glm::vec3& point, const glm::vec3& unit_normal,
-                      const glm::vec4& view_origin, uint32_t visible_bits, bool inverse_square_falloff, float* g_row,
-                      float* h_row, float* falloff_row) {
-  bool any_falloff = false;
-  for (size_t k = 0; k < lights.size(); ++k) {
-    const render::LightCosines c =
-        render::ComputeLightCosines(lights[k], point, unit_normal, view_origin, inverse_square_falloff);
-    const bool visible = (visible_bits >> k) & 1u;
-    g_row[k] = visible ? c.g * c.attenuation : 0.0f;
-    h_row[k] = visible ? c.h : 0.0f;
-    falloff_row[k] = c.attenuation;
-    any_falloff |= c.attenuation != 1.0f;
+// The terms of one surface point, as SampleSet stores them: for every light
+// k visible in the shadow atlas texel `bits` (ShadowChannels(lights.size())
+// values; bit k % 16 of bits[k / 16]) that faces the point (g > 0):
+// g = a max(0, l.n), h = max(0, R(l).v), a = fall-off. Returns the count;
+// `any_falloff` is set when some kept a != 1.
+inline size_t LightTermsAt(const std::vector<scene::Light>& lights, const glm::vec3& point,
+                           const glm::vec3& unit_normal, const glm::vec4& view_origin, const uint16_t* bits,
+                           bool inverse_square_falloff, uint16_t* light, float* g, float* h, float* falloff,
+                           bool* any_falloff) {
+  size_t count = 0;
+  const size_t num = lights.size();
+  const size_t channels = static_cast<size_t>(ShadowChannels(num));
+  for (size_t c = 0; c < channels; ++c) {
+    for (uint32_t word = bits[c]; word != 0; word &= word - 1) {
+      const size_t k = 16 * c + static_cast<size_t>(__builtin_ctz(word));
+      if (k >= num) break;
+      const render::LightCosines cos =
+          render::ComputeLightCosines(lights[k], point, unit_normal, view_origin, inverse_square_falloff);
+      const float gk = cos.g * cos.attenuation;
+      if (!(gk > 0.0f) && std::isfinite(gk)) continue;
+      light[count] = static_cast<uint16_t>(k);
+      g[count] = gk;
+      h[count] = cos.h;
+      falloff[count] = cos.attenuation;
+      *any_falloff |= cos.attenuation != 1.0f;
+      ++count;
+    }
   }
-  return any_falloff;
+  return count;
 }
+
+// Buffers for one point's terms (at most kMaxLights).
+struct TermBuffers {
+  uint16_t light[kMaxLights];
+  float g[kMaxLights], h[kMaxLights], falloff[kMaxLights];
+  LightTerms Fill(const std::vector<scene::Light>& lights, const glm::vec3& point, const glm::vec3& unit_normal,
+                  const glm::vec4& view_origin, const uint16_t* bits, bool inverse_square_falloff) {
+    LightTerms t;
+    t.count = LightTermsAt(lights, point, unit_normal, view_origin, bits, inverse_square_falloff, light, g, h,
+                           falloff, &t.any_falloff);
+    t.light = light;
+    t.g = g;
+    t.h = h;
+    t.falloff = falloff;
+    return t;
+  }
+};
 
 }  // namespace assemble_internal
 
@@ -48,12 +78,13 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
         "ForEachTexelSample: geometry.position must be CV_32FC4 of the atlas size");
   Check(geometry.normal.type() == CV_32FC4 && geometry.normal.size() == resampled.size(),
         "ForEachTexelSample: geometry.normal must be CV_32FC4 of the atlas size");
-  Check(shadows.type() == CV_16UC1 && shadows.size() == resampled.size(),
-        "ForEachTexelSample: shadows must be CV_16UC1 of the atlas size");
   Check(lights.size() <= static_cast<size_t>(kMaxLights), "ForEachTexelSample: more than kMaxLights lights");
+  Check(shadows.type() == ShadowAtlasType(lights.size()) && shadows.size() == resampled.size(),
+        "ForEachTexelSample: shadows must be CV_16UC(ShadowChannels) of the atlas size");
 
   const glm::vec4 view(camera.ViewOrigin());  // v: scene::ViewDirection (pinhole or orthographic)
-  std::array<float, kMaxLights> g_row{}, h_row{}, falloff_row{};
+  const int channels = ShadowChannels(lights.size());
+  auto buffers = std::make_unique<assemble_internal::TermBuffers>();
   const int size = resampled.cols;
   for (int row = 0; row < size; ++row) {
     const cv::Vec4f* value = resampled.ptr<cv::Vec4f>(row);
@@ -72,19 +103,11 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
       // The resampler already rejects back-facing texels; this guards against
       // a camera centre that differs from the one resampled with.
       if (!(glm::dot(n, scene::ViewDirection(view, point)) > 0.0f)) continue;
-      assemble_internal::LightRows(lights, point, n, view, bits[column], options.inverse_square_falloff, g_row.data(),
-                                   h_row.data(), falloff_row.data());
+      const LightTerms terms = buffers->Fill(lights, point, n, view, bits + static_cast<size_t>(column) * channels,
+                                             options.inverse_square_falloff);
       const uint32_t texel = static_cast<uint32_t>(row) * static_cast<uint32_t>(size) + static_cast<uint32_t>(column);
       const glm::vec3 rgb(value[column][0], value[column][1], value[column][2]);
-      // A visitor taking a fifth argument also receives the fall-off row
-      // (a_k; all 1 without fall-off): see SampleSet::falloff.
-      if constexpr (std::is_invocable_v<Visit&, uint32_t, const glm::vec3&, const float*, const float*,
-                                        const float*>) {
-        visit(texel, rgb, static_cast<const float*>(g_row.data()), static_cast<const float*>(h_row.data()),
-              static_cast<const float*>(falloff_row.data()));
-      } else {
-        visit(texel, rgb, static_cast<const float*>(g_row.data()), static_cast<const float*>(h_row.data()));
-      }
+      visit(texel, rgb, terms);
     }
   }
 }
@@ -98,13 +121,15 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
         "ForEachPixelSample: frame must be CV_32FC3 of the camera's size");
   Check(surface.position_texel.type() == CV_32FC4 && surface.normal.size() == surface.position_texel.size(),
         "ForEachPixelSample: surface maps must be CV_32FC4 of one size");
-  Check(shadows.type() == CV_16UC1 && shadows.rows == shadows.cols, "ForEachPixelSample: shadows must be CV_16UC1");
   Check(lights.size() <= static_cast<size_t>(kMaxLights), "ForEachPixelSample: more than kMaxLights lights");
-  const glm::vec4 view(camera.ViewOrigin());
+  Check(shadows.type() == ShadowAtlasType(lights.size()) && shadows.rows == shadows.cols,
+        "ForEachPixelSample: shadows must be CV_16UC(ShadowChannels)");
+  const glm::vec4 view(camera.ViewOrigin());  // v: scene::ViewDirection (pinhole or orthographic)
   const int size = shadows.cols;
   const int map_w = surface.position_texel.cols, map_h = surface.position_texel.rows;
   const bool distorted = camera.has_distortion();
-  std::array<float, kMaxLights> g_row{}, h_row{}, falloff_row{};
+  const int channels = ShadowChannels(lights.size());
+  auto buffers = std::make_unique<assemble_internal::TermBuffers>();
   const auto covered = [&](int mx, int my) {
     return mx >= 0 && my >= 0 && mx < map_w && my < map_h && surface.position_texel.at<cv::Vec4f>(my, mx)[3] > 0.5f;
   };
@@ -135,12 +160,11 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
       if (!(glm::dot(n, v) > static_cast<float>(min_cos_view))) continue;
       const int64_t texel = static_cast<int64_t>(p[3]) - 1;
       if (texel < 0 || texel >= static_cast<int64_t>(size) * size) continue;
-      const uint16_t bits = shadows.at<uint16_t>(static_cast<int>(texel / size), static_cast<int>(texel % size));
-      assemble_internal::LightRows(lights, point, n, view, bits, options.inverse_square_falloff, g_row.data(),
-                                   h_row.data(), falloff_row.data());
+      const uint16_t* bits = shadows.ptr<uint16_t>(static_cast<int>(texel / size)) +
+                             static_cast<size_t>(texel % size) * static_cast<size_t>(channels);
+      const LightTerms terms = buffers->Fill(lights, point, n, view, bits, options.inverse_square_falloff);
       const cv::Vec3f& rgb = frame.at<cv::Vec3f>(y, x);
-      visit(static_cast<uint32_t>(texel), glm::vec3(rgb[0], rgb[1], rgb[2]), static_cast<const float*>(g_row.data()),
-            static_cast<const float*>(h_row.data()), static_cast<const float*>(falloff_row.data()));
+      visit(static_cast<uint32_t>(texel), glm::vec3(rgb[0], rgb[1], rgb[2]), terms);
     }
   }
 }

@@ -1,10 +1,13 @@
 #include "core/samples/assemble.h"
 
+#include <gtest/gtest.h>
+
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
+#include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "core/render/phong_model.h"
 
@@ -79,6 +82,14 @@ Fixture MakeFixture() {
   return f;
 }
 
+// Dense values of `values` (one per term of t) over `num` lights, 0 where a
+// light does not reach.
+std::vector<float> Dense(const LightTerms& t, const float* values, size_t num) {
+  std::vector<float> dense(num, 0.0f);
+  for (size_t j = 0; j < t.count; ++j) dense[t.light[j]] = values[j];
+  return dense;
+}
+
 glm::vec3 Centre(const Fixture& f, int t) {
   const glm::uvec3 tri = f.atlas.topology.file_triangles[t];
   return (f.positions[tri.x] + f.positions[tri.y] + f.positions[tri.z]) / 3.0f;
@@ -139,8 +150,8 @@ TEST(AppendTriangleSamples, CosinesVisibilityAndSkips) {
     const glm::vec3 c = Centre(f, i);
     for (int k = 0; k < 3; ++k) {
       const render::LightCosines ref = render::ComputeLightCosines(f.lights[k], c, n, eye, false);
-      EXPECT_EQ(set.g[i * 3 + k], visible[i][k] ? ref.g : 0.0f) << i << " " << k;
-      EXPECT_EQ(set.h[i * 3 + k], visible[i][k] ? ref.h : 0.0f) << i << " " << k;
+      EXPECT_EQ(set.GOf(i, k), visible[i][k] ? ref.g : 0.0f) << i << " " << k;
+      EXPECT_EQ(set.HOf(i, k), visible[i][k] ? ref.h : 0.0f) << i << " " << k;
       // By hand: l = normalize(L - c) (or the direction), g = l.z; R = 2 g n - l, h = R.v.
       const glm::vec3 l = f.lights[k].directional ? f.lights[k].direction : glm::normalize(f.lights[k].position - c);
       const glm::vec3 v = glm::normalize(eye - c);
@@ -149,12 +160,14 @@ TEST(AppendTriangleSamples, CosinesVisibilityAndSkips) {
       EXPECT_NEAR(ref.h, std::max(0.0f, glm::dot(r, v)), kTolerance);
     }
   }
-  EXPECT_GT(set.g[1], 0.0f);  // light B lights triangle 0...
-  EXPECT_EQ(set.g[4], 0.0f);  // ...but is shadowed on triangle 1
-  EXPECT_EQ(set.h[4], 0.0f);
+  EXPECT_GT(set.GOf(0, 1), 0.0f);  // light B lights triangle 0...
+  EXPECT_EQ(set.GOf(1, 1), 0.0f);  // ...but is shadowed on triangle 1
+  EXPECT_EQ(set.HOf(1, 1), 0.0f);
+  // Compact: triangle 1 holds only light A (B and C shadowed).
+  EXPECT_EQ(set.TermsEnd(1) - set.TermsBegin(1), 1u);
   // Illumination of triangle 0 by {A, B}: I_A g_A + I_B g_B.
   const glm::vec3 e = set.Illumination(0, *set.MaskOf({"A", "B"}));
-  EXPECT_FLOAT_EQ(e.g, 0.9f * set.g[0] + set.g[1]);
+  EXPECT_FLOAT_EQ(e.g, 0.9f * set.GOf(0, 0) + set.GOf(0, 1));
 }
 
 TEST(AppendTriangleSamples, VisibleFractionThreshold) {
@@ -166,8 +179,8 @@ TEST(AppendTriangleSamples, VisibleFractionThreshold) {
     AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, options, &set);
     ASSERT_EQ(set.size(), 2u);
     // Light 2 on triangle 1 is visible on exactly 3/8 of its texels.
-    EXPECT_EQ(set.g[1 * 3 + 2] > 0.0f, fraction <= 0.375f) << fraction;
-    EXPECT_GT(set.g[0 * 3 + 2], 0.0f);  // 8/8 always
+    EXPECT_EQ(set.GOf(1, 2) > 0.0f, fraction <= 0.375f) << fraction;
+    EXPECT_GT(set.GOf(0, 2), 0.0f);  // 8/8 always
   }
 }
 
@@ -179,7 +192,8 @@ TEST(AppendTriangleSamples, BackFacingFromBelow) {
   ASSERT_EQ(set.size(), 1u);
   EXPECT_EQ(set.element[0], 2u);
   // Every light is above the plane, so nothing lights the downward face.
-  for (int k = 0; k < 3; ++k) EXPECT_EQ(set.g[k], 0.0f);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(set.GOf(0, k), 0.0f);
+  EXPECT_EQ(set.num_terms(), 0u);  // nothing reaches it: no terms at all
 }
 
 TEST(AppendTriangleSamples, InverseSquareFalloffFoldedIntoG) {
@@ -189,17 +203,19 @@ TEST(AppendTriangleSamples, InverseSquareFalloffFoldedIntoG) {
   SampleSet set = MakeSampleSet(f.lights);
   AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, options, &set);
   ASSERT_EQ(set.size(), 2u);
-  ASSERT_EQ(set.falloff.size(), 6u);
+  ASSERT_EQ(set.falloff.size(), set.num_terms());
+  ASSERT_EQ(set.TermsEnd(0) - set.TermsBegin(0), 3u);  // triangle 0: every light
   const glm::vec3 c = Centre(f, 0), n(0, 0, 1), eye(0.5f, 0.5f, 3.0f);
   for (int k = 0; k < 3; ++k) {
     const render::LightCosines plain = render::ComputeLightCosines(f.lights[k], c, n, eye, false);
     const render::LightCosines ref = render::ComputeLightCosines(f.lights[k], c, n, eye, true);
     const float d2 = f.lights[k].directional ? 1.0f : glm::dot(f.lights[k].position - c, f.lights[k].position - c);
-    EXPECT_FLOAT_EQ(set.Falloff(0, k), 1.0f / d2) << k;
+    EXPECT_EQ(set.light[k], k);
+    EXPECT_FLOAT_EQ(set.TermFalloff(k), 1.0f / d2) << k;
     EXPECT_EQ(set.g[k], plain.g * ref.attenuation) << k;
     EXPECT_EQ(set.h[k], plain.h) << k;  // h is not scaled; the fitter applies a to h^ke
   }
-  EXPECT_EQ(set.Falloff(0, 2), 1.0f);  // directional: no fall-off
+  EXPECT_EQ(set.TermFalloff(2), 1.0f);  // directional: no fall-off
 }
 
 // Per-texel assembly over the same square: every texel of the 4 x 4 atlas at
@@ -226,10 +242,11 @@ TEST(ForEachTexelSample, MatchesTheModelPerTexel) {
   AssembleOptions options;
   options.inverse_square_falloff = true;
   ForEachTexelSample(resampled, geometry, f.shadows, f.camera, f.lights, options,
-                     [&](uint32_t texel, const glm::vec3& rgb, const float* g, const float* h, const float* a) {
+                     [&](uint32_t texel, const glm::vec3& rgb, const LightTerms& t) {
                        EXPECT_EQ(seen.count(texel), 0u);
                        std::vector<float>& row = seen[texel];
                        row = {rgb.r, rgb.g, rgb.b};
+                       const std::vector<float> g = Dense(t, t.g, 3), h = Dense(t, t.h, 3), a = Dense(t, t.falloff, 3);
                        for (int k = 0; k < 3; ++k) row.insert(row.end(), {g[k], h[k], a[k]});
                      });
   ASSERT_EQ(seen.size(), 13u);
@@ -246,20 +263,21 @@ TEST(ForEachTexelSample, MatchesTheModelPerTexel) {
       const bool visible = (bits >> k) & 1;
       EXPECT_EQ(row[3 + 3 * k], visible ? ref.g * ref.attenuation : 0.0f) << texel << " " << k;
       EXPECT_EQ(row[4 + 3 * k], visible ? ref.h : 0.0f) << texel << " " << k;
-      EXPECT_EQ(row[5 + 3 * k], ref.attenuation) << texel << " " << k;
+      EXPECT_EQ(row[5 + 3 * k], visible ? ref.attenuation : 0.0f) << texel << " " << k;
     }
   }
   EXPECT_EQ(seen[9][3 + 3], 0.0f);  // light 1 shadowed on texel 9
 
-  // The four-argument visitor of the header, without fall-off.
+  // Without fall-off.
   int count = 0;
   ForEachTexelSample(resampled, geometry, f.shadows, f.camera, f.lights, AssembleOptions{},
-                     [&](uint32_t texel, const glm::vec3&, const float* g, const float* h) {
+                     [&](uint32_t texel, const glm::vec3&, const LightTerms& t) {
                        const cv::Vec4f p = geometry.position.at<cv::Vec4f>(texel / kSize, texel % kSize);
                        const render::LightCosines ref =
                            render::ComputeLightCosines(f.lights[0], glm::vec3(p[0], p[1], p[2]), n, eye, false);
-                       EXPECT_EQ(g[0], ref.g);
-                       EXPECT_EQ(h[0], ref.h);
+                       EXPECT_EQ(Dense(t, t.g, 3)[0], ref.g);
+                       EXPECT_EQ(Dense(t, t.h, 3)[0], ref.h);
+                       EXPECT_FALSE(t.any_falloff);
                        ++count;
                      });
   EXPECT_EQ(count, 13);
@@ -278,9 +296,11 @@ TEST(FrameLightMasks, OwnLightsPerFrameAndAllElsewhere) {
   fl->add_lights("C");
   fl->add_lights("A");
   sequence.scene.add_frame_lighting()->set_frame(7);  // a dark frame
-  EXPECT_EQ(FrameLightMasks(sequence), (std::vector<LightMask>{0b111u, 0b101u, 0u}));
-  EXPECT_EQ(AllLights(3), 0b111u);
-  EXPECT_EQ(AllLights(16), 0xffffu);
+  EXPECT_EQ(FrameLightMasks(sequence),
+            (std::vector<LightMask>{LightMask::FromBits(0b111u), LightMask::FromBits(0b101u), LightMask()}));
+  EXPECT_EQ(AllLights(3), LightMask::FromBits(0b111u));
+  EXPECT_EQ(AllLights(16), LightMask::FromBits(0xffffu));
+  EXPECT_EQ(MaxLightsOn(FrameLightMasks(sequence), 3), 3u);
   EXPECT_FALSE(sequence.every_frame_lit_own());
   sequence.scene.add_frame_lighting()->set_frame(5);
   EXPECT_TRUE(sequence.every_frame_lit_own());
@@ -302,9 +322,10 @@ TEST(ApplyLightMask, LightsOffGiveZeroTermsOthersUnchanged) {
   const auto rows = [&](const cv::Mat& shadows) {
     std::vector<float> g, h;
     ForEachTexelSample(resampled, geometry, shadows, f.camera, f.lights, AssembleOptions{},
-                       [&](uint32_t, const glm::vec3&, const float* gr, const float* hr) {
-                         g.insert(g.end(), gr, gr + 3);
-                         h.insert(h.end(), hr, hr + 3);
+                       [&](uint32_t, const glm::vec3&, const LightTerms& t) {
+                         const std::vector<float> gr = Dense(t, t.g, 3), hr = Dense(t, t.h, 3);
+                         g.insert(g.end(), gr.begin(), gr.end());
+                         h.insert(h.end(), hr.begin(), hr.end());
                        });
     return std::make_pair(g, h);
   };
@@ -312,7 +333,7 @@ TEST(ApplyLightMask, LightsOffGiveZeroTermsOthersUnchanged) {
   ApplyLightMask(AllLights(3), 3, &all);
   EXPECT_EQ(cv::countNonZero(all != f.shadows), 0);  // no-op: the studio path is untouched
   cv::Mat only_a = f.shadows.clone();
-  ApplyLightMask(0b001u, 3, &only_a);
+  ApplyLightMask(LightMask::FromBits(0b001u), 3, &only_a);
   const auto [g_all, h_all] = rows(f.shadows);
   const auto [g_a, h_a] = rows(only_a);
   ASSERT_EQ(g_all.size(), 16u * 3u);
@@ -329,6 +350,171 @@ TEST(ApplyLightMask, LightsOffGiveZeroTermsOthersUnchanged) {
     }
   }
   EXPECT_TRUE(some_b_or_c);  // the fixture lights some texels by B or C
+}
+
+// Issue #13: more lights than the 16 bits of one channel. The shadow atlas
+// is CV_16UC(ceil(L / 16)), light k = bit k % 16 of channel k / 16; every
+// assembler must read lights >= 16 from it, and a Sample holds only the
+// lights that reach it.
+std::vector<scene::Light> ManyLights(int count) {
+  std::vector<scene::Light> lights;
+  for (int k = 0; k < count; ++k) {
+    scene::Light l;
+    l.name = "L" + std::to_string(k);
+    // Point lights on a ring above the square, all facing it.
+    const float angle = 6.2831853f * static_cast<float>(k) / static_cast<float>(count);
+    l.position = {0.5f + 2.0f * std::cos(angle), 0.5f + 2.0f * std::sin(angle), 1.0f + 0.01f * static_cast<float>(k)};
+    l.intensity = glm::vec3(1.0f + 0.001f * static_cast<float>(k));
+    lights.push_back(l);
+  }
+  return lights;
+}
+
+// Texel t sees light (7 t + 20) % L and light L - 1 (the last bit of the last
+// channel); texel 5 also sees light 16 (bit 0 of channel 1).
+std::vector<size_t> VisibleAt(int texel, int num_lights) {
+  std::vector<size_t> v = {static_cast<size_t>((7 * texel + 20) % num_lights), static_cast<size_t>(num_lights - 1)};
+  if (texel == 5) v.push_back(16);
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
+}
+
+cv::Mat ManyLightShadows(int num_lights) {
+  cv::Mat shadows(kSize, kSize, ShadowAtlasType(num_lights), cv::Scalar::all(0));
+  for (int texel = 0; texel < kSize * kSize; ++texel) {
+    for (size_t k : VisibleAt(texel, num_lights)) SetShadowBit(&shadows, texel / kSize, texel % kSize, k);
+  }
+  return shadows;
+}
+
+TEST(ShadowAtlas, ChannelsAndBits) {
+  EXPECT_EQ(ShadowChannels(0), 1);
+  EXPECT_EQ(ShadowChannels(16), 1);
+  EXPECT_EQ(ShadowChannels(17), 2);
+  EXPECT_EQ(ShadowChannels(40), 3);
+  EXPECT_EQ(ShadowChannels(256), 16);
+  EXPECT_EQ(ShadowAtlasType(3), CV_16UC1);
+  EXPECT_EQ(ShadowAtlasType(40), CV_16UC3);
+  cv::Mat shadows = ManyLightShadows(40);
+  EXPECT_TRUE(ShadowBit(shadows, 1, 1, 16));                        // texel 5
+  EXPECT_EQ((shadows.at<cv::Vec<uint16_t, 3>>(1, 1)[1] & 1u), 1u);  // bit 0 of channel 1
+  EXPECT_TRUE(ShadowBit(shadows, 0, 0, 39));                        // bit 7 of channel 2
+  EXPECT_EQ((shadows.at<cv::Vec<uint16_t, 3>>(0, 0)[2]), 1u << 7);
+  EXPECT_FALSE(ShadowBit(shadows, 0, 0, 38));
+}
+
+TEST(ForEachTexelSample, LightsBeyondSixteenFromChannels) {
+  const Fixture f = MakeFixture();
+  resample::GeometryAtlas geometry;
+  geometry.position = cv::Mat(kSize, kSize, CV_32FC4);
+  geometry.normal = cv::Mat(kSize, kSize, CV_32FC4, cv::Scalar(0, 0, 1, 1));
+  for (int row = 0; row < kSize; ++row) {
+    for (int column = 0; column < kSize; ++column) {
+      geometry.position.at<cv::Vec4f>(row, column) =
+          cv::Vec4f((column + 0.5f) / kSize, 1.0f - (row + 0.5f) / kSize, 0.0f, 1.0f);
+    }
+  }
+  const cv::Mat resampled(kSize, kSize, CV_32FC4, cv::Scalar(0.25, 0.5, 0.75, 1.0));
+  const glm::vec3 eye(0.5f, 0.5f, 3.0f), n(0, 0, 1);
+  for (int num_lights : {40, 256}) {
+    const std::vector<scene::Light> lights = ManyLights(num_lights);
+    cv::Mat shadows = ManyLightShadows(num_lights);
+    int visits = 0;
+    ForEachTexelSample(resampled, geometry, shadows, f.camera, lights, AssembleOptions{},
+                       [&](uint32_t texel, const glm::vec3&, const LightTerms& t) {
+                         ++visits;
+                         const std::vector<size_t> expected = VisibleAt(static_cast<int>(texel), num_lights);
+                         ASSERT_EQ(t.count, expected.size()) << num_lights << " lights, texel " << texel;
+                         const cv::Vec4f p = geometry.position.at<cv::Vec4f>(texel / kSize, texel % kSize);
+                         for (size_t j = 0; j < t.count; ++j) {
+                           EXPECT_EQ(t.light[j], expected[j]);
+                           const render::LightCosines ref = render::ComputeLightCosines(
+                               lights[t.light[j]], glm::vec3(p[0], p[1], p[2]), n, eye, false);
+                           EXPECT_EQ(t.g[j], ref.g);
+                           EXPECT_EQ(t.h[j], ref.h);
+                         }
+                       });
+    EXPECT_EQ(visits, kSize * kSize);
+
+    // An OLAT frame: only light 16 is on; every other bit is cleared, in
+    // every channel.
+    LightMask on;
+    on.Set(16);
+    ApplyLightMask(on, static_cast<size_t>(num_lights), &shadows);
+    for (int texel = 0; texel < kSize * kSize; ++texel) {
+      for (size_t k = 0; k < static_cast<size_t>(num_lights); ++k) {
+        EXPECT_EQ(ShadowBit(shadows, texel / kSize, texel % kSize, k), k == 16 && texel == 5) << texel << " " << k;
+      }
+    }
+  }
+}
+
+TEST(AppendTriangleSamples, LightsBeyondSixteenFromChannels) {
+  Fixture f = MakeFixture();
+  constexpr int kLights = 40;
+  f.lights = ManyLights(kLights);
+  // Triangle 0 (texels 0-7): light 33 on all texels, light 17 on 3 of 8
+  // (below the default half); triangle 1: light 2 and light 39.
+  f.shadows = cv::Mat(kSize, kSize, ShadowAtlasType(kLights), cv::Scalar::all(0));
+  for (int texel = 0; texel < 16; ++texel) {
+    const int row = texel / kSize, column = texel % kSize;
+    if (texel < 8) SetShadowBit(&f.shadows, row, column, 33);
+    if (texel < 3) SetShadowBit(&f.shadows, row, column, 17);
+    if (texel >= 8) {
+      SetShadowBit(&f.shadows, row, column, 2);
+      SetShadowBit(&f.shadows, row, column, 39);
+    }
+  }
+  SampleSet set = MakeSampleSet(f.lights);
+  AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, AssembleOptions{}, &set);
+  ASSERT_EQ(set.size(), 2u);
+  EXPECT_EQ(set.offset, (std::vector<uint64_t>{0, 1, 3}));
+  EXPECT_EQ(set.light, (std::vector<uint16_t>{33, 2, 39}));
+  const glm::vec3 eye(0.5f, 0.5f, 3.0f), n(0, 0, 1);
+  for (size_t j = 0; j < set.num_terms(); ++j) {
+    const size_t i = j == 0 ? 0 : 1;
+    const render::LightCosines ref = render::ComputeLightCosines(f.lights[set.light[j]], Centre(f, i), n, eye, false);
+    EXPECT_EQ(set.g[j], ref.g);
+    EXPECT_EQ(set.h[j], ref.h);
+  }
+}
+
+// Per-pixel Samples over the square seen from above: every pixel that shows
+// it (with its four neighbours), with the lights of its texel's channels.
+TEST(ForEachPixelSample, LightsBeyondSixteenFromChannels) {
+  const Fixture f = MakeFixture();
+  constexpr int kLights = 256;
+  const std::vector<scene::Light> lights = ManyLights(kLights);
+  const cv::Mat shadows = ManyLightShadows(kLights);
+  resample::CameraSurface surface;
+  surface.position_texel = cv::Mat(f.camera.height, f.camera.width, CV_32FC4, cv::Scalar::all(0));
+  surface.normal = cv::Mat(f.camera.height, f.camera.width, CV_32FC4, cv::Scalar(0, 0, 1, 0));
+  surface.cx = f.camera.cx;
+  surface.cy = f.camera.cy;
+  for (int y = 0; y < f.camera.height; ++y) {
+    for (int x = 0; x < f.camera.width; ++x) {
+      // The camera 3 above the plane, fx = 64: a pixel spans 3/64 units.
+      const float wx = 0.5f + static_cast<float>(x - f.camera.cx) * 3.0f / 64.0f;
+      const float wy = 0.5f - static_cast<float>(y - f.camera.cy) * 3.0f / 64.0f;
+      if (wx < 0.0f || wx >= 1.0f || wy < 0.0f || wy >= 1.0f) continue;
+      const int column = static_cast<int>(wx * kSize), row = static_cast<int>((1.0f - wy) * kSize);
+      surface.position_texel.at<cv::Vec4f>(y, x) = {wx, wy, 0.0f, static_cast<float>(row * kSize + column + 1)};
+    }
+  }
+  const cv::Mat frame(f.camera.height, f.camera.width, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5));
+  int pixels = 0;
+  std::set<uint32_t> texels;
+  ForEachPixelSample(frame, surface, shadows, f.camera, lights, AssembleOptions{}, 0.0,
+                     [&](uint32_t texel, const glm::vec3&, const LightTerms& t) {
+                       ++pixels;
+                       texels.insert(texel);
+                       const std::vector<size_t> expected = VisibleAt(static_cast<int>(texel), kLights);
+                       ASSERT_EQ(t.count, expected.size()) << "texel " << texel;
+                       for (size_t j = 0; j < t.count; ++j) EXPECT_EQ(t.light[j], expected[j]);
+                     });
+  EXPECT_GT(pixels, 100);
+  EXPECT_EQ(texels.size(), 16u);
 }
 
 }  // namespace

@@ -22,30 +22,34 @@ void Check(bool condition, const char* message) {
 }
 
 // ---------------------------------------------------------------------------
-// Encoding, version 1. All integers and floats little-endian.
+// Encoding, version 2. All integers and floats little-endian.
 //
 //   offset  size            field
 //   0       4               magic "MVSS"
-//   4       4   u32         version (1)
+//   4       4   u32         version (2)
 //   8       4   u32         flags: bit 0 = compact (halves), bit 1 = falloff
 //                           array present; other bits must be 0
 //   12      4   u32         L = number of lights (0..kMaxLights)
 //   16      8   u64         N = number of samples
-//   24      ...             L times: u32 name length, name bytes (UTF-8, no
+//   24      8   u64         T = number of terms (sum of the counts)
+//   32      ...             L times: u32 name length, name bytes (UTF-8, no
 //                           terminator, at most kMaxNameBytes), 3 x f32 intensity
-//           then the arrays, each N (or N*3, N*L) long, in this order:
+//           then the arrays, each N (or N*3, T) long, in this order:
 //                           element u32, frame u16, camera u8,
-//                           reflectance 3 x (f16 | f32), g L x (f16 | f32),
-//                           h L x (f16 | f32), [falloff L x (f16 | f32)]
+//                           reflectance 3 x (f16 | f32), count u16 (terms of
+//                           the sample, <= L), light u16 (< L, ascending
+//                           within a sample), g (f16 | f32), h (f16 | f32),
+//                           [falloff (f16 | f32)]
 //   The buffer ends exactly after the last array; trailing bytes are an error.
+// Version 1 (dense N x L rows, L <= 16) is refused: DATA_LOSS.
 // ---------------------------------------------------------------------------
 constexpr char kMagic[4] = {'M', 'V', 'S', 'S'};
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;
 constexpr uint32_t kFlagCompact = 1u;
 constexpr uint32_t kFlagFalloff = 2u;
 constexpr uint32_t kKnownFlags = kFlagCompact | kFlagFalloff;
 constexpr uint32_t kMaxNameBytes = 4096;
-constexpr size_t kHeaderBytes = 24;
+constexpr size_t kHeaderBytes = 32;
 
 class Writer {
  public:
@@ -128,39 +132,163 @@ absl::Status Truncated(const char* what, size_t offset, size_t need, size_t have
 
 }  // namespace
 
+LightMask LightMask::FirstN(size_t n) {
+  LightMask m;
+  m.low_ = n >= 64 ? ~uint64_t{0} : (uint64_t{1} << n) - 1u;
+  if (n > 64) {
+    m.high_.assign((n - 1) / 64, ~uint64_t{0});
+    if (n % 64 != 0) m.high_.back() = (uint64_t{1} << (n % 64)) - 1u;
+  }
+  return m;
+}
+
+void LightMask::Set(size_t k) {
+  if (k < 64) {
+    low_ |= uint64_t{1} << k;
+    return;
+  }
+  const size_t w = k / 64 - 1;
+  if (w >= high_.size()) high_.resize(w + 1, 0u);
+  high_[w] |= uint64_t{1} << (k % 64);
+}
+
+size_t LightMask::Count() const {
+  size_t n = static_cast<size_t>(__builtin_popcountll(low_));
+  for (uint64_t w : high_) n += static_cast<size_t>(__builtin_popcountll(w));
+  return n;
+}
+
+size_t LightMask::End() const {
+  for (size_t w = NumWords(); w-- > 0;) {
+    const uint64_t bits = Word(w);
+    if (bits != 0) return 64 * w + 64 - static_cast<size_t>(__builtin_clzll(bits));
+  }
+  return 0;
+}
+
+LightMask& LightMask::operator|=(const LightMask& other) {
+  low_ |= other.low_;
+  if (high_.size() < other.high_.size()) high_.resize(other.high_.size(), 0u);
+  for (size_t w = 0; w < other.high_.size(); ++w) high_[w] |= other.high_[w];
+  return *this;
+}
+
+LightMask& LightMask::operator&=(const LightMask& other) {
+  low_ &= other.low_;
+  if (high_.size() > other.high_.size()) high_.resize(other.high_.size());
+  for (size_t w = 0; w < high_.size(); ++w) high_[w] &= other.high_[w];
+  Trim();
+  return *this;
+}
+
+LightMask LightMask::Without(const LightMask& other) const {
+  LightMask m = *this;
+  m.low_ &= ~other.low_;
+  for (size_t w = 0; w < m.high_.size() && w < other.high_.size(); ++w) m.high_[w] &= ~other.high_[w];
+  m.Trim();
+  return m;
+}
+
+void LightMask::Trim() {
+  while (!high_.empty() && high_.back() == 0) high_.pop_back();
+}
+
+std::string LightMask::ToString() const {
+  std::string out = "0x";
+  bool leading = true;
+  for (size_t w = NumWords(); w-- > 0;) {
+    const uint64_t bits = Word(w);
+    if (leading) {
+      if (bits == 0 && w > 0) continue;
+      absl::StrAppend(&out, absl::Hex(bits));
+      leading = false;
+    } else {
+      absl::StrAppend(&out, absl::Hex(bits, absl::kZeroPad16));
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// A term is kept unless its g is a finite value <= 0, which adds nothing to
+// any model term (h is 0 where g is, SampleSet's contract).
+inline bool KeepTerm(float g) { return g > 0.0f || !std::isfinite(g); }
+
+}  // namespace
+
 void SampleSet::Add(uint32_t element_id, int frame_index, int camera_index, const glm::vec3& rgb, const float* g_row,
                     const float* h_row, const float* falloff_row) {
+  const int num = num_lights();
+  Check(num == 0 || (g_row != nullptr && h_row != nullptr), "SampleSet::Add: null g or h row");
+  uint16_t lights[kMaxLights];
+  float gs[kMaxLights], hs[kMaxLights], as[kMaxLights];
+  Check(num <= kMaxLights, "SampleSet::Add: more than kMaxLights lights");
+  size_t count = 0;
+  for (int k = 0; k < num; ++k) {
+    if (!KeepTerm(g_row[k])) continue;
+    lights[count] = static_cast<uint16_t>(k);
+    gs[count] = g_row[k];
+    hs[count] = h_row[k];
+    as[count] = falloff_row != nullptr ? falloff_row[k] : 1.0f;
+    ++count;
+  }
+  AddTerms(element_id, frame_index, camera_index, rgb, count, lights, gs, hs, falloff_row != nullptr ? as : nullptr);
+}
+
+void SampleSet::AddTerms(uint32_t element_id, int frame_index, int camera_index, const glm::vec3& rgb, size_t count,
+                         const uint16_t* lights, const float* g_terms, const float* h_terms,
+                         const float* falloff_terms) {
   Check(frame_index >= 0 && frame_index <= std::numeric_limits<uint16_t>::max(),
         "SampleSet::Add: frame index out of the uint16 range");
   Check(camera_index >= 0 && camera_index <= std::numeric_limits<uint8_t>::max(),
         "SampleSet::Add: camera index out of the uint8 range");
   Check(light_intensity.size() == light_names.size(), "SampleSet::Add: light_intensity and light_names differ in size");
-  const int num = num_lights();
-  Check(num == 0 || (g_row != nullptr && h_row != nullptr), "SampleSet::Add: null g or h row");
+  Check(offset.size() == size() + 1 && offset.back() == light.size(), "SampleSet::Add: offset does not match");
+  Check(count == 0 || (lights != nullptr && g_terms != nullptr && h_terms != nullptr),
+        "SampleSet::AddTerms: null terms");
   element.push_back(element_id);
   frame.push_back(static_cast<uint16_t>(frame_index));
   camera.push_back(static_cast<uint8_t>(camera_index));
   reflectance.push_back(rgb);
-  if (num > 0) {
-    g.insert(g.end(), g_row, g_row + num);
-    h.insert(h.end(), h_row, h_row + num);
+  // The first sample with fall-off: the terms before it had a_k = 1.
+  const bool with_falloff = falloff_terms != nullptr || !falloff.empty();
+  if (falloff_terms != nullptr && falloff.empty()) falloff.assign(light.size(), 1.0f);
+  int previous = -1;
+  for (size_t j = 0; j < count; ++j) {
+    Check(lights[j] < light_names.size() && static_cast<int>(lights[j]) > previous,
+          "SampleSet::AddTerms: light indices must ascend below num_lights()");
+    previous = lights[j];
+    if (!KeepTerm(g_terms[j])) continue;
+    light.push_back(lights[j]);
+    g.push_back(g_terms[j]);
+    h.push_back(h_terms[j]);
+    if (with_falloff) falloff.push_back(falloff_terms != nullptr ? falloff_terms[j] : 1.0f);
   }
-  if (falloff_row != nullptr) {
-    // The first row with fall-off: the samples before it had a_k = 1.
-    if (falloff.empty()) falloff.assign((size() - 1) * static_cast<size_t>(num), 1.0f);
-    falloff.insert(falloff.end(), falloff_row, falloff_row + num);
-  } else if (!falloff.empty()) {
-    falloff.insert(falloff.end(), static_cast<size_t>(num), 1.0f);
+  offset.push_back(light.size());
+}
+
+float SampleSet::GOf(size_t i, int k) const {
+  for (size_t j = TermsBegin(i); j < TermsEnd(i); ++j) {
+    if (light[j] == k) return g[j];
   }
+  return 0.0f;
+}
+
+float SampleSet::HOf(size_t i, int k) const {
+  for (size_t j = TermsBegin(i); j < TermsEnd(i); ++j) {
+    if (light[j] == k) return h[j];
+  }
+  return 0.0f;
 }
 
 absl::StatusOr<LightMask> SampleSet::MaskOf(const std::vector<std::string>& names) const {
-  LightMask mask = 0;
+  LightMask mask;
   for (const std::string& name : names) {
     bool found = false;
     for (int k = 0; k < num_lights() && k < kMaxLights; ++k) {
       if (light_names[k] == name) {
-        mask |= LightMask{1} << k;
+        mask.Set(static_cast<size_t>(k));
         found = true;
         break;
       }
@@ -175,12 +303,10 @@ absl::StatusOr<LightMask> SampleSet::MaskOf(const std::vector<std::string>& name
   return mask;
 }
 
-glm::vec3 SampleSet::Illumination(size_t i, LightMask mask) const {
-  const int num = num_lights();
-  const float* g_row = g.data() + i * static_cast<size_t>(num);
+glm::vec3 SampleSet::Illumination(size_t i, const LightMask& mask) const {
   glm::vec3 sum(0.0f);
-  for (int k = 0; k < num && k < kMaxLights; ++k) {
-    if (mask & (LightMask{1} << k)) sum += light_intensity[k] * g_row[k];
+  for (size_t j = TermsBegin(i); j < TermsEnd(i); ++j) {
+    if (mask.Test(light[j])) sum += light_intensity[light[j]] * g[j];
   }
   return sum;
 }
@@ -193,6 +319,8 @@ size_t SampleSet::MemoryBytes() const {
   bytes += frame.capacity() * sizeof(uint16_t);
   bytes += camera.capacity() * sizeof(uint8_t);
   bytes += reflectance.capacity() * sizeof(glm::vec3);
+  bytes += offset.capacity() * sizeof(uint64_t);
+  bytes += light.capacity() * sizeof(uint16_t);
   bytes += g.capacity() * sizeof(float);
   bytes += h.capacity() * sizeof(float);
   bytes += falloff.capacity() * sizeof(float);
@@ -202,11 +330,13 @@ size_t SampleSet::MemoryBytes() const {
 std::string EncodeSampleSet(const SampleSet& set, bool compact) {
   const size_t n = set.size();
   const size_t num = static_cast<size_t>(set.num_lights());
+  const size_t terms = set.num_terms();
   Check(num <= static_cast<size_t>(kMaxLights), "EncodeSampleSet: more than kMaxLights lights");
   Check(set.light_intensity.size() == num, "EncodeSampleSet: light_intensity and light_names differ in size");
   const bool has_falloff = !set.falloff.empty();
-  Check(set.frame.size() == n && set.camera.size() == n && set.reflectance.size() == n && set.g.size() == n * num &&
-            set.h.size() == n * num && (!has_falloff || set.falloff.size() == n * num),
+  Check(set.frame.size() == n && set.camera.size() == n && set.reflectance.size() == n && set.offset.size() == n + 1 &&
+            set.offset.front() == 0 && set.offset.back() == terms && set.g.size() == terms && set.h.size() == terms &&
+            (!has_falloff || set.falloff.size() == terms),
         "EncodeSampleSet: arrays of inconsistent sizes");
   const size_t real = compact ? 2 : 4;
   std::string out;
@@ -216,13 +346,14 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
     names += 4 + name.size() + 12;
   }
   const size_t arrays = has_falloff ? 3 : 2;
-  out.reserve(kHeaderBytes + names + n * (4 + 2 + 1 + real * (3 + arrays * num)));
+  out.reserve(kHeaderBytes + names + n * (4 + 2 + 1 + 3 * real + 2) + terms * (2 + arrays * real));
   Writer w(&out);
   w.Bytes(kMagic, 4);
   w.U32(kVersion);
   w.U32((compact ? kFlagCompact : 0u) | (has_falloff ? kFlagFalloff : 0u));
   w.U32(static_cast<uint32_t>(num));
   w.U64(n);
+  w.U64(terms);
   for (size_t k = 0; k < num; ++k) {
     w.U32(static_cast<uint32_t>(set.light_names[k].size()));
     w.Bytes(set.light_names[k].data(), set.light_names[k].size());
@@ -234,6 +365,12 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
   for (const glm::vec3& rgb : set.reflectance) {
     for (int c = 0; c < 3; ++c) w.Real(rgb[c], compact);
   }
+  for (size_t i = 0; i < n; ++i) {
+    const uint64_t count = set.offset[i + 1] - set.offset[i];
+    Check(set.offset[i + 1] >= set.offset[i] && count <= num, "EncodeSampleSet: a sample with more terms than lights");
+    w.U16(static_cast<uint16_t>(count));
+  }
+  for (uint16_t k : set.light) w.U16(k);
   for (float v : set.g) w.Real(v, compact);
   for (float v : set.h) w.Real(v, compact);
   for (float v : set.falloff) w.Real(v, compact);
@@ -247,12 +384,18 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
     return absl::DataLossError("sample set encoding: bad magic (expected \"MVSS\"): not a sample set");
   }
   r.Take(4);
-  if (!r.Has(kHeaderBytes - 4)) return Truncated("header", r.position(), kHeaderBytes - 4, r.remaining());
+  if (!r.Has(4)) return Truncated("header", r.position(), 4, r.remaining());
   const uint32_t version = r.U32();
+  if (version == 1) {
+    return absl::DataLossError(
+        "sample set encoding: version 1 (dense rows of at most 16 lights) is no longer read; this build reads version "
+        "2 (recompute the Samples)");
+  }
   if (version != kVersion) {
     return absl::DataLossError(
         absl::StrCat("sample set encoding: unknown version ", version, " (this build reads version ", kVersion, ")"));
   }
+  if (!r.Has(kHeaderBytes - 8)) return Truncated("header", r.position(), kHeaderBytes - 8, r.remaining());
   const uint32_t flags = r.U32();
   if (flags & ~kKnownFlags) {
     return absl::DataLossError(absl::StrCat("sample set encoding: unknown flags 0x", absl::Hex(flags)));
@@ -265,6 +408,7 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
         absl::StrCat("sample set encoding: light count ", num_lights, " exceeds the maximum ", kMaxLights));
   }
   const uint64_t num_samples = r.U64();
+  const uint64_t num_terms = r.U64();
 
   SampleSet set;
   set.light_names.reserve(num_lights);
@@ -283,41 +427,71 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
     set.light_intensity.push_back(intensity);
   }
 
-  // The arrays must fill the rest of the buffer exactly. Check the count
-  // against the remaining bytes before allocating anything from it.
+  // The arrays must fill the rest of the buffer exactly. Check the counts
+  // against the remaining bytes before allocating anything from them.
   const size_t real = compact ? 2 : 4;
-  const size_t per_sample = 4 + 2 + 1 + real * (3 + (has_falloff ? 3 : 2) * size_t{num_lights});
+  const size_t per_sample = 4 + 2 + 1 + 3 * real + 2;
+  const size_t per_term = 2 + (has_falloff ? 3 : 2) * real;
   const size_t left = r.remaining();
-  if (num_samples > left / per_sample) {
-    return absl::DataLossError(absl::StrCat("sample set encoding: truncated arrays: sample count ", num_samples,
-                                            " needs ", per_sample, " bytes per sample, ", left, " bytes left"));
+  if (num_samples > left / per_sample || num_terms > left / per_term ||
+      num_samples * per_sample > left - num_terms * per_term) {
+    return absl::DataLossError(absl::StrCat("sample set encoding: truncated arrays: ", num_samples, " samples x ",
+                                            per_sample, " bytes and ", num_terms, " terms x ", per_term, " bytes, but ",
+                                            left, " bytes left"));
   }
   const size_t n = static_cast<size_t>(num_samples);
-  if (left != n * per_sample) {
+  const size_t terms = static_cast<size_t>(num_terms);
+  if (left != n * per_sample + terms * per_term) {
     return absl::DataLossError(absl::StrCat("sample set encoding: counts inconsistent with the buffer: ", n,
-                                            " samples x ", per_sample, " bytes = ", n * per_sample, ", but ", left,
+                                            " samples x ", per_sample, " bytes + ", terms, " terms x ", per_term,
+                                            " bytes = ", n * per_sample + terms * per_term, ", but ", left,
                                             " bytes follow the header"));
   }
-  const size_t num = num_lights;
   // EncodeSampleSet sets the flag only for a non-empty falloff array, so one
   // set has one encoding (found by tests/fuzz/sample_set_fuzz: the flag with
-  // no samples or no lights decoded, and re-encoded without it).
-  if (has_falloff && n * num == 0) {
-    return absl::DataLossError(absl::StrCat("sample set encoding: falloff flag set but there are no falloff values (",
-                                            n, " samples x ", num, " lights)"));
+  // no terms decoded, and re-encoded without it).
+  if (has_falloff && terms == 0) {
+    return absl::DataLossError("sample set encoding: falloff flag set but there are no terms");
   }
   set.element.resize(n);
   set.frame.resize(n);
   set.camera.resize(n);
   set.reflectance.resize(n);
-  set.g.resize(n * num);
-  set.h.resize(n * num);
-  if (has_falloff) set.falloff.resize(n * num);
+  set.offset.resize(n + 1);
+  set.light.resize(terms);
+  set.g.resize(terms);
+  set.h.resize(terms);
+  if (has_falloff) set.falloff.resize(terms);
   for (size_t i = 0; i < n; ++i) set.element[i] = r.U32();
   for (size_t i = 0; i < n; ++i) set.frame[i] = r.U16();
   for (size_t i = 0; i < n; ++i) set.camera[i] = r.U8();
   for (size_t i = 0; i < n; ++i) {
     for (int c = 0; c < 3; ++c) set.reflectance[i][c] = r.Real(compact);
+  }
+  set.offset[0] = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const uint16_t count = r.U16();
+    if (count > num_lights) {
+      return absl::DataLossError(absl::StrCat("sample set encoding: sample ", i, " has ", count,
+                                              " terms, more than the ", num_lights, " lights"));
+    }
+    set.offset[i + 1] = set.offset[i] + count;
+  }
+  if (set.offset[n] != terms) {
+    return absl::DataLossError(absl::StrCat("sample set encoding: the samples' term counts add up to ", set.offset[n],
+                                            ", the header says ", terms, " terms"));
+  }
+  for (size_t i = 0; i < n; ++i) {
+    int previous = -1;
+    for (uint64_t j = set.offset[i]; j < set.offset[i + 1]; ++j) {
+      const uint16_t k = r.U16();
+      if (k >= num_lights || static_cast<int>(k) <= previous) {
+        return absl::DataLossError(absl::StrCat("sample set encoding: sample ", i, " term ", j - set.offset[i],
+                                                ": light ", k, " is not ascending below ", num_lights));
+      }
+      set.light[j] = k;
+      previous = k;
+    }
   }
   for (float& v : set.g) v = r.Real(compact);
   for (float& v : set.h) v = r.Real(compact);

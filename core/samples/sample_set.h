@@ -18,25 +18,86 @@
 // and a fitter multiplies the specular term by Falloff(i, k).
 //
 // Stored as a structure of arrays so that fitters stream over contiguous
-// floats; a light configuration selects lights by a bit mask, so one set
+// values, and compactly (CSR): a sample holds only its terms, the lights that
+// reach it (g != 0: visible, facing, on in its frame), so memory scales with
+// the lights reaching a sample and not with the candidate count (an OLAT frame
+// has one light on among hundreds). Sample i's terms are j in
+// [offset[i], offset[i + 1]), with light[j] ascending, g[j], h[j] and
+// falloff[j]. A light configuration selects lights by a LightMask, so one set
 // serves the whole sweep.
 #ifndef MVBRDF_CORE_SAMPLES_SAMPLE_SET_H_
 #define MVBRDF_CORE_SAMPLES_SAMPLE_SET_H_
 
 #include <cstdint>
+#include <glm/glm.hpp>
+#include <ostream>
 #include <string>
 #include <vector>
 
-#include <glm/glm.hpp>
-
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "core/scene/light.h"
 
 namespace mvbrdf::samples {
 
-constexpr int kMaxLights = 16;
-// Bit k = light k of the set.
-using LightMask = uint32_t;
+// Candidate lights per scene (scene::kMaxLights, validated with the scene).
+constexpr int kMaxLights = scene::kMaxLights;
+
+// A set of lights, bit k = light k, for any k < kMaxLights. The first 64 bits
+// live inline, so masks of up to 64 lights copy without allocating.
+class LightMask {
+ public:
+  LightMask() = default;
+  // Lights 0..63 from the bits of `bits`.
+  static LightMask FromBits(uint64_t bits) {
+    LightMask m;
+    m.low_ = bits;
+    return m;
+  }
+  // Lights [0, n).
+  static LightMask FirstN(size_t n);
+
+  bool Test(size_t k) const {
+    if (k < 64) return (low_ >> k) & 1u;
+    const size_t w = k / 64 - 1;
+    return w < high_.size() && ((high_[w] >> (k % 64)) & 1u);
+  }
+  void Set(size_t k);
+  bool Any() const { return low_ != 0 || !high_.empty(); }  // high_ has no trailing zero words
+  size_t Count() const;
+  // One past the highest light in the set (0 for none).
+  size_t End() const;
+  // 64 lights [64 w, 64 w + 64).
+  uint64_t Word(size_t w) const { return w == 0 ? low_ : (w - 1 < high_.size() ? high_[w - 1] : 0u); }
+  size_t NumWords() const { return 1 + high_.size(); }
+  // 16 lights [16 c, 16 c + 16): channel c of a shadow atlas (assemble.h).
+  uint16_t Bits16(size_t c) const { return static_cast<uint16_t>(Word(c / 4) >> (16 * (c % 4))); }
+
+  LightMask& operator|=(const LightMask& other);
+  LightMask& operator&=(const LightMask& other);
+  // The lights of this set that are not in `other` (this & ~other).
+  LightMask Without(const LightMask& other) const;
+  friend LightMask operator|(LightMask a, const LightMask& b) { return a |= b; }
+  friend LightMask operator&(LightMask a, const LightMask& b) { return a &= b; }
+  friend bool operator==(const LightMask& a, const LightMask& b) { return a.low_ == b.low_ && a.high_ == b.high_; }
+  friend bool operator!=(const LightMask& a, const LightMask& b) { return !(a == b); }
+
+  // Calls f(k) for every light k in the set, ascending.
+  template <typename F>
+  void ForEach(F&& f) const {
+    for (size_t w = 0; w < NumWords(); ++w) {
+      for (uint64_t bits = Word(w); bits != 0; bits &= bits - 1) f(64 * w + static_cast<size_t>(__builtin_ctzll(bits)));
+    }
+  }
+  // Hexadecimal, light 0 in the lowest bit ("0x5" = lights 0 and 2).
+  std::string ToString() const;
+  friend std::ostream& operator<<(std::ostream& out, const LightMask& m) { return out << m.ToString(); }
+
+ private:
+  void Trim();
+  uint64_t low_ = 0;
+  std::vector<uint64_t> high_;  // lights 64.., no trailing zero words
+};
 
 struct SampleSet {
   // The candidate lights, in the scene's order.
@@ -48,41 +109,59 @@ struct SampleSet {
   std::vector<uint16_t> frame;         // 0-based frame of the sequence
   std::vector<uint8_t> camera;         // camera index
   std::vector<glm::vec3> reflectance;  // linear RGB
-  // Per sample and light: g[i * num_lights() + k], h likewise.
+  // size() + 1 values: sample i's terms are [offset[i], offset[i + 1]).
+  std::vector<uint64_t> offset = {0};
+  // Per term: the light (ascending within a sample), g and h.
+  std::vector<uint16_t> light;
   std::vector<float> g;
   std::vector<float> h;
-  // Per sample and light: a_k (see above), or empty: no fall-off (all 1).
+  // Per term: a_k (see above), or empty: no fall-off (all 1).
   std::vector<float> falloff;
 
   int num_lights() const { return static_cast<int>(light_names.size()); }
   size_t size() const { return element.size(); }
-  // Appends one sample; `g` and `h` hold num_lights() values each, and
-  // `falloff_row` too when given (nullptr: a_k = 1; `falloff` stays empty
-  // until the first row with fall-off, then earlier samples get 1s).
+  size_t num_terms() const { return light.size(); }
+  // Sample i's terms: j in [TermsBegin(i), TermsEnd(i)).
+  size_t TermsBegin(size_t i) const { return static_cast<size_t>(offset[i]); }
+  size_t TermsEnd(size_t i) const { return static_cast<size_t>(offset[i + 1]); }
+  // Appends one sample from dense rows: `g` and `h` hold num_lights() values
+  // each, and `falloff_row` too when given (nullptr: a_k = 1; `falloff` stays
+  // empty until the first sample with fall-off, then earlier terms get 1s).
+  // Only the lights with g != 0 become terms (a non-finite g is kept so that
+  // fitters see and skip it; a finite g <= 0 adds nothing to the model).
   void Add(uint32_t element_id, int frame_index, int camera_index, const glm::vec3& rgb, const float* g_row,
            const float* h_row, const float* falloff_row = nullptr);
-  // a_k of sample i (1 without fall-off).
-  float Falloff(size_t i, int k) const {
-    return falloff.empty() ? 1.0f : falloff[i * static_cast<size_t>(num_lights()) + static_cast<size_t>(k)];
-  }
+  // Appends one sample from `count` terms (lights ascending, < num_lights()),
+  // dropping g = 0 terms as Add does.
+  void AddTerms(uint32_t element_id, int frame_index, int camera_index, const glm::vec3& rgb, size_t count,
+                const uint16_t* lights, const float* g_terms, const float* h_terms,
+                const float* falloff_terms = nullptr);
+  // a_k of term j (1 without fall-off).
+  float TermFalloff(size_t j) const { return falloff.empty() ? 1.0f : falloff[j]; }
+  // g of light k in sample i (0 when k does not reach it); a search over the
+  // sample's terms, for tests and reports, not for fitters.
+  float GOf(size_t i, int k) const;
+  float HOf(size_t i, int k) const;
   // Mask of the named lights; INVALID_ARGUMENT names an unknown one.
   absl::StatusOr<LightMask> MaskOf(const std::vector<std::string>& names) const;
   // Sum over the lights in `mask` of I_k g_k: the diffuse illumination of
   // sample i per channel.
-  glm::vec3 Illumination(size_t i, LightMask mask) const;
+  glm::vec3 Illumination(size_t i, const LightMask& mask) const;
   // Bytes held (for reports and cache limits).
   size_t MemoryBytes() const;
 };
 
 // Versioned binary encoding (little-endian): a header with magic "MVSS",
-// version, counts and light names/intensities, then the arrays; reflectance,
-// g, h (and falloff when present) as 16-bit halves when `compact`, else 32-bit
-// floats (layout in sample_set.cc). The encoding
+// version (2: the compact terms), counts and light names/intensities, then the
+// arrays; reflectance, g, h (and falloff when present) as 16-bit halves when
+// `compact`, else 32-bit floats (layout in sample_set.cc). Version 1 (dense
+// rows of at most 16 lights) is refused with DATA_LOSS: a cache holding one
+// treats it as a miss and recomputes (server/workers_api). The encoding
 // is the cache and wire format (issue #5), so it fails loudly on anything
 // unexpected.
 std::string EncodeSampleSet(const SampleSet& set, bool compact = true);
 // DATA_LOSS naming what is wrong (magic, version, truncation, counts) for a
-// corrupt or foreign buffer.
+// corrupt, foreign or outdated buffer.
 absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes);
 
 }  // namespace mvbrdf::samples

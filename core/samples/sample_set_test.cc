@@ -38,14 +38,17 @@ SampleSet MakeSet(int num_lights, int num_samples, uint32_t seed) {
   std::vector<float> g(num_lights), h(num_lights);
   for (int i = 0; i < num_samples; ++i) {
     for (int k = 0; k < num_lights; ++k) {
-      g[k] = unit(rng);
-      h[k] = (k % 3 == 0) ? 0.0f : unit(rng);
+      // A quarter of the lights do not reach a sample (no term).
+      g[k] = unit(rng) < 0.25f ? 0.0f : unit(rng);
+      h[k] = (k % 3 == 0 || g[k] == 0.0f) ? 0.0f : unit(rng);
     }
     set.Add(static_cast<uint32_t>(rng()), i % 70000 % 65536, i % 7, glm::vec3(unit(rng), unit(rng), unit(rng)),
             g.data(), h.data());
   }
   return set;
 }
+
+void ExpectDataLoss(absl::string_view bytes, absl::string_view what);
 
 void ExpectSameLayout(const SampleSet& a, const SampleSet& b) {
   EXPECT_EQ(a.light_names, b.light_names);
@@ -55,6 +58,8 @@ void ExpectSameLayout(const SampleSet& a, const SampleSet& b) {
   EXPECT_EQ(a.frame, b.frame);
   EXPECT_EQ(a.camera, b.camera);
   ASSERT_EQ(a.reflectance.size(), b.reflectance.size());
+  EXPECT_EQ(a.offset, b.offset);
+  EXPECT_EQ(a.light, b.light);
   ASSERT_EQ(a.g.size(), b.g.size());
   ASSERT_EQ(a.h.size(), b.h.size());
 }
@@ -139,9 +144,14 @@ TEST(SampleSet, AddStoresRows) {
   EXPECT_EQ(set.element[1], 43u);
   EXPECT_EQ(set.frame[0], 3);
   EXPECT_EQ(set.camera[1], 2);
-  EXPECT_EQ(set.g, (std::vector<float>{0.5f, 0.25f, 0.0f, 0.75f}));
-  EXPECT_EQ(set.h, (std::vector<float>{0.0f, 0.75f, 0.5f, 0.25f}));
-  EXPECT_GE(set.MemoryBytes(), sizeof(SampleSet) + 2 * (4 + 2 + 1 + 12 + 16));
+  // Compact: the second sample's light 0 has g = 0 and is no term.
+  EXPECT_EQ(set.offset, (std::vector<uint64_t>{0, 2, 3}));
+  EXPECT_EQ(set.light, (std::vector<uint16_t>{0, 1, 1}));
+  EXPECT_EQ(set.g, (std::vector<float>{0.5f, 0.25f, 0.75f}));
+  EXPECT_EQ(set.h, (std::vector<float>{0.0f, 0.75f, 0.25f}));
+  EXPECT_EQ(set.GOf(1, 0), 0.0f);
+  EXPECT_EQ(set.HOf(1, 1), 0.25f);
+  EXPECT_GE(set.MemoryBytes(), sizeof(SampleSet) + 2 * (4 + 2 + 1 + 12 + 8) + 3 * 10);
 }
 
 TEST(SampleSet, FalloffRowsBackfillOnes) {
@@ -153,11 +163,11 @@ TEST(SampleSet, FalloffRowsBackfillOnes) {
   const float a[] = {0.25f, 0.125f};
   set.Add(0, 0, 0, glm::vec3(0.0f), g, h);
   EXPECT_TRUE(set.falloff.empty());
-  EXPECT_EQ(set.Falloff(0, 1), 1.0f);
+  EXPECT_EQ(set.TermFalloff(1), 1.0f);
   set.Add(1, 0, 0, glm::vec3(0.0f), g, h, a);
   set.Add(2, 0, 0, glm::vec3(0.0f), g, h);
   EXPECT_EQ(set.falloff, (std::vector<float>{1.0f, 1.0f, 0.25f, 0.125f, 1.0f, 1.0f}));
-  EXPECT_EQ(set.Falloff(1, 1), 0.125f);
+  EXPECT_EQ(set.TermFalloff(set.TermsBegin(1) + 1), 0.125f);
 
   SampleSet first;
   first.light_names = set.light_names;
@@ -183,13 +193,13 @@ TEST(SampleSet, MaskOfAndIllumination) {
 
   auto mask = set.MaskOf({"NW", "NE"});
   ASSERT_TRUE(mask.ok()) << mask.status();
-  EXPECT_EQ(*mask, 0b110u);
-  EXPECT_EQ(*set.MaskOf({}), 0u);
+  EXPECT_EQ(*mask, LightMask::FromBits(0b110u));
+  EXPECT_EQ(*set.MaskOf({}), LightMask());
   const glm::vec3 e = set.Illumination(0, *mask);
   EXPECT_FLOAT_EQ(e.r, 2.0f * 0.25f + 0.5f * 1.0f);
   EXPECT_FLOAT_EQ(e.g, 3.0f * 0.25f + 0.5f * 1.0f);
   EXPECT_FLOAT_EQ(e.b, 4.0f * 0.25f + 0.5f * 1.0f);
-  EXPECT_EQ(set.Illumination(0, 0), glm::vec3(0.0f));
+  EXPECT_EQ(set.Illumination(0, LightMask()), glm::vec3(0.0f));
 
   auto bad = set.MaskOf({"NE", "SW"});
   ASSERT_FALSE(bad.ok());
@@ -227,18 +237,129 @@ TEST(SampleSetEncoding, CompactRoundTripWithinHalfPrecision) {
 }
 
 TEST(SampleSetEncoding, SizesPerSample) {
-  // Header 24 bytes; per light 4 + name + 12; per sample 7 + real * (3 + 2 L).
+  // Header 32 bytes; per light 4 + name + 12; per sample 9 + 3 real; per
+  // term 2 + 2 real.
   for (int lights : {4, 9}) {
     const SampleSet set = MakeSet(lights, 1000, 9);
     size_t names = 0;
     for (const std::string& n : set.light_names) names += 16 + n.size();
+    const size_t terms = set.num_terms();
+    EXPECT_LT(terms, 1000u * lights);  // some lights do not reach some samples
     const size_t compact = EncodeSampleSet(set, true).size();
     const size_t full = EncodeSampleSet(set, false).size();
-    EXPECT_EQ(compact, 24 + names + 1000 * (7 + 2 * (3 + 2 * lights)));
-    EXPECT_EQ(full, 24 + names + 1000 * (7 + 4 * (3 + 2 * lights)));
-    std::printf("%d lights: %zu bytes/sample compact, %zu bytes/sample float (in memory %zu)\n", lights,
-                size_t(7 + 2 * (3 + 2 * lights)), size_t(7 + 4 * (3 + 2 * lights)), size_t(7 + 12 + 8 * lights));
+    EXPECT_EQ(compact, 32 + names + 1000 * (9 + 2 * 3) + terms * (2 + 2 * 2));
+    EXPECT_EQ(full, 32 + names + 1000 * (9 + 4 * 3) + terms * (2 + 2 * 4));
+    std::printf("%d lights, %.2f terms/sample: %.1f bytes/sample compact, %.1f float\n", lights, terms / 1000.0,
+                compact / 1000.0, full / 1000.0);
   }
+}
+
+// An OLAT capture: 256 candidate lights, one on per sample. The encoding and
+// the memory scale with the one term, not with the 256 candidates.
+TEST(SampleSetEncoding, OneLightOfManyPerSample) {
+  constexpr int kLights = 256;
+  SampleSet set;
+  for (int k = 0; k < kLights; ++k) {
+    set.light_names.push_back("L" + std::to_string(k));
+    set.light_intensity.emplace_back(1.0f);
+  }
+  for (int i = 0; i < 1000; ++i) {
+    const uint16_t light = static_cast<uint16_t>((i * 37) % kLights);
+    const float g = 0.5f, h = 0.25f;
+    set.AddTerms(static_cast<uint32_t>(i), i, 0, glm::vec3(0.5f), 1, &light, &g, &h);
+  }
+  EXPECT_EQ(set.num_terms(), 1000u);
+  const std::string bytes = EncodeSampleSet(set, true);
+  size_t names = 0;
+  for (const std::string& n : set.light_names) names += 16 + n.size();
+  EXPECT_EQ(bytes.size(), 32 + names + 1000 * (9 + 6 + 6));
+  EXPECT_LT(set.MemoryBytes(), 1000u * 60 + 20000);  // ~41 bytes per sample, not 256 x 12
+  auto decoded = DecodeSampleSet(bytes);
+  ASSERT_TRUE(decoded.ok()) << decoded.status();
+  ExpectSameLayout(set, *decoded);
+  EXPECT_EQ(decoded->light, set.light);
+  // Light 255 (bit 15 of shadow channel 15) reaches sample 7 (7 * 37 % 256 = 3)... and sample i its own.
+  for (int i : {0, 7, 999}) {
+    const int k = (i * 37) % kLights;
+    EXPECT_EQ(decoded->GOf(i, k), 0.5f);
+    const glm::vec3 e = decoded->Illumination(i, LightMask::FirstN(kLights));
+    EXPECT_EQ(e, glm::vec3(0.5f));
+    LightMask others = LightMask::FirstN(kLights);
+    others = others.Without(*decoded->MaskOf({"L" + std::to_string(k)}));
+    EXPECT_EQ(decoded->Illumination(i, others), glm::vec3(0.0f));
+  }
+}
+
+// Version 1 (dense rows, at most 16 lights) is refused with a clear error:
+// a cache entry of it is a miss (server/workers_api recomputes).
+TEST(SampleSetEncoding, VersionOneIsRefused) {
+  // A version 1 buffer: header (magic, version 1, flags compact, 1 light, 1
+  // sample), the light "A" with intensity 1, then the dense arrays.
+  std::string v1("MVSS\x01\0\0\0\x01\0\0\0\x01\0\0\0\x01\0\0\0\0\0\0\0", 24);
+  v1 += std::string("\x01\0\0\0A", 5) + std::string(12, '\0') + std::string(4 + 2 + 1 + 2 * (3 + 2), '\0');
+  ExpectDataLoss(v1, "version 1 (dense rows of at most 16 lights) is no longer read");
+}
+
+TEST(SampleSetEncoding, BadTermsFail) {
+  SampleSet set = MakeSet(3, 2, 5);
+  set.light = {0, 1, 2, 0, 2};
+  set.offset = {0, 3, 5};
+  set.g.assign(5, 0.5f);
+  set.h.assign(5, 0.25f);
+  const std::string good = EncodeSampleSet(set, false);
+  ASSERT_TRUE(DecodeSampleSet(good).ok());
+  // Arrays: element 2 x 4, frame 2 x 2, camera 2, reflectance 6 x 4, counts 2 x 2, lights 5 x 2.
+  const size_t counts = good.size() - 5 * (2 + 8) - 2 * 2;
+  const size_t lights = counts + 4;
+  std::string descending = good;
+  descending[lights + 2] = 0;  // sample 0: lights 0, 0, 2
+  ExpectDataLoss(descending, "not ascending");
+  std::string beyond = good;
+  beyond[lights + 8] = 3;  // sample 1: lights 0, 3 of 3
+  ExpectDataLoss(beyond, "not ascending below 3");
+  std::string too_many = good;
+  too_many[counts] = 4;
+  ExpectDataLoss(too_many, "4 terms, more than the 3 lights");
+  std::string sum = good;
+  sum[counts] = 2;  // 2 + 2 terms, the header says 5
+  ExpectDataLoss(sum, "add up to 4");
+}
+
+TEST(LightMask, BitsBeyondSixtyFour) {
+  LightMask m;
+  EXPECT_FALSE(m.Any());
+  m.Set(3);
+  m.Set(200);
+  m.Set(1023);
+  EXPECT_TRUE(m.Test(3) && m.Test(200) && m.Test(1023));
+  EXPECT_FALSE(m.Test(4) || m.Test(199) || m.Test(64) || m.Test(5000));
+  EXPECT_EQ(m.Count(), 3u);
+  EXPECT_EQ(m.End(), 1024u);
+  std::vector<size_t> seen;
+  m.ForEach([&](size_t k) { seen.push_back(k); });
+  EXPECT_EQ(seen, (std::vector<size_t>{3, 200, 1023}));
+  EXPECT_EQ(m.Bits16(200 / 16), 1u << (200 % 16));
+  EXPECT_EQ(m.Bits16(0), 0x8u);
+  const LightMask all = LightMask::FirstN(300);
+  EXPECT_EQ(all.Count(), 300u);
+  EXPECT_EQ(all.End(), 300u);
+  EXPECT_TRUE(all.Test(299) && !all.Test(300));
+  EXPECT_EQ(LightMask::FirstN(64).Count(), 64u);
+  EXPECT_EQ(LightMask::FirstN(128).End(), 128u);
+  EXPECT_EQ((m & all).Count(), 2u);
+  EXPECT_EQ(m.Without(all), [] {
+    LightMask x;
+    x.Set(1023);
+    return x;
+  }());
+  // Equality ignores how far a mask once reached.
+  LightMask low = m.Without(m);
+  EXPECT_EQ(low, LightMask());
+  EXPECT_EQ((m | all).Count(), 301u);
+  EXPECT_EQ(LightMask::FromBits(0x5).ToString(), "0x5");
+  LightMask high = LightMask::FromBits(1);
+  high.Set(64);
+  EXPECT_EQ(high.ToString(), "0x10000000000000001");
 }
 
 TEST(SampleSetEncoding, EmptySets) {
@@ -253,7 +374,7 @@ TEST(SampleSetEncoding, EmptySets) {
   }
 }
 
-TEST(SampleSetEncoding, SixteenLights) {
+TEST(SampleSetEncoding, MostLights) {
   SampleSet set = MakeSet(kMaxLights, 50, 3);
   set.light_names[15] = "";  // an empty name is legal
   auto decoded = DecodeSampleSet(EncodeSampleSet(set, false));
@@ -262,7 +383,11 @@ TEST(SampleSetEncoding, SixteenLights) {
   EXPECT_EQ(set.g, decoded->g);
   auto mask = decoded->MaskOf({"light 14", ""});
   ASSERT_TRUE(mask.ok());
-  EXPECT_EQ(*mask, 0xc000u);
+  EXPECT_EQ(*mask, LightMask::FromBits(0xc000u));
+  auto high = decoded->MaskOf({"light 1000"});
+  ASSERT_TRUE(high.ok());
+  EXPECT_TRUE(high->Test(1000));
+  EXPECT_EQ(high->Count(), 1u);
 }
 
 void ExpectDataLoss(absl::string_view bytes, absl::string_view what) {
@@ -293,43 +418,46 @@ TEST(SampleSetEncoding, ForeignAndCorruptBuffers) {
   ExpectDataLoss(std::string(64, '\0'), "bad magic");
 
   std::string version = good;
-  version[4] = 2;
-  ExpectDataLoss(version, "unknown version 2");
+  version[4] = 3;
+  ExpectDataLoss(version, "unknown version 3");
+  version[4] = 1;
+  ExpectDataLoss(version, "version 1");
 
   std::string flags = good;
   flags[8] |= 0x04;
   ExpectDataLoss(flags, "unknown flags");
 
   std::string lights = good;
-  lights[12] = 17;
-  ExpectDataLoss(lights, "light count 17");
+  lights[12] = 1;
+  lights[13] = 4;  // 1025
+  ExpectDataLoss(lights, "light count 1025");
 
   std::string name = good;
-  name[24 + 3] = 0x7f;  // light 0's name length, top byte
+  name[32 + 3] = 0x7f;  // light 0's name length, top byte
   ExpectDataLoss(name, "name length");
 
   // Flipping the compact flag makes the arrays the wrong length.
   std::string mode = good;
   mode[8] = 0;
-  ExpectDataLoss(mode, "sample count");
+  ExpectDataLoss(mode, "samples x");
 }
 
 // Found by tests/fuzz/sample_set_fuzz (corpus/sample_set/falloff_flag_empty.mvss):
 // the falloff flag on a set with no falloff values decoded, and re-encoded
 // without it, so one set had two encodings.
 TEST(SampleSetEncoding, FalloffFlagWithoutValuesFails) {
-  const std::string no_samples("MVSS\x01\0\0\0\x02\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0", 24);
-  ExpectDataLoss(no_samples, "falloff flag set but there are no falloff values (0 samples x 0 lights)");
-  // One sample, no lights: element, frame, camera and three halves.
-  std::string no_lights = no_samples + std::string(13, '\0');
+  const std::string no_samples("MVSS\x02\0\0\0\x02\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0\0", 32);
+  ExpectDataLoss(no_samples, "falloff flag set but there are no terms");
+  // One sample, no lights: element, frame, camera, three halves and its count.
+  std::string no_lights = no_samples + std::string(15, '\0');
   no_lights[8] = 3;  // compact | falloff
   no_lights[16] = 1;
-  ExpectDataLoss(no_lights, "(1 samples x 0 lights)");
+  ExpectDataLoss(no_lights, "falloff flag set but there are no terms");
   no_lights[8] = 1;  // compact only: fine
   EXPECT_TRUE(DecodeSampleSet(no_lights).ok());
   // Encoded sets with fall-off still decode.
   SampleSet set = MakeSet(2, 3, 5);
-  set.falloff.assign(set.g.size(), 0.5f);
+  set.falloff.assign(set.num_terms(), 0.5f);
   auto decoded = DecodeSampleSet(EncodeSampleSet(set, false));
   ASSERT_TRUE(decoded.ok()) << decoded.status();
   EXPECT_EQ(decoded->falloff, set.falloff);

@@ -8,6 +8,11 @@
 
 namespace mvbrdf::scene {
 
+// Candidate lights per scene (scene.lights; validated). Real light stages
+// have 150-350; 1024 leaves room, keeps a light index in 16 bits and a
+// shadow atlas at 64 channels of 16 bits (core/samples/assemble.h).
+constexpr int kMaxLights = 1024;
+
 struct Light {
   std::string name;
   bool directional = false;

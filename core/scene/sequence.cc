@@ -340,6 +340,9 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
   }
 
   // Lights and which of them are on.
+  if (scene.lights_size() > kMaxLights) {
+    return Invalid("scene.lights", absl::StrCat("at most ", kMaxLights, " lights, got ", scene.lights_size()));
+  }
   NameRegistry lights("scene.lights", "name");
   for (int i = 0; i < scene.lights_size(); ++i) {
     MVBRDF_RETURN_IF_ERROR(lights.Add(i, scene.lights(i).name()));

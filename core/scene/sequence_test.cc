@@ -196,6 +196,16 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
        "scene.cameras[1].video.encoding: unknown value 7"},
       {"BitDepth12", [](v1::Scene* s) { s->mutable_cameras(0)->mutable_video()->set_bit_depth(12); },
        "scene.cameras[0].video.bit_depth: must be 0, 8 or 16, got 12"},
+      // Issue #13: at most kMaxLights (1024) candidate lights.
+      {"TooManyLights",
+       [](v1::Scene* s) {
+         while (s->lights_size() <= kMaxLights) {
+           v1::Light* light = s->add_lights();
+           *light = s->lights(0);
+           light->set_name("extra " + std::to_string(s->lights_size()));
+         }
+       },
+       "scene.lights: at most 1024 lights, got 1025"},
       {"LightNameEmpty", [](v1::Scene* s) { s->mutable_lights(2)->clear_name(); },
        "scene.lights[2].name: must not be empty"},
       {"LightNameDuplicate", [](v1::Scene* s) { s->mutable_lights(2)->set_name("NE"); },

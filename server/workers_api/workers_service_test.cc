@@ -758,6 +758,36 @@ TEST_F(WorkersServiceTest, CorruptCacheEntryIsAMissAndTheWorkerResamples) {
   EXPECT_FALSE(gone->has_value());  // dropped
 }
 
+// Intact bytes (the checksum holds) of an outdated encoding: a sample set
+// of encoding version 1 (dense rows, at most 16 lights), which this build
+// refuses (DATA_LOSS). The cache entry is a miss, dropped, and the gather
+// task goes to a worker to resample; the job does not fail.
+TEST_F(WorkersServiceTest, OutdatedEncodingInTheCacheIsAMissAndTheWorkerResamples) {
+  Start();
+  const std::string worker = Register("w");
+  const store::SampleKey key = TriangleSampleKey(std::string(64, 'a'), SampleRequest());
+  // Version 1: magic, version 1, flags compact, 1 light, 1 sample; the light
+  // "A" (intensity 0); element, frame, camera, reflectance, g and h.
+  std::string outdated("MVSS\x01\0\0\0\x01\0\0\0\x01\0\0\0\x01\0\0\0\0\0\0\0", 24);
+  outdated += std::string("\x01\0\0\0A", 5) + std::string(12, '\0') + std::string(4 + 2 + 1 + 2 * (3 + 2), '\0');
+  ASSERT_EQ(samples::DecodeSampleSet(outdated).status().code(), absl::StatusCode::kDataLoss);
+  ASSERT_TRUE(samples_->Put(key, outdated, now_ms_).ok());
+  const auto [job, gather, sweep] = AddGatherJob();
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_TRUE(leased.has_task());
+  EXPECT_EQ(leased.task().id(), gather);
+  EXPECT_FALSE(jobs_->GetTask(gather)->samples_from_cache);
+  auto gone = samples_->Get(key, now_ms_);
+  ASSERT_TRUE(gone.ok()) << gone.status();
+  EXPECT_FALSE(gone->has_value());  // dropped
+  // The current encoding of the same key answers the next job from the cache.
+  ASSERT_TRUE(samples_->Put(key, EncodedSamples(10), now_ms_).ok());
+  auto current = samples_->Get(key, now_ms_);
+  ASSERT_TRUE(current.ok() && current->has_value());
+  EXPECT_TRUE(samples::DecodeSampleSet(**current).ok());
+}
+
 TEST_F(WorkersServiceTest, GatherResultNeedsTheSamplesWithTheirSha256) {
   Start();
   const std::string worker = Register("w");

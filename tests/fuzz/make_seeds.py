@@ -20,9 +20,14 @@ def half(x):
 
 
 def sample_set(lights, samples, compact, falloff):
-    """lights: [(name, (r, g, b))]; samples: [(element, frame, camera, rgb, g[], h[], a[])]."""
+    """lights: [(name, (r, g, b))]; samples: [(element, frame, camera, rgb, g[], h[], a[])] as dense rows.
+
+    Version 2: a sample's terms are the lights with g != 0 (counts, then per
+    term light u16, g, h and a).
+    """
     flags = (1 if compact else 0) | (2 if falloff else 0)
-    out = b'MVSS' + struct.pack('<IIIQ', 1, flags, len(lights), len(samples))
+    terms = [[k for k, g in enumerate(s[4]) if g != 0.0] for s in samples]
+    out = b'MVSS' + struct.pack('<IIIQQ', 2, flags, len(lights), len(samples), sum(len(t) for t in terms))
     for name, rgb in lights:
         raw = name.encode()
         out += struct.pack('<I', len(raw)) + raw + struct.pack('<3f', *rgb)
@@ -31,8 +36,10 @@ def sample_set(lights, samples, compact, falloff):
     out += b''.join(struct.pack('<H', s[1]) for s in samples)
     out += b''.join(struct.pack('<B', s[2]) for s in samples)
     out += b''.join(real(c) for s in samples for c in s[3])
+    out += b''.join(struct.pack('<H', len(t)) for t in terms)
+    out += b''.join(struct.pack('<H', k) for t in terms for k in t)
     for column in (4, 5) + ((6,) if falloff else ()):
-        out += b''.join(real(v) for s in samples for v in s[column])
+        out += b''.join(real(s[column][k]) for s, t in zip(samples, terms) for k in t)
     return out
 
 
@@ -69,6 +76,11 @@ def main():
         'float32': sample_set(two, rows, False, False),
         'falloff_compact': sample_set(two, rows, True, True),
         'falloff_float32': sample_set(two, rows, False, True),
+        # 40 lights (three shadow channels), one on per sample (OLAT).
+        'olat_40': sample_set([('L%d' % k, (1.0, 1.0, 1.0)) for k in range(40)],
+                              [(i, i, 0, (0.5, 0.5, 0.5), tuple(0.5 if k == (7 * i) % 40 else 0.0 for k in range(40)),
+                                tuple(0.25 if k == (7 * i) % 40 else 0.0 for k in range(40)), ()) for i in range(6)],
+                              True, False),
     }
     for name, data in seeds.items():
         write(os.path.join(root, 'sample_set', name + '.mvss'), data)

@@ -42,18 +42,27 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   Require(set->light_intensity.size() == num, "light_intensity and light_names differ in size");
   Require(set->frame.size() == n && set->camera.size() == n && set->reflectance.size() == n,
           "per-sample arrays of different lengths");
-  Require(set->g.size() == n * num && set->h.size() == n * num, "g or h not samples x lights long");
-  Require(set->falloff.empty() || set->falloff.size() == n * num, "falloff not samples x lights long");
-  // Decoded memory is bounded by the input: every sample takes >= 13 bytes.
-  Require(n <= size / 13, "more samples than the input can hold");
+  const size_t terms = set->num_terms();
+  Require(set->offset.size() == n + 1 && set->offset.front() == 0 && set->offset.back() == terms,
+          "offsets do not span the terms");
+  Require(set->g.size() == terms && set->h.size() == terms, "g or h not one per term");
+  Require(set->falloff.empty() || set->falloff.size() == terms, "falloff not one per term");
+  // Decoded memory is bounded by the input: every sample takes >= 15 bytes,
+  // every term >= 6.
+  Require(n <= size / 15 && terms <= size / 6, "more samples or terms than the input can hold");
+  for (size_t i = 0; i < n; ++i) {
+    Require(set->TermsBegin(i) <= set->TermsEnd(i) && set->TermsEnd(i) - set->TermsBegin(i) <= num,
+            "a sample with more terms than lights");
+    for (size_t j = set->TermsBegin(i); j < set->TermsEnd(i); ++j) {
+      Require(set->light[j] < num && (j == set->TermsBegin(i) || set->light[j] > set->light[j - 1]),
+              "a sample's lights not ascending below num_lights");
+    }
+  }
 
   // The accessors a fitter uses.
-  const mvbrdf::samples::LightMask all =
-      num == 0 ? 0u : static_cast<mvbrdf::samples::LightMask>((uint64_t{1} << num) - 1);
-  for (size_t i = 0; i < n; ++i) {
-    (void)set->Illumination(i, all);
-    for (size_t k = 0; k < num; ++k) (void)set->Falloff(i, static_cast<int>(k));
-  }
+  const mvbrdf::samples::LightMask all = mvbrdf::samples::LightMask::FirstN(num);
+  for (size_t i = 0; i < n; ++i) (void)set->Illumination(i, all);
+  for (size_t j = 0; j < terms; ++j) (void)set->TermFalloff(j);
   (void)set->MaskOf(set->light_names);
   (void)set->MemoryBytes();
 
