@@ -18,6 +18,7 @@ layout(location = 4) uniform vec4 u_distortion_a;     // k1, k2, p1, p2
 layout(location = 5) uniform vec4 u_distortion_b;     // k3, k4, k5, k6
 layout(location = 6) uniform float u_min_cos_view;    // sin(grazing margin): dot(n, v) must exceed it
 layout(location = 7) uniform float u_depth_scale;     // 1 + relative depth tolerance
+layout(location = 8) uniform float u_depth_absolute;  // absolute depth tolerance, world units
 
 layout(location = 0) out vec4 out_radiance;
 
@@ -36,14 +37,14 @@ void main() {
 
   // Visibility: the depth map (inverse depth, bilinear: exact on the point's
   // own triangle, so slanted surfaces do not occlude themselves) at the
-  // pinhole projection. Occluded when z > (1 + tolerance) * z_map.
+  // pinhole projection. Occluded when z > (1 + relative) * z_map + absolute.
   vec2 pinhole = u_intrinsics.xy * undistorted + u_depth_principal;
   vec2 depth_size = vec2(textureSize(u_depth_map, 0));
   if (any(lessThan(pinhole, vec2(-0.5))) || any(greaterThan(pinhole, depth_size - 0.5))) {
     return;  // outside the undistorted field of view (also rejects distortion fold-over)
   }
   float inverse_depth = textureLod(u_depth_map, (pinhole + 0.5) / depth_size, 0.0).r;
-  if (q.z * inverse_depth > u_depth_scale) return;  // occluded
+  if (q.z * inverse_depth > u_depth_scale + u_depth_absolute * inverse_depth) return;  // occluded
 
   // Sampling: the distorted pixel, inside [0, w-1] x [0, h-1] so that the
   // bilinear footprint stays inside the image.

@@ -251,6 +251,22 @@ std::string ReplaceFace(const std::string& text, int n, const std::string& face)
   return out;
 }
 
+// Reverses the winding of every face line ("f a b c" -> "f a c b").
+std::string FlipFaces(const std::string& text) {
+  std::istringstream lines(text);
+  std::string out;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("f ", 0) == 0) {
+      std::istringstream fields(line.substr(2));
+      std::string a, b, c;
+      fields >> a >> b >> c;
+      line = absl::StrCat("f ", a, " ", c, " ", b);
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
 std::vector<BadInputCase> Cases() {
   using C = grpc::StatusCode;
   const C kInvalid = C::INVALID_ARGUMENT;
@@ -602,6 +618,54 @@ std::vector<BadInputCase> Cases() {
        Expect::kRejected,
        kInvalid,
        {"scene.lights[0].intensity[0]: must be a finite number in [0, 1e+12]"}},
+      // Issue #13 item 5: 48 lights passed validation and the run failed
+      // ("task gather '' failed: scene.lights: at most 16 lights").
+      {"MoreLightsThanARunTakes",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           for (int i = s->lights_size(); i <= scene::kMaxLights; ++i) {
+             v1::Light* light = s->add_lights();
+             *light = s->lights(0);
+             light->set_name(absl::StrCat("extra", i));
+           }
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {absl::StrCat("scene.lights: at most ", scene::kMaxLights, " lights")}},
+      {"LightDirectionFarFromUnitLength",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           s->mutable_lights(0)->clear_position();
+           for (double v : {0.0, 1.002, 0.0}) s->mutable_lights(0)->add_direction(v);
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.lights[0].direction: must have unit length (within 0.001"}},
+      // Decision: off unit length by less than 1e-3 (rounded published data)
+      // is renormalised, and the job runs.
+      {"LightDirectionNearUnitLength",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           s->mutable_lights(0)->clear_position();
+           for (double v : {0.0, 1.0 + 6e-5, 0.0}) s->mutable_lights(0)->add_direction(v);
+         });
+       },
+       Expect::kJobSucceeds,
+       C::OK,
+       {}},
+      // Issue #13 item 5: an inside-out mesh ran to the initial guess, exit 0.
+      {"MeshFacingInwards",
+       [](CaseInput& in) { WriteText(in.Frame(0), FlipFaces(ReadText(in.Frame(0)))); },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.mesh.path (frame 0)", "triangles face inwards", "scene.mesh.flipWinding"}},
+      {"FlipWindingOfAnOutwardMesh",
+       [](CaseInput& in) { in.EditScene([](v1::Scene* s) { s->mutable_mesh()->set_flip_winding(true); }); },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.mesh.path (frame 0)", "triangles face inwards", "flipWinding", "it is true"}},
       // Issue #19 defect 7: a camera inside the head sees only back faces; its
       // MSE was 0.000000. Now absent, with a warning naming the camera (the
       // strings below are looked for in the job's report).

@@ -39,6 +39,7 @@ constexpr GLint kDistortionA = 4;
 constexpr GLint kDistortionB = 5;
 constexpr GLint kMinCosView = 6;
 constexpr GLint kDepthScale = 7;
+constexpr GLint kDepthAbsolute = 8;
 
 // Texture units of the full-screen passes.
 constexpr GLuint kPositionMapUnit = 0;
@@ -242,6 +243,10 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
   if (!(options.relative_depth_tolerance >= 0.0) || !std::isfinite(options.relative_depth_tolerance)) {
     return absl::InvalidArgumentError(absl::StrCat("options.relative_depth_tolerance: must be finite and >= 0, got ",
                                                    options.relative_depth_tolerance));
+  }
+  if (!(options.absolute_depth_tolerance >= 0.0) || !std::isfinite(options.absolute_depth_tolerance)) {
+    return absl::InvalidArgumentError(absl::StrCat("options.absolute_depth_tolerance: must be finite and >= 0, got ",
+                                                   options.absolute_depth_tolerance));
   }
   if (options.shadow_map_size < 1 || options.shadow_map_size > 8192) {
     return absl::InvalidArgumentError(
@@ -568,6 +573,7 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   glProgramUniform1f(program, kMinCosView,
                      static_cast<float>(std::sin(r.options.grazing_margin_deg * 3.14159265358979323846 / 180.0)));
   glProgramUniform1f(program, kDepthScale, static_cast<float>(1.0 + r.options.relative_depth_tolerance));
+  glProgramUniform1f(program, kDepthAbsolute, static_cast<float>(r.options.absolute_depth_tolerance));
 
   glBindTextureUnit(kPositionMapUnit, r.position_map.id());
   glBindTextureUnit(kNormalMapUnit, r.normal_map.id());

@@ -31,10 +31,11 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "core/scene/light.h"
 
 namespace mvbrdf::samples {
 
-constexpr int kMaxLights = 16;
+constexpr int kMaxLights = scene::kMaxLights;  // validation refuses more (core/scene/light.h)
 // Bit k = light k of the set.
 using LightMask = uint32_t;
 

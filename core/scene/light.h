@@ -8,6 +8,17 @@
 
 namespace mvbrdf::scene {
 
+// The most candidate lights a run takes (scene.lights): validation refuses
+// more, so that `validate` and `run` agree. The one place this limit lives;
+// core/samples (samples::kMaxLights), the resampler's shadow atlas and the
+// renderer use it.
+inline constexpr int kMaxLights = 16;
+
+// A light direction whose length is off 1 by at most this is renormalised
+// (with a note in `validate`'s summary): published data is rounded to a few
+// digits; farther off is refused as a mistake.
+inline constexpr double kDirectionRenormaliseTolerance = 1e-3;
+
 struct Light {
   std::string name;
   bool directional = false;

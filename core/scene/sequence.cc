@@ -28,6 +28,8 @@ namespace {
 // Rotations are typed in by hand or computed in double: 1e-6 separates a
 // rounding error from a matrix that is not a rotation.
 constexpr double kRotationTolerance = 1e-6;
+// A direction off unit length by less than this is taken as it is (float
+// rounding); up to kDirectionRenormaliseTolerance it is renormalised with a note.
 constexpr double kUnitLengthTolerance = 1e-6;
 // Light intensities and positions are used in float arithmetic (shading,
 // squared residuals of the fits): 1e30 squared overflows to inf and came
@@ -219,9 +221,10 @@ absl::Status ValidateLight(const v1::Light& light, const std::string& f) {
     MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(f + ".direction", light.direction()));
     const auto& d = light.direction();
     const double length = std::sqrt(d.Get(0) * d.Get(0) + d.Get(1) * d.Get(1) + d.Get(2) * d.Get(2));
-    if (std::abs(length - 1.0) > kUnitLengthTolerance) {
-      return Invalid(f + ".direction", absl::StrCat("must have unit length (within ", Num(kUnitLengthTolerance),
-                                                    "), got length ", Num(length)));
+    if (!(std::abs(length - 1.0) <= kDirectionRenormaliseTolerance)) {
+      return Invalid(f + ".direction",
+                     absl::StrCat("must have unit length (within ", Num(kDirectionRenormaliseTolerance),
+                                  ", which is renormalised), got length ", Num(length)));
     }
   }
   if (light.intensity_size() != 0) {
@@ -324,6 +327,10 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
   // lit" after a whole pass over the frames.
   if (scene.lights_size() == 0) {
     return Invalid("scene.lights", "at least one light is required (nothing is lit without one)");
+  }
+  if (scene.lights_size() > kMaxLights) {
+    return Invalid("scene.lights", absl::StrCat("at most ", kMaxLights, " lights (the run's limit), got ",
+                                                scene.lights_size()));
   }
   bool some_light = false;
   for (const v1::Light& light : scene.lights()) {
@@ -514,7 +521,11 @@ Light LightFromProto(const v1::Light& l) {
   light.name = l.name();
   light.directional = l.direction_size() == 3;
   if (l.position_size() == 3) light.position = glm::vec3(l.position(0), l.position(1), l.position(2));
-  if (light.directional) light.direction = glm::vec3(l.direction(0), l.direction(1), l.direction(2));
+  if (light.directional) {
+    // Validated within kDirectionRenormaliseTolerance of unit length; used as a unit vector.
+    const glm::dvec3 d(l.direction(0), l.direction(1), l.direction(2));
+    light.direction = glm::vec3(d / glm::length(d));
+  }
   if (l.intensity_size() == 3) light.intensity = glm::vec3(l.intensity(0), l.intensity(1), l.intensity(2));
   return light;
 }
@@ -531,7 +542,7 @@ absl::StatusOr<FramePositions> Sequence::LoadFrame(int t) const {
   const int absolute = static_cast<int>(scene.frames().first()) + t;
   absl::StatusOr<FramePositions> positions =
       LoadFramePositions(ResolvePath(scene_dir, MeshFramePath(scene, absolute)), topology,
-                         absl::StrCat("scene.mesh.path (frame ", absolute, ")"));
+                         absl::StrCat("scene.mesh.path (frame ", absolute, ")"), scene.mesh().flip_winding());
   if (!positions.ok()) return InSceneTerms(positions.status(), scene_dir);
   return positions;
 }
@@ -573,9 +584,20 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
   const std::string mesh_field =
       seq.is_static_mesh() ? std::string("scene.mesh.path") : absl::StrCat("scene.mesh.path (frame ", first, ")");
   MVBRDF_ASSIGN_OR_RETURN(LoadedMesh mesh,
-                          LoadMesh(ResolvePath(seq.scene_dir, MeshFramePath(scene, first)), mesh_field));
+                          LoadMesh(ResolvePath(seq.scene_dir, MeshFramePath(scene, first)), mesh_field,
+                                   scene.mesh().flip_winding()));
   seq.topology = std::move(mesh.topology);
   seq.rest_positions = std::move(mesh.positions);
+  // An inside-out mesh is resampled from its back faces, which no camera
+  // sees: the fit had no Samples and printed the initial guess, exit 0.
+  const MeshOrientation orientation = ComputeMeshOrientation(seq.topology, seq.rest_positions);
+  if (orientation.closed && orientation.signed_volume < 0.0) {
+    return Invalid(mesh_field,
+                   absl::StrCat("the mesh is closed and its triangles face inwards (signed volume ",
+                                Num(orientation.signed_volume / 6.0), " in frame 0, expected > 0: counter-clockwise "
+                                "seen from outside); set scene.mesh.flipWinding to true to reverse them",
+                                scene.mesh().flip_winding() ? " (it is true: the file's winding faces outwards)" : ""));
+  }
   if (!seq.topology.triangles.empty() && seq.topology.zero_area_triangles.size() == seq.topology.triangles.size()) {
     // Zero relative to the mesh's size: one vertex at 1e30 makes every other
     // triangle a speck, so the extent is named too.
@@ -662,6 +684,15 @@ std::string Summarize(const Sequence& seq) {
     absl::StrAppend(&s, "  ", l.name, ": ", l.directional ? "directional towards (" : "point at (", Num(v.x), ", ",
                     Num(v.y), ", ", Num(v.z), "), intensity (", Num(l.intensity.x), ", ", Num(l.intensity.y), ", ",
                     Num(l.intensity.z), ")\n");
+  }
+  for (int i = 0; i < scene.lights_size(); ++i) {
+    const auto& d = scene.lights(i).direction();
+    if (d.size() != 3) continue;
+    const double length = std::sqrt(d.Get(0) * d.Get(0) + d.Get(1) * d.Get(1) + d.Get(2) * d.Get(2));
+    if (std::abs(length - 1.0) > kUnitLengthTolerance) {
+      absl::StrAppend(&s, "  note: scene.lights[", i, "].direction has length ", Num(length),
+                      ", renormalised to unit length\n");
+    }
   }
   absl::StrAppend(&s, "Light configurations: ", scene.light_configurations_size(), "\n");
   for (const v1::LightConfiguration& c : scene.light_configurations()) {
