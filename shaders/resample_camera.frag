@@ -64,17 +64,24 @@ void main() {
   ivec2 depth_max = ivec2(depth_size) - 1;
   vec3 sum = vec3(0.0);
   float weight = 0.0;
+  float invalid = 0.0;  // a pixel's mark (< 0: masked or saturated, core/scene/video_source.h)
   for (int k = 0; k < 4; ++k) {
     ivec2 offset = ivec2(k & 1, k >> 1);
     ivec2 p = min(base + offset, frame_max);
     ivec2 d = clamp(ivec2(round(pinhole + vec2(p) - pixel)), ivec2(0), depth_max);
     if (texelFetch(u_depth_map, d, 0).r <= 0.0) continue;
     float w = (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y);
-    sum += w * texelFetch(u_frame, p, 0).rgb;
+    vec3 rgb = texelFetch(u_frame, p, 0).rgb;
+    if (rgb.r < 0.0 && w > 0.0) invalid = rgb.r;
+    sum += w * rgb;
     weight += w;
   }
   // A texel whose footprint is almost all background sits outside the
   // silhouette as the camera sees it: no reliable sample.
   if (weight < 0.25) return;
+  if (invalid < 0.0) {
+    out_radiance = vec4(0.0, 0.0, 0.0, invalid);  // refused: counted by the resampler
+    return;
+  }
   out_radiance = vec4(sum / weight, 1.0);
 }

@@ -58,7 +58,7 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
   }
   char correction_name[32];
   std::snprintf(correction_name, sizeof(correction_name), "%04d.exr",
-                static_cast<int>(sequence.scene.frames().first()) + frame);
+                sequence.AbsoluteFrame(frame));
   const bool has_correction = fs::exists(run_dir / "atlases" / "correction" / correction_name);
   const int cameras = std::min<int>(options.max_cameras, static_cast<int>(sequence.cameras.size()));
   for (int c = 0; c < cameras; ++c) {
@@ -67,7 +67,7 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
     cmp.camera = camera.name;
     cmp.frame = frame;
     MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
-                                                                 static_cast<int>(sequence.scene.frames().first()),
+                                                                 sequence.frames, sequence.num_frames,
                                                                  absl::StrCat("scene.cameras[", c, "]")));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat input, video->ReadFrame(frame));
     MVBRDF_ASSIGN_OR_RETURN(cmp.input_png, Png(input));

@@ -15,6 +15,7 @@
 #include "core/gl/gl_objects.h"
 #include "core/gl/shader_program.h"
 #include "core/render/shadow_maps.h"
+#include "core/scene/video_source.h"
 
 namespace mvbrdf::resample {
 namespace {
@@ -157,6 +158,7 @@ struct CameraState {
   gl::Texture surface_normal;    // RGBA32F, layout size: unit world normal
   gl::Texture frame_texture;  // RGB32F at the camera size, bilinear
   uint64_t depth_frame = 0;   // the frame number the depth map belongs to (0: none)
+  Resampler::RefusedObservations refused;
 };
 
 }  // namespace
@@ -590,12 +592,28 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
 
   cv::Mat out(r.size, r.size, CV_32FC4);
   r.ReadAtlas(r.resample_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RGBA, GL_FLOAT, &out);
+  // The shader writes a = the invalid pixel's mark where a footprint touched
+  // one (shaders/resample_camera.frag): counted, then invalid like the rest.
+  for (int y = 0; y < out.rows; ++y) {
+    cv::Vec4f* row = out.ptr<cv::Vec4f>(y);
+    for (int x = 0; x < out.cols; ++x) {
+      if (!(row[x][3] < 0.0f)) continue;
+      if (row[x][3] == scene::kSaturatedPixel) ++state.refused.saturated;
+      else ++state.refused.masked;
+      row[x] = cv::Vec4f(0.0f, 0.0f, 0.0f, 0.0f);
+    }
+  }
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glUseProgram(0);
   glBindVertexArray(0);
   for (GLuint unit = 0; unit < 4; ++unit) glBindTextureUnit(unit, 0);
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ResampleCamera"));
   return out;
+}
+
+Resampler::RefusedObservations Resampler::Refused(int camera) const {
+  if (camera < 0 || camera >= static_cast<int>(impl_->cameras.size())) return {};
+  return impl_->cameras[static_cast<size_t>(camera)].refused;
 }
 
 absl::StatusOr<CameraSurface> Resampler::Surface(int camera) {

@@ -102,7 +102,19 @@ class Resampler {
   // top) resampled into the atlas: CV_32FC4, rgb = radiance, a = 1 where
   // valid, a = 0 where not (uncovered, back-facing or grazing, outside the
   // image, or occluded), so that invalid is distinguishable from black.
+  // Pixels of `frame` marked invalid (scene::kMaskedPixel, kSaturatedPixel:
+  // outside the mask, saturated) invalidate every texel whose footprint
+  // touches one; such texels are counted in Refused(camera).
   absl::StatusOr<cv::Mat> ResampleCamera(int camera, const cv::Mat& frame);
+
+  // Texel observations of `camera` refused so far (over every ResampleCamera
+  // call) because their footprint touched a masked or a saturated pixel
+  // (otherwise they were valid).
+  struct RefusedObservations {
+    uint64_t masked = 0;
+    uint64_t saturated = 0;
+  };
+  RefusedObservations Refused(int camera) const;
 
   // The current frame's geometry atlas (read back from the GPU on each call).
   absl::StatusOr<GeometryAtlas> Geometry();
