@@ -41,6 +41,8 @@ for l in d["lights"]: l.pop("position", None); l["direction"] = [0.0, 1.0 + 6e-5
 check "validate renormalises a direction off unit length by 6e-5, with a note" 0 \
   "note: scene.lights\[0\].direction has length 1.00006, renormalised to unit length" -- \
   "$bin" validate "$work/s/directional.json"
+check "run warns that it renormalised the direction" 0 "warning: scene.lights\[0\].direction has length 1.00006: renormalised" -- \
+  "$bin" run --direct "$work/s/directional.json" "${fit[@]}" --out "$work/r_directional"
 edit "$work/s/scene.json" "$work/s/far_direction.json" '
 for l in d["lights"]: l.pop("position", None); l["direction"] = [0.0, 1.01, 0.0]'
 check "validate refuses a direction 1e-2 off unit length" 3 \

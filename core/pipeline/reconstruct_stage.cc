@@ -231,6 +231,16 @@ absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, cons
   MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
   plan.ToProto(report.mutable_plan());
   NoteSweepFrames(options, sequence.num_frames, report.mutable_plan());
+  // Validation renormalises directions within 1e-3 of unit length (scene::Light).
+  for (int i = 0; i < sequence.scene.lights_size(); ++i) {
+    const auto& d = sequence.scene.lights(i).direction();
+    if (d.size() != 3) continue;
+    const double length = std::sqrt(d.Get(0) * d.Get(0) + d.Get(1) * d.Get(1) + d.Get(2) * d.Get(2));
+    if (std::abs(length - 1.0) > 1e-6) {
+      report.add_warnings(absl::StrCat("scene.lights[", i, "].direction has length ", length,
+                                       ": renormalised to unit length"));
+    }
+  }
   return report;
 }
 

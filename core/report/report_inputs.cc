@@ -69,7 +69,12 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
     MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
                                                                  sequence.frames, sequence.num_frames,
                                                                  absl::StrCat("scene.cameras[", c, "]")));
-    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat input, video->ReadFrame(frame));
+    MVBRDF_ASSIGN_OR_RETURN(cv::Mat input, video->ReadFrame(frame));
+    // Shown as stored: a saturated pixel white, a masked one black (the
+    // decoder marks both negative, scene::kSaturatedPixel / kMaskedPixel).
+    input.forEach<cv::Vec3f>([](cv::Vec3f& p, const int*) {
+      if (p[0] < 0.0f) p = cv::Vec3f::all(p[0] == scene::kSaturatedPixel ? 1.0f : 0.0f);
+    });
     MVBRDF_ASSIGN_OR_RETURN(cmp.input_png, Png(input));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat brdf, renderer->Render(camera, lights, frame, false));
     MVBRDF_ASSIGN_OR_RETURN(cmp.reconstruction_png, Png(brdf));

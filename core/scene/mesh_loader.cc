@@ -559,7 +559,7 @@ MeshOrientation ComputeMeshOrientation(const MeshTopology& topology, const Frame
   }
   centre /= static_cast<double>(positions.size());
   const glm::dvec3 extent = hi - lo;
-  out.bounding_box_volume = extent.x * extent.y * extent.z;
+  out.diagonal_cubed = std::pow(glm::length(extent), 3.0);
   // Directed edge (from, to) -> uses; closed and consistent: each once, and its reverse once.
   std::unordered_map<uint64_t, int> edges;
   edges.reserve(topology.file_triangles.size() * 3);

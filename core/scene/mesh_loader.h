@@ -63,7 +63,7 @@ absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& f
 struct MeshOrientation {
   bool closed = false;
   double signed_volume = 0.0;
-  double bounding_box_volume = 0.0;  // of the positions, for scale
+  double diagonal_cubed = 0.0;  // the positions' bounding-box diagonal cubed, for scale
 };
 MeshOrientation ComputeMeshOrientation(const MeshTopology& topology, const FramePositions& positions);
 

@@ -715,16 +715,6 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
                                    scene.mesh().flip_winding()));
   seq.topology = std::move(mesh.topology);
   seq.rest_positions = std::move(mesh.positions);
-  // An inside-out mesh is resampled from its back faces, which no camera
-  // sees: the fit had no Samples and printed the initial guess, exit 0.
-  const MeshOrientation orientation = ComputeMeshOrientation(seq.topology, seq.rest_positions);
-  if (orientation.closed && orientation.signed_volume < 0.0) {
-    return Invalid(mesh_field,
-                   absl::StrCat("the mesh is closed and its triangles face inwards (signed volume ",
-                                Num(orientation.signed_volume / 6.0), " in frame 0, expected > 0: counter-clockwise "
-                                "seen from outside); set scene.mesh.flipWinding to true to reverse them",
-                                scene.mesh().flip_winding() ? " (it is true: the file's winding faces outwards)" : ""));
-  }
   if (!seq.topology.triangles.empty() && seq.topology.zero_area_triangles.size() == seq.topology.triangles.size()) {
     // Zero relative to the mesh's size: one vertex at 1e30 makes every other
     // triangle a speck, so the extent is named too.
@@ -739,6 +729,17 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
                                 " triangles have zero area in frame 0 (relative to the mesh's extent, (", Num(lo.x),
                                 ", ", Num(lo.y), ", ", Num(lo.z), ") to (", Num(hi.x), ", ", Num(hi.y), ", ", Num(hi.z),
                                 "): a vertex far from the others?): there is no surface to resample"));
+  }
+  // An inside-out mesh is resampled from its back faces, which no camera
+  // sees: the fit had no Samples and printed the initial guess, exit 0.
+  const MeshOrientation orientation = ComputeMeshOrientation(seq.topology, seq.rest_positions);
+  // Negative beyond rounding: a flat closed (double-sided) mesh encloses ~0.
+  if (orientation.closed && orientation.signed_volume < -1e-9 * orientation.diagonal_cubed) {
+    return Invalid(mesh_field,
+                   absl::StrCat("the mesh is closed and its triangles face inwards (signed volume ",
+                                Num(orientation.signed_volume / 6.0), " in frame 0, expected > 0: counter-clockwise "
+                                "seen from outside); set scene.mesh.flipWinding to true to reverse them",
+                                scene.mesh().flip_winding() ? " (it is true: the file's winding faces outwards)" : ""));
   }
   if (options.check_all_frames && !seq.is_static_mesh()) {
     for (int t = 1; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(seq.LoadFrame(t).status());
