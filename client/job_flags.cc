@@ -1,5 +1,9 @@
 #include "client/job_flags.h"
 
+#include <cmath>
+#include <tuple>
+
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 
@@ -16,6 +20,13 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
   flags.AddInt("--max-iterations", &job->max_iterations, "iterations of each BRDF fit, at most");
   flags.AddInt("--sweep-frame-stride", &job->sweep_frame_stride, "use every n-th frame for the light sweep (0: every frame up to 64 frames, else at most 64)");
   flags.AddInt("--grow", &job->grow, "dilation iterations of the written atlases");
+  flags.AddString("--depth-tolerance-absolute", &job->depth_tolerance_absolute,
+                  "occlusion test: a texel is hidden when it lies farther than the camera's depth map by more than "
+                  "this, in world units (default: relative 0.001; at most one of the two)");
+  flags.AddString("--depth-tolerance-relative", &job->depth_tolerance_relative,
+                  "occlusion test as a fraction of the texel's depth (default: 0.001)");
+  flags.AddDouble("--grazing-margin", &job->grazing_margin,
+                  "texels seen within this angle of edge-on are not observations, degrees in [0, 90)");
 }
 
 absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request) {
@@ -67,6 +78,29 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
     return absl::InvalidArgumentError(absl::StrCat("--grow: must be in [0, 1000], got ", job.grow));
   }
   v1::FittingOptions* o = request->mutable_options();
+  if (!job.depth_tolerance_absolute.empty() && !job.depth_tolerance_relative.empty()) {
+    return absl::InvalidArgumentError(
+        "--depth-tolerance-absolute, --depth-tolerance-relative: give at most one (absolute in world units, or "
+        "relative to the depth)");
+  }
+  for (const auto& [flag, text, unit] :
+       {std::tuple<const char*, const std::string*, const char*>{"--depth-tolerance-absolute",
+                                                                 &job.depth_tolerance_absolute, "world units"},
+        {"--depth-tolerance-relative", &job.depth_tolerance_relative, "a fraction of the depth"}}) {
+    if (text->empty()) continue;
+    double v = 0.0;
+    if (!absl::SimpleAtod(*text, &v) || !std::isfinite(v) || v < 0.0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(flag, ": must be a finite number >= 0 (", unit, "), got \"", *text, "\""));
+    }
+    if (text == &job.depth_tolerance_absolute) o->set_depth_tolerance_absolute(v);
+    else o->set_depth_tolerance_relative(v);
+  }
+  if (!(job.grazing_margin >= 0.0 && job.grazing_margin < 90.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--grazing-margin: must be in [0, 90) degrees, got ", job.grazing_margin));
+  }
+  o->set_grazing_margin_degrees(job.grazing_margin);
   o->set_atlas_size(static_cast<uint32_t>(job.atlas));
   o->set_max_cluster_samples(static_cast<uint64_t>(job.cluster_samples));
   o->set_max_iterations(static_cast<uint32_t>(job.max_iterations));

@@ -34,6 +34,8 @@ int RunResample(const std::vector<std::string>& args) {
                   "texels seen within this angle of edge-on are invalid, degrees");
   flags.AddDouble("--depth-tolerance", &o.resampler.relative_depth_tolerance,
                   "occlusion test: a texel is hidden when further than this fraction of its depth behind the camera's depth map");
+  flags.AddDouble("--depth-tolerance-absolute", &o.resampler.absolute_depth_tolerance,
+                  "occlusion test: and hidden only when further than this many world units (added to the relative one)");
   flags.AddInt("--shadow-map-size", &o.resampler.shadow_map_size, "cube shadow map resolution per face");
   flags.AddString("--save", &save, "which frames' atlases to write: first, all or none (figures cover all)");
   flags.AddBool("--no-evaluate", &no_evaluate, "skip the comparison with ground_truth/ even when present");
@@ -67,6 +69,10 @@ int RunResample(const std::vector<std::string>& args) {
   }
   if (usage.ok() && !(o.resampler.relative_depth_tolerance >= 0.0 && std::isfinite(o.resampler.relative_depth_tolerance))) {
     out_of_range("--depth-tolerance", "[0, inf)", o.resampler.relative_depth_tolerance);
+  }
+  if (usage.ok() &&
+      !(o.resampler.absolute_depth_tolerance >= 0.0 && std::isfinite(o.resampler.absolute_depth_tolerance))) {
+    out_of_range("--depth-tolerance-absolute", "[0, inf) world units", o.resampler.absolute_depth_tolerance);
   }
   if (usage.ok() && (o.resampler.shadow_map_size < 1 || o.resampler.shadow_map_size > 8192)) {
     out_of_range("--shadow-map-size", "[1, 8192]", o.resampler.shadow_map_size);

@@ -68,6 +68,10 @@ void PrintReport(const v1::RunReport& report, const std::string& out) {
     }
   }
   for (const std::string& w : report.warnings()) std::printf("warning: %s\n", w.c_str());
+  // Video.mask_path and saturation_level (per camera in result.json's cameras).
+  std::printf("\nrefused texel observations: %llu outside a camera's mask, %llu saturated\n",
+              static_cast<unsigned long long>(report.masked_observations()),
+              static_cast<unsigned long long>(report.saturated_observations()));
   std::printf("\n%u frames in %.1f s, peak memory %.0f MiB; wrote %s/result.json\n", report.frames(), report.seconds(),
               report.peak_rss_bytes() / 1048576.0, out.c_str());
 }

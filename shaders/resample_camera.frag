@@ -22,6 +22,7 @@ layout(location = 4) uniform vec4 u_distortion_a;     // k1, k2, p1, p2
 layout(location = 5) uniform vec4 u_distortion_b;     // k3, k4, k5, k6
 layout(location = 6) uniform float u_min_cos_view;    // sin(grazing margin): dot(n, v) must exceed it
 layout(location = 7) uniform float u_depth_scale;     // 1 + relative depth tolerance
+layout(location = 8) uniform float u_depth_absolute;  // absolute depth tolerance, world units
 layout(location = 16) uniform int u_orthographic;     // nonzero: (x, y) instead of (x/z, y/z); no distortion
 
 layout(location = 0) out vec4 out_radiance;
@@ -59,7 +60,7 @@ void main() {
 
   // Visibility: the depth map (inverse depth, bilinear: exact on the point's
   // own triangle, so slanted surfaces do not occlude themselves) at the
-  // pinhole projection. Occluded when z > (1 + tolerance) * z_map.
+  // pinhole projection. Occluded when z > (1 + relative) * z_map + absolute.
   vec2 pinhole = u_intrinsics.xy * undistorted + u_depth_principal;
   vec2 depth_size = vec2(textureSize(u_depth_map, 0));
   if (any(lessThan(pinhole, vec2(-0.5))) || any(greaterThan(pinhole, depth_size - 0.5))) {
@@ -67,7 +68,7 @@ void main() {
   }
   float inverse_depth = textureLod(u_depth_map, (pinhole + 0.5) / depth_size, 0.0).r;
   if (u_orthographic != 0) inverse_depth = OrthographicInverseDepth(pinhole, inverse_depth);
-  if (q.z * inverse_depth > u_depth_scale) return;  // occluded
+  if (q.z * inverse_depth > u_depth_scale + u_depth_absolute * inverse_depth) return;  // occluded
 
   // Sampling: the distorted pixel, inside [0, w-1] x [0, h-1] so that the
   // bilinear footprint stays inside the image.
@@ -87,17 +88,24 @@ void main() {
   ivec2 depth_max = ivec2(depth_size) - 1;
   vec3 sum = vec3(0.0);
   float weight = 0.0;
+  float invalid = 0.0;  // a pixel's mark (< 0: masked or saturated, core/scene/video_source.h)
   for (int k = 0; k < 4; ++k) {
     ivec2 offset = ivec2(k & 1, k >> 1);
     ivec2 p = min(base + offset, frame_max);
     ivec2 d = clamp(ivec2(round(pinhole + vec2(p) - pixel)), ivec2(0), depth_max);
     if (texelFetch(u_depth_map, d, 0).r <= 0.0) continue;
     float w = (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y);
-    sum += w * texelFetch(u_frame, p, 0).rgb;
+    vec3 rgb = texelFetch(u_frame, p, 0).rgb;
+    if (rgb.r < 0.0 && w > 0.0) invalid = rgb.r;
+    sum += w * rgb;
     weight += w;
   }
   // A texel whose footprint is almost all background sits outside the
   // silhouette as the camera sees it: no reliable sample.
   if (weight < 0.25) return;
+  if (invalid < 0.0) {
+    out_radiance = vec4(0.0, 0.0, 0.0, invalid);  // refused: counted by the resampler
+    return;
+  }
   out_radiance = vec4(sum / weight, 1.0);
 }

@@ -1,5 +1,6 @@
 #include "worker/job_options.h"
 
+#include <cmath>
 #include <cstdint>
 
 #include "absl/strings/str_cat.h"
@@ -74,6 +75,37 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
       return OutOfRange("options.grow_iterations", f.grow_iterations(), 0, kMaxGrowIterations);
     }
     o.grow_iterations = static_cast<int>(f.grow_iterations());
+  }
+  // Resampling (issue #13 item 9): the occlusion test's depth tolerance and
+  // the grazing margin.
+  if (f.has_depth_tolerance_absolute() && f.has_depth_tolerance_relative()) {
+    return absl::InvalidArgumentError(
+        "options.depth_tolerance_absolute, depth_tolerance_relative: give at most one, got both");
+  }
+  if (f.has_depth_tolerance_absolute()) {
+    const double v = f.depth_tolerance_absolute();
+    if (!(std::isfinite(v) && v >= 0.0)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "options.depth_tolerance_absolute: must be a finite number >= 0 (world units), got ", v));
+    }
+    o.resampler.absolute_depth_tolerance = v;
+    o.resampler.relative_depth_tolerance = 0.0;
+  }
+  if (f.has_depth_tolerance_relative()) {
+    const double v = f.depth_tolerance_relative();
+    if (!(std::isfinite(v) && v >= 0.0)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "options.depth_tolerance_relative: must be a finite number >= 0 (a fraction of the depth), got ", v));
+    }
+    o.resampler.relative_depth_tolerance = v;
+  }
+  if (f.has_grazing_margin_degrees()) {
+    const double v = f.grazing_margin_degrees();
+    if (!(v >= 0.0 && v < 90.0)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("options.grazing_margin_degrees: must be in [0, 90) degrees, got ", v));
+    }
+    o.resampler.grazing_margin_deg = v;
   }
   if (absl::Status s = o.fit.Check(); !s.ok()) return absl::InvalidArgumentError(absl::StrCat("options.", s.message()));
   o.threads = threads;

@@ -70,26 +70,22 @@ absl::StatusOr<std::string> BundlePath(const fs::path& scene_dir, const std::str
     }
     return absl::NotFoundError(absl::StrCat(field, ": file not found: ", file.string()));
   }
-  const fs::path real_dir = fs::canonical(scene_dir, ec);
-  const fs::path real_file = fs::canonical(file, ec);
-  if (ec) return absl::InternalError(absl::StrCat(field, ": cannot resolve ", file.string(), ": ", ec.message()));
-  const fs::path inside = real_file.lexically_relative(real_dir);
-  if (inside.empty() || *inside.begin() == "..") {
-    return absl::InvalidArgumentError(absl::StrCat(field, ": \"", relative, "\" resolves to ", real_file.string(),
-                                                   ", outside the scene's folder (a bundle is self-contained)"));
-  }
+  // The same check and message as validate and run --direct (core/scene).
+  MVBRDF_RETURN_IF_ERROR(scene::CheckResolvesInsideSceneDir(scene_dir, normal, field));
   return normal;
 }
 
-// Every file of a path that may be a frame pattern: frames first..first+count-1.
-absl::Status AddFrames(const fs::path& scene_dir, const std::string& path, const std::string& field, int first,
-                       int count, std::set<std::string>* files) {
+// Every file of a path that may be a frame pattern: the selected frames
+// (scene.frames: first + t * step, or indices), t in [0, count).
+absl::Status AddFrames(const fs::path& scene_dir, const std::string& path, const std::string& field,
+                       const scene::FrameSelection& selection, int count, std::set<std::string>* files) {
   if (!IsFramePattern(path)) {
     MVBRDF_ASSIGN_OR_RETURN(std::string file, BundlePath(scene_dir, "", path, field));
     files->insert(std::move(file));
     return absl::OkStatus();
   }
-  for (int t = first; t < first + count; ++t) {
+  for (int i = 0; i < count; ++i) {
+    const int t = selection.Absolute(i);
     MVBRDF_ASSIGN_OR_RETURN(std::string file, BundlePath(scene_dir, "", FormatFramePattern(path, t),
                                                          absl::StrCat(field, " (frame ", t, ")")));
     files->insert(std::move(file));
@@ -168,10 +164,10 @@ absl::Status AddGltfReferences(const fs::path& scene_dir, const std::string& mes
 }
 
 // The mesh's files (every frame of a pattern) and what glTF ones reference.
-absl::Status AddMeshFiles(const fs::path& scene_dir, const std::string& path, int first, int count,
-                          std::set<std::string>* files) {
+absl::Status AddMeshFiles(const fs::path& scene_dir, const std::string& path, const scene::FrameSelection& selection,
+                          int count, std::set<std::string>* files) {
   std::set<std::string> meshes;
-  MVBRDF_RETURN_IF_ERROR(AddFrames(scene_dir, path, "scene.mesh.path", first, count, &meshes));
+  MVBRDF_RETURN_IF_ERROR(AddFrames(scene_dir, path, "scene.mesh.path", selection, count, &meshes));
   for (const std::string& mesh : meshes) {
     if (absl::EndsWithIgnoreCase(mesh, ".gltf")) {
       MVBRDF_RETURN_IF_ERROR(AddGltfReferences(scene_dir, mesh, "scene.mesh.path", files));
@@ -484,15 +480,20 @@ absl::StatusOr<std::vector<std::string>> BundleFiles(const fs::path& scene_file,
   MVBRDF_ASSIGN_OR_RETURN(const v1::Scene scene, scene::ReadScene(scene_file));
   MVBRDF_RETURN_IF_ERROR(scene::ValidateSceneMessage(scene));
   const fs::path scene_dir = scene_file.has_parent_path() ? scene_file.parent_path() : fs::path(".");
-  const int first = static_cast<int>(scene.frames().first());
-  const int count = static_cast<int>(scene.frames().count());
+  const scene::FrameSelection selection = scene::SelectedFrames(scene.frames());
+  const int count = scene::NumSelectedFrames(scene.frames());
 
   std::set<std::string> files;
   files.insert(scene_file.filename().string());
-  MVBRDF_RETURN_IF_ERROR(AddMeshFiles(scene_dir, scene.mesh().path(), first, count, &files));
+  MVBRDF_RETURN_IF_ERROR(AddMeshFiles(scene_dir, scene.mesh().path(), selection, count, &files));
   for (int i = 0; i < scene.cameras_size(); ++i) {
-    MVBRDF_RETURN_IF_ERROR(AddFrames(scene_dir, scene.cameras(i).video().path(),
-                                     absl::StrCat("scene.cameras[", i, "].video.path"), first, count, &files));
+    const v1::Video& video = scene.cameras(i).video();
+    MVBRDF_RETURN_IF_ERROR(
+        AddFrames(scene_dir, video.path(), absl::StrCat("scene.cameras[", i, "].video.path"), selection, count, &files));
+    if (!video.mask_path().empty()) {
+      MVBRDF_RETURN_IF_ERROR(AddFrames(scene_dir, video.mask_path(), absl::StrCat("scene.cameras[", i, "].video.mask_path"),
+                                       selection, count, &files));
+    }
   }
   if (!scene.segmentation_path().empty()) {
     MVBRDF_ASSIGN_OR_RETURN(std::string file,

@@ -30,7 +30,7 @@ absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequ
                           resample::Resampler::Create(context, atlas, sequence.cameras, sequence.lights, options));
   for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
     MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
-                                                                 static_cast<int>(sequence.scene.frames().first()),
+                                                                 sequence.frames, sequence.num_frames,
                                                                  absl::StrCat("scene.cameras[", c, "]")));
     s->videos_.push_back(std::move(video));
   }

@@ -37,6 +37,8 @@ class FrameStream {
   // Reads camera `camera`'s video frame (kept as last_frame()) and resamples it.
   absl::StatusOr<cv::Mat> Resample(int camera);
   absl::StatusOr<resample::CameraSurface> Surface(int camera) { return resampler_->Surface(camera); }
+  // Texel observations refused as masked or saturated so far (Resampler::Refused).
+  resample::Resampler::RefusedObservations Refused(int camera) const { return resampler_->Refused(camera); }
   const cv::Mat& last_frame() const { return last_frame_; }
 
   const scene::FramePositions& positions() const { return positions_; }

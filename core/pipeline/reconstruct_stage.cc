@@ -233,6 +233,16 @@ absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, cons
   MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
   plan.ToProto(report.mutable_plan());
   NoteSweepFrames(options, sequence.num_frames, report.mutable_plan());
+  // Validation renormalises directions within 1e-3 of unit length (scene::Light).
+  for (int i = 0; i < sequence.scene.lights_size(); ++i) {
+    const auto& d = sequence.scene.lights(i).direction();
+    if (d.size() != 3) continue;
+    const double length = std::sqrt(d.Get(0) * d.Get(0) + d.Get(1) * d.Get(1) + d.Get(2) * d.Get(2));
+    if (std::abs(length - 1.0) > 1e-6) {
+      report.add_warnings(absl::StrCat("scene.lights[", i, "].direction has length ", length,
+                                       ": renormalised to unit length"));
+    }
+  }
   return report;
 }
 
@@ -488,6 +498,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   }
   const std::filesystem::path observed_dir = out / "atlases" / "observed_kd.tmp";
   std::vector<int> observed_frames;
+  // Per camera: texel observations of the texel pass refused as masked or
+  // saturated (every frame, every camera: counted once, here).
+  std::vector<resample::Resampler::RefusedObservations> refused(static_cast<size_t>(num_cameras));
   {
     MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
     std::vector<glm::vec3> frame_sum(num_texels);
@@ -586,6 +599,11 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
         observed_frames.push_back(t);
       }
     }
+    for (int c = 0; c < num_cameras; ++c) refused[static_cast<size_t>(c)] = stream->Refused(c);
+  }
+  for (const auto& r : refused) {
+    report.set_masked_observations(report.masked_observations() + r.masked);
+    report.set_saturated_observations(report.saturated_observations() + r.saturated);
   }
   std::vector<glm::vec3> fallback(num_texels, glm::vec3(0.0f));
   for (size_t i = 0; i < num_texels; ++i) {
@@ -611,6 +629,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       v1::CameraErrorRow* row = report.add_cameras();
       row->set_name(sequence.cameras[c].name);
       row->set_samples(cam_count[static_cast<size_t>(c)]);
+      row->set_masked_observations(refused[static_cast<size_t>(c)].masked);
+      row->set_saturated_observations(refused[static_cast<size_t>(c)].saturated);
       if (cam_count[static_cast<size_t>(c)] == 0) {
         // An error over nothing is not 0: left out, and said loudly.
         report.add_warnings(
@@ -684,7 +704,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       }
     }
     char name[32];
-    std::snprintf(name, sizeof(name), "%04d.exr", static_cast<int>(sequence.scene.frames().first()) + t);
+    std::snprintf(name, sizeof(name), "%04d.exr", sequence.AbsoluteFrame(t));
     image::ExrOptions half;
     half.half = true;
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "correction" / name, corr, half));

@@ -53,7 +53,7 @@ absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel&
   }
   if (correction) {
     char name[32];
-    std::snprintf(name, sizeof(name), "%04d.exr", static_cast<int>(sequence_.scene.frames().first()) + frame);
+    std::snprintf(name, sizeof(name), "%04d.exr", sequence_.AbsoluteFrame(frame));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat c, ReadRgb(run_dir_ / "atlases" / "correction" / name));
     MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_ + c, ks_, ke_));  // render with kd + c
     with_correction_ = true;

@@ -94,7 +94,7 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
   std::vector<std::unique_ptr<scene::VideoSource>> videos;
   for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
     MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
-                                                                 static_cast<int>(sequence.scene.frames().first()),
+                                                                 sequence.frames, sequence.num_frames,
                                                                  absl::StrCat("scene.cameras[", c, "]")));
     videos.push_back(std::move(video));
   }
@@ -114,7 +114,7 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
     if (options.progress) options.progress("resample", t, sequence.num_frames);
     const bool save = options.save == SaveFrames::kAll || (options.save == SaveFrames::kFirst && t == 0);
     char frame_name[32];
-    std::snprintf(frame_name, sizeof(frame_name), "%04d", static_cast<int>(sequence.scene.frames().first()) + t);
+    std::snprintf(frame_name, sizeof(frame_name), "%04d", sequence.AbsoluteFrame(t));
     const std::filesystem::path frame_dir = out / "frames" / frame_name;
     if (save) report.add_saved_frames(frame_name);
 
@@ -144,7 +144,7 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
     }
     if (evaluator != nullptr) {
       MVBRDF_RETURN_IF_ERROR(
-          evaluator->SetFrame(positions, sequence.scene.frames().first() + static_cast<uint32_t>(t)));
+          evaluator->SetFrame(positions, static_cast<uint32_t>(sequence.AbsoluteFrame(t))));
     }
 
     for (size_t c = 0; c < sequence.cameras.size(); ++c) {

@@ -58,7 +58,7 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
   }
   char correction_name[32];
   std::snprintf(correction_name, sizeof(correction_name), "%04d.exr",
-                static_cast<int>(sequence.scene.frames().first()) + frame);
+                sequence.AbsoluteFrame(frame));
   const bool has_correction = fs::exists(run_dir / "atlases" / "correction" / correction_name);
   const int cameras = std::min<int>(options.max_cameras, static_cast<int>(sequence.cameras.size()));
   for (int c = 0; c < cameras; ++c) {
@@ -67,9 +67,14 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
     cmp.camera = camera.name;
     cmp.frame = frame;
     MVBRDF_ASSIGN_OR_RETURN(auto video, scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir,
-                                                                 static_cast<int>(sequence.scene.frames().first()),
+                                                                 sequence.frames, sequence.num_frames,
                                                                  absl::StrCat("scene.cameras[", c, "]")));
-    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat input, video->ReadFrame(frame));
+    MVBRDF_ASSIGN_OR_RETURN(cv::Mat input, video->ReadFrame(frame));
+    // Shown as stored: a saturated pixel white, a masked one black (the
+    // decoder marks both negative, scene::kSaturatedPixel / kMaskedPixel).
+    input.forEach<cv::Vec3f>([](cv::Vec3f& p, const int*) {
+      if (p[0] < 0.0f) p = cv::Vec3f::all(p[0] == scene::kSaturatedPixel ? 1.0f : 0.0f);
+    });
     MVBRDF_ASSIGN_OR_RETURN(cmp.input_png, Png(input));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat brdf, renderer->Render(camera, lights, frame, false));
     MVBRDF_ASSIGN_OR_RETURN(cmp.reconstruction_png, Png(brdf));

@@ -110,6 +110,8 @@ std::string BuildReportHtml(const ReportInputs& in) {
   h += ". Rule: " + Escape(run.configuration_rule()) + ".</p>";
   if (!run.configuration_warning().empty()) h += "<p class=\"warning\">" + Escape(run.configuration_warning()) + "</p>";
   for (const std::string& w : run.warnings()) h += "<p class=\"warning\">warning: " + Escape(w) + "</p>";
+  h += "<p id=\"refused\">Refused texel observations: " + absl::StrCat(run.masked_observations()) +
+       " outside a camera's mask, " + absl::StrCat(run.saturated_observations()) + " saturated.</p>";
 
   if (in.evaluation.has_value()) {
     const v1::EvaluationReport& e = *in.evaluation;

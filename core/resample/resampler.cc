@@ -15,6 +15,7 @@
 #include "core/gl/gl_objects.h"
 #include "core/gl/shader_program.h"
 #include "core/render/shadow_maps.h"
+#include "core/scene/video_source.h"
 
 namespace mvbrdf::resample {
 namespace {
@@ -41,6 +42,7 @@ constexpr GLint kDistortionA = 4;
 constexpr GLint kDistortionB = 5;
 constexpr GLint kMinCosView = 6;
 constexpr GLint kDepthScale = 7;
+constexpr GLint kDepthAbsolute = 8;
 constexpr GLint kOrthographic = 16;
 
 // Texture units of the full-screen passes.
@@ -167,6 +169,7 @@ struct CameraState {
   gl::Texture surface_normal;    // RGBA32F, layout size: unit world normal
   gl::Texture frame_texture;  // RGB32F at the camera size, bilinear
   uint64_t depth_frame = 0;   // the frame number the depth map belongs to (0: none)
+  Resampler::RefusedObservations refused;
 };
 
 }  // namespace
@@ -254,6 +257,10 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
   if (!(options.relative_depth_tolerance >= 0.0) || !std::isfinite(options.relative_depth_tolerance)) {
     return absl::InvalidArgumentError(absl::StrCat("options.relative_depth_tolerance: must be finite and >= 0, got ",
                                                    options.relative_depth_tolerance));
+  }
+  if (!(options.absolute_depth_tolerance >= 0.0) || !std::isfinite(options.absolute_depth_tolerance)) {
+    return absl::InvalidArgumentError(absl::StrCat("options.absolute_depth_tolerance: must be finite and >= 0, got ",
+                                                   options.absolute_depth_tolerance));
   }
   if (options.shadow_map_size < 1 || options.shadow_map_size > 8192) {
     return absl::InvalidArgumentError(
@@ -579,6 +586,7 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   glProgramUniform1f(program, kMinCosView,
                      static_cast<float>(std::sin(r.options.grazing_margin_deg * 3.14159265358979323846 / 180.0)));
   glProgramUniform1f(program, kDepthScale, static_cast<float>(1.0 + r.options.relative_depth_tolerance));
+  glProgramUniform1f(program, kDepthAbsolute, static_cast<float>(r.options.absolute_depth_tolerance));
 
   glBindTextureUnit(kPositionMapUnit, r.position_map.id());
   glBindTextureUnit(kNormalMapUnit, r.normal_map.id());
@@ -595,12 +603,28 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
 
   cv::Mat out(r.size, r.size, CV_32FC4);
   r.ReadAtlas(r.resample_framebuffer.id(), GL_COLOR_ATTACHMENT0, GL_RGBA, GL_FLOAT, &out);
+  // The shader writes a = the invalid pixel's mark where a footprint touched
+  // one (shaders/resample_camera.frag): counted, then invalid like the rest.
+  for (int y = 0; y < out.rows; ++y) {
+    cv::Vec4f* row = out.ptr<cv::Vec4f>(y);
+    for (int x = 0; x < out.cols; ++x) {
+      if (!(row[x][3] < 0.0f)) continue;
+      if (row[x][3] == scene::kSaturatedPixel) ++state.refused.saturated;
+      else ++state.refused.masked;
+      row[x] = cv::Vec4f(0.0f, 0.0f, 0.0f, 0.0f);
+    }
+  }
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glUseProgram(0);
   glBindVertexArray(0);
   for (GLuint unit = 0; unit < 4; ++unit) glBindTextureUnit(unit, 0);
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ResampleCamera"));
   return out;
+}
+
+Resampler::RefusedObservations Resampler::Refused(int camera) const {
+  if (camera < 0 || camera >= static_cast<int>(impl_->cameras.size())) return {};
+  return impl_->cameras[static_cast<size_t>(camera)].refused;
 }
 
 absl::StatusOr<CameraSurface> Resampler::Surface(int camera) {

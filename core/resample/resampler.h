@@ -20,7 +20,7 @@
 // is affine in the image over a triangle, so the lookup is exact on the
 // point's own triangle and slanted surfaces do not occlude themselves however
 // grazing the view. A texel is occluded when z > (1 + relative_depth_tolerance)
-// times the looked-up depth. The frame is sampled bilinearly at the
+// times the looked-up depth plus absolute_depth_tolerance. The frame is sampled bilinearly at the
 // distorted pixel (CameraModel::Project). Occlusion boundaries are placed to
 // within about one camera pixel (the depth map has the camera's resolution).
 //
@@ -56,6 +56,9 @@ struct ResamplerOptions {
   // Depth test against the camera's depth map: a texel is occluded when it
   // lies further than this (relative to its depth) behind the map. >= 0.
   double relative_depth_tolerance = 0.001;
+  // And this much in world units (>= 0): occluded when z > (1 + relative) *
+  // z_map + absolute. A job sets one of the two (FittingOptions).
+  double absolute_depth_tolerance = 0.0;
   // Resolution of the per-light cube depth maps (texels per face; also the
   // side of a directional light's orthographic map). In [1, 8192]; GPU memory
   // is 24 * size^2 bytes per point light (24 MB at 1024).
@@ -99,7 +102,19 @@ class Resampler {
   // top) resampled into the atlas: CV_32FC4, rgb = radiance, a = 1 where
   // valid, a = 0 where not (uncovered, back-facing or grazing, outside the
   // image, or occluded), so that invalid is distinguishable from black.
+  // Pixels of `frame` marked invalid (scene::kMaskedPixel, kSaturatedPixel:
+  // outside the mask, saturated) invalidate every texel whose footprint
+  // touches one; such texels are counted in Refused(camera).
   absl::StatusOr<cv::Mat> ResampleCamera(int camera, const cv::Mat& frame);
+
+  // Texel observations of `camera` refused so far (over every ResampleCamera
+  // call) because their footprint touched a masked or a saturated pixel
+  // (otherwise they were valid).
+  struct RefusedObservations {
+    uint64_t masked = 0;
+    uint64_t saturated = 0;
+  };
+  RefusedObservations Refused(int camera) const;
 
   // The current frame's geometry atlas (read back from the GPU on each call).
   absl::StatusOr<GeometryAtlas> Geometry();

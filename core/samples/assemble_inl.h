@@ -142,6 +142,8 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
         px = camera.fx * u.x + surface.cx;
         py = camera.fy * u.y + surface.cy;
       }
+      // Masked or saturated (marked negative by scene::VideoSource): never a Sample.
+      if (frame.at<cv::Vec3f>(y, x)[0] < 0.0f) continue;
       const int mx = static_cast<int>(std::lround(px)), my = static_cast<int>(std::lround(py));
       // Pixels at silhouettes integrate background in a real camera: only
       // pixels whose four neighbours show the mesh too.

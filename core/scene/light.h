@@ -11,7 +11,12 @@ namespace mvbrdf::scene {
 // Candidate lights per scene (scene.lights; validated). Real light stages
 // have 150-350; 1024 leaves room, keeps a light index in 16 bits and a
 // shadow atlas at 64 channels of 16 bits (core/samples/assemble.h).
-constexpr int kMaxLights = 1024;
+inline constexpr int kMaxLights = 1024;
+
+// A light direction whose length is off 1 by at most this is renormalised
+// (with a note in `validate`'s summary): published data is rounded to a few
+// digits; farther off is refused as a mistake.
+inline constexpr double kDirectionRenormaliseTolerance = 1e-3;
 
 struct Light {
   std::string name;

@@ -41,14 +41,31 @@ struct LoadedMesh {
 // triangles. WriteObj of a topology numbered that way (any LoadMesh result)
 // reads back identically; other numberings read back renumbered, and file
 // vertices with bit-identical positions read back welded.
-absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::string_view field);
+//
+// flip_winding (scene.mesh.flipWinding) reverses every triangle's corner
+// order as the file is read, and so its facing: for a mesh whose triangles
+// face inwards.
+absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::string_view field,
+                                    bool flip_winding = false);
 
 // Loads the file-vertex positions of another frame of the same mesh; fails
 // with INVALID_ARGUMENT when its topology differs from `topology` or a vertex
 // is not finite, NOT_FOUND when the file is missing. Positions are parsed by
 // the same importer as LoadMesh, so the rest pose's file gives the same floats.
+// `flip_winding` as the rest pose was loaded.
 absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& file, const MeshTopology& topology,
-                                                  absl::string_view field);
+                                                  absl::string_view field, bool flip_winding = false);
+
+// Six times the signed volume the triangles enclose (sum of det(a, b, c)),
+// and whether the mesh is closed and consistently oriented: every edge (over
+// file vertices) is used once in each direction. Negative for a closed mesh
+// whose triangles face inwards. Zero-area triangles count like the others.
+struct MeshOrientation {
+  bool closed = false;
+  double signed_volume = 0.0;
+  double diagonal_cubed = 0.0;  // the positions' bounding-box diagonal cubed, for scale
+};
+MeshOrientation ComputeMeshOrientation(const MeshTopology& topology, const FramePositions& positions);
 
 // Sets the importer's time limit (seconds + seconds_per_mib * file MiB;
 // default 5 + 1). For the fuzzer, which meets hangs often; any thread.

@@ -93,6 +93,33 @@ TEST(MeshLoaderTest, WeldsCubeAndSplitsUvSeams) {
   EXPECT_EQ(topo.uvs[topo.triangles[0][1]], glm::vec2(0, 0.25f));
 }
 
+TEST(MeshLoaderTest, OrientationAndFlipWinding) {
+  TempDir dir;
+  WriteText(dir / "cube.obj", CubeObj(2.0, 10.0));
+  auto outward = LoadMesh(dir / "cube.obj", "mesh");
+  ASSERT_TRUE(outward.ok()) << outward.status();
+  MeshOrientation o = ComputeMeshOrientation(outward->topology, outward->positions);
+  EXPECT_TRUE(o.closed);
+  EXPECT_NEAR(o.signed_volume / 6.0, 8.0, 1e-9);
+  auto flipped = LoadMesh(dir / "cube.obj", "mesh", /*flip_winding=*/true);
+  ASSERT_TRUE(flipped.ok()) << flipped.status();
+  ExpectConsistent(flipped->topology);
+  o = ComputeMeshOrientation(flipped->topology, flipped->positions);
+  EXPECT_TRUE(o.closed);
+  EXPECT_NEAR(o.signed_volume / 6.0, -8.0, 1e-9);
+  // Later frames are read with the same corner order.
+  auto frame = LoadFramePositions(dir / "cube.obj", flipped->topology, "mesh", /*flip_winding=*/true);
+  ASSERT_TRUE(frame.ok()) << frame.status();
+  EXPECT_EQ(*frame, flipped->positions);
+  // One face less: open, whatever its volume.
+  std::string open = CubeObj();
+  open = open.substr(0, open.rfind("f "));
+  WriteText(dir / "open.obj", open);
+  auto open_mesh = LoadMesh(dir / "open.obj", "mesh");
+  ASSERT_TRUE(open_mesh.ok()) << open_mesh.status();
+  EXPECT_FALSE(ComputeMeshOrientation(open_mesh->topology, open_mesh->positions).closed);
+}
+
 TEST(MeshLoaderTest, FramePositionsApplyToTheRightRenderVertices) {
   TempDir dir;
   WriteText(dir / "cube.obj", CubeObj());

@@ -28,6 +28,8 @@ namespace {
 // Rotations are typed in by hand or computed in double: 1e-6 separates a
 // rounding error from a matrix that is not a rotation.
 constexpr double kRotationTolerance = 1e-6;
+// A direction off unit length by less than this is taken as it is (float
+// rounding); up to kDirectionRenormaliseTolerance it is renormalised with a note.
 constexpr double kUnitLengthTolerance = 1e-6;
 // Light intensities and positions are used in float arithmetic (shading,
 // squared residuals of the fits): 1e30 squared overflows to inf and came
@@ -216,6 +218,20 @@ absl::Status ValidateCamera(const v1::Camera& camera, const std::string& f) {
   if (video.bit_depth() != 0 && video.bit_depth() != 8 && video.bit_depth() != 16) {
     return Invalid(f + ".video.bit_depth", absl::StrCat("must be 0, 8 or 16, got ", video.bit_depth()));
   }
+  if (!video.mask_path().empty()) {
+    MVBRDF_RETURN_IF_ERROR(ValidateFramePattern(video.mask_path(), f + ".video.mask_path"));
+    MVBRDF_RETURN_IF_ERROR(CheckInsideSceneDir(f + ".video.mask_path", video.mask_path()));
+  }
+  if (video.has_saturation_level()) {
+    const uint32_t top = video.bit_depth() == 16 ? 65535u : 255u;
+    // top + 1: no pixel is saturated.
+    if (video.saturation_level() == 0 || video.saturation_level() > top + 1) {
+      return Invalid(f + ".video.saturation_level",
+                     absl::StrCat("must be in [1, ", top + 1, "] (a stored code value of ", top == 255u ? 8 : 16,
+                                  "-bit frames; unset: ", top, "; ", top + 1, ": none saturated), got ",
+                                  video.saturation_level()));
+    }
+  }
   return absl::OkStatus();
 }
 
@@ -244,9 +260,10 @@ absl::Status ValidateLight(const v1::Light& light, const std::string& f) {
     MVBRDF_RETURN_IF_ERROR(CheckFiniteValues(f + ".direction", light.direction()));
     const auto& d = light.direction();
     const double length = std::sqrt(d.Get(0) * d.Get(0) + d.Get(1) * d.Get(1) + d.Get(2) * d.Get(2));
-    if (std::abs(length - 1.0) > kUnitLengthTolerance) {
-      return Invalid(f + ".direction", absl::StrCat("must have unit length (within ", Num(kUnitLengthTolerance),
-                                                    "), got length ", Num(length)));
+    if (!(std::abs(length - 1.0) <= kDirectionRenormaliseTolerance)) {
+      return Invalid(f + ".direction",
+                     absl::StrCat("must have unit length (within ", Num(kDirectionRenormaliseTolerance),
+                                  ", which is renormalised), got length ", Num(length)));
     }
   }
   if (light.intensity_size() != 0) {
@@ -305,6 +322,68 @@ absl::Status InSceneTerms(const absl::Status& status, const std::filesystem::pat
 
 }  // namespace
 
+absl::Status CheckResolvesInsideSceneDir(const std::filesystem::path& scene_dir, const std::string& relative,
+                                         const std::string& field) {
+  std::error_code ec;
+  const std::filesystem::path file = scene_dir / relative;
+  if (!std::filesystem::exists(file, ec)) return absl::OkStatus();
+  const std::filesystem::path real_dir = std::filesystem::canonical(scene_dir, ec);
+  if (ec) return absl::InternalError(absl::StrCat(field, ": cannot resolve ", scene_dir.string(), ": ", ec.message()));
+  const std::filesystem::path real_file = std::filesystem::canonical(file, ec);
+  if (ec) return absl::InternalError(absl::StrCat(field, ": cannot resolve ", file.string(), ": ", ec.message()));
+  const std::filesystem::path inside = real_file.lexically_relative(real_dir);
+  if (inside.empty() || *inside.begin() == "..") {
+    return absl::InvalidArgumentError(absl::StrCat(field, ": \"", relative, "\" resolves to ", real_file.string(),
+                                                   ", outside the scene's folder (a bundle is self-contained)"));
+  }
+  return absl::OkStatus();
+}
+
+namespace {
+
+// Every file the scene names (as core/bundle packs them, in that order)
+// resolves inside the scene's folder: what submit and run would refuse is
+// refused by validate and run --direct too, with the same message.
+absl::Status CheckFilesResolveInside(const Sequence& seq) {
+  const v1::Scene& scene = seq.scene;
+  auto each_frame = [&](const std::string& path, const std::string& field) -> absl::Status {
+    if (!IsFramePattern(path)) return CheckResolvesInsideSceneDir(seq.scene_dir, path, field);
+    for (int t = 0; t < seq.num_frames; ++t) {
+      const int absolute = seq.AbsoluteFrame(t);
+      MVBRDF_RETURN_IF_ERROR(CheckResolvesInsideSceneDir(seq.scene_dir, FormatFramePattern(path, absolute),
+                                                         absl::StrCat(field, " (frame ", absolute, ")")));
+    }
+    return absl::OkStatus();
+  };
+  MVBRDF_RETURN_IF_ERROR(each_frame(scene.mesh().path(), "scene.mesh.path"));
+  for (int i = 0; i < scene.cameras_size(); ++i) {
+    const v1::Video& video = scene.cameras(i).video();
+    MVBRDF_RETURN_IF_ERROR(each_frame(video.path(), absl::StrCat("scene.cameras[", i, "].video.path")));
+    if (!video.mask_path().empty()) {
+      MVBRDF_RETURN_IF_ERROR(each_frame(video.mask_path(), absl::StrCat("scene.cameras[", i, "].video.mask_path")));
+    }
+  }
+  if (!scene.segmentation_path().empty()) {
+    MVBRDF_RETURN_IF_ERROR(
+        CheckResolvesInsideSceneDir(seq.scene_dir, scene.segmentation_path(), "scene.segmentation_path"));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+FrameSelection SelectedFrames(const v1::Frames& frames) {
+  FrameSelection s;
+  s.first = static_cast<int>(frames.first());
+  s.step = static_cast<int>(std::max<uint32_t>(1, frames.step()));
+  for (uint32_t i : frames.indices()) s.indices.push_back(static_cast<int>(i));
+  return s;
+}
+
+int NumSelectedFrames(const v1::Frames& frames) {
+  return frames.indices_size() != 0 ? frames.indices_size() : static_cast<int>(frames.count());
+}
+
 absl::StatusOr<v1::Scene> ReadScene(const std::filesystem::path& scene_file) {
   absl::StatusOr<v1::Scene> scene = ReadJsonFileAs<v1::Scene>(scene_file);
   if (scene.ok()) return scene;
@@ -319,11 +398,44 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
   MVBRDF_RETURN_IF_ERROR(ValidateFramePattern(scene.mesh().path(), "scene.mesh.path"));
   MVBRDF_RETURN_IF_ERROR(CheckInsideSceneDir("scene.mesh.path", scene.mesh().path()));
   const v1::Frames& frames = scene.frames();
-  if (frames.count() == 0) return Invalid("scene.frames.count", "must be > 0, got 0");
-  if (static_cast<uint64_t>(frames.first()) + frames.count() > static_cast<uint64_t>(INT32_MAX)) {
-    return Invalid("scene.frames",
-                   absl::StrCat("first + count must be < 2^31, got ", frames.first(), " + ", frames.count()));
+  if (frames.indices_size() != 0) {
+    // Explicit absolute indices: count is their number (or 0), no step.
+    if (frames.step() > 1) {
+      return Invalid("scene.frames.step", absl::StrCat("must be 0 or 1 when frames.indices is given, got ",
+                                                       frames.step()));
+    }
+    if (frames.count() != 0 && frames.count() != static_cast<uint32_t>(frames.indices_size())) {
+      return Invalid("scene.frames.count", absl::StrCat("must be 0 or the number of frames.indices (",
+                                                        frames.indices_size(), "), got ", frames.count()));
+    }
+    if (frames.first() != 0) {
+      return Invalid("scene.frames.first",
+                     absl::StrCat("must be 0 when frames.indices is given (the indices are absolute), got ",
+                                  frames.first()));
+    }
+    for (int i = 0; i < frames.indices_size(); ++i) {
+      if (frames.indices(i) > static_cast<uint32_t>(INT32_MAX - 1)) {
+        return Invalid(absl::StrCat("scene.frames.indices[", i, "]"),
+                       absl::StrCat("must be < 2^31 - 1, got ", frames.indices(i)));
+      }
+      if (i > 0 && frames.indices(i) <= frames.indices(i - 1)) {
+        return Invalid(absl::StrCat("scene.frames.indices[", i, "]"),
+                       absl::StrCat("must be strictly increasing, got ", frames.indices(i), " after ",
+                                    frames.indices(i - 1)));
+      }
+    }
+  } else {
+    if (frames.count() == 0) return Invalid("scene.frames.count", "must be > 0, got 0");
+    const uint64_t step = std::max<uint32_t>(1, frames.step());
+    if (static_cast<uint64_t>(frames.first()) + (frames.count() - 1) * step >= static_cast<uint64_t>(INT32_MAX)) {
+      return Invalid("scene.frames", absl::StrCat("first + (count - 1) * step must be < 2^31 - 1, got ",
+                                                  frames.first(), " + ", frames.count() - 1, " * ", step));
+    }
   }
+  // The plain range (no step, no indices): a frame_lighting entry outside it
+  // is an error. With step or indices, entries for frames not selected are
+  // ignored (a capture's lighting file lists every photo; the selection picks some).
+  const bool plain_frames = frames.indices_size() == 0 && frames.step() <= 1;
   MVBRDF_RETURN_IF_ERROR(CheckPositive("scene.frames.fps", frames.fps()));
   // Durations are count / fps: 1e-320 fps made an infinite one.
   if (frames.fps() < 1e-6 || frames.fps() > 1e6) {
@@ -353,6 +465,10 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
   if (scene.lights_size() == 0) {
     return Invalid("scene.lights", "at least one light is required (nothing is lit without one)");
   }
+  if (scene.lights_size() > kMaxLights) {
+    return Invalid("scene.lights", absl::StrCat("at most ", kMaxLights, " lights (the run's limit), got ",
+                                                scene.lights_size()));
+  }
   bool some_light = false;
   for (const v1::Light& light : scene.lights()) {
     if (light.intensity_size() == 0) some_light = true;  // (1, 1, 1)
@@ -373,7 +489,7 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
     const v1::FrameLighting& fl = scene.frame_lighting(i);
     const std::string f = absl::StrCat("scene.frame_lighting[", i, "]");
     const uint64_t end = static_cast<uint64_t>(frames.first()) + frames.count();
-    if (fl.frame() < frames.first() || fl.frame() >= end) {
+    if (plain_frames && (fl.frame() < frames.first() || fl.frame() >= end)) {
       return Invalid(f + ".frame", absl::StrCat("must be in [", frames.first(), ", ", end,
                                                 ") (scene.frames: first, first + count), got ", fl.frame()));
     }
@@ -458,8 +574,8 @@ absl::Status CheckSegmentation(const Sequence& seq) {
 absl::Status ProbeVideo(const Sequence& seq, int i) {
   const v1::Camera& camera = seq.scene.cameras(i);
   const std::string field = absl::StrCat("scene.cameras[", i, "]");
-  const int first = static_cast<int>(seq.scene.frames().first());
-  MVBRDF_ASSIGN_OR_RETURN(auto source, VideoSource::Open(camera, seq.scene_dir, first, field));
+  const int first = seq.AbsoluteFrame(0);
+  MVBRDF_ASSIGN_OR_RETURN(auto source, VideoSource::Open(camera, seq.scene_dir, seq.frames, seq.num_frames, field));
   MVBRDF_ASSIGN_OR_RETURN(const VideoProbe probe, source->Probe());
   if (probe.width != static_cast<int>(camera.width()) || probe.height != static_cast<int>(camera.height())) {
     return Invalid(field + ".video", absl::StrCat("frames are ", probe.width, "x", probe.height, ", expected ",
@@ -467,7 +583,22 @@ absl::Status ProbeVideo(const Sequence& seq, int i) {
   }
   if (probe.frame_count < seq.num_frames) {
     return Invalid(field + ".video", absl::StrCat("has ", probe.frame_count, " frames from frame ", first,
-                                                  ", the scene needs ", seq.num_frames));
+                                                  ", the scene needs ", seq.num_frames,
+                                                  seq.frames.step > 1 || !seq.frames.indices.empty()
+                                                      ? " (of those scene.frames selects)"
+                                                      : ""));
+  }
+  // Every mask file exists (a stat each; read with its frame).
+  const std::string& mask = camera.video().mask_path();
+  if (!mask.empty()) {
+    const int masks = IsFramePattern(mask) ? seq.num_frames : 1;
+    for (int t = 0; t < masks; ++t) {
+      const std::string shown = IsFramePattern(mask) ? FormatFramePattern(mask, seq.AbsoluteFrame(t)) : mask;
+      if (const std::string why = WhyNotRegularFile(ResolvePath(seq.scene_dir, shown)); !why.empty()) {
+        return NotRegularFileError(why, absl::StrCat(field, ".video.mask_path: mask image ", why, ": ",
+                                                     ElideForMessage(shown, kMaxShownPathChars)));
+      }
+    }
   }
   return absl::OkStatus();
 }
@@ -478,8 +609,7 @@ absl::Status ProbeVideo(const Sequence& seq, int i) {
 absl::Status ReadEveryVideoFrame(const Sequence& seq, int i) {
   const v1::Camera& camera = seq.scene.cameras(i);
   const std::string field = absl::StrCat("scene.cameras[", i, "]");
-  MVBRDF_ASSIGN_OR_RETURN(
-      auto source, VideoSource::Open(camera, seq.scene_dir, static_cast<int>(seq.scene.frames().first()), field));
+  MVBRDF_ASSIGN_OR_RETURN(auto source, VideoSource::Open(camera, seq.scene_dir, seq.frames, seq.num_frames, field));
   for (int t = 0; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(source->ReadFrame(t).status());
   return absl::OkStatus();
 }
@@ -488,9 +618,8 @@ absl::Status ReadEveryVideoFrame(const Sequence& seq, int i) {
 // check_all_frames asks or when the frame is used), so that a bundle without
 // one fails when it is submitted, not halfway through a job.
 absl::Status CheckMeshFramesExist(const Sequence& seq) {
-  const int first = static_cast<int>(seq.scene.frames().first());
   for (int t = 1; t < seq.num_frames; ++t) {
-    const int absolute = first + t;
+    const int absolute = seq.AbsoluteFrame(t);
     const std::filesystem::path file = ResolvePath(seq.scene_dir, MeshFramePath(seq.scene, absolute));
     std::error_code ec;
     if (!std::filesystem::is_regular_file(file, ec)) {
@@ -551,7 +680,11 @@ Light LightFromProto(const v1::Light& l) {
   light.name = l.name();
   light.directional = l.direction_size() == 3;
   if (l.position_size() == 3) light.position = glm::vec3(l.position(0), l.position(1), l.position(2));
-  if (light.directional) light.direction = glm::vec3(l.direction(0), l.direction(1), l.direction(2));
+  if (light.directional) {
+    // Validated within kDirectionRenormaliseTolerance of unit length; used as a unit vector.
+    const glm::dvec3 d(l.direction(0), l.direction(1), l.direction(2));
+    light.direction = glm::vec3(d / glm::length(d));
+  }
   if (l.intensity_size() == 3) light.intensity = glm::vec3(l.intensity(0), l.intensity(1), l.intensity(2));
   return light;
 }
@@ -565,10 +698,10 @@ absl::StatusOr<FramePositions> Sequence::LoadFrame(int t) const {
     return absl::OutOfRangeError(absl::StrCat("frame ", t, " is outside [0, ", num_frames, ")"));
   }
   if (is_static_mesh()) return rest_positions;
-  const int absolute = static_cast<int>(scene.frames().first()) + t;
+  const int absolute = AbsoluteFrame(t);
   absl::StatusOr<FramePositions> positions =
       LoadFramePositions(ResolvePath(scene_dir, MeshFramePath(scene, absolute)), topology,
-                         absl::StrCat("scene.mesh.path (frame ", absolute, ")"));
+                         absl::StrCat("scene.mesh.path (frame ", absolute, ")"), scene.mesh().flip_winding());
   if (!positions.ok()) return InSceneTerms(positions.status(), scene_dir);
   return positions;
 }
@@ -582,7 +715,7 @@ int Sequence::FindLight(const std::string& name) const {
 
 const v1::FrameLighting* Sequence::FrameLightingOf(int t) const {
   if (t < 0 || t >= num_frames) return nullptr;
-  const uint64_t frame = static_cast<uint64_t>(scene.frames().first()) + static_cast<uint64_t>(t);
+  const uint64_t frame = static_cast<uint64_t>(AbsoluteFrame(t));
   for (const v1::FrameLighting& fl : scene.frame_lighting()) {
     if (fl.frame() == frame) return &fl;
   }
@@ -590,9 +723,12 @@ const v1::FrameLighting* Sequence::FrameLightingOf(int t) const {
 }
 
 bool Sequence::every_frame_lit_own() const {
-  // Validation refuses duplicate frames and frames outside the sequence, so
-  // one entry per frame is every frame.
-  return num_frames > 0 && scene.frame_lighting_size() == num_frames;
+  // Validation refuses duplicate frames; entries for unselected frames do not count.
+  if (num_frames <= 0 || scene.frame_lighting_size() < num_frames) return false;
+  for (int t = 0; t < num_frames; ++t) {
+    if (FrameLightingOf(t) == nullptr) return false;
+  }
+  return true;
 }
 
 namespace {
@@ -604,13 +740,16 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
   MVBRDF_ASSIGN_OR_RETURN(seq.scene, ReadScene(scene_file));
   MVBRDF_RETURN_IF_ERROR(ValidateSceneMessage(seq.scene));
   const v1::Scene& scene = seq.scene;
-  const int first = static_cast<int>(scene.frames().first());
-  seq.num_frames = static_cast<int>(scene.frames().count());
+  seq.frames = SelectedFrames(scene.frames());
+  seq.num_frames = NumSelectedFrames(scene.frames());
+  const int first = seq.AbsoluteFrame(0);
+  MVBRDF_RETURN_IF_ERROR(CheckFilesResolveInside(seq));
 
   const std::string mesh_field =
       seq.is_static_mesh() ? std::string("scene.mesh.path") : absl::StrCat("scene.mesh.path (frame ", first, ")");
   MVBRDF_ASSIGN_OR_RETURN(LoadedMesh mesh,
-                          LoadMesh(ResolvePath(seq.scene_dir, MeshFramePath(scene, first)), mesh_field));
+                          LoadMesh(ResolvePath(seq.scene_dir, MeshFramePath(scene, first)), mesh_field,
+                                   scene.mesh().flip_winding()));
   seq.topology = std::move(mesh.topology);
   seq.rest_positions = std::move(mesh.positions);
   if (!seq.topology.triangles.empty() && seq.topology.zero_area_triangles.size() == seq.topology.triangles.size()) {
@@ -627,6 +766,17 @@ absl::StatusOr<Sequence> LoadAndCheck(const std::filesystem::path& scene_file, c
                                 " triangles have zero area in frame 0 (relative to the mesh's extent, (", Num(lo.x),
                                 ", ", Num(lo.y), ", ", Num(lo.z), ") to (", Num(hi.x), ", ", Num(hi.y), ", ", Num(hi.z),
                                 "): a vertex far from the others?): there is no surface to resample"));
+  }
+  // An inside-out mesh is resampled from its back faces, which no camera
+  // sees: the fit had no Samples and printed the initial guess, exit 0.
+  const MeshOrientation orientation = ComputeMeshOrientation(seq.topology, seq.rest_positions);
+  // Negative beyond rounding: a flat closed (double-sided) mesh encloses ~0.
+  if (orientation.closed && orientation.signed_volume < -1e-9 * orientation.diagonal_cubed) {
+    return Invalid(mesh_field,
+                   absl::StrCat("the mesh is closed and its triangles face inwards (signed volume ",
+                                Num(orientation.signed_volume / 6.0), " in frame 0, expected > 0: counter-clockwise "
+                                "seen from outside); set scene.mesh.flipWinding to true to reverse them",
+                                scene.mesh().flip_winding() ? " (it is true: the file's winding faces outwards)" : ""));
   }
   if (options.check_all_frames && !seq.is_static_mesh()) {
     for (int t = 1; t < seq.num_frames; ++t) MVBRDF_RETURN_IF_ERROR(seq.LoadFrame(t).status());
@@ -660,8 +810,14 @@ std::string Summarize(const Sequence& seq) {
   // Free-form, unbounded: a 10 MB name made a 10 MB summary line.
   absl::StrAppend(&s, "Scene: ", scene.name().empty() ? "(unnamed)" : ElideForMessage(scene.name(), 200), "\n");
   absl::StrAppend(&s, "  file: ", seq.scene_file.string(), "\n");
-  absl::StrAppend(&s, "Frames: ", seq.num_frames, " from frame ", scene.frames().first(), " at ",
-                  Num(scene.frames().fps()), " fps (", Num(seq.num_frames / scene.frames().fps()), " s)\n");
+  absl::StrAppend(&s, "Frames: ", seq.num_frames, " from frame ", seq.AbsoluteFrame(0), " at ",
+                  Num(scene.frames().fps()), " fps (", Num(seq.num_frames / scene.frames().fps()), " s)");
+  if (!seq.frames.indices.empty()) {
+    absl::StrAppend(&s, ", the listed frames.indices up to frame ", seq.AbsoluteFrame(seq.num_frames - 1));
+  } else if (seq.frames.step > 1) {
+    absl::StrAppend(&s, ", file frames first + t * ", seq.frames.step, " up to frame ", seq.AbsoluteFrame(seq.num_frames - 1));
+  }
+  absl::StrAppend(&s, "\n");
   absl::StrAppend(&s, "Mesh: ", scene.mesh().path(), seq.is_static_mesh() ? " (static)" : " (one file per frame)",
                   "\n");
   absl::StrAppend(&s, "  ", topo.num_file_vertices, " file vertices, ", topo.num_render_vertices(),
@@ -691,7 +847,12 @@ std::string Summarize(const Sequence& seq) {
     absl::StrAppend(&s, "  ", c.name(), ": ", c.width(), "x", c.height(), ", ", scale, ", centre (", Num(centre.x),
                     ", ", Num(centre.y), ", ", Num(centre.z), ")", m.has_distortion() ? ", distorted" : "", ", video ",
                     c.video().path(), " (", c.video().encoding() == v1::LINEAR ? "linear" : "sRGB", ", ",
-                    c.video().bit_depth() == 0 ? 8u : c.video().bit_depth(), "-bit)\n");
+                    c.video().bit_depth() == 0 ? 8u : c.video().bit_depth(), "-bit",
+                    c.video().mask_path().empty() ? "" : absl::StrCat(", mask ", c.video().mask_path()),
+                    c.video().has_saturation_level()
+                        ? absl::StrCat(", saturated at ", c.video().saturation_level())
+                        : absl::StrCat(", saturated at ", c.video().bit_depth() == 16 ? 65535 : 255, " (default)"),
+                    ")\n");
   }
   absl::StrAppend(&s, "Lights: ", seq.lights.size(),
                   scene.lighting().inverse_square_falloff() ? " (inverse-square fall-off)" : "", "\n");
@@ -701,15 +862,30 @@ std::string Summarize(const Sequence& seq) {
                     Num(v.y), ", ", Num(v.z), "), intensity (", Num(l.intensity.x), ", ", Num(l.intensity.y), ", ",
                     Num(l.intensity.z), ")\n");
   }
+  for (int i = 0; i < scene.lights_size(); ++i) {
+    const auto& d = scene.lights(i).direction();
+    if (d.size() != 3) continue;
+    const double length = std::sqrt(d.Get(0) * d.Get(0) + d.Get(1) * d.Get(1) + d.Get(2) * d.Get(2));
+    if (std::abs(length - 1.0) > kUnitLengthTolerance) {
+      absl::StrAppend(&s, "  note: scene.lights[", i, "].direction has length ", Num(length),
+                      ", renormalised to unit length\n");
+    }
+  }
   absl::StrAppend(&s, "Light configurations: ", scene.light_configurations_size(), "\n");
   for (const v1::LightConfiguration& c : scene.light_configurations()) {
     absl::StrAppend(&s, "  ", c.name(), ": ", absl::StrJoin(c.lights(), ", "), "\n");
   }
+  int lit_own = 0;
+  for (int t = 0; t < seq.num_frames; ++t) lit_own += seq.FrameLightingOf(t) != nullptr ? 1 : 0;
   if (scene.frame_lighting_size() != 0) {
-    absl::StrAppend(&s, "Frame lighting: ", scene.frame_lighting_size(), " frames with their own lights",
+    absl::StrAppend(&s, "Frame lighting: ", lit_own, " frames with their own lights",
                     seq.every_frame_lit_own()
                         ? " (every frame: no configuration to choose, no light sweep)\n"
                         : " (the others: all lights of the configuration)\n");
+  }
+  if (lit_own != scene.frame_lighting_size()) {
+    absl::StrAppend(&s, "  note: ", scene.frame_lighting_size() - lit_own,
+                    " scene.frame_lighting entries are for frames the selection skips: ignored\n");
   }
   absl::StrAppend(&s, "Material seeds: ", scene.material_seeds_size(), "\n");
   for (const v1::MaterialSeed& m : scene.material_seeds()) {

@@ -13,6 +13,7 @@
 #include "core/scene/light.h"
 #include "core/scene/camera_model.h"
 #include "core/scene/mesh.h"
+#include "core/scene/video_source.h"
 #include "mvbrdf/v1/scene.pb.h"
 
 namespace mvbrdf::scene {
@@ -38,16 +39,23 @@ struct Sequence {
   std::vector<CameraModel> cameras;
   std::vector<Light> lights;
   int num_frames = 0;
+  // Frame t of the sequence is file / video / mesh frame frames.Absolute(t)
+  // (scene.frames: first + t * step, or indices[t]).
+  FrameSelection frames;
 
   bool is_static_mesh() const;
   // File-vertex positions of frame t in [0, num_frames): frame 0's for a
   // static mesh, else the frame's file (read now, topology checked).
   absl::StatusOr<FramePositions> LoadFrame(int t) const;
+  // The absolute frame index of frame t: what mesh patterns, image patterns,
+  // masks, frame_lighting and per-frame outputs are numbered by.
+  int AbsoluteFrame(int t) const { return frames.Absolute(t); }
   // Index of a light by name, or -1.
   int FindLight(const std::string& name) const;
   // The scene.frame_lighting entry of frame t in [0, num_frames) (absolute
-  // frame scene.frames.first + t), or null: that frame has all lights of the
-  // configuration under test on.
+  // frame AbsoluteFrame(t)), or null: that frame has all lights of the
+  // configuration under test on. Entries for frames that frames.step or
+  // frames.indices skip are ignored (validate's summary counts them).
   const v1::FrameLighting* FrameLightingOf(int t) const;
   // Whether every frame has its own entry: the lights of each frame are
   // known, and no configuration needs to be chosen (no light sweep).
@@ -58,6 +66,19 @@ struct Sequence {
 // lights (Sequence::every_frame_lit_own); `mvbrdf synth --lighting olat`
 // writes it as the truth's active configuration.
 inline constexpr char kPerFrameLighting[] = "per-frame lighting";
+
+// The frames a (validated) scene.frames selects, and how many.
+FrameSelection SelectedFrames(const v1::Frames& frames);
+int NumSelectedFrames(const v1::Frames& frames);
+
+// A file the scene names (`relative`, as `field` names it) must lie inside
+// the scene's folder through any symlinks: a link inside it is followed (and
+// its target packed into a bundle as a regular file); one that resolves
+// outside is refused, by validate, run --direct, run and submit alike, with
+// this message (a bundle is self-contained, and a server never reads outside
+// it). OK when the file does not exist (its reader says so).
+absl::Status CheckResolvesInsideSceneDir(const std::filesystem::path& scene_dir, const std::string& relative,
+                                         const std::string& field);
 
 // Parses only (JSON -> message), no validation and no files touched.
 absl::StatusOr<v1::Scene> ReadScene(const std::filesystem::path& scene_file);

@@ -222,7 +222,7 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"LightDirectionSize", [](v1::Scene* s) { s->mutable_lights(2)->mutable_direction()->Add(0.0); },
        "scene.lights[2].direction: expected 3 values"},
       {"LightDirectionNotUnit", [](v1::Scene* s) { s->mutable_lights(2)->set_direction(1, 1.2); },
-       "scene.lights[2].direction: must have unit length (within 1e-06), got length 1.44222"},
+       "scene.lights[2].direction: must have unit length (within 0.001, which is renormalised), got length 1.44222"},
       {"LightIntensitySize", [](v1::Scene* s) { s->mutable_lights(2)->mutable_intensity()->RemoveLast(); },
        "scene.lights[2].intensity: expected 3 values"},
       {"LightIntensityNegative", [](v1::Scene* s) { s->mutable_lights(2)->set_intensity(1, -0.5); },

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -17,8 +18,27 @@ namespace mvbrdf::scene {
 struct VideoProbe {
   int width = 0;
   int height = 0;
-  int frame_count = 0;  // frames available from the first used frame on
+  int frame_count = 0;  // frames available from the first used frame on (of the selection)
 };
+
+// Which file or video frames are the sequence's frames t = 0, 1, ...
+// (scene.frames): first + t * step, or indices[t] when indices are given.
+struct FrameSelection {
+  int first = 0;
+  int step = 1;
+  std::vector<int> indices;  // absolute, strictly increasing; empty: first + t * step
+  int Absolute(int t) const {
+    return indices.empty() ? first + t * step : indices[static_cast<size_t>(t)];
+  }
+};
+
+// Mask and saturation (Video.mask_path, saturation_level): a decoded frame
+// holds a negative value in every channel of a pixel that must never become
+// a Sample: kMaskedPixel outside the mask, kSaturatedPixel where a stored
+// channel is at or above the saturation level. Consumers (the resampler, the
+// per-pixel Samples) refuse such pixels.
+inline constexpr float kMaskedPixel = -1.0f;
+inline constexpr float kSaturatedPixel = -2.0f;
 
 class VideoSource {
  public:
@@ -27,13 +47,19 @@ class VideoSource {
   static absl::StatusOr<std::unique_ptr<VideoSource>> Open(const v1::Camera& camera,
                                                            const std::filesystem::path& scene_dir,
                                                            int first_frame, absl::string_view field);
+  // The frames of `selection`; frame t of ReadFrame is selection.Absolute(t).
+  static absl::StatusOr<std::unique_ptr<VideoSource>> Open(const v1::Camera& camera,
+                                                           const std::filesystem::path& scene_dir,
+                                                           const FrameSelection& selection, int num_frames,
+                                                           absl::string_view field);
   virtual ~VideoSource() = default;
 
   // Width, height and number of readable frames (a video whose container does
   // not state its frame count is counted by decoding).
   virtual absl::StatusOr<VideoProbe> Probe() = 0;
-  // Frame t (0-based from frames.first) as CV_32FC3 linear RGB in [0,1],
-  // row 0 = top. Sequential reads are fast; seeking backwards reopens.
+  // Frame t (0-based, of the selection) as CV_32FC3 linear RGB in [0,1],
+  // row 0 = top, with masked and saturated pixels marked (kMaskedPixel,
+  // kSaturatedPixel). Sequential reads are fast; seeking backwards reopens.
   virtual absl::StatusOr<cv::Mat> ReadFrame(int t) = 0;
 };
 

@@ -26,6 +26,9 @@ v1::Camera MakeCamera(const std::string& path, int width, int height, v1::ColorE
   camera.mutable_video()->set_path(path);
   camera.mutable_video()->set_encoding(encoding);
   camera.mutable_video()->set_bit_depth(bit_depth);
+  // The decoding tests use every code value: none is taken as saturated here
+  // (SaturationAndMask tests the default).
+  camera.mutable_video()->set_saturation_level(bit_depth == 16 ? 65536 : 256);
   return camera;
 }
 
@@ -190,4 +193,53 @@ TEST(VideoSourceTest, ErrorsNameTheField) {
 }
 
 }  // namespace
+TEST(VideoSourceTest, SaturationAndMask) {
+  TempDir dir;
+  // 16-bit: column 0 at the top code, column 1 at 60000, column 2 below.
+  cv::Mat image(2, 3, CV_16UC3, cv::Scalar(100, 100, 100));
+  for (int y = 0; y < 2; ++y) {
+    image.at<cv::Vec3w>(y, 0)[1] = 65535;
+    image.at<cv::Vec3w>(y, 1)[0] = 60000;
+  }
+  ASSERT_TRUE(cv::imwrite((dir / "f0.png").string(), image));
+  cv::Mat mask(2, 3, CV_8UC1, cv::Scalar(255));
+  mask.at<uint8_t>(1, 2) = 0;
+  ASSERT_TRUE(cv::imwrite((dir / "mask.png").string(), mask));
+  v1::Camera camera = MakeCamera("f%d.png", 3, 2, v1::LINEAR, 16);
+  camera.mutable_video()->clear_saturation_level();  // default: 65535
+  auto source = VideoSource::Open(camera, dir.path(), 0, "scene.cameras[0]");
+  ASSERT_TRUE(source.ok()) << source.status();
+  auto frame = (*source)->ReadFrame(0);
+  ASSERT_TRUE(frame.ok()) << frame.status();
+  EXPECT_EQ(frame->at<cv::Vec3f>(0, 0)[0], kSaturatedPixel);
+  EXPECT_NEAR(frame->at<cv::Vec3f>(0, 1)[2], 60000 / 65535.0f, 1e-6f);
+  camera.mutable_video()->set_saturation_level(60000);
+  camera.mutable_video()->set_mask_path("mask.png");
+  source = VideoSource::Open(camera, dir.path(), 0, "scene.cameras[0]");
+  ASSERT_TRUE(source.ok()) << source.status();
+  frame = (*source)->ReadFrame(0);
+  ASSERT_TRUE(frame.ok()) << frame.status();
+  EXPECT_EQ(frame->at<cv::Vec3f>(0, 1)[0], kSaturatedPixel);
+  EXPECT_EQ(frame->at<cv::Vec3f>(1, 2)[0], kMaskedPixel);
+  EXPECT_NEAR(frame->at<cv::Vec3f>(0, 2)[0], 100 / 65535.0f, 1e-6f);
+}
+
+TEST(VideoSourceTest, FrameSelectionReadsEveryStepthFile) {
+  TempDir dir;
+  for (int t = 0; t < 5; ++t)
+    ASSERT_TRUE(cv::imwrite((dir / absl::StrFormat("f%d.png", t)).string(), Pattern(t, 4, 3)));
+  FrameSelection selection;
+  selection.first = 1;
+  selection.step = 2;
+  auto source =
+      VideoSource::Open(MakeCamera("f%d.png", 4, 3, v1::LINEAR, 8), dir.path(), selection, 2, "scene.cameras[0]");
+  ASSERT_TRUE(source.ok()) << source.status();
+  auto probe = (*source)->Probe();
+  ASSERT_TRUE(probe.ok()) << probe.status();
+  EXPECT_EQ(probe->frame_count, 2);
+  auto frame = (*source)->ReadFrame(1);
+  ASSERT_TRUE(frame.ok()) << frame.status();
+  ExpectEqualsBgr8(*frame, Pattern(3, 4, 3));
+}
+
 }  // namespace mvbrdf::scene

@@ -326,8 +326,11 @@ absl::Status MvbrdfService::Submit(const std::string& client, const v1::SubmitJo
   // The frame limit first, from the scene file alone: a scene claiming
   // 10^6 frames is refused before any video is probed.
   if (absl::StatusOr<v1::Scene> message = scene::ReadScene(*scene_file);
-      message.ok() && message->frames().count() > static_cast<uint32_t>(limits_.max_frames)) {
-    return absl::ResourceExhaustedError(absl::StrCat("scene.frames.count: ", message->frames().count(),
+      message.ok() && std::max<uint64_t>(message->frames().count(), message->frames().indices_size()) >
+                          static_cast<uint64_t>(limits_.max_frames)) {
+    return absl::ResourceExhaustedError(absl::StrCat("scene.frames.count: ",
+                                                     std::max<uint64_t>(message->frames().count(),
+                                                                        message->frames().indices_size()),
                                                      " frames exceed the server's limit ", limits_.max_frames,
                                                      " (max_frames)"));
   }
