@@ -1,5 +1,7 @@
 #include "client/job_flags.h"
 
+#include <cmath>
+
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 
@@ -16,6 +18,9 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
   flags.AddInt("--max-iterations", &job->max_iterations, "iterations of each BRDF fit, at most");
   flags.AddInt("--sweep-frame-stride", &job->sweep_frame_stride, "use every n-th frame for the light sweep (0: every frame up to 64 frames, else at most 64)");
   flags.AddInt("--grow", &job->grow, "dilation iterations of the written atlases");
+  flags.AddDouble("--kd-prior-strength", &job->kd_prior_strength,
+                  "per-texel kd shrinks towards its cluster's kd with this many pseudo-observations at the data's "
+                  "typical illumination (>= 0; 0: plain least squares; relative, so independent of intensity units)");
 }
 
 absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request) {
@@ -66,6 +71,10 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   if (job.grow < 0 || job.grow > 1000) {
     return absl::InvalidArgumentError(absl::StrCat("--grow: must be in [0, 1000], got ", job.grow));
   }
+  if (!std::isfinite(job.kd_prior_strength) || job.kd_prior_strength < 0.0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--kd-prior-strength: must be finite and >= 0, got ", job.kd_prior_strength));
+  }
   v1::FittingOptions* o = request->mutable_options();
   o->set_atlas_size(static_cast<uint32_t>(job.atlas));
   o->set_max_cluster_samples(static_cast<uint64_t>(job.cluster_samples));
@@ -73,6 +82,7 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   o->set_compare_solvers(!job.no_powell);
   o->set_sweep_frame_stride(static_cast<uint32_t>(job.sweep_frame_stride));
   o->set_grow_iterations(static_cast<uint32_t>(job.grow));
+  o->set_kd_prior_strength(job.kd_prior_strength);
   return absl::OkStatus();
 }
 

@@ -21,6 +21,9 @@ struct JobFlags {
   int max_iterations = 100;
   int sweep_frame_stride = 0;  // 0: automatic (pipeline::SweepFrameStride)
   int grow = 2;
+  // Pseudo-observations of the cluster's kd per texel, at the data's typical
+  // illumination (fit::DiffuseOptions::prior_weight).
+  double kd_prior_strength = 0.1;
 };
 
 void AddJobFlags(FlagParser& flags, JobFlags* job);

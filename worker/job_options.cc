@@ -1,5 +1,6 @@
 #include "worker/job_options.h"
 
+#include <cmath>
 #include <cstdint>
 
 #include "absl/strings/str_cat.h"
@@ -74,6 +75,13 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
       return OutOfRange("options.grow_iterations", f.grow_iterations(), 0, kMaxGrowIterations);
     }
     o.grow_iterations = static_cast<int>(f.grow_iterations());
+  }
+  if (f.has_kd_prior_strength()) {
+    if (!std::isfinite(f.kd_prior_strength()) || f.kd_prior_strength() < 0.0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("options.kd_prior_strength: must be finite and >= 0, got ", f.kd_prior_strength()));
+    }
+    o.kd_prior_weight = f.kd_prior_strength();
   }
   if (absl::Status s = o.fit.Check(); !s.ok()) return absl::InvalidArgumentError(absl::StrCat("options.", s.message()));
   o.threads = threads;

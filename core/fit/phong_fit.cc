@@ -8,8 +8,10 @@
 // so r / r_scale = a G' + b S'(t) with G', S' built from w (phong_cost.h).
 // kd = a r_scale / I_max and ks likewise on the way out; ke is unchanged.
 //
-// Bounds: [0, kd_max], [0, ks_max], [ln ke_min, ln ke_max], mapped to the
-// normalised units. Ceres LM enforces them by projection inside its trust
+// Bounds: [0, kd_max A], [0, ks_max A], [ln ke_min, ln ke_max], with A the
+// data's albedo scale (r_rms / G_rms, see FitChannel); kd_max, ks_max and the
+// initial kd, ks are multiples of A, so no bound or starting point assumes
+// data in [0, 1]. Ceres LM enforces them by projection inside its trust
 // region. Powell minimises C(P(x)) with P the clamp to the box (a projection:
 // continuous, piecewise smooth, flat outside the box), and the iterate is
 // projected back after each line minimisation; the bounds are reachable
@@ -249,16 +251,24 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   if (!kd_free) flags |= kKdNotIdentifiable;
   if (!specular_free) flags |= kKsKeNotIdentifiable;
 
+  // The data's own albedo scale in normalised units: the a for which a G'
+  // alone has the rms of r (1 in normalised units). Bounds and initial
+  // values are multiples of it, so that they mean the same whatever the
+  // units of the lights' intensities and of the images.
+  double sum_gg = 0.0;
+  for (size_t i = 0; i < n; ++i) sum_gg += data.diffuse[i] * data.diffuse[i];
+  double albedo_scale = n > 0 && sum_gg > 0.0 ? std::sqrt(static_cast<double>(n) / sum_gg) : 1.0;
+  if (!std::isfinite(albedo_scale) || !(albedo_scale > 0.0)) albedo_scale = 1.0;
   const double lower[3] = {0.0, 0.0, std::log(options.ke_min)};
-  const double upper[3] = {options.kd_max / to_original, options.ks_max / to_original, std::log(options.ke_max)};
+  const double upper[3] = {options.kd_max * albedo_scale, options.ks_max * albedo_scale, std::log(options.ke_max)};
   const bool free[3] = {kd_free, specular_free, specular_free};
 
   // Initial point: kd by least squares with ks = 0 (or the fallback kd), ks
   // and ke from the options (ks = 0 when they are not identifiable).
   double x[3];
-  x[1] = specular_free ? options.initial.ks / to_original : 0.0;
+  x[1] = specular_free ? options.initial.ks * albedo_scale : 0.0;
   x[2] = std::log(std::clamp(options.initial.ke, options.ke_min, options.ke_max));
-  x[0] = options.initial.kd / to_original;
+  x[0] = options.initial.kd * albedo_scale;
   if (kd_free && options.initialise_kd_from_data) {
     double s_rg = 0.0, s_gg = 0.0;
     for (size_t i = 0; i < n; ++i) {
@@ -293,11 +303,12 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   out.summary.final_cost = final_cost * r_scale * r_scale;
   out.sum_squares = 2.0 * out.summary.final_cost;
   out.summary.flags |= flags;
-  out.params.kd = std::clamp(x[0] * to_original, 0.0, options.kd_max);
-  out.params.ks = std::clamp(x[1] * to_original, 0.0, options.ks_max);
+  out.params.kd = std::clamp(x[0] * to_original, 0.0, upper[0] * to_original);
+  out.params.ks = std::clamp(x[1] * to_original, 0.0, upper[1] * to_original);
   out.params.ke = std::clamp(std::exp(x[2]), options.ke_min, options.ke_max);
-  // Fallback values exactly as given (not through the normalisation).
-  if (!kd_free) out.params.kd = std::clamp(options.initial.kd, 0.0, options.kd_max);
+  // Fallback values exactly as given (not through the normalisation); the
+  // fit is flagged kd_not_identifiable and such a kd is no result.
+  if (!kd_free) out.params.kd = std::max(0.0, options.initial.kd);
   if (!specular_free) {
     out.params.ks = 0.0;
     out.params.ke = std::clamp(options.initial.ke, options.ke_min, options.ke_max);
