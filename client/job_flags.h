@@ -23,7 +23,7 @@ struct JobFlags {
   int grow = 2;
   // Pseudo-observations of the cluster's kd per texel, at the data's typical
   // illumination (fit::DiffuseOptions::prior_weight).
-  double kd_prior_strength = 0.1;
+  double kd_prior_strength = 1.0;
 };
 
 void AddJobFlags(FlagParser& flags, JobFlags* job);

@@ -487,6 +487,35 @@ std::vector<BadInputCase> Cases() {
        Expect::kRejected,
        kInvalid,
        {"scene.cameras[1].intrinsics.fx: must be > 0, got 0"}},
+      {"SeedWithSrgb8AndLinearRgb",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           for (double v : {0.1, 0.2, 0.3}) s->mutable_material_seeds(0)->add_linear_rgb(v);
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.material_seeds[0]: give one of srgb8 and linear_rgb, not both"}},
+      {"SeedLinearRgbNegative",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           s->mutable_material_seeds(0)->clear_srgb8();
+           for (double v : {0.1, -0.2, 0.3}) s->mutable_material_seeds(0)->add_linear_rgb(v);
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.material_seeds[0].linear_rgb[1]: must be a finite number in [0, 1e+12], got -0.2"}},
+      {"SeedLinearRgbTwoValues",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) {
+           s->mutable_material_seeds(0)->clear_srgb8();
+           for (double v : {0.1, 0.2}) s->mutable_material_seeds(0)->add_linear_rgb(v);
+         });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.material_seeds[0].linear_rgb"}},
       {"NegativeFocalLengthY",
        [](CaseInput& in) {
          in.EditScene([](v1::Scene* s) { s->mutable_cameras(0)->mutable_intrinsics()->set_fy(-3); });

@@ -74,10 +74,57 @@ void SolverRowFrom(const std::string& cluster, const fit::PhongFitResult& r, v1:
   for (const std::string& f : FlagNames(r.flags())) row->add_flags(f);
 }
 
-glm::vec3 SrgbSeed(const v1::MaterialSeed& seed) {
+// A seed as a linear albedo in the data's units: linear_rgb as given, or
+// srgb8 linearised (scene validation allows exactly one of them).
+glm::vec3 SeedAlbedo(const v1::MaterialSeed& seed) {
   glm::vec3 out(0.0f);
+  if (seed.linear_rgb_size() > 0) {
+    for (int c = 0; c < 3 && c < seed.linear_rgb_size(); ++c) out[c] = static_cast<float>(seed.linear_rgb(c));
+    return out;
+  }
   for (int c = 0; c < 3 && c < seed.srgb8_size(); ++c) out[c] = scene::SrgbToLinear(seed.srgb8(c) / 255.0f);
   return out;
+}
+
+// Texels of a cluster for its fit, spread so that their kept Samples add up
+// to about `budget` (every kept Sample equally likely to be used, whatever
+// the texel it belongs to), in texel order. `kept` counts a texel's Samples.
+std::vector<uint32_t> SpreadOverSamples(const std::vector<uint32_t>& texels, size_t budget,
+                                        const std::function<size_t(uint32_t)>& kept) {
+  size_t total = 0;
+  for (uint32_t t : texels) total += kept(t);
+  if (total <= budget) return texels;
+  const double ratio = static_cast<double>(budget) / static_cast<double>(total);
+  std::vector<uint32_t> out;
+  double target = 0.0;
+  size_t taken = 0;
+  for (uint32_t t : texels) {
+    const size_t n = kept(t);
+    if (n == 0) continue;
+    target += ratio * static_cast<double>(n);
+    // Error diffusion: take the texel when that keeps `taken` nearer the target.
+    if (static_cast<double>(taken) + 0.5 * static_cast<double>(n) <= target) {
+      out.push_back(t);
+      taken += n;
+    }
+  }
+  return out;
+}
+
+// A warning line for a cluster fit's flags (empty when none deserves one).
+std::string ClusterFitWarning(const std::string& cluster, uint32_t flags, const fit::PhongFitOptions& options) {
+  std::vector<std::string> why;
+  if (flags & fit::kKsKeNotIdentifiable) {
+    why.push_back(absl::StrCat("ks and ke not identifiable (fewer than ", options.min_highlight_samples,
+                               " Samples near a highlight): ks = 0 and ke = ", options.initial.ke,
+                               " are placeholders, not measurements"));
+  }
+  if (flags & fit::kNoSamples) why.push_back("no texel: its kd, ks and ke are the initial guess, unused");
+  if (flags & fit::kAtBound) why.push_back("a parameter ended on its bound");
+  if (flags & fit::kDidNotConverge) why.push_back("the solver did not converge");
+  if (flags & fit::kNonFiniteInput) why.push_back("non-finite Samples were skipped");
+  if (why.empty()) return "";
+  return absl::StrCat("cluster \"", scene::ShownName(cluster), "\": ", absl::StrJoin(why, "; "));
 }
 
 // Per-triangle segment index and per segment the allowed clusters, from the
@@ -395,6 +442,10 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   t0 = Clock::now();
   cluster::KMeansInput km_input;
   std::vector<uint32_t> seen_texels;
+  // The data's own illumination scale: the mean G of an observation (per
+  // channel), for thresholds that must not depend on intensity units.
+  glm::dvec3 illumination_sum(0.0);
+  double observations = 0.0;
   for (size_t i = 0; i < num_texels; ++i) {
     if (g.texels->texel_count[i] == 0) continue;
     glm::dvec3 illumination(0.0);
@@ -404,14 +455,17 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
     if (!(illumination.x > 0.0 && illumination.y > 0.0 && illumination.z > 0.0)) continue;  // never lit
     seen_texels.push_back(static_cast<uint32_t>(i));
+    illumination_sum += illumination;
+    observations += g.texels->texel_count[i];
     km_input.points.push_back(glm::vec3(g.texels->texel_sum[i] / illumination));
     km_input.weights.push_back(static_cast<float>((illumination.x + illumination.y + illumination.z) / 3.0));
   }
   g.texels->texel_g_sum = {};
   if (seen_texels.empty()) return NothingLit(sequence, *g.texels, chosen, mask);
+  const glm::dvec3 typical_illumination = illumination_sum / std::max(observations, 1.0);
   cluster::KMeansOptions km_options;
   for (const v1::MaterialSeed& seed : sequence.scene.material_seeds()) {
-    km_options.seeds.push_back(SrgbSeed(seed));
+    km_options.seeds.push_back(SeedAlbedo(seed));
     km_options.seed_names.push_back(seed.name());
   }
   {
@@ -441,19 +495,25 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   std::vector<fit::PhongRgb> cluster_brdf(num_clusters);
   for (size_t k = 0; k < num_clusters; ++k) {
     samples::SampleSet set = samples::MakeSampleSet(sequence.lights);
-    // Spread the cap over the cluster: every n-th texel.
-    std::vector<uint32_t> texels = cluster_texels[k];
-    const size_t slots = static_cast<size_t>(options.reservoir_uniform + options.reservoir_highlight);
-    const size_t stride = std::max<size_t>(1, texels.size() * slots / std::max<size_t>(options.max_cluster_samples, 1));
-    if (stride > 1) {
-      std::vector<uint32_t> kept;
-      for (size_t i = 0; i < texels.size(); i += stride) kept.push_back(texels[i]);
-      texels.swap(kept);
-    }
-    g.texels->reservoir->Collect(texels, options.max_cluster_samples, &set);
+    // Spread the cap over the cluster's kept Samples, not its texels (most
+    // texels keep fewer Samples than they have slots).
+    const TexelReservoir& reservoir = *g.texels->reservoir;
+    const std::vector<uint32_t> texels = SpreadOverSamples(cluster_texels[k], options.max_cluster_samples,
+                                                           [&](uint32_t t) { return reservoir.KeptOf(t); });
+    reservoir.Collect(texels, options.max_cluster_samples, &set);
     fit::PhongFitOptions lm = options.fit;
     lm.solver = fit::Solver::kLevenbergMarquardt;
     MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, mask, lm));
+    // No data is no result: the fit's initial guess is not written as one.
+    // (A seed that no texel resembles has an empty cluster: flagged, not fatal.)
+    if (clusters.sizes[k] > 0 && (lm_result.flags() & (fit::kNoSamples | fit::kKdNotIdentifiable))) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "cluster \"", scene::ShownName(clusters.names[k]), "\" (", clusters.sizes[k], " texels): ",
+          lm_result.samples_used == 0 ? "no Samples" : "no Sample lit by the configuration's lights",
+          " to fit its BRDF, so kd, ks and ke would be the initial guess; the cameras see none of its texels lit "
+          "(an inside-out mesh, whose back faces the cameras skip? cameras that see nothing? lights that reach "
+          "none of it?)"));
+    }
     cluster_brdf[k] = lm_result.params;
     SolverRowFrom(clusters.names[k], lm_result, report.add_solvers());
     if (plan.Has(Stage::kSolverComparison)) {
@@ -465,6 +525,10 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     v1::ClusterRow* row = report.add_clusters();
     row->set_name(clusters.names[k]);
     row->set_texels(clusters.sizes[k]);
+    for (const std::string& f : FlagNames(lm_result.flags())) row->add_flags(f);
+    if (const std::string w = ClusterFitWarning(clusters.names[k], lm_result.flags(), lm); !w.empty()) {
+      report.add_warnings(w);
+    }
     for (int c = 0; c < 3; ++c) {
       row->add_centre(clusters.centres[k][c]);
       row->add_ks(cluster_brdf[k][c].ks);
@@ -555,7 +619,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
         cv::Vec4f& o = observed.at<cv::Vec4f>(static_cast<int>(i / atlas.size), static_cast<int>(i % atlas.size));
         bool ok = true;
         for (int ch = 0; ch < 3; ++ch) {
-          if (!(G[ch] > static_cast<float>(options.diffuse.min_illumination))) ok = false;
+          // min_illumination is on G^2 relative to the typical G^2 (fit::DiffuseOptions).
+          const double min_g = std::sqrt(options.diffuse.min_illumination) * typical_illumination[ch];
+          if (!(G[ch] > min_g)) ok = false;
         }
         if (!ok) continue;
         const glm::vec3 kd_o = frame_sum[i] / static_cast<float>(frame_count[i]) / G;
