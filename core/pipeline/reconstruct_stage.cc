@@ -488,12 +488,84 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     texel_cluster[seen_texels[i]] = static_cast<int32_t>(clusters.assignment[i]);
     cluster_texels[clusters.assignment[i]].push_back(seen_texels[i]);
   }
+  // Clusters without data for a BRDF fit: the cluster fits take per-pixel
+  // Samples, which a texel the atlas resampling saw may lack (seen only at
+  // grazing views, or by a camera inside the mesh). A cluster with fewer than
+  // max(1, 1 %) of its texels holding a Sample has no data: its texels join
+  // the nearest cluster (by centre, among those their segment allows) that
+  // has (none allowed: the texel is left unmeasured), with a warning; when
+  // such clusters hold kMaxShareWithoutData or more of the seen texels, the
+  // job fails naming the largest (its kd, ks and ke would be the fit's initial guess,
+  // e.g. an inside-out mesh, whose back faces the cameras skip).
+  constexpr double kMaxShareWithoutData = 0.05;
+  std::vector<uint8_t> has_data(num_clusters, 0);
+  {
+    const TexelReservoir& reservoir = *g.texels->reservoir;
+    size_t without = 0, largest = num_clusters;
+    for (size_t k = 0; k < num_clusters; ++k) {
+      size_t with_samples = 0;
+      for (uint32_t t : cluster_texels[k]) with_samples += reservoir.KeptOf(t) > 0 ? 1 : 0;
+      has_data[k] = cluster_texels[k].empty() ||
+                    static_cast<double>(with_samples) >= std::max(1.0, 0.01 * static_cast<double>(cluster_texels[k].size()));
+      if (has_data[k]) continue;
+      without += cluster_texels[k].size();
+      if (largest == num_clusters || cluster_texels[k].size() > cluster_texels[largest].size()) largest = k;
+    }
+    if (largest < num_clusters && static_cast<double>(without) >= kMaxShareWithoutData * seen_texels.size()) {
+      const size_t k = largest;
+      return absl::FailedPreconditionError(absl::StrCat(
+          "cluster \"", scene::ShownName(clusters.names[k]), "\" (", cluster_texels[k].size(),
+          " texels): no Samples to fit its BRDF, so kd, ks and ke would be the initial guess; the cameras see none of "
+          "its texels lit in their images (an inside-out mesh, whose back faces the cameras skip? cameras that see "
+          "nothing? lights that reach none of it?)"));
+    }
+    std::vector<size_t> unmeasured(num_clusters, 0);
+    for (size_t i = 0; i < seen_texels.size() && largest < num_clusters; ++i) {
+      const uint32_t from = clusters.assignment[i];
+      if (has_data[from]) continue;
+      size_t best = num_clusters;
+      float best_d = 0.0f;
+      for (size_t c = 0; c < num_clusters; ++c) {
+        if (!has_data[c] || cluster_texels[c].empty()) continue;
+        if (!km_input.segment.empty()) {
+          const std::vector<uint32_t>& ok = km_input.allowed_clusters[km_input.segment[i]];
+          if (std::find(ok.begin(), ok.end(), static_cast<uint32_t>(c)) == ok.end()) continue;
+        }
+        const glm::vec3 d = clusters.centres[c] - clusters.centres[from];
+        if (best == num_clusters || glm::dot(d, d) < best_d) best = c, best_d = glm::dot(d, d);
+      }
+      // No cluster with data allowed in its segment: left unmeasured (like a
+      // texel never seen; the written atlases grow over it).
+      texel_cluster[seen_texels[i]] = best == num_clusters ? -1 : static_cast<int32_t>(best);
+      if (best == num_clusters) ++unmeasured[from];
+    }
+    for (size_t k = 0; k < num_clusters; ++k) {
+      if (has_data[k]) continue;
+      report.add_warnings(absl::StrCat(
+          "cluster \"", scene::ShownName(clusters.names[k]), "\": ", cluster_texels[k].size(),
+          " texels but no Samples to fit its BRDF: ", cluster_texels[k].size() - unmeasured[k],
+          " joined the nearest cluster with Samples, ", unmeasured[k],
+          " (no such cluster allowed in their segment) are left unmeasured"));
+    }
+    for (std::vector<uint32_t>& texels : cluster_texels) texels.clear();
+    for (uint32_t t : seen_texels) {
+      if (texel_cluster[t] >= 0) cluster_texels[static_cast<size_t>(texel_cluster[t])].push_back(t);
+    }
+  }
   AddStage(&report, "clustering", Since(t0), options.progress);
 
   // One BRDF per cluster.
   t0 = Clock::now();
   std::vector<fit::PhongRgb> cluster_brdf(num_clusters);
   for (size_t k = 0; k < num_clusters; ++k) {
+    if (!has_data[k]) {  // its texels joined another cluster (above)
+      v1::ClusterRow* row = report.add_clusters();
+      row->set_name(clusters.names[k]);
+      row->set_texels(0);
+      for (int c = 0; c < 3; ++c) row->add_centre(clusters.centres[k][c]);
+      row->add_flags("no_samples");
+      continue;
+    }
     samples::SampleSet set = samples::MakeSampleSet(sequence.lights);
     // Spread the cap over the cluster's kept Samples, not its texels (most
     // texels keep fewer Samples than they have slots).
@@ -506,9 +578,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, mask, lm));
     // No data is no result: the fit's initial guess is not written as one.
     // (A seed that no texel resembles has an empty cluster: flagged, not fatal.)
-    if (clusters.sizes[k] > 0 && (lm_result.flags() & (fit::kNoSamples | fit::kKdNotIdentifiable))) {
+    if (!cluster_texels[k].empty() && (lm_result.flags() & (fit::kNoSamples | fit::kKdNotIdentifiable))) {
       return absl::FailedPreconditionError(absl::StrCat(
-          "cluster \"", scene::ShownName(clusters.names[k]), "\" (", clusters.sizes[k], " texels): ",
+          "cluster \"", scene::ShownName(clusters.names[k]), "\" (", cluster_texels[k].size(), " texels): ",
           lm_result.samples_used == 0 ? "no Samples" : "no Sample lit by the configuration's lights",
           " to fit its BRDF, so kd, ks and ke would be the initial guess; the cameras see none of its texels lit "
           "(an inside-out mesh, whose back faces the cameras skip? cameras that see nothing? lights that reach "
@@ -524,7 +596,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
     v1::ClusterRow* row = report.add_clusters();
     row->set_name(clusters.names[k]);
-    row->set_texels(clusters.sizes[k]);
+    row->set_texels(cluster_texels[k].size());
     for (const std::string& f : FlagNames(lm_result.flags())) row->add_flags(f);
     if (const std::string w = ClusterFitWarning(clusters.names[k], lm_result.flags(), lm); !w.empty()) {
       report.add_warnings(w);
