@@ -39,6 +39,17 @@ used = max(int(s["samples"]) for s in r["solvers"])
 print("     largest cluster fit: %d Samples of a budget of 2000" % used, file=sys.stderr)
 sys.exit(not abs(used - 2000) <= 100)' "$work/r_budget/result.json"
 
+# watch (through submit --watch, a real server and worker) prints the same flags.
+expect "server starts and prints its address" start_server "$work/server.log"
+"$bin" worker --server "$address" --name w1 --cache "$work/cache1" --egl surfaceless > "$work/w1.log" 2>&1 &
+w1=$!
+check "watch: the not-identifiable flag is a warning line" 0 \
+  'warning: cluster "cloth": ks_ke_not_identifiable' -- \
+  "$bin" submit "$work/base/scene.json" --server "$address" --client tester "${opts[@]}" --outputs brdf \
+  --cluster-samples 10 --watch
+kill -TERM "$w1"; wait "$w1"
+kill -TERM "$pid"; wait "$pid"
+
 # kd RMSE against the truth with and without the prior (measured 0.0187 and 0.096).
 rmse() { "$bin" evaluate "$1" --truth "$work/base" | python3 -c 'import json,sys; print(json.load(sys.stdin)["kdRmse"])'; }
 check "run with the default kd prior" 0 "wrote" -- \
