@@ -505,8 +505,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     for (size_t k = 0; k < num_clusters; ++k) {
       size_t with_samples = 0;
       for (uint32_t t : cluster_texels[k]) with_samples += reservoir.KeptOf(t) > 0 ? 1 : 0;
-      has_data[k] = cluster_texels[k].empty() ||
-                    static_cast<double>(with_samples) >= std::max(1.0, 0.01 * static_cast<double>(cluster_texels[k].size()));
+      has_data[k] =
+          cluster_texels[k].empty() ||
+          static_cast<double>(with_samples) >= std::max(1.0, 0.01 * static_cast<double>(cluster_texels[k].size()));
       if (has_data[k]) continue;
       without += cluster_texels[k].size();
       if (largest == num_clusters || cluster_texels[k].size() > cluster_texels[largest].size()) largest = k;
@@ -541,11 +542,11 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
     for (size_t k = 0; k < num_clusters; ++k) {
       if (has_data[k]) continue;
-      report.add_warnings(absl::StrCat(
-          "cluster \"", scene::ShownName(clusters.names[k]), "\": ", cluster_texels[k].size(),
-          " texels but no Samples to fit its BRDF: ", cluster_texels[k].size() - unmeasured[k],
-          " joined the nearest cluster with Samples, ", unmeasured[k],
-          " (no such cluster allowed in their segment) are left unmeasured"));
+      report.add_warnings(
+          absl::StrCat("cluster \"", scene::ShownName(clusters.names[k]), "\": ", cluster_texels[k].size(),
+                       " texels but no Samples to fit its BRDF: ", cluster_texels[k].size() - unmeasured[k],
+                       " joined the nearest cluster with Samples, ", unmeasured[k],
+                       " (no such cluster allowed in their segment) are left unmeasured"));
     }
     for (std::vector<uint32_t>& texels : cluster_texels) texels.clear();
     for (uint32_t t : seen_texels) {
@@ -580,8 +581,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     // (A seed that no texel resembles has an empty cluster: flagged, not fatal.)
     if (!cluster_texels[k].empty() && (lm_result.flags() & (fit::kNoSamples | fit::kKdNotIdentifiable))) {
       return absl::FailedPreconditionError(absl::StrCat(
-          "cluster \"", scene::ShownName(clusters.names[k]), "\" (", cluster_texels[k].size(), " texels): ",
-          lm_result.samples_used == 0 ? "no Samples" : "no Sample lit by the configuration's lights",
+          "cluster \"", scene::ShownName(clusters.names[k]), "\" (", cluster_texels[k].size(),
+          " texels): ", lm_result.samples_used == 0 ? "no Samples" : "no Sample lit by the configuration's lights",
           " to fit its BRDF, so kd, ks and ke would be the initial guess; the cameras see none of its texels lit "
           "(an inside-out mesh, whose back faces the cameras skip? cameras that see nothing? lights that reach "
           "none of it?)"));
