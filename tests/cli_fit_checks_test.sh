@@ -29,6 +29,9 @@ check "too few highlight Samples: a not-identifiable warning" 0 \
   'warning: cluster "cloth": ks and ke not identifiable (fewer than 10 Samples near a highlight)' -- \
   "$bin" run --direct "$work/base/scene.json" "${opts[@]}" --outputs brdf --cluster-samples 10 --out "$work/r_few"
 expect "result.json's clusters carry the flag" grep -q '"ks_ke_not_identifiable"' "$work/r_few/result.json"
+check "the report of that run" 0 "wrote" -- "$bin" report "$work/r_few" --out "$work/few.html"
+expect "the report shows the warning" grep -q 'cluster &quot;cloth&quot;: ks and ke not identifiable\|cluster "cloth": ks and ke not identifiable' \
+  "$work/few.html"
 
 check "a budget of 2000 Samples per cluster" 0 "wrote" -- \
   "$bin" run --direct "$work/base/scene.json" "${opts[@]}" --outputs brdf --cluster-samples 2000 --out "$work/r_budget"
