@@ -27,6 +27,9 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
                   "occlusion test as a fraction of the texel's depth (default: 0.001)");
   flags.AddDouble("--grazing-margin", &job->grazing_margin,
                   "texels seen within this angle of edge-on are not observations, degrees in [0, 90)");
+  flags.AddDouble("--kd-prior-strength", &job->kd_prior_strength,
+                  "per-texel kd shrinks towards its cluster's kd with this many pseudo-observations at the data's "
+                  "typical illumination (>= 0; 0: plain least squares; relative, so independent of intensity units)");
 }
 
 absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request) {
@@ -77,6 +80,10 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   if (job.grow < 0 || job.grow > 1000) {
     return absl::InvalidArgumentError(absl::StrCat("--grow: must be in [0, 1000], got ", job.grow));
   }
+  if (!std::isfinite(job.kd_prior_strength) || job.kd_prior_strength < 0.0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--kd-prior-strength: must be finite and >= 0, got ", job.kd_prior_strength));
+  }
   v1::FittingOptions* o = request->mutable_options();
   if (!job.depth_tolerance_absolute.empty() && !job.depth_tolerance_relative.empty()) {
     return absl::InvalidArgumentError(
@@ -107,6 +114,7 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   o->set_compare_solvers(!job.no_powell);
   o->set_sweep_frame_stride(static_cast<uint32_t>(job.sweep_frame_stride));
   o->set_grow_iterations(static_cast<uint32_t>(job.grow));
+  o->set_kd_prior_strength(job.kd_prior_strength);
   return absl::OkStatus();
 }
 

@@ -25,6 +25,9 @@ struct JobFlags {
   std::string depth_tolerance_absolute;
   std::string depth_tolerance_relative;
   double grazing_margin = 5.0;
+  // Pseudo-observations of the cluster's kd per texel, at the data's typical
+  // illumination (fit::DiffuseOptions::prior_weight).
+  double kd_prior_strength = 1.0;
 };
 
 void AddJobFlags(FlagParser& flags, JobFlags* job);

@@ -73,11 +73,21 @@ class EventPrinter {
         std::string line = text;
         std::vector<std::pair<std::string, double>> metrics(f.metrics().begin(), f.metrics().end());
         std::sort(metrics.begin(), metrics.end());
+        std::vector<std::string> warnings;
         for (const auto& [name, value] : metrics) {
+          if (name.rfind("flag/", 0) == 0) {  // a flagged cluster fit (worker/task_runner.cc)
+            const std::string rest = name.substr(5);
+            const size_t slash = rest.rfind('/');
+            warnings.push_back("warning: cluster \"" + scene::ShownName(rest.substr(0, slash)) +
+                               "\": " + (slash == std::string::npos ? "" : rest.substr(slash + 1)) +
+                               " (result.json's clusters[].flags)");
+            continue;
+          }
           std::snprintf(text, sizeof text, "  %s=%.6g", name.c_str(), value);
           line += text;
         }
         Line(line);
+        for (const std::string& w : warnings) Line(w);
         break;
       }
       case v1::JobEvent::kArtifact: {

@@ -71,6 +71,8 @@ done
 for where in "run --out $work/r_flags" "submit --server 127.0.0.1:1"; do
   code 2 "${where%% *} --max-iterations 100001" "^mvbrdf ${where%% *}: --max-iterations: must be in \[1, 100000\]" -- \
     "$bin" ${where%% *} "$work/b/scene.json" ${where#* } --max-iterations 100001
+  code 2 "${where%% *} --kd-prior-strength -1" "^mvbrdf ${where%% *}: --kd-prior-strength: must be finite and >= 0" -- \
+    "$bin" ${where%% *} "$work/b/scene.json" ${where#* } --kd-prior-strength -1
 done
 for frames in 99999999 -5; do
   code 2 "run --report --relit-frames $frames" "^mvbrdf run: --relit-frames: must be in \[0, 360\]" -- \

@@ -107,6 +107,13 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
     }
     o.resampler.grazing_margin_deg = v;
   }
+  if (f.has_kd_prior_strength()) {
+    if (!std::isfinite(f.kd_prior_strength()) || f.kd_prior_strength() < 0.0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("options.kd_prior_strength: must be finite and >= 0, got ", f.kd_prior_strength()));
+    }
+    o.kd_prior_weight = f.kd_prior_strength();
+  }
   if (absl::Status s = o.fit.Check(); !s.ok()) return absl::InvalidArgumentError(absl::StrCat("options.", s.message()));
   o.threads = threads;
   return o;

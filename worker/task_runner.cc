@@ -186,6 +186,11 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
     if (c.has_mse_brdf()) out.metrics[absl::StrCat("mse_brdf/", c.name())] = c.mse_brdf();
     if (c.has_mse_correction()) out.metrics[absl::StrCat("mse_correction/", c.name())] = c.mse_correction();
   }
+  // Flagged cluster fits reach `watch` as metrics "flag/CLUSTER/FLAG" = 1 (it
+  // prints them as warnings; result.json's clusters[].flags holds the same).
+  for (const v1::ClusterRow& c : report.clusters()) {
+    for (const std::string& f : c.flags()) out.metrics[absl::StrCat("flag/", c.name(), "/", f)] = 1.0;
+  }
   return out;
 }
 

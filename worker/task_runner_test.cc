@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <functional>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -274,6 +275,10 @@ TEST(JobOptionsTest, OutOfRangeOptionsNameTheField) {
        "options.grow_iterations: must be in [0, 16384], got 3000000000"},
       {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_max_cluster_samples(3); },
        "options.max_cluster_samples: must be >= 10, got 3"},
+      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_kd_prior_strength(-1.0); },
+       "options.kd_prior_strength: must be finite and >= 0, got -1"},
+      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_kd_prior_strength(std::nan("")); },
+       "options.kd_prior_strength: must be finite and >= 0, got nan"},
       {[](v1::SubmitJobRequest* r) { r->add_outputs(static_cast<v1::Output>(99)); }, "outputs[0]: unknown output 99"},
   };
   for (const Case& c : cases) {

@@ -17,7 +17,10 @@
 // the one with the lowest inertia is I(k) (one sequence alone lands in a
 // local minimum, two seeds in one blob, a few times in a hundred). Criterion: the largest k in
 // 2..max_automatic_k whose cluster removed at least kAutomaticMinGain (40 %)
-// of the inertia of k - 1, I(k) <= (1 - 0.4) I(k-1); 1 when none did.
+// of the inertia of k - 1, I(k) <= (1 - 0.4) I(k-1), and whose neighbouring
+// clusters are separated by a valley of the data (SeparatedByValleys; issue
+// #13: one material stretched along its albedo by shading errors lost 75 %
+// of its inertia to a split and came out as 3-4 clusters); 1 when none did.
 // Splitting a compact blob removes well under 40 % of its inertia (an
 // isotropic Gaussian ~21 %, a uniform box 25 %), and once every blob has its
 // cluster that is at most ~25 % / k of the total; separating two blobs whose
@@ -135,6 +138,48 @@ KMeansResult Lloyd(const KMeansInput& input, const Allowed& allowed, std::vector
 // A uniform double in [0, 1) from 53 bits of the generator (the standard
 // distributions are implementation-defined; this is the same everywhere).
 double Uniform(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+
+// Whether every two neighbouring clusters of `run` (the midpoint of their
+// centres nearer to them than to any other centre) have a valley between
+// them: projected on the line through their centres (t = 0 at one, 1 at the
+// other), the weight of their points in the middle band |t - 0.5| < 0.1 is
+// below kValleyRatio of the smaller of the weights in the bands |t| < 0.1
+// and |t - 1| < 0.1 of the same width. A blob split in two (Gaussian: ratio
+// ~1.4, uniform or stretched along a line by shading: ~1) has no valley; two
+// equal Gaussian blobs 5 noise widths apart have 0.09, 4 widths 0.27. Only
+// ratios of distances and weights: free of units. (A small material beside
+// a large noisy one needs a deeper valley than two of equal size.)
+constexpr double kValleyRatio = 0.3;
+
+bool SeparatedByValleys(const KMeansInput& input, const KMeansResult& run) {
+  const size_t k = run.centres.size();
+  for (size_t i = 0; i < k; ++i) {
+    for (size_t j = i + 1; j < k; ++j) {
+      const glm::vec3 a = run.centres[i], b = run.centres[j];
+      const glm::vec3 mid = 0.5f * (a + b);
+      const float half = Distance2(mid, a);
+      if (!(half > 0.0f)) return false;
+      bool neighbours = true;
+      for (size_t c = 0; c < k && neighbours; ++c) {
+        if (c != i && c != j && Distance2(mid, run.centres[c]) < half) neighbours = false;
+      }
+      if (!neighbours) continue;
+      const glm::vec3 axis = b - a;
+      const float length2 = glm::dot(axis, axis);
+      double near_a = 0.0, near_b = 0.0, middle = 0.0;
+      for (size_t p = 0; p < input.points.size(); ++p) {
+        if (run.assignment[p] != i && run.assignment[p] != j) continue;
+        const double t = glm::dot(input.points[p] - a, axis) / length2;
+        const double w = Weight(input, p);
+        if (std::fabs(t) < 0.1) near_a += w;
+        if (std::fabs(t - 1.0) < 0.1) near_b += w;
+        if (std::fabs(t - 0.5) < 0.1) middle += w;
+      }
+      if (!(middle < kValleyRatio * std::min(near_a, near_b))) return false;
+    }
+  }
+  return true;
+}
 
 // Weighted k-means++: the first centre with probability proportional to w,
 // each next one to w D^2. Stops early when every point coincides with a centre.
@@ -295,7 +340,9 @@ absl::StatusOr<KMeansResult> KMeans(const KMeansInput& input, const KMeansOption
       if (!have_run || attempt.inertia < run.inertia) run = std::move(attempt);
       have_run = true;
     }
-    if (k == 1 || run.inertia <= (1.0 - kAutomaticMinGain) * previous.inertia) chosen = run;
+    if (k == 1 || (run.inertia <= (1.0 - kAutomaticMinGain) * previous.inertia && SeparatedByValleys(choose_on, run))) {
+      chosen = run;
+    }
     if (run.inertia <= 0.0) break;  // every point on a centre
     previous = std::move(run);
   }

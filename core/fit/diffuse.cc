@@ -58,6 +58,24 @@ void DiffuseAccumulator::Merge(const DiffuseAccumulator& other) {
   }
 }
 
+DiffuseAccumulator::DataScale DiffuseAccumulator::ScaleOf() const {
+  glm::dvec3 gg(0.0), rr(0.0);
+  double n = 0.0;
+  for (size_t e = 0; e < count_.size(); ++e) {
+    gg += s_gg_[e];
+    rr += s_rr_[e];
+    n += count_[e];
+  }
+  DataScale scale;
+  for (int c = 0; c < 3; ++c) {
+    const double g2 = n > 0.0 ? gg[c] / n : 0.0;
+    scale.g2[c] = g2 > 0.0 && std::isfinite(g2) ? g2 : 1.0;
+    const double albedo = gg[c] > 0.0 ? std::sqrt(rr[c] / gg[c]) : 0.0;
+    scale.albedo[c] = albedo > 0.0 && std::isfinite(albedo) ? albedo : 1.0;
+  }
+  return scale;
+}
+
 DiffuseSolution DiffuseAccumulator::Solve(const DiffuseOptions& options, const std::vector<glm::vec3>& fallback) const {
   Require(fallback.empty() || fallback.size() == count_.size(), "DiffuseAccumulator::Solve: fallback size differs");
   const size_t num = count_.size();
@@ -66,18 +84,21 @@ DiffuseSolution DiffuseAccumulator::Solve(const DiffuseOptions& options, const s
   solution.samples = count_;
   solution.mse.assign(num, 0.0f);
   solution.fallback.assign(num, 0);
+  const DataScale scale = ScaleOf();
   double mse_sum = 0.0;
   for (size_t e = 0; e < num; ++e) {
     double sse = 0.0;
     for (int c = 0; c < 3; ++c) {
       double kd;
-      if (s_gg_[e][c] >= options.min_illumination && s_gg_[e][c] > 0.0) {
-        // With a prior: lambda pseudo-observations of the fallback at G = 1.
-        const double lambda = fallback.empty() ? 0.0 : options.prior_weight;
+      const double kd_max = options.kd_max * scale.albedo[c];
+      if (s_gg_[e][c] >= options.min_illumination * scale.g2[c] && s_gg_[e][c] > 0.0) {
+        // With a prior: lambda pseudo-observations of the fallback at the
+        // data's typical illumination (mean G^2 of an observation).
+        const double lambda = fallback.empty() ? 0.0 : options.prior_weight * scale.g2[c];
         const double prior = lambda > 0.0 ? lambda * static_cast<double>(fallback[e][c]) : 0.0;
-        kd = std::clamp((s_rg_[e][c] + prior) / (s_gg_[e][c] + lambda), 0.0, options.kd_max);
+        kd = std::clamp((s_rg_[e][c] + prior) / (s_gg_[e][c] + lambda), 0.0, kd_max);
       } else {
-        kd = fallback.empty() ? 0.0 : std::clamp(static_cast<double>(fallback[e][c]), 0.0, options.kd_max);
+        kd = fallback.empty() ? 0.0 : std::clamp(static_cast<double>(fallback[e][c]), 0.0, kd_max);
         solution.fallback[e] = 1;
       }
       if (!std::isfinite(kd)) kd = 0.0;

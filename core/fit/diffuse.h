@@ -20,17 +20,23 @@
 
 namespace mvbrdf::fit {
 
+// Every threshold is relative to the data's own scale (issue #13), so that
+// scaling every light intensity by s scales kd by exactly 1/s and changes
+// nothing else: with g2 = mean G^2 over all observations of all elements
+// and A = sqrt(sum S_rr / sum S_gg) (the data's albedo scale), per channel.
 struct DiffuseOptions {
+  // kd is clamped to [0, kd_max A].
   double kd_max = 10.0;
-  // Elements whose sum G^2 (per channel) is below this have no usable
-  // diffuse information: kd falls back (see DiffuseAccumulator::Solve).
+  // Elements whose sum G^2 (per channel) is below min_illumination g2 have
+  // no usable diffuse information: kd falls back (DiffuseAccumulator::Solve).
   double min_illumination = 1e-8;
   // Shrinkage towards the fallback (e.g. the cluster's kd) where one is
-  // given: kd = (S_rg + lambda kd_fallback) / (S_gg + lambda), lambda
-  // pseudo-observations at full illumination (G = 1). 0 is the thesis's plain
-  // least squares. A texel observed n times at G ~ 1 moves lambda / (n +
-  // lambda) of the way towards the fallback; one that only ever saw grazing
-  // or mislabelled (shadow-boundary) light, with tiny S_gg, is held near the
+  // given: kd = (S_rg + lambda kd_fallback) / (S_gg + lambda) with lambda =
+  // prior_weight g2: prior_weight pseudo-observations at the data's typical
+  // illumination. 0 is the thesis's plain least squares. A texel observed n
+  // times at typical illumination moves prior_weight / (n + prior_weight) of
+  // the way towards the fallback; one that only ever saw grazing or
+  // mislabelled (shadow-boundary) light, with tiny S_gg, is held near the
   // cluster's kd instead of running to kd_max.
   double prior_weight = 0.0;
 };
@@ -57,6 +63,12 @@ class DiffuseAccumulator {
   // diffuse information; zero when empty.
   DiffuseSolution Solve(const DiffuseOptions& options, const std::vector<glm::vec3>& fallback = {}) const;
   size_t num_elements() const { return count_.size(); }
+  // The data's scale per channel (DiffuseOptions): g2 = mean G^2 of an
+  // observation, albedo = sqrt(sum S_rr / sum S_gg); 1 where undefined.
+  struct DataScale {
+    glm::dvec3 g2{1.0}, albedo{1.0};
+  };
+  DataScale ScaleOf() const;
 
  private:
   std::vector<glm::dvec3> s_gg_, s_rg_, s_rr_;

@@ -66,22 +66,28 @@ TEST(DiffuseAccumulatorTest, ClampsAndFallsBack) {
   accumulator.Add(2, glm::vec3(0.5f), glm::vec3(1e-5f));   // sum G^2 = 1e-10 < 1e-8
   accumulator.Add(3, glm::vec3(0.5f), glm::vec3(0.0f));    // no illumination at all
   DiffuseOptions options;
-  options.kd_max = 10.0;
-  const std::vector<glm::vec3> fallback(4, glm::vec3(0.25f, 0.5f, 20.0f));
+  options.kd_max = 1.0;
+  // kd_max is relative to the data's albedo scale A = sqrt(sum S_rr / sum
+  // S_gg) = sqrt((1 + 1e4 + 0.25 + 0.25) / (2 + 1e-10)) = 70.71.
+  const double a = std::sqrt(10001.5 / (2.0 + 1e-10));
+  EXPECT_NEAR(accumulator.ScaleOf().albedo.x, a, 1e-9);
+  // Element 2: sum G^2 = 1e-10 < 1e-8 g2 with g2 = mean G^2 = (2 + 1e-10) / 4.
+  EXPECT_NEAR(accumulator.ScaleOf().g2.x, 0.5, 1e-9);
+  const std::vector<glm::vec3> fallback(4, glm::vec3(0.25f, 0.5f, 200.0f));
   for (bool with_fallback : {false, true}) {
     const DiffuseSolution solution = with_fallback ? accumulator.Solve(options, fallback) : accumulator.Solve(options);
     EXPECT_EQ(solution.kd[0], glm::vec3(0.0f));
-    EXPECT_EQ(solution.kd[1], glm::vec3(10.0f));
+    EXPECT_EQ(solution.kd[1], glm::vec3(static_cast<float>(a)));
     EXPECT_EQ(solution.fallback[0] + solution.fallback[1], 0);
     for (uint32_t e : {2u, 3u}) {
       EXPECT_EQ(solution.fallback[e], 1);
-      // The fallback, clamped to [0, kd_max]; zero without one.
-      EXPECT_EQ(solution.kd[e], with_fallback ? glm::vec3(0.25f, 0.5f, 10.0f) : glm::vec3(0.0f));
+      // The fallback, clamped to [0, kd_max A]; zero without one.
+      EXPECT_EQ(solution.kd[e], with_fallback ? glm::vec3(0.25f, 0.5f, static_cast<float>(a)) : glm::vec3(0.0f));
     }
     for (float mse : solution.mse) EXPECT_TRUE(std::isfinite(mse) && mse >= 0.0f);
-    // Element 0: kd = 0, mse = 1; element 1: (100 - 10)^2 = 8100.
+    // Element 0: kd = 0, mse = 1; element 1: (100 - A)^2.
     EXPECT_NEAR(solution.mse[0], 1.0, 1e-6);
-    EXPECT_NEAR(solution.mse[1], 8100.0, 1e-3);
+    EXPECT_NEAR(solution.mse[1], (100.0 - a) * (100.0 - a), 1e-2);
   }
 }
 
@@ -178,16 +184,48 @@ TEST(DiffuseAccumulatorTest, PriorPullsPoorlyLitElementsTowardsTheFallback) {
   for (int i = 0; i < 10; ++i) acc.Add(0, glm::vec3(0.4f), glm::vec3(1.0f));
   acc.Add(1, glm::vec3(0.05f), glm::vec3(0.01f));
   DiffuseOptions options;
+  options.kd_max = 100.0;  // x the data's albedo scale 0.4: no clamp at 5
   const std::vector<glm::vec3> fallback = {glm::vec3(0.3f), glm::vec3(0.3f)};
   const DiffuseSolution plain = acc.Solve(options, fallback);
   EXPECT_NEAR(plain.kd[1].x, 5.0f, 1e-4f);
   options.prior_weight = 0.1;
   const DiffuseSolution shrunk = acc.Solve(options, fallback);
-  // (10 * 0.4 + 0.1 * 0.3) / (10 + 0.1) and (0.0005 + 0.03) / (0.0001 + 0.1).
-  EXPECT_NEAR(shrunk.kd[0].x, (4.0 + 0.03) / 10.1, 1e-6);
-  EXPECT_NEAR(shrunk.kd[1].x, (0.0005 + 0.03) / 0.1001, 1e-5);
+  // lambda = 0.1 g2 with g2 = mean G^2 = 10.0001 / 11:
+  // (10 * 0.4 + lambda 0.3) / (10 + lambda) and (0.0005 + lambda 0.3) / (0.0001 + lambda).
+  const double lambda = 0.1 * 10.0001 / 11.0;
+  EXPECT_NEAR(shrunk.kd[0].x, (4.0 + lambda * 0.3) / (10.0 + lambda), 1e-6);
+  EXPECT_NEAR(shrunk.kd[1].x, (0.0005 + lambda * 0.3) / (0.0001 + lambda), 1e-5);
   // Without a fallback the prior has nothing to pull towards: plain LS.
   EXPECT_NEAR(acc.Solve(options).kd[1].x, 5.0f, 1e-4f);
+}
+
+// Issue #13: the prior and every threshold are relative to the data's scale.
+// The same data with every illumination G x10 (lights 10x brighter, the same
+// images) and the fallback x1/10 gives kd x1/10 exactly, whatever the prior.
+// With the prior in absolute units (lambda pseudo-observations at G = 1) the
+// poorly lit element moved from 0.30 to 0.35 x 1/10.
+TEST(DiffuseAccumulatorTest, IlluminationScaleScalesKdOnly) {
+  for (double scale : {10.0, 1e-3, 1e4}) {
+    DiffuseAccumulator acc(3), scaled(3);
+    const auto add = [&](uint32_t e, float r, float g) {
+      acc.Add(e, glm::vec3(r), glm::vec3(g));
+      scaled.Add(e, glm::vec3(r), glm::vec3(static_cast<float>(g * scale)));
+    };
+    for (int i = 0; i < 10; ++i) add(0, 0.4f, 1.0f);
+    add(1, 0.05f, 0.01f);
+    add(2, 0.5f, 1e-5f);  // below min_illumination: falls back
+    DiffuseOptions options;
+    options.prior_weight = 0.1;
+    const std::vector<glm::vec3> fallback(3, glm::vec3(0.3f));
+    const std::vector<glm::vec3> fallback_scaled(3, glm::vec3(static_cast<float>(0.3 / scale)));
+    const DiffuseSolution a = acc.Solve(options, fallback);
+    const DiffuseSolution b = scaled.Solve(options, fallback_scaled);
+    for (int e = 0; e < 3; ++e) {
+      EXPECT_EQ(a.fallback[e], b.fallback[e]) << e;
+      EXPECT_NEAR(b.kd[e].x * scale, a.kd[e].x, 1e-5 * a.kd[e].x) << "element " << e << " scale " << scale;
+    }
+    EXPECT_EQ(a.fallback[2], 1);
+  }
 }
 
 }  // namespace

@@ -8,8 +8,10 @@
 // so r / r_scale = a G' + b S'(t) with G', S' built from w (phong_cost.h).
 // kd = a r_scale / I_max and ks likewise on the way out; ke is unchanged.
 //
-// Bounds: [0, kd_max], [0, ks_max], [ln ke_min, ln ke_max], mapped to the
-// normalised units. Ceres LM enforces them by projection inside its trust
+// Bounds: [0, kd_max A], [0, ks_max A], [ln ke_min, ln ke_max], with A the
+// data's albedo scale (r_rms / G_rms, see FitChannel); kd_max, ks_max and the
+// initial kd, ks are multiples of A, so no bound or starting point assumes
+// data in [0, 1]. Ceres LM enforces them by projection inside its trust
 // region. Powell minimises C(P(x)) with P the clamp to the box (a projection:
 // continuous, piecewise smooth, flat outside the box), and the iterate is
 // projected back after each line minimisation; the bounds are reachable
@@ -19,7 +21,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -205,6 +209,63 @@ void SolvePowell(const PhongChannelData& data, const bool* free, const double* l
   if (!powell.converged) summary->flags |= kDidNotConverge;
 }
 
+// The start of ks and ke, free of units: for each exponent of a log grid
+// over [ke_min, ke_max], kd (when free) and ks by non-negative linear least
+// squares in closed form; the exponent with the lowest cost wins. A fixed
+// initial ks assumed data in [0, 1] (ks = 0.1 in absolute units), and the
+// cost's local minima in ke make the start matter: from initial.ks times the
+// data's albedo scale LM chose the wrong light configuration on the synth
+// sequence (reconstruct_stage_test) and missed ke by 350 %.
+constexpr int kInitialGrid = 25;
+
+void InitialSpecular(const PhongChannelData& data, bool kd_free, const double* lower, const double* upper,
+                     const PhongFitOptions& options, double* x) {
+  const size_t n = data.size();
+  double s_rr = 0.0, s_rg = 0.0, s_gg = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    s_rr += data.r[i] * data.r[i];
+    s_rg += data.r[i] * data.diffuse[i];
+    s_gg += data.diffuse[i] * data.diffuse[i];
+  }
+  double best = std::numeric_limits<double>::infinity();
+  const double t_min = std::log(options.ke_min), t_max = std::log(options.ke_max);
+  for (int j = 0; j < kInitialGrid; ++j) {
+    const double t = t_min + (t_max - t_min) * j / (kInitialGrid - 1);
+    double s_rs = 0.0, s_gs = 0.0, s_ss = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      double sp, d;
+      internal::SpecularSums(data, i, std::exp(t), &sp, &d);
+      s_rs += data.r[i] * sp;
+      s_gs += data.diffuse[i] * sp;
+      s_ss += sp * sp;
+    }
+    const auto cost = [&](double a, double b) {
+      return s_rr - 2.0 * a * s_rg - 2.0 * b * s_rs + a * a * s_gg + 2.0 * a * b * s_gs + b * b * s_ss;
+    };
+    // Candidates (a, b) >= 0: ks alone (kd fixed), both free, kd alone.
+    std::vector<std::pair<double, double>> candidates;
+    if (!kd_free && s_ss > 0.0) candidates.push_back({x[0], std::max(0.0, (s_rs - x[0] * s_gs) / s_ss)});
+    if (kd_free) {
+      const double det = s_gg * s_ss - s_gs * s_gs;
+      if (det > 0.0) {
+        const double a = (s_rg * s_ss - s_rs * s_gs) / det, b = (s_rs * s_gg - s_rg * s_gs) / det;
+        if (a >= 0.0 && b >= 0.0) candidates.push_back({a, b});
+      }
+      if (s_gg > 0.0) candidates.push_back({std::max(0.0, s_rg / s_gg), 0.0});
+    }
+    for (const auto& [a, b] : candidates) {
+      const double ca = std::clamp(a, lower[0], upper[0]), cb = std::clamp(b, lower[1], upper[1]);
+      const double c = cost(ca, cb);
+      if (std::isfinite(c) && c < best) {
+        best = c;
+        if (kd_free) x[0] = ca;
+        x[1] = cb;
+        x[2] = t;
+      }
+    }
+  }
+}
+
 ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int c, const PhongFitOptions& options) {
   ChannelOutcome out;
   const size_t n = prep.used.size();
@@ -257,16 +318,24 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   if (!kd_free) flags |= kKdNotIdentifiable;
   if (!specular_free) flags |= kKsKeNotIdentifiable;
 
+  // The data's own albedo scale in normalised units: the a for which a G'
+  // alone has the rms of r (1 in normalised units). Bounds and initial
+  // values are multiples of it, so that they mean the same whatever the
+  // units of the lights' intensities and of the images.
+  double sum_gg = 0.0;
+  for (size_t i = 0; i < n; ++i) sum_gg += data.diffuse[i] * data.diffuse[i];
+  double albedo_scale = n > 0 && sum_gg > 0.0 ? std::sqrt(static_cast<double>(n) / sum_gg) : 1.0;
+  if (!std::isfinite(albedo_scale) || !(albedo_scale > 0.0)) albedo_scale = 1.0;
   const double lower[3] = {0.0, 0.0, std::log(options.ke_min)};
-  const double upper[3] = {options.kd_max / to_original, options.ks_max / to_original, std::log(options.ke_max)};
+  const double upper[3] = {options.kd_max * albedo_scale, options.ks_max * albedo_scale, std::log(options.ke_max)};
   const bool free[3] = {kd_free, specular_free, specular_free};
 
   // Initial point: kd by least squares with ks = 0 (or the fallback kd), ks
   // and ke from the options (ks = 0 when they are not identifiable).
   double x[3];
-  x[1] = specular_free ? options.initial.ks / to_original : 0.0;
+  x[1] = specular_free ? options.initial.ks * albedo_scale : 0.0;
   x[2] = std::log(std::clamp(options.initial.ke, options.ke_min, options.ke_max));
-  x[0] = options.initial.kd / to_original;
+  x[0] = options.initial.kd * albedo_scale;
   if (kd_free && options.initialise_kd_from_data) {
     double s_rg = 0.0, s_gg = 0.0;
     for (size_t i = 0; i < n; ++i) {
@@ -275,6 +344,7 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
     }
     if (s_gg > 0.0) x[0] = s_rg / s_gg;
   }
+  if (specular_free && n > 0) InitialSpecular(data, kd_free, lower, upper, options, x);
   for (int j = 0; j < 3; ++j) x[j] = std::clamp(x[j], lower[j], upper[j]);
   const double x0[3] = {x[0], x[1], x[2]};
 
@@ -301,11 +371,12 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   out.summary.final_cost = final_cost * r_scale * r_scale;
   out.sum_squares = 2.0 * out.summary.final_cost;
   out.summary.flags |= flags;
-  out.params.kd = std::clamp(x[0] * to_original, 0.0, options.kd_max);
-  out.params.ks = std::clamp(x[1] * to_original, 0.0, options.ks_max);
+  out.params.kd = std::clamp(x[0] * to_original, 0.0, upper[0] * to_original);
+  out.params.ks = std::clamp(x[1] * to_original, 0.0, upper[1] * to_original);
   out.params.ke = std::clamp(std::exp(x[2]), options.ke_min, options.ke_max);
-  // Fallback values exactly as given (not through the normalisation).
-  if (!kd_free) out.params.kd = std::clamp(options.initial.kd, 0.0, options.kd_max);
+  // Fallback values exactly as given (not through the normalisation); the
+  // fit is flagged kd_not_identifiable and such a kd is no result.
+  if (!kd_free) out.params.kd = std::max(0.0, options.initial.kd);
   if (!specular_free) {
     out.params.ks = 0.0;
     out.params.ke = std::clamp(options.initial.ke, options.ke_min, options.ke_max);

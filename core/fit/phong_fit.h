@@ -39,12 +39,18 @@ struct PhongFitOptions {
   Solver solver = Solver::kLevenbergMarquardt;
   int max_iterations = 100;
   double function_tolerance = 1e-10;  // relative cost decrease to stop
+  // kd_max, ks_max and initial.kd, initial.ks are in units of the data's own
+  // albedo scale A = rms(r) / rms(G) (per channel, over the fitted Samples),
+  // so that a fit does not depend on the units of intensities and images:
+  // scaling every I_k by s scales kd and ks by exactly 1/s.
   double kd_max = 10.0;
   double ks_max = 10.0;
   double ke_min = 1.0;
   double ke_max = 1e4;
-  // Initial values (an "average BRDF", thesis §6.1.2); kd is also initialised
-  // from the data by least squares when `initialise_kd_from_data`.
+  // Initial values (an "average BRDF", thesis §6.1.2; in units of A as
+  // above); kd is also initialised from the data by least squares when
+  // `initialise_kd_from_data`. Where kd is not identifiable it is
+  // initial.kd as given (flagged kd_not_identifiable).
   PhongChannel initial{0.5, 0.1, 10.0};
   bool initialise_kd_from_data = true;
   // Samples with G below this carry no diffuse information and samples

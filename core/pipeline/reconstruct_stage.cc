@@ -74,10 +74,57 @@ void SolverRowFrom(const std::string& cluster, const fit::PhongFitResult& r, v1:
   for (const std::string& f : FlagNames(r.flags())) row->add_flags(f);
 }
 
-glm::vec3 SrgbSeed(const v1::MaterialSeed& seed) {
+// A seed as a linear albedo in the data's units: linear_rgb as given, or
+// srgb8 linearised (scene validation allows exactly one of them).
+glm::vec3 SeedAlbedo(const v1::MaterialSeed& seed) {
   glm::vec3 out(0.0f);
+  if (seed.linear_rgb_size() > 0) {
+    for (int c = 0; c < 3 && c < seed.linear_rgb_size(); ++c) out[c] = static_cast<float>(seed.linear_rgb(c));
+    return out;
+  }
   for (int c = 0; c < 3 && c < seed.srgb8_size(); ++c) out[c] = scene::SrgbToLinear(seed.srgb8(c) / 255.0f);
   return out;
+}
+
+// Texels of a cluster for its fit, spread so that their kept Samples add up
+// to about `budget` (every kept Sample equally likely to be used, whatever
+// the texel it belongs to), in texel order. `kept` counts a texel's Samples.
+std::vector<uint32_t> SpreadOverSamples(const std::vector<uint32_t>& texels, size_t budget,
+                                        const std::function<size_t(uint32_t)>& kept) {
+  size_t total = 0;
+  for (uint32_t t : texels) total += kept(t);
+  if (total <= budget) return texels;
+  const double ratio = static_cast<double>(budget) / static_cast<double>(total);
+  std::vector<uint32_t> out;
+  double target = 0.0;
+  size_t taken = 0;
+  for (uint32_t t : texels) {
+    const size_t n = kept(t);
+    if (n == 0) continue;
+    target += ratio * static_cast<double>(n);
+    // Error diffusion: take the texel when that keeps `taken` nearer the target.
+    if (static_cast<double>(taken) + 0.5 * static_cast<double>(n) <= target) {
+      out.push_back(t);
+      taken += n;
+    }
+  }
+  return out;
+}
+
+// A warning line for a cluster fit's flags (empty when none deserves one).
+std::string ClusterFitWarning(const std::string& cluster, uint32_t flags, const fit::PhongFitOptions& options) {
+  std::vector<std::string> why;
+  if (flags & fit::kKsKeNotIdentifiable) {
+    why.push_back(absl::StrCat("ks and ke not identifiable (fewer than ", options.min_highlight_samples,
+                               " Samples near a highlight): ks = 0 and ke = ", options.initial.ke,
+                               " are placeholders, not measurements"));
+  }
+  if (flags & fit::kNoSamples) why.push_back("no texel: its kd, ks and ke are the initial guess, unused");
+  if (flags & fit::kAtBound) why.push_back("a parameter ended on its bound");
+  if (flags & fit::kDidNotConverge) why.push_back("the solver did not converge");
+  if (flags & fit::kNonFiniteInput) why.push_back("non-finite Samples were skipped");
+  if (why.empty()) return "";
+  return absl::StrCat("cluster \"", scene::ShownName(cluster), "\": ", absl::StrJoin(why, "; "));
 }
 
 // Per-triangle segment index and per segment the allowed clusters, from the
@@ -403,6 +450,10 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   t0 = Clock::now();
   cluster::KMeansInput km_input;
   std::vector<uint32_t> seen_texels;
+  // The data's own illumination scale: the mean G of an observation (per
+  // channel), for thresholds that must not depend on intensity units.
+  glm::dvec3 illumination_sum(0.0);
+  double observations = 0.0;
   for (size_t i = 0; i < num_texels; ++i) {
     if (g.texels->texel_count[i] == 0) continue;
     glm::dvec3 illumination(0.0);
@@ -412,14 +463,17 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
     if (!(illumination.x > 0.0 && illumination.y > 0.0 && illumination.z > 0.0)) continue;  // never lit
     seen_texels.push_back(static_cast<uint32_t>(i));
+    illumination_sum += illumination;
+    observations += g.texels->texel_count[i];
     km_input.points.push_back(glm::vec3(g.texels->texel_sum[i] / illumination));
     km_input.weights.push_back(static_cast<float>((illumination.x + illumination.y + illumination.z) / 3.0));
   }
   g.texels->texel_g_sum = {};
   if (seen_texels.empty()) return NothingLit(sequence, *g.texels, chosen, mask);
+  const glm::dvec3 typical_illumination = illumination_sum / std::max(observations, 1.0);
   cluster::KMeansOptions km_options;
   for (const v1::MaterialSeed& seed : sequence.scene.material_seeds()) {
-    km_options.seeds.push_back(SrgbSeed(seed));
+    km_options.seeds.push_back(SeedAlbedo(seed));
     km_options.seed_names.push_back(seed.name());
   }
   {
@@ -442,26 +496,105 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     texel_cluster[seen_texels[i]] = static_cast<int32_t>(clusters.assignment[i]);
     cluster_texels[clusters.assignment[i]].push_back(seen_texels[i]);
   }
+  // Clusters without data for a BRDF fit: the cluster fits take per-pixel
+  // Samples, which a texel the atlas resampling saw may lack (seen only at
+  // grazing views, or by a camera inside the mesh). A cluster with fewer than
+  // max(1, 1 %) of its texels holding a Sample has no data: its texels join
+  // the nearest cluster (by centre, among those their segment allows) that
+  // has (none allowed: the texel is left unmeasured), with a warning; when
+  // such clusters hold kMaxShareWithoutData or more of the seen texels, the
+  // job fails naming the largest (its kd, ks and ke would be the fit's initial guess,
+  // e.g. an inside-out mesh, whose back faces the cameras skip).
+  constexpr double kMaxShareWithoutData = 0.05;
+  std::vector<uint8_t> has_data(num_clusters, 0);
+  {
+    const TexelReservoir& reservoir = *g.texels->reservoir;
+    size_t without = 0, largest = num_clusters;
+    for (size_t k = 0; k < num_clusters; ++k) {
+      size_t with_samples = 0;
+      for (uint32_t t : cluster_texels[k]) with_samples += reservoir.KeptOf(t) > 0 ? 1 : 0;
+      has_data[k] =
+          cluster_texels[k].empty() ||
+          static_cast<double>(with_samples) >= std::max(1.0, 0.01 * static_cast<double>(cluster_texels[k].size()));
+      if (has_data[k]) continue;
+      without += cluster_texels[k].size();
+      if (largest == num_clusters || cluster_texels[k].size() > cluster_texels[largest].size()) largest = k;
+    }
+    if (largest < num_clusters && static_cast<double>(without) >= kMaxShareWithoutData * seen_texels.size()) {
+      const size_t k = largest;
+      return absl::FailedPreconditionError(absl::StrCat(
+          "cluster \"", scene::ShownName(clusters.names[k]), "\" (", cluster_texels[k].size(),
+          " texels): no Samples to fit its BRDF, so kd, ks and ke would be the initial guess; the cameras see none of "
+          "its texels lit in their images (an inside-out mesh, whose back faces the cameras skip? cameras that see "
+          "nothing? lights that reach none of it?)"));
+    }
+    std::vector<size_t> unmeasured(num_clusters, 0);
+    for (size_t i = 0; i < seen_texels.size() && largest < num_clusters; ++i) {
+      const uint32_t from = clusters.assignment[i];
+      if (has_data[from]) continue;
+      size_t best = num_clusters;
+      float best_d = 0.0f;
+      for (size_t c = 0; c < num_clusters; ++c) {
+        if (!has_data[c] || cluster_texels[c].empty()) continue;
+        if (!km_input.segment.empty()) {
+          const std::vector<uint32_t>& ok = km_input.allowed_clusters[km_input.segment[i]];
+          if (std::find(ok.begin(), ok.end(), static_cast<uint32_t>(c)) == ok.end()) continue;
+        }
+        const glm::vec3 d = clusters.centres[c] - clusters.centres[from];
+        if (best == num_clusters || glm::dot(d, d) < best_d) best = c, best_d = glm::dot(d, d);
+      }
+      // No cluster with data allowed in its segment: left unmeasured (like a
+      // texel never seen; the written atlases grow over it).
+      texel_cluster[seen_texels[i]] = best == num_clusters ? -1 : static_cast<int32_t>(best);
+      if (best == num_clusters) ++unmeasured[from];
+    }
+    for (size_t k = 0; k < num_clusters; ++k) {
+      if (has_data[k]) continue;
+      report.add_warnings(
+          absl::StrCat("cluster \"", scene::ShownName(clusters.names[k]), "\": ", cluster_texels[k].size(),
+                       " texels but no Samples to fit its BRDF: ", cluster_texels[k].size() - unmeasured[k],
+                       " joined the nearest cluster with Samples, ", unmeasured[k],
+                       " (no such cluster allowed in their segment) are left unmeasured"));
+    }
+    for (std::vector<uint32_t>& texels : cluster_texels) texels.clear();
+    for (uint32_t t : seen_texels) {
+      if (texel_cluster[t] >= 0) cluster_texels[static_cast<size_t>(texel_cluster[t])].push_back(t);
+    }
+  }
   AddStage(&report, "clustering", Since(t0), options.progress);
 
   // One BRDF per cluster.
   t0 = Clock::now();
   std::vector<fit::PhongRgb> cluster_brdf(num_clusters);
   for (size_t k = 0; k < num_clusters; ++k) {
-    samples::SampleSet set = samples::MakeSampleSet(sequence.lights);
-    // Spread the cap over the cluster: every n-th texel.
-    std::vector<uint32_t> texels = cluster_texels[k];
-    const size_t slots = static_cast<size_t>(options.reservoir_uniform + options.reservoir_highlight);
-    const size_t stride = std::max<size_t>(1, texels.size() * slots / std::max<size_t>(options.max_cluster_samples, 1));
-    if (stride > 1) {
-      std::vector<uint32_t> kept;
-      for (size_t i = 0; i < texels.size(); i += stride) kept.push_back(texels[i]);
-      texels.swap(kept);
+    if (!has_data[k]) {  // its texels joined another cluster (above)
+      v1::ClusterRow* row = report.add_clusters();
+      row->set_name(clusters.names[k]);
+      row->set_texels(0);
+      for (int c = 0; c < 3; ++c) row->add_centre(clusters.centres[k][c]);
+      row->add_flags("no_samples");
+      continue;
     }
-    g.texels->reservoir->Collect(texels, options.max_cluster_samples, &set);
+    samples::SampleSet set = samples::MakeSampleSet(sequence.lights);
+    // Spread the cap over the cluster's kept Samples, not its texels (most
+    // texels keep fewer Samples than they have slots).
+    const TexelReservoir& reservoir = *g.texels->reservoir;
+    const std::vector<uint32_t> texels = SpreadOverSamples(cluster_texels[k], options.max_cluster_samples,
+                                                           [&](uint32_t t) { return reservoir.KeptOf(t); });
+    reservoir.Collect(texels, options.max_cluster_samples, &set);
     fit::PhongFitOptions lm = options.fit;
     lm.solver = fit::Solver::kLevenbergMarquardt;
     MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, mask, lm));
+    // No data is no result: the fit's initial guess is not written as one.
+    // (A seed that no texel resembles has an empty cluster: flagged, not fatal.)
+    if (!cluster_texels[k].empty() && (lm_result.flags() & (fit::kNoSamples | fit::kKdNotIdentifiable))) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "cluster \"", scene::ShownName(clusters.names[k]), "\" (", cluster_texels[k].size(),
+          " texels): ", lm_result.samples_used == 0 ? "no Samples" : "no Sample lit by the configuration's lights",
+          " to fit its BRDF, so kd, ks and ke would be the initial guess; the cameras see none of its texels lit "
+          "(an inside-out mesh, whose back faces the cameras skip? cameras that see nothing? lights that reach "
+          "none of it?)"));
+    }
     cluster_brdf[k] = lm_result.params;
     SolverRowFrom(clusters.names[k], lm_result, report.add_solvers());
     if (plan.Has(Stage::kSolverComparison)) {
@@ -472,7 +605,11 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
     v1::ClusterRow* row = report.add_clusters();
     row->set_name(clusters.names[k]);
-    row->set_texels(clusters.sizes[k]);
+    row->set_texels(cluster_texels[k].size());
+    for (const std::string& f : FlagNames(lm_result.flags())) row->add_flags(f);
+    if (const std::string w = ClusterFitWarning(clusters.names[k], lm_result.flags(), lm); !w.empty()) {
+      report.add_warnings(w);
+    }
     for (int c = 0; c < 3; ++c) {
       row->add_centre(clusters.centres[k][c]);
       row->add_ks(cluster_brdf[k][c].ks);
@@ -567,7 +704,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
         cv::Vec4f& o = observed.at<cv::Vec4f>(static_cast<int>(i / atlas.size), static_cast<int>(i % atlas.size));
         bool ok = true;
         for (int ch = 0; ch < 3; ++ch) {
-          if (!(G[ch] > static_cast<float>(options.diffuse.min_illumination))) ok = false;
+          // min_illumination is on G^2 relative to the typical G^2 (fit::DiffuseOptions).
+          const double min_g = std::sqrt(options.diffuse.min_illumination) * typical_illumination[ch];
+          if (!(G[ch] > min_g)) ok = false;
         }
         if (!ok) continue;
         const glm::vec3 kd_o = frame_sum[i] / static_cast<float>(frame_count[i]) / G;

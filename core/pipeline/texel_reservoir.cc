@@ -113,6 +113,13 @@ void TexelReservoir::Collect(const std::vector<uint32_t>& texels, size_t max_sam
   }
 }
 
+size_t TexelReservoir::KeptOf(uint32_t texel) const {
+  const size_t base = static_cast<size_t>(texel) * static_cast<size_t>(slots_per_texel_);
+  size_t kept = 0;
+  for (int s = 0; s < slots_per_texel_; ++s) kept += slots_[base + static_cast<size_t>(s)].hmax >= 0.0f ? 1 : 0;
+  return kept;
+}
+
 size_t TexelReservoir::MemoryBytes() const {
   return seen_.size() * sizeof(uint32_t) + slots_.size() * sizeof(Slot) + rows_.size() * sizeof(float) +
          lights_.size() * sizeof(uint16_t);

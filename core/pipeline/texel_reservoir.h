@@ -42,6 +42,8 @@ class TexelReservoir {
   // in the given order, all slots of a texel together).
   void Collect(const std::vector<uint32_t>& texels, size_t max_samples, samples::SampleSet* out) const;
 
+  // Samples kept for `texel` (at most uniform + highlight slots).
+  size_t KeptOf(uint32_t texel) const;
   size_t MemoryBytes() const;
 
  private:

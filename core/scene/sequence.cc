@@ -508,7 +508,22 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
     const v1::MaterialSeed& s = scene.material_seeds(i);
     const std::string f = absl::StrCat("scene.material_seeds[", i, "]");
     MVBRDF_RETURN_IF_ERROR(seeds.Add(i, s.name()));
-    MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".srgb8", s.srgb8_size(), 3, "8-bit sRGB R, G, B"));
+    // Exactly one of srgb8 (the thesis's seeds) and linear_rgb (an albedo in
+    // the data's own units, e.g. for 16-bit linear captures).
+    if (s.srgb8_size() > 0 && s.linear_rgb_size() > 0) {
+      return Invalid(f, "give one of srgb8 and linear_rgb, not both");
+    }
+    if (s.linear_rgb_size() > 0) {
+      MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".linear_rgb", s.linear_rgb_size(), 3, "linear R, G, B albedo"));
+      for (int k = 0; k < 3; ++k) {
+        if (!std::isfinite(s.linear_rgb(k)) || s.linear_rgb(k) < 0.0 || s.linear_rgb(k) > 1e12) {
+          return Invalid(absl::StrCat(f, ".linear_rgb[", k, "]"),
+                         absl::StrCat("must be a finite number in [0, 1e+12], got ", s.linear_rgb(k)));
+        }
+      }
+      continue;
+    }
+    MVBRDF_RETURN_IF_ERROR(CheckCount(f + ".srgb8", s.srgb8_size(), 3, "8-bit sRGB R, G, B (or linear_rgb)"));
     for (int k = 0; k < 3; ++k) {
       if (s.srgb8(k) > 255) {
         return Invalid(absl::StrCat(f, ".srgb8[", k, "]"), absl::StrCat("must be <= 255, got ", s.srgb8(k)));
