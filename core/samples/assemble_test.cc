@@ -291,6 +291,7 @@ TEST(FrameLightMasks, OwnLightsPerFrameAndAllElsewhere) {
   sequence.num_frames = 3;
   sequence.scene.mutable_frames()->set_first(5);
   sequence.scene.mutable_frames()->set_count(3);
+  sequence.frames = scene::SelectedFrames(sequence.scene.frames());
   v1::FrameLighting* fl = sequence.scene.add_frame_lighting();
   fl->set_frame(6);
   fl->add_lights("C");

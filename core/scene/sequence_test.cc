@@ -290,7 +290,7 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"SeedNameDuplicate", [](v1::Scene* s) { s->mutable_material_seeds(1)->set_name("cloth"); },
        "scene.material_seeds[1].name: duplicate \"cloth\", also scene.material_seeds[0].name"},
       {"SeedColourSize", [](v1::Scene* s) { s->mutable_material_seeds(1)->mutable_srgb8()->RemoveLast(); },
-       "scene.material_seeds[1].srgb8: expected 3 values (8-bit sRGB R, G, B), got 2"},
+       "scene.material_seeds[1].srgb8: expected 3 values (8-bit sRGB R, G, B (or linear_rgb)), got 2"},
       {"SeedColourTooLarge", [](v1::Scene* s) { s->mutable_material_seeds(1)->set_srgb8(2, 256); },
        "scene.material_seeds[1].srgb8[2]: must be <= 255, got 256"},
       {"SegmentNameEmpty", [](v1::Scene* s) { s->mutable_segment_materials(0)->clear_segment(); },

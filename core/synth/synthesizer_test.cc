@@ -387,10 +387,12 @@ double ClippedFraction(const std::filesystem::path& bundle) {
   auto s = scene::LoadSequence(bundle / "scene.json");
   auto v = scene::VideoSource::Open(s->scene.cameras(0), s->scene_dir, 0, "a");
   auto f = (*v)->ReadFrame(0);
-  // Of the channels the subject lights (not background), the share at full scale.
+  // Of the channels the subject lights (not background), the share at full
+  // scale: the decoder marks a saturated pixel (video.saturationLevel, the top
+  // code by default) negative, every channel.
   const cv::Mat channels = f->reshape(1);
-  const int lit = cv::countNonZero(channels > 0.0f);
-  return cv::countNonZero(channels >= 0.999f) / static_cast<double>(std::max(lit, 1));
+  const int lit = cv::countNonZero(channels > 0.0f) + cv::countNonZero(channels < 0.0f);
+  return (cv::countNonZero(channels >= 0.999f) + cv::countNonZero(channels < 0.0f)) / static_cast<double>(std::max(lit, 1));
 }
 
 TEST_F(SynthesizerTest, PerturbationsChangeTheImagesAndAreRecorded) {
