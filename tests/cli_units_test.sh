@@ -6,10 +6,12 @@
 # the per-texel kd prior in absolute units (0.1 pseudo-observations at G = 1)
 # the per-camera error changed by several per cent. The scaled copy gives its
 # material seeds as linearRgb x 1/10 (issue #13 item 8), the original as srgb8.
-# Usage: cli_units_test.sh MVBRDF_BINARY WORK_DIR [intensity|world]
+# Usage: cli_units_test.sh MVBRDF_BINARY WORK_DIR [intensity|world|world-small]
 #   intensity (default): lights x10; world: the world x1000 (mesh vertices,
 #   camera translations, light positions), which needs clip planes derived
-#   from the scene's bounds in every renderer.
+#   from the scene's bounds in every renderer and an atlas that float rounding
+#   of the scaled vertices does not change (core/atlas: 155 vs 159 charts,
+#   5676 vs 5720 texels seen before); world-small: the world x0.001.
 set -u
 bin=$1
 work=$2
@@ -38,22 +40,25 @@ json.dump(scene, open(sys.argv[1], "w"), indent=1)
 EOF_PY
   kd_factor=0.1
 else
-  python3 - "$work/scaled" <<'EOF_PY'
+  world_factor=1000.0
+  [ "$mode" = world-small ] && world_factor=0.001
+  python3 - "$work/scaled" "$world_factor" <<'EOF_PY'
 import glob, json, os, sys
 root = sys.argv[1]
+k = float(sys.argv[2])
 scene = json.load(open(os.path.join(root, "scene.json")))
 for cam in scene["cameras"]:
     pose = cam["camFromWorld"]
-    pose["translation"] = [1000.0 * v for v in pose["translation"]]
+    pose["translation"] = [k * v for v in pose["translation"]]
 for light in scene["lights"]:
     if "position" in light:
-        light["position"] = [1000.0 * v for v in light["position"]]
+        light["position"] = [k * v for v in light["position"]]
 json.dump(scene, open(os.path.join(root, "scene.json"), "w"), indent=1)
 for path in glob.glob(os.path.join(root, "meshes", "*.obj")):
     out = []
     for line in open(path):
         if line.startswith("v "):
-            xyz = [1000.0 * float(v) for v in line.split()[1:4]]
+            xyz = [k * float(v) for v in line.split()[1:4]]
             line = "v %.9g %.9g %.9g\n" % tuple(xyz)
         out.append(line)
     open(path, "w").writelines(out)
@@ -101,7 +106,7 @@ expect "the $mode-scaled run: same clusters and ke, kd and ks x$kd_factor, per-c
 kd_rmse=$("$bin" evaluate "$work/r_base" --truth "$work/base" | python3 -c 'import json,sys; print(json.load(sys.stdin)["kdRmse"])')
 echo "     kd RMSE of the original run against the truth: $kd_rmse"
 expect "the original run's kd RMSE against the truth < 0.05" python3 -c "import sys; sys.exit(not $kd_rmse < 0.05)"
-if [ "$mode" = world ]; then
+if [ "$mode" != intensity ]; then
   kd_rmse_w=$("$bin" evaluate "$work/r_scaled" --truth "$work/base" 2>/dev/null |
     python3 -c 'import json,sys; print(json.load(sys.stdin)["kdRmse"])' 2>/dev/null || echo nan)
   echo "     kd RMSE of the world-scaled run against the original truth: $kd_rmse_w"

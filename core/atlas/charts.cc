@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <tuple>
 #include <utility>
@@ -34,11 +35,14 @@ bool SeparatedByEdgeOf(const glm::dvec2 a[3], const glm::dvec2 b[3], double tole
 // Orthonormal (u, v) with u x v = n, for a unit n.
 void PlaneBasis(const glm::dvec3& n, glm::dvec3* u, glm::dvec3* v) {
   // Cross with the world axis least aligned with n: well conditioned.
+  // The margin keeps the choice away from ties: a normal along an axis up to
+  // rounding (a lathe's cap) gets the same basis whatever the mesh's units.
+  constexpr double kMargin = 1e-3;
   const glm::dvec3 an = glm::abs(n);
   glm::dvec3 helper(0.0);
-  if (an.x <= an.y && an.x <= an.z) {
+  if (an.x <= std::min(an.y, an.z) + kMargin) {
     helper.x = 1.0;
-  } else if (an.y <= an.z) {
+  } else if (an.y <= an.z + kMargin) {
     helper.y = 1.0;
   } else {
     helper.z = 1.0;
@@ -136,6 +140,18 @@ class TriangleGrid {
   std::vector<size_t> touched_;
 };
 
+// Triangle indices sorted by decreasing area class, then index (see SizeClass).
+std::vector<uint32_t> LargestFirst(std::vector<uint32_t> triangles, const std::vector<double>& area) {
+  double largest = 0.0;
+  for (uint32_t t : triangles) largest = std::max(largest, area[t]);
+  std::vector<std::pair<int, uint32_t>> keyed;
+  keyed.reserve(triangles.size());
+  for (uint32_t t : triangles) keyed.emplace_back(-SizeClass(area[t], largest), t);
+  std::sort(keyed.begin(), keyed.end());
+  for (size_t i = 0; i < keyed.size(); ++i) triangles[i] = keyed[i].second;
+  return triangles;
+}
+
 // Phase 1: normal-cone growth. Returns per triangle its chart (kNoChart for
 // degenerate triangles) and per chart its unit average normal.
 void GrowNormalCones(const TriangleGeometry& geometry, const TriangleAdjacency& adjacency, double cos_max,
@@ -148,8 +164,7 @@ void GrowNormalCones(const TriangleGeometry& geometry, const TriangleAdjacency& 
   for (uint32_t t = 0; t < n; ++t) {
     if (!geometry.degenerate[t]) order.push_back(t);
   }
-  std::stable_sort(order.begin(), order.end(),
-                   [&](uint32_t a, uint32_t b) { return geometry.area[a] > geometry.area[b]; });
+  order = LargestFirst(std::move(order), geometry.area);
 
   std::vector<uint32_t> released;  // triangles cut from a finished chart, seeded first
   size_t next = 0;
@@ -285,6 +300,11 @@ void AbsorbSmallCharts(const TriangleGeometry& geometry, const TriangleAdjacency
 }
 
 }  // namespace
+
+int SizeClass(double value, double largest) {
+  if (!(value > 0.0 && largest > 0.0)) return std::numeric_limits<int>::min() / 2;
+  return static_cast<int>(std::floor(16.0 * std::log2(value / largest) + 0.5));
+}
 
 TriangleGeometry ComputeTriangleGeometry(const scene::MeshTopology& topology,
                                          const scene::FramePositions& rest_positions) {
@@ -451,9 +471,7 @@ std::vector<Chart> BuildCharts(const scene::MeshTopology& topology, const scene:
       });
     };
 
-    std::vector<uint32_t> seeds = cone;
-    std::stable_sort(seeds.begin(), seeds.end(),
-                     [&](uint32_t a, uint32_t b) { return geometry.area[a] > geometry.area[b]; });
+    const std::vector<uint32_t> seeds = LargestFirst(cone, geometry.area);
     for (uint32_t seed : seeds) {
       if (chart_of[seed] != kNoChart) continue;
       const int32_t id = static_cast<int32_t>(charts.size());

@@ -79,6 +79,15 @@ std::vector<Chart> BuildCharts(const scene::MeshTopology& topology, const scene:
                                const TriangleGeometry& geometry, const TriangleAdjacency& file_adjacency,
                                double max_normal_deviation_deg);
 
+// Sort key for "larger first" orders that must not depend on the mesh's units
+// nor on the float rounding of its vertices: value / largest in sixteenths of
+// an octave, rounded (round(16 log2), so that ratios of 1/2, 1/4, ... common on
+// regular meshes sit mid-class, not on a boundary). Values equal up to
+// rounding (the triangles of one ring of a lathe mesh, the charts of a
+// symmetric mesh) share a key, so their order is the index order whatever the
+// scale; 0 or less: the lowest key.
+int SizeClass(double value, double largest);
+
 // True when the interiors of two counter-clockwise 2D triangles overlap by
 // more than `tolerance` (an edge-function value, i.e. a length^2): separating
 // axis test over the six edges. Triangles that only share an edge or a

@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <tuple>
 
 #include "absl/strings/str_cat.h"
+#include "core/atlas/charts.h"
 
 namespace mvbrdf::atlas::internal {
 namespace {
@@ -95,19 +97,39 @@ bool PackShelves(const std::vector<glm::dvec2>& extents, const std::vector<size_
 OrientedRect MinAreaRectangle(std::vector<glm::dvec2> points) {
   if (points.empty()) return {};
   const std::vector<glm::dvec2> hull = ConvexHull(std::move(points));
-  OrientedRect best = BoundsAlong(hull, glm::dvec2(1.0, 0.0));
+  // Candidates: the bounds along each hull edge (and the plane's own axes),
+  // the edge's direction folded into [-45, 45) degrees (the same rectangle
+  // up to a quarter or half turn).
+  std::vector<OrientedRect> candidates;
+  candidates.push_back(BoundsAlong(hull, glm::dvec2(1.0, 0.0)));
   for (size_t i = 0; i < hull.size() && hull.size() >= 2; ++i) {
-    const glm::dvec2 edge = hull[(i + 1) % hull.size()] - hull[i];
+    glm::dvec2 edge = hull[(i + 1) % hull.size()] - hull[i];
     const double len = glm::length(edge);
     if (!(len > 0.0)) continue;
-    const OrientedRect rect = BoundsAlong(hull, edge / len);
-    if (rect.extent.x * rect.extent.y < best.extent.x * best.extent.y ||
-        (rect.extent.x * rect.extent.y == best.extent.x * best.extent.y &&
-         std::max(rect.extent.x, rect.extent.y) < std::max(best.extent.x, best.extent.y))) {
-      best = rect;
+    edge /= len;
+    while (!(edge.x > 0.0 && std::abs(edge.y) <= edge.x)) edge = glm::dvec2(edge.y, -edge.x);  // quarter turns
+    candidates.push_back(BoundsAlong(hull, edge));
+  }
+  // The smallest area up to a relative tolerance far above the rounding of
+  // float vertices (ties: a regular polygon's edges, a rectangle's four
+  // sides), then among those the direction nearest the plane's u axis, then
+  // the one turned counter-clockwise: the same rectangle whatever the units.
+  constexpr double kTie = 1e-4;
+  double smallest = HUGE_VAL;
+  for (const OrientedRect& r : candidates) smallest = std::min(smallest, r.extent.x * r.extent.y);
+  OrientedRect best;
+  bool have = false;
+  for (const OrientedRect& r : candidates) {
+    if (!(r.extent.x * r.extent.y <= smallest * (1.0 + kTie) + 1e-300)) continue;
+    const double angle = std::atan2(r.axis_x.y, r.axis_x.x);
+    const double best_angle = std::atan2(best.axis_x.y, best.axis_x.x);
+    if (!have || std::abs(angle) < std::abs(best_angle) - kTie ||
+        (std::abs(angle) <= std::abs(best_angle) + kTie && angle > best_angle + kTie)) {
+      best = r;
+      have = true;
     }
   }
-  if (best.extent.x < best.extent.y) {
+  if (best.extent.x < best.extent.y * (1.0 - kTie)) {
     // Quarter turn: (x, y) -> (y, -x) keeps the determinant at +1.
     OrientedRect turned;
     turned.axis_x = best.axis_y;
@@ -120,11 +142,18 @@ OrientedRect MinAreaRectangle(std::vector<glm::dvec2> points) {
 }
 
 absl::StatusOr<PackedLayout> PackRectangles(const std::vector<glm::dvec2>& extents, int size, int gutter) {
+  // Decreasing height, then width, in size classes (SizeClass): charts equal
+  // up to rounding keep their index order whatever the mesh's units.
+  glm::dvec2 largest(0.0);
+  for (const glm::dvec2& e : extents) largest = glm::max(largest, e);
+  std::vector<std::tuple<int, int, size_t>> keyed;
+  keyed.reserve(extents.size());
+  for (size_t i = 0; i < extents.size(); ++i) {
+    keyed.emplace_back(-SizeClass(extents[i].y, largest.y), -SizeClass(extents[i].x, largest.x), i);
+  }
+  std::sort(keyed.begin(), keyed.end());
   std::vector<size_t> order(extents.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return extents[a].y > extents[b].y || (extents[a].y == extents[b].y && extents[a].x > extents[b].x);
-  });
+  for (size_t i = 0; i < keyed.size(); ++i) order[i] = std::get<2>(keyed[i]);
   PackedLayout layout;
   if (!PackShelves(extents, order, 0.0, size, gutter, &layout.offsets)) {
     return absl::ResourceExhaustedError(absl::StrCat("atlas of ", size, " x ", size, " texels with a gutter of ",

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 namespace mvbrdf::render {
 namespace {
@@ -127,6 +128,36 @@ TEST(PhongModelTest, ZeroExponentFollowsPowConventions) {
   EXPECT_NEAR(f.x, 1.0f, kTolerance);
   EXPECT_EQ(f.y, 0.0f);
   EXPECT_EQ(f.z, 0.0f);
+}
+
+// Issue #13 item 4: the world x1000 (point, camera, light) gives the same
+// radiance without fall-off, and with inverse-square fall-off once the
+// intensities are x1000^2; a point light 1000 times further away stays finite
+// and positive in float.
+TEST(PhongModelTest, WorldScaleWithAndWithoutFalloff) {
+  PhongParams params;
+  params.kd = {0.5f, 0.2f, 0.1f};
+  params.ks = glm::vec3(0.3f);
+  params.ke = glm::vec3(20.0f);
+  const glm::vec3 point(0.1f, -0.2f, 0.05f), normal = glm::normalize(glm::vec3(0.2f, 0.1f, 1.0f));
+  const glm::vec3 camera(1.0f, 0.3f, 2.0f);
+  const std::vector<scene::Light> lights = {PointLight({-0.4f, 0.2f, 1.5f}, {2, 1, 1}), PointLight({0.9f, 0.1f, 1.2f})};
+  for (bool falloff : {false, true}) {
+    SCOPED_TRACE(falloff);
+    const glm::vec3 base = EvaluatePhong(params, point, normal, camera, lights, {}, falloff);
+    std::vector<scene::Light> scaled = lights;
+    for (scene::Light& l : scaled) {
+      l.position *= 1000.0f;
+      if (falloff) l.intensity *= 1e6f;
+    }
+    const glm::vec3 far = EvaluatePhong(params, 1000.0f * point, normal, 1000.0f * camera, scaled, {}, falloff);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(far[c] / base[c], 1.0f, 1e-5f);
+  }
+  // The light alone 1000 times further away: 1 / d^2 ~ 1e-6, still exact in float.
+  const LightCosines near_light = ComputeLightCosines(PointLight({0, 0, 2}), kOrigin, kUp, kUp, true);
+  const LightCosines far_light = ComputeLightCosines(PointLight({0, 0, 2000}), kOrigin, kUp, kUp, true);
+  EXPECT_NEAR(far_light.attenuation * 1e6f / near_light.attenuation, 1.0f, 1e-5f);
+  EXPECT_EQ(far_light.g, near_light.g);
 }
 
 }  // namespace
