@@ -104,7 +104,8 @@ int RunResample(const std::vector<std::string>& args) {
   absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
   if (!lock.ok()) return ReportFailure(lock.status());
   // An atlas that cannot fit fails now, not in an allocation minutes in.
-  if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(o.atlas.size); !fits.ok()) {
+  if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(o.atlas.size, pipeline::LightLoadOf(*sequence, 0));
+      !fits.ok()) {
     return ReportFailure(fits, "mvbrdf resample");
   }
   auto context = gl::EglContext::Create(*platform);

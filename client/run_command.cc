@@ -297,7 +297,11 @@ int RunRun(const std::vector<std::string>& args) {
   absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
   if (!lock.ok()) return ReportFailure(lock.status());
   // Direct or through the in-process workers, the atlas is allocated here.
-  if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(options->atlas.size); !fits.ok()) {
+  const int reservoir_slots =
+      plan->Has(pipeline::Stage::kTexelPass) ? options->reservoir_uniform + options->reservoir_highlight : 0;
+  if (absl::Status fits =
+          pipeline::CheckAtlasFitsInMemory(options->atlas.size, pipeline::LightLoadOf(*sequence, reservoir_slots));
+      !fits.ok()) {
     return ReportFailure(fits, "mvbrdf run");
   }
   // A previous run's result.json goes first, so that an interrupted or failed

@@ -98,7 +98,8 @@ if [ "${MVBRDF_SANITIZED:-0}" = 1 ]; then
   echo "skip the ulimit -v worker: AddressSanitizer cannot start under ulimit -v (the Release suite runs it)"
 else
   # Too little memory: a worker under `ulimit -v` and a job at the server's own
-  # allowed --atlas 4096 (about 2.5 GiB). The worker fails the task as its own
+  # allowed --atlas 4096 (2.5 GiB to resample, more with the texel pass's
+  # light terms, pipeline::LightLoad). The worker fails the task as its own
   # each time (up front, from the estimate), the job fails with that reason and
   # the worker's name, and the worker keeps running: a small job succeeds on it.
   ( ulimit -v 2500000 && exec "$bin" worker --server "$address" --name small-memory --cache "$work/cache_small" \
@@ -107,7 +108,7 @@ else
   expect "the small worker registers" wait_for "$work/small.log" "registered as" 60
   big=$("$bin" submit "$work/b/scene.json" --server "$address" --client wf --atlas 4096 --no-powell 2>/dev/null)
   check "the big job fails, naming the atlas, its memory and the worker" 5 \
-    "atlas 4096x4096 needs about 2560 MiB.*small-memory" -- "$bin" watch "$big" --server "$address" --client wf
+    "atlas 4096x4096 needs about [0-9]* MiB.*small-memory" -- "$bin" watch "$big" --server "$address" --client wf
   expect "the small worker is still running" kill -0 "$small"
   check "and runs a small job to success" 0 "succeeded" -- \
     "$bin" submit "$work/b/scene.json" --server "$address" --client wf "${opts[@]}" --watch

@@ -205,7 +205,13 @@ absl::StatusOr<TaskOutput> RunTask(const v1::Task& task, const scene::Sequence& 
   // This worker's memory, not the job's input: another worker may have more
   // (worker_fault.h). Checked up front where it is cheap, caught otherwise.
   if (gl) {
-    if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(atlas_size); !fits.ok()) {
+    // The texel pass's reservoir at the default slots (the gather task keeps
+    // it when it gathers the texel statistics, else the reflectance task).
+    const pipeline::ReconstructOptions defaults;
+    const bool texel_pass = task.kind() == "reflectance" || environment.gather_texel_statistics;
+    const pipeline::LightLoad lights =
+        pipeline::LightLoadOf(sequence, texel_pass ? defaults.reservoir_uniform + defaults.reservoir_highlight : 0);
+    if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(atlas_size, lights); !fits.ok()) {
       return WorkerFault(absl::ResourceExhaustedError(absl::StrCat("task ", task.kind(), ": ", fits.message())));
     }
   }

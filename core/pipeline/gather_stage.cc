@@ -25,7 +25,15 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
     g.texels = std::make_shared<TexelStatistics>();
     g.texels->texel_sum.assign(num_texels, glm::dvec3(0.0));
     g.texels->texel_count.assign(num_texels, 0);
-    g.texels->texel_g_sum.assign(num_texels * num_lights, 0.0f);
+    // The configurations the reconstruction may choose: every light (none
+    // chosen, or per-frame lighting) and each of the scene's.
+    std::vector<samples::LightMask> masks = {samples::AllLights(num_lights)};
+    for (const v1::LightConfiguration& c : sequence.scene.light_configurations()) {
+      MVBRDF_ASSIGN_OR_RETURN(const samples::LightMask mask,
+                              g.triangle_samples.MaskOf({c.lights().begin(), c.lights().end()}));
+      if (std::find(masks.begin(), masks.end(), mask) == masks.end()) masks.push_back(mask);
+    }
+    g.texels->illumination = TexelIllumination(num_texels, g.triangle_samples.light_intensity, std::move(masks));
     // A Sample holds only the lights on in its frame: the reservoir's rows
     // are that long, not as long as the candidate list.
     const size_t max_terms = samples::MaxLightsOn(samples::FrameLightMasks(sequence), num_lights);
@@ -60,8 +68,7 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                                   [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
                                     st->texel_sum[texel] += glm::dvec3(rgb);
                                     ++st->texel_count[texel];
-                                    float* gs = st->texel_g_sum.data() + static_cast<size_t>(texel) * num_lights;
-                                    for (size_t j = 0; j < terms.count; ++j) gs[terms.light[j]] += terms.g[j];
+                                    st->illumination.Add(texel, terms);
                                   });
       // The cluster fits take per-pixel Samples: the video's own pixels at
       // the exact surface points they show, so highlights reach ks and ke

@@ -364,7 +364,6 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
 
   // Pass 1: triangle Samples, texel means and kept texel Samples.
   t0 = Clock::now();
-  const size_t num_lights = sequence.lights.size();
   const bool gather_triangles = plan.Has(Stage::kLightSweep) && !options.light_table.has_value();
   const bool gather_texels = reflectance && options.texel_statistics == nullptr;
   Gathered g;
@@ -456,11 +455,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   double observations = 0.0;
   for (size_t i = 0; i < num_texels; ++i) {
     if (g.texels->texel_count[i] == 0) continue;
-    glm::dvec3 illumination(0.0);
-    const float* gs = g.texels->texel_g_sum.data() + i * num_lights;
-    for (size_t k = 0; k < num_lights; ++k) {
-      if (mask.Test(k)) illumination += glm::dvec3(intensity[k]) * static_cast<double>(gs[k]);
-    }
+    MVBRDF_ASSIGN_OR_RETURN(const glm::dvec3 illumination, g.texels->illumination.Of(static_cast<uint32_t>(i), mask));
     if (!(illumination.x > 0.0 && illumination.y > 0.0 && illumination.z > 0.0)) continue;  // never lit
     seen_texels.push_back(static_cast<uint32_t>(i));
     illumination_sum += illumination;
@@ -468,7 +463,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     km_input.points.push_back(glm::vec3(g.texels->texel_sum[i] / illumination));
     km_input.weights.push_back(static_cast<float>((illumination.x + illumination.y + illumination.z) / 3.0));
   }
-  g.texels->texel_g_sum = {};
+  g.texels->illumination = TexelIllumination();
   if (seen_texels.empty()) return NothingLit(sequence, *g.texels, chosen, mask);
   const glm::dvec3 typical_illumination = illumination_sum / std::max(observations, 1.0);
   cluster::KMeansOptions km_options;

@@ -13,6 +13,7 @@
 #include <glm/glm.hpp>
 #include <opencv2/core.hpp>
 
+#include "core/pipeline/texel_illumination.h"
 #include "core/pipeline/texel_reservoir.h"
 
 namespace mvbrdf::pipeline {
@@ -20,10 +21,10 @@ namespace mvbrdf::pipeline {
 struct TexelStatistics {
   std::vector<glm::dvec3> texel_sum;  // per texel, sum of observed reflectance
   std::vector<uint32_t> texel_count;
-  // Per texel and light: sum of g_k over the texel's observations, so that
-  // once the configuration is known each texel's albedo estimate is
-  // sum r / sum_k I_k sum g_k (clustering runs on it).
-  std::vector<float> texel_g_sum;
+  // Per texel: its illumination sum G under each configuration the
+  // reconstruction may choose, so that once the configuration is known each
+  // texel's albedo estimate is sum r / G (clustering runs on it).
+  TexelIllumination illumination;
   std::unique_ptr<TexelReservoir> reservoir;
   cv::Mat rest_position;  // geometry atlas of frame 0 (CV_32FC4)
 };
