@@ -16,6 +16,7 @@
 #include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/plan.h"
 #include "core/pipeline/reconstruct_stage.h"
+#include "core/samples/assemble.h"
 #include "worker/job_options.h"
 #include "worker/worker_fault.h"
 
@@ -89,8 +90,8 @@ absl::StatusOr<TaskOutput> Sweep(const v1::Task& task, const scene::Sequence& se
   MVBRDF_ASSIGN_OR_RETURN(
       const fit::SweepResult sweep,
       fit::SweepConfigurations(*set, sequence.topology.triangles.size(),
-                               {{config->name(), {config->lights().begin(), config->lights().end()}}}, o.fit,
-                               o.diffuse, env.threads, o.sweep_fit_samples));
+                               {{config->name(), {config->lights().begin(), config->lights().end()}}}, o.fit, o.diffuse,
+                               env.threads, o.sweep_fit_samples, samples::OwnLightingFrames(sequence)));
   v1::LightConfigurationRow row;
   pipeline::SweepRowToProto(sweep.rows.at(0), &row);
   TaskOutput out;

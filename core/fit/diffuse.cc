@@ -116,11 +116,12 @@ DiffuseSolution DiffuseAccumulator::Solve(const DiffuseOptions& options, const s
   return solution;
 }
 
-DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::LightMask& mask, const PhongRgb& specular,
-                             size_t num_elements, const DiffuseOptions& options, int threads) {
+DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::LightSelection& mask,
+                             const PhongRgb& specular, size_t num_elements, const DiffuseOptions& options,
+                             int threads) {
   const size_t num_lights = static_cast<size_t>(set.num_lights());
   std::vector<uint8_t> in_mask(num_lights, 0);
-  for (size_t k = 0; k < num_lights; ++k) in_mask[k] = mask.Test(k) ? 1 : 0;
+  for (size_t k = 0; k < num_lights; ++k) in_mask[k] = mask.config.Test(k) ? 1 : 0;
   DiffuseAccumulator accumulator(num_elements);
   const bool same_exponent = specular[0].ke == specular[1].ke && specular[0].ke == specular[2].ke;
   const glm::dvec3 ks(specular[0].ks, specular[1].ks, specular[2].ks);
@@ -138,9 +139,10 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
       if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z)) continue;
       glm::dvec3 illumination(0.0), spec(0.0);
       bool finite = true;
+      const bool own = mask.Own(set.frame[i]);  // every term counts
       for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
         const int k = set.light[j];
-        if (!in_mask[static_cast<size_t>(k)]) continue;
+        if (!own && !in_mask[static_cast<size_t>(k)]) continue;
         if (!std::isfinite(set.g[j]) || !std::isfinite(set.h[j])) {
           finite = false;
           break;

@@ -79,8 +79,9 @@ class DiffuseAccumulator {
 // kd ignored) removed, per-element kd solved for the lights in `mask`. With
 // `threads` > 1 the elements are split among threads; the result is the same
 // bit for bit.
-DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::LightMask& mask, const PhongRgb& specular,
-                             size_t num_elements, const DiffuseOptions& options, int threads = 1);
+DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::LightSelection& mask,
+                             const PhongRgb& specular, size_t num_elements, const DiffuseOptions& options,
+                             int threads = 1);
 
 }  // namespace mvbrdf::fit
 

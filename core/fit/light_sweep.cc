@@ -25,13 +25,13 @@ bool NearlyEqual(double a, double b) {
 }
 
 // Triangles with at least one finite sample lit by a light of the mask.
-uint32_t CountLitTriangles(const samples::SampleSet& set, const samples::LightMask& mask, size_t num_triangles) {
+uint32_t CountLitTriangles(const samples::SampleSet& set, const samples::LightSelection& mask, size_t num_triangles) {
   std::vector<uint8_t> lit(num_triangles, 0);
   for (size_t i = 0; i < set.size(); ++i) {
     const uint32_t t = set.element[i];
     if (t >= num_triangles || lit[t]) continue;
     for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
-      if (mask.Test(set.light[j]) && std::isfinite(set.g[j]) && set.g[j] > 0.0f) {
+      if (mask.Selects(set.frame[i], set.light[j]) && std::isfinite(set.g[j]) && set.g[j] > 0.0f) {
         lit[t] = 1;
         break;
       }
@@ -43,7 +43,7 @@ uint32_t CountLitTriangles(const samples::SampleSet& set, const samples::LightMa
 // E_a (Eq. 6.7) over every finite Sample: mean over Samples and channels.
 // Summed in fixed chunks of Samples, then the chunks in order, so the value
 // does not depend on how many threads computed the chunks.
-double MeanSquaredError(const samples::SampleSet& set, const samples::LightMask& mask, const PhongRgb& params,
+double MeanSquaredError(const samples::SampleSet& set, const samples::LightSelection& mask, const PhongRgb& params,
                         int threads) {
   constexpr size_t kChunk = size_t{1} << 16;
   const size_t chunks = (set.size() + kChunk - 1) / kChunk;
@@ -88,8 +88,10 @@ double MeanSquaredError(const samples::SampleSet& set, const samples::LightMask&
 
 absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_triangles,
                                    const PhongFitOptions& fit_options, const DiffuseOptions& diffuse_options,
-                                   size_t max_fit_samples, int threads, SweepRow* row) {
+                                   size_t max_fit_samples, int threads, const std::vector<uint8_t>& own_frames,
+                                   SweepRow* row) {
   const auto start = std::chrono::steady_clock::now();
+  const samples::LightSelection selection(row->mask, own_frames);
   std::vector<uint32_t> subsample;
   if (max_fit_samples > 0 && set.size() > max_fit_samples) {
     // A hashed, not strided, choice: Samples come ordered by (frame, camera,
@@ -104,14 +106,14 @@ absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_tri
       if ((x & 0xffffffffULL) < keep) subsample.push_back(static_cast<uint32_t>(i));
     }
   }
-  absl::StatusOr<PhongFitResult> fit = FitPhong(set, subsample, row->mask, fit_options);
+  absl::StatusOr<PhongFitResult> fit = FitPhong(set, subsample, selection, fit_options);
   if (!fit.ok()) return fit.status();
   row->fit = *std::move(fit);
-  row->e_a = subsample.empty() ? row->fit.mse : MeanSquaredError(set, row->mask, row->fit.params, threads);
+  row->e_a = subsample.empty() ? row->fit.mse : MeanSquaredError(set, selection, row->fit.params, threads);
   const DiffuseSolution diffuse =
-      SolveDiffuse(set, row->mask, row->fit.params, num_triangles, diffuse_options, threads);
+      SolveDiffuse(set, selection, row->fit.params, num_triangles, diffuse_options, threads);
   row->e_d = diffuse.mean_element_mse;
-  row->lit_triangles = CountLitTriangles(set, row->mask, num_triangles);
+  row->lit_triangles = CountLitTriangles(set, selection, num_triangles);
   row->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return absl::OkStatus();
 }
@@ -122,7 +124,7 @@ absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, s
                                                 const std::vector<LightConfiguration>& configurations,
                                                 const PhongFitOptions& fit_options,
                                                 const DiffuseOptions& diffuse_options, int threads,
-                                                size_t max_fit_samples) {
+                                                size_t max_fit_samples, const std::vector<uint8_t>& own_frames) {
   SweepResult result;
   result.rows.resize(configurations.size());
   for (size_t i = 0; i < configurations.size(); ++i) {
@@ -147,9 +149,8 @@ absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, s
   std::atomic<size_t> next{0};
   auto work = [&]() {
     for (size_t i = next++; i < configurations.size(); i = next++) {
-      statuses[i] =
-          EvaluateConfiguration(set, num_triangles, fit_options, diffuse_options, max_fit_samples, inner_threads,
-                                &result.rows[i]);
+      statuses[i] = EvaluateConfiguration(set, num_triangles, fit_options, diffuse_options, max_fit_samples,
+                                          inner_threads, own_frames, &result.rows[i]);
     }
   };
   if (workers <= 1) {

@@ -45,12 +45,15 @@ struct SweepResult {
 // hashed subsample of about that many Samples (an error-against-
 // run-time knob: four parameters per channel need far fewer than the ~1e6
 // Samples of a sequence), while E_a, E_d and the per-triangle kd always use
-// every Sample.
+// every Sample. `own_frames` (samples::OwnLightingFrames): frames with their
+// own lights, whose Samples count all their terms under every configuration
+// (samples::LightSelection).
 absl::StatusOr<SweepResult> SweepConfigurations(const samples::SampleSet& set, size_t num_triangles,
                                                 const std::vector<LightConfiguration>& configurations,
                                                 const PhongFitOptions& fit_options,
                                                 const DiffuseOptions& diffuse_options, int threads = 1,
-                                                size_t max_fit_samples = 0);
+                                                size_t max_fit_samples = 0,
+                                                const std::vector<uint8_t>& own_frames = {});
 
 // The rule: true when a configuration with errors (e_d, e_a) beats the best
 // so far (best_e_d, best_e_a). Rows are compared in the order given, so the

@@ -63,6 +63,61 @@ TEST(LightSweepTest, PicksTheGeneratingConfiguration) {
   EXPECT_LT(result->rows[1].e_d, 0.5 * result->rows[2].e_d);
 }
 
+// A mixed scene (samples::LightSelection): frame 0 has no scene.frame_lighting
+// entry and is lit by B; frame 1 names its own light L5, outside every
+// configuration but C, and its Samples hold only L5's terms (FrameStream).
+// Frame 1 counts with its own light under every candidate: B is chosen with
+// its E_d at the noise level, and every triangle is lit. Without the frame
+// flags (the old behaviour) frame 1 is modelled unlit under B.
+TEST(LightSweepTest, FramesWithTheirOwnLightsCountUnderEveryConfiguration) {
+  samples::SampleSet set = MakeSweepSamples();  // frame 0, lit by B
+  const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.4, 0.2}, {30, 30, 30});
+  std::vector<glm::vec3> kd_of_element;
+  for (uint32_t t = 0; t < kTriangles; ++t)
+    kd_of_element.push_back(glm::vec3(0.2f + 0.01f * t, 0.5f - 0.005f * t, 0.3f));
+  GeneratorOptions generator;
+  generator.num_samples = 4000;
+  generator.num_lights = 6;
+  generator.true_mask = samples::LightMask::FromBits(0b100000);
+  generator.num_elements = kTriangles;
+  generator.noise = 0.02;
+  generator.seed = 2;
+  const samples::SampleSet own = MakeSamples(truth, generator, kd_of_element);
+  for (size_t i = 0; i < own.size(); ++i) {  // keep only L5's term, as ApplyLightMask does
+    std::vector<uint16_t> lights;
+    std::vector<float> g, h;
+    for (size_t j = own.TermsBegin(i); j < own.TermsEnd(i); ++j) {
+      if (own.light[j] != 5) continue;
+      lights.push_back(own.light[j]);
+      g.push_back(own.g[j]);
+      h.push_back(own.h[j]);
+    }
+    set.AddTerms(own.element[i], 1, 0, own.reflectance[i], lights.size(), lights.data(), g.data(), h.data());
+  }
+  absl::StatusOr<SweepResult> mixed = SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(),
+                                                          DiffuseOptions(), 1, 0, /*own_frames=*/{0, 1});
+  absl::StatusOr<SweepResult> ignored =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions());
+  ASSERT_TRUE(mixed.ok()) << mixed.status();
+  ASSERT_TRUE(ignored.ok()) << ignored.status();
+  for (size_t r = 0; r < mixed->rows.size(); ++r) {
+    std::printf("MEASURED mixed sweep %s: E_d %.4g (own frame flags ignored: %.4g)\n", mixed->rows[r].name.c_str(),
+                mixed->rows[r].e_d, ignored->rows[r].e_d);
+    EXPECT_EQ(mixed->rows[r].lit_triangles, kTriangles);
+  }
+  EXPECT_EQ(mixed->best, 1);
+  // The noise level, as in PicksTheGeneratingConfiguration with frame 0 alone.
+  EXPECT_LT(mixed->rows[1].e_d, 0.5 * mixed->rows[0].e_d);
+  EXPECT_LT(mixed->rows[1].e_d, 0.5 * mixed->rows[2].e_d);
+  EXPECT_LT(mixed->rows[1].e_d, 0.2 * ignored->rows[1].e_d);
+  // The per-triangle kd of B is the truth's.
+  const DiffuseSolution kd = SolveDiffuse(set, samples::LightSelection(mixed->rows[1].mask, {0, 1}),
+                                          mixed->rows[1].fit.params, kTriangles, DiffuseOptions());
+  for (uint32_t t = 0; t < kTriangles; ++t) {
+    EXPECT_NEAR(kd.kd[t].x, kd_of_element[t].x, 0.05) << "triangle " << t;
+  }
+}
+
 TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
   const samples::SampleSet set = MakeSweepSamples();
   absl::StatusOr<SweepResult> one =

@@ -39,6 +39,7 @@ namespace {
 using internal::kNoHighlight;
 using internal::PhongChannelData;
 using samples::LightMask;
+using samples::LightSelection;
 using samples::SampleSet;
 
 // Residuals per Ceres residual block (PERF.md: analytic blocks of 1024).
@@ -63,22 +64,32 @@ struct PreparedSamples {
   bool non_finite = false;        // some sample was skipped
 };
 
-PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indices, const LightMask& mask) {
+PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indices, const LightSelection& selection) {
   PreparedSamples prep;
   const int num_lights = set.num_lights();
+  const size_t count = indices.empty() ? set.size() : indices.size();
+  // Slots for the configuration's lights and every light of a frame with its
+  // own lights (LightSelection).
+  LightMask mask = selection.config;
+  for (size_t u = 0; u < count && !selection.own.empty(); ++u) {
+    const size_t i = indices.empty() ? u : indices[u];
+    if (!selection.Own(set.frame[i])) continue;
+    for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) mask.Set(set.light[j]);
+  }
   std::vector<int> slot_of(static_cast<size_t>(num_lights), -1);
   mask.ForEach([&](size_t k) {
     if (k >= static_cast<size_t>(num_lights)) return;
     slot_of[k] = static_cast<int>(prep.lights.size());
     prep.lights.push_back(static_cast<int>(k));
   });
-  const size_t count = indices.empty() ? set.size() : indices.size();
   prep.used.reserve(count);
   for (size_t u = 0; u < count; ++u) {
     const size_t i = indices.empty() ? u : indices[u];
+    const bool own = selection.Own(set.frame[i]);
+    const auto selected = [&](size_t k) { return slot_of[k] >= 0 && (own || selection.config.Test(k)); };
     bool finite = IsFinite(set.reflectance[i]);
     for (size_t j = set.TermsBegin(i); finite && j < set.TermsEnd(i); ++j) {
-      finite = slot_of[set.light[j]] < 0 || (std::isfinite(set.g[j]) && std::isfinite(set.h[j]));
+      finite = !selected(set.light[j]) || (std::isfinite(set.g[j]) && std::isfinite(set.h[j]));
     }
     if (!finite) {
       prep.non_finite = true;
@@ -86,8 +97,8 @@ PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indic
     }
     prep.used.push_back(static_cast<uint32_t>(i));
     for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+      if (!selected(set.light[j])) continue;
       const int slot = slot_of[set.light[j]];
-      if (slot < 0) continue;
       const double g = internal::ClampedCosine(set.g[j]);
       if (g == 0.0) continue;
       const double h = internal::ClampedHighlight(g, set.h[j]);
@@ -426,7 +437,8 @@ absl::Status PhongFitOptions::Check() const {
 }
 
 absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<uint32_t>& indices,
-                                        const LightMask& mask, const PhongFitOptions& options) {
+                                        const LightSelection& selection, const PhongFitOptions& options) {
+  const LightMask& mask = selection.config;
   const auto start = std::chrono::steady_clock::now();
   if (absl::Status status = options.Check(); !status.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("PhongFitOptions.", status.message()));
@@ -466,7 +478,7 @@ absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<
     }
   }
 
-  const PreparedSamples prep = Prepare(set, indices, mask);
+  const PreparedSamples prep = Prepare(set, indices, selection);
   PhongFitResult result;
   result.solver = options.solver;
   result.samples_used = prep.used.size();
@@ -482,11 +494,12 @@ absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<
   return result;
 }
 
-double EvaluateSample(const SampleSet& set, size_t i, const LightMask& mask, const PhongChannel& p, int c) {
+double EvaluateSample(const SampleSet& set, size_t i, const LightSelection& mask, const PhongChannel& p, int c) {
   double f = 0.0;
+  const bool own = mask.Own(set.frame[i]);
   for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
     const int k = set.light[j];
-    if (!mask.Test(static_cast<size_t>(k))) continue;
+    if (!own && !mask.config.Test(static_cast<size_t>(k))) continue;
     const double g = internal::ClampedCosine(set.g[j]);
     const double h = internal::ClampedHighlight(g, set.h[j]);
     f += set.light_intensity[k][c] * (p.kd * g + p.ks * set.TermFalloff(j) * internal::SpecularPower(h, p.ke));

@@ -98,11 +98,11 @@ struct PhongFitResult {
 // the lights in `mask`. Samples with non-finite values are skipped (flagged).
 // Never returns non-finite parameters.
 absl::StatusOr<PhongFitResult> FitPhong(const samples::SampleSet& set, const std::vector<uint32_t>& indices,
-                                        const samples::LightMask& mask, const PhongFitOptions& options);
+                                        const samples::LightSelection& mask, const PhongFitOptions& options);
 
 // The model value of one sample, channel c.
-double EvaluateSample(const samples::SampleSet& set, size_t i, const samples::LightMask& mask, const PhongChannel& p,
-                      int c);
+double EvaluateSample(const samples::SampleSet& set, size_t i, const samples::LightSelection& mask,
+                      const PhongChannel& p, int c);
 
 }  // namespace mvbrdf::fit
 

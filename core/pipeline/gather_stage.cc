@@ -45,12 +45,14 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
   const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
   MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
   const int stride = SweepFrameStride(options, sequence.num_frames);
+  const std::vector<uint8_t> own_frames = samples::OwnLightingFrames(sequence);
   for (int t = 0; t < sequence.num_frames; ++t) {
     if (options.progress) options.progress("gather_samples", t, sequence.num_frames);
     MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
     const bool sweep_frame = triangles && t % stride == 0;
     if (!sweep_frame && !texels) continue;
     MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
+    const bool own_lit = t < static_cast<int>(own_frames.size()) && own_frames[static_cast<size_t>(t)] != 0;
     if (t == 0) {
       g.rest_position = stream->geometry().position.clone();
       if (st != nullptr) st->rest_position = g.rest_position;
@@ -68,7 +70,7 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                                   [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
                                     st->texel_sum[texel] += glm::dvec3(rgb);
                                     ++st->texel_count[texel];
-                                    st->illumination.Add(texel, terms);
+                                    st->illumination.Add(texel, terms, own_lit);
                                   });
       // The cluster fits take per-pixel Samples: the video's own pixels at
       // the exact surface points they show, so highlights reach ks and ke

@@ -240,33 +240,6 @@ inline glm::vec3 IlluminationOf(const samples::LightTerms& terms, const std::vec
   return s;
 }
 
-// Some frames with their own lights, others without: every Sample is modelled
-// with the configuration's lights, so a frame's own light outside the
-// configuration is not modelled in it. Said, not silent (empty when nothing
-// is lost).
-std::string MixedFrameLightingWarning(const scene::Sequence& sequence, const std::string& chosen,
-                                      const samples::LightMask& mask) {
-  if (sequence.every_frame_lit_own() || sequence.scene.frame_lighting_size() == 0) return "";
-  const std::vector<samples::LightMask> on = samples::FrameLightMasks(sequence);
-  samples::LightMask lost;
-  int frames = 0;
-  for (int t = 0; t < sequence.num_frames; ++t) {
-    if (sequence.FrameLightingOf(t) == nullptr) continue;
-    const samples::LightMask outside = on[static_cast<size_t>(t)].Without(mask);
-    lost |= outside;
-    frames += outside.Any() ? 1 : 0;
-  }
-  if (!lost.Any()) return "";
-  std::vector<std::string> names;
-  for (size_t k = 0; k < sequence.lights.size(); ++k) {
-    if (lost.Test(k)) names.push_back(scene::ShownName(sequence.lights[k].name));
-  }
-  return absl::StrCat("scene.frame_lighting: ", frames, " of ", sequence.scene.frame_lighting_size(),
-                      " frames with their own lights have lights outside configuration \"", scene::ShownName(chosen),
-                      "\" (", absl::StrJoin(names, ", "),
-                      "), which are not modelled in those frames: give every frame its own lights, or none");
-}
-
 }  // namespace
 
 absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, const ReconstructOptions& options,
@@ -408,7 +381,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     MVBRDF_ASSIGN_OR_RETURN(const fit::SweepResult sweep,
                             fit::SweepConfigurations(g.triangle_samples, atlas.topology.triangles.size(), configs,
                                                      options.fit, options.diffuse, options.threads,
-                                                     options.sweep_fit_samples));
+                                                     options.sweep_fit_samples, samples::OwnLightingFrames(sequence)));
     for (const fit::SweepRow& row : sweep.rows) SweepRowToProto(row, report.add_light_configurations());
     MVBRDF_RETURN_IF_ERROR(ChooseConfiguration(&report));
     chosen = report.chosen_configuration();
@@ -431,7 +404,10 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
   }
   report.set_chosen_configuration(chosen);
-  if (const std::string w = MixedFrameLightingWarning(sequence, chosen, mask); !w.empty()) report.add_warnings(w);
+  // Frames with their own lights are modelled with exactly those, the others
+  // with the configuration (samples::LightSelection).
+  const samples::LightSelection selection(mask, samples::OwnLightingFrames(sequence));
+  const samples::LightMask all_lights = samples::AllLights(sequence.lights.size());
   g.triangle_samples = samples::SampleSet();  // no longer needed
   if (!reflectance) {
     MVBRDF_RETURN_IF_ERROR(CheckMetricsFinite(report));
@@ -579,7 +555,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     reservoir.Collect(texels, options.max_cluster_samples, &set);
     fit::PhongFitOptions lm = options.fit;
     lm.solver = fit::Solver::kLevenbergMarquardt;
-    MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, mask, lm));
+    MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, selection, lm));
     // No data is no result: the fit's initial guess is not written as one.
     // (A seed that no texel resembles has an empty cluster: flagged, not fatal.)
     if (!cluster_texels[k].empty() && (lm_result.flags() & (fit::kNoSamples | fit::kKdNotIdentifiable))) {
@@ -595,7 +571,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     if (plan.Has(Stage::kSolverComparison)) {
       fit::PhongFitOptions powell = options.fit;
       powell.solver = fit::Solver::kPowell;
-      MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult p_result, fit::FitPhong(set, {}, mask, powell));
+      MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult p_result, fit::FitPhong(set, {}, selection, powell));
       SolverRowFrom(clusters.names[k], p_result, report.add_solvers());
     }
     v1::ClusterRow* row = report.add_clusters();
@@ -656,10 +632,11 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
               const int32_t k = texel_cluster[texel];
               if (k < 0) return;
               const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-              const glm::vec3 G = IlluminationOf(terms, intensity, mask);
+              const glm::vec3 G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
               glm::vec3 res;
               for (int ch = 0; ch < 3; ++ch) {
-                res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) * SpecularSum(terms, intensity, mask, ch, p[ch].ke);
+                res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) *
+                                        SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke);
               }
               // Weighted by (n.v)^4: near-grazing observations come from
               // stretched image footprints and smear across silhouettes
@@ -718,9 +695,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
                 const cv::Vec4f& o =
                     observed.at<cv::Vec4f>(static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
                 const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-                const glm::vec3 G = IlluminationOf(terms, intensity, mask);
+                const glm::vec3 G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
                 for (int ch = 0; ch < 3; ++ch) {
-                  const double s = p[ch].ks * SpecularSum(terms, intensity, mask, ch, p[ch].ke);
+                  const double s = p[ch].ks * SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke);
                   const double model = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
                   const double d = o[3] > 0.5f ? rgb[ch] - model : 0.0;
                   cam_corr_sq[static_cast<size_t>(c)] += d * d;

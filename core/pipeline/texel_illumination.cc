@@ -23,7 +23,11 @@ TexelIllumination::TexelIllumination(size_t num_texels, std::vector<glm::vec3> i
 
 TexelIllumination::TexelIllumination(size_t num_texels, std::vector<glm::vec3> intensity,
                                      std::vector<samples::LightMask> masks, Layout layout)
-    : layout_(layout), num_lights_(intensity.size()), intensity_(std::move(intensity)), masks_(std::move(masks)) {
+    : layout_(layout),
+      num_texels_(num_texels),
+      num_lights_(intensity.size()),
+      intensity_(std::move(intensity)),
+      masks_(std::move(masks)) {
   if (layout_ == Layout::kPerLight) {
     per_light_.assign(num_texels * num_lights_, 0.0f);
     return;
@@ -37,7 +41,14 @@ TexelIllumination::TexelIllumination(size_t num_texels, std::vector<glm::vec3> i
   }
 }
 
-void TexelIllumination::Add(uint32_t texel, const samples::LightTerms& terms) {
+void TexelIllumination::Add(uint32_t texel, const samples::LightTerms& terms, bool own) {
+  if (own) {
+    if (own_.empty()) own_.assign(num_texels_, glm::dvec3(0.0));
+    for (size_t j = 0; j < terms.count; ++j) {
+      own_[texel] += glm::dvec3(intensity_[terms.light[j]]) * static_cast<double>(terms.g[j]);
+    }
+    return;
+  }
   if (layout_ == Layout::kPerLight) {
     float* gs = per_light_.data() + static_cast<size_t>(texel) * num_lights_;
     for (size_t j = 0; j < terms.count; ++j) gs[terms.light[j]] += terms.g[j];
@@ -51,8 +62,9 @@ void TexelIllumination::Add(uint32_t texel, const samples::LightTerms& terms) {
 }
 
 absl::StatusOr<glm::dvec3> TexelIllumination::Of(uint32_t texel, const samples::LightMask& mask) const {
+  const glm::dvec3 own = own_.empty() ? glm::dvec3(0.0) : own_[texel];
   if (layout_ == Layout::kPerLight) {
-    glm::dvec3 illumination(0.0);
+    glm::dvec3 illumination = own;
     const float* gs = per_light_.data() + static_cast<size_t>(texel) * num_lights_;
     for (size_t k = 0; k < num_lights_; ++k) {
       if (mask.Test(k)) illumination += glm::dvec3(intensity_[k]) * static_cast<double>(gs[k]);
@@ -60,7 +72,7 @@ absl::StatusOr<glm::dvec3> TexelIllumination::Of(uint32_t texel, const samples::
     return illumination;
   }
   for (size_t m = 0; m < masks_.size(); ++m) {
-    if (masks_[m] == mask) return per_mask_[static_cast<size_t>(texel) * masks_.size() + m];
+    if (masks_[m] == mask) return own + per_mask_[static_cast<size_t>(texel) * masks_.size() + m];
   }
   return absl::InternalError(absl::StrCat("texel illumination: light set ", mask.ToString(),
                                           " was not gathered (the pass kept ", masks_.size(), " configurations)"));

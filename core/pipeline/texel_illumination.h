@@ -40,22 +40,29 @@ class TexelIllumination {
   TexelIllumination(size_t num_texels, std::vector<glm::vec3> intensity, std::vector<samples::LightMask> masks,
                     Layout layout);
 
-  // One observation of `texel` (its terms' g).
-  void Add(uint32_t texel, const samples::LightTerms& terms);
-  // G of `texel` under `mask`; INTERNAL when `mask` is none of the masks
+  // One observation of `texel` (its terms' g). `own`: from a frame with its
+  // own lights (samples::LightSelection), whose terms count under every
+  // configuration.
+  void Add(uint32_t texel, const samples::LightTerms& terms, bool own = false);
+  // G of `texel` under `mask` (plus the observations of frames with their
+  // own lights, under all of their lights); INTERNAL when `mask` is none of the masks
   // given (per-configuration layout).
   absl::StatusOr<glm::dvec3> Of(uint32_t texel, const samples::LightMask& mask) const;
 
   Layout layout() const { return layout_; }
-  size_t MemoryBytes() const { return per_light_.size() * sizeof(float) + per_mask_.size() * sizeof(glm::dvec3); }
+  size_t MemoryBytes() const {
+    return per_light_.size() * sizeof(float) + (per_mask_.size() + own_.size()) * sizeof(glm::dvec3);
+  }
 
  private:
   Layout layout_ = Layout::kPerLight;
+  size_t num_texels_ = 0;
   size_t num_lights_ = 0;
   std::vector<glm::vec3> intensity_;
   std::vector<samples::LightMask> masks_;
   std::vector<float> per_light_;      // texel * L + k: sum_obs g_k
   std::vector<glm::dvec3> per_mask_;  // texel * masks + m: sum_obs sum_{k in m} I_k g_k
+  std::vector<glm::dvec3> own_;       // per texel: sum_obs sum_k I_k g_k over own-lit frames (allocated on use)
   // Per light: the masks that hold it (per-configuration layout).
   std::vector<std::vector<uint32_t>> masks_of_light_;
 };

@@ -71,6 +71,27 @@ TEST(TexelIlluminationTest, BothLayoutsGiveTheIlluminationOfEachConfiguration) {
   EXPECT_EQ(per_config.Of(0, other).status().code(), absl::StatusCode::kInternal);
 }
 
+// Observations from a frame with its own lights (samples::LightSelection)
+// count under every configuration, in both layouts; the others only under the
+// configurations holding their lights.
+TEST(TexelIlluminationTest, OwnLitObservationsCountUnderEveryConfiguration) {
+  const std::vector<glm::vec3> intensity = {glm::vec3(1.0f), glm::vec3(2.0f), glm::vec3(4.0f)};
+  const samples::LightMask first = samples::LightMask::FromBits(0b001), all = samples::AllLights(3);
+  const uint16_t light0 = 0, light2 = 2;
+  const float g0 = 0.5f, g2 = 0.25f;
+  samples::LightTerms by0{1, &light0, &g0, nullptr, nullptr, false};
+  samples::LightTerms by2{1, &light2, &g2, nullptr, nullptr, false};
+  for (Layout layout : {Layout::kPerLight, Layout::kPerConfiguration}) {
+    TexelIllumination ti(2, intensity, {all, first}, layout);
+    ti.Add(1, by0);                 // a frame without an entry, lit by light 0
+    ti.Add(1, by2, /*own=*/true);   // a frame whose own light is 2, outside `first`
+    ti.Add(1, by2, /*own=*/false);  // light 2 in a frame without an entry
+    EXPECT_DOUBLE_EQ(ti.Of(1, first)->x, 0.5 + 1.0);
+    EXPECT_DOUBLE_EQ(ti.Of(1, all)->x, 0.5 + 1.0 + 1.0);
+    EXPECT_DOUBLE_EQ(ti.Of(0, first)->x, 0.0);
+  }
+}
+
 TEST(TexelIlluminationTest, TheSmallerLayoutIsChosen) {
   // A few lights and many configurations: per light; many lights: per configuration.
   EXPECT_EQ(TexelIllumination::ChooseLayout(3, 4), Layout::kPerLight);

@@ -64,6 +64,14 @@ std::vector<LightMask> FrameLightMasks(const scene::Sequence& sequence) {
   return masks;
 }
 
+std::vector<uint8_t> OwnLightingFrames(const scene::Sequence& sequence) {
+  std::vector<uint8_t> own;
+  if (sequence.scene.frame_lighting_size() == 0 || sequence.every_frame_lit_own()) return own;
+  own.assign(static_cast<size_t>(std::max(0, sequence.num_frames)), 0);
+  for (int t = 0; t < sequence.num_frames; ++t) own[static_cast<size_t>(t)] = sequence.FrameLightingOf(t) != nullptr;
+  return own;
+}
+
 size_t MaxLightsOn(const std::vector<LightMask>& frame_masks, size_t num_lights) {
   size_t most = 0;
   for (const LightMask& m : frame_masks) most = std::max(most, (m & AllLights(num_lights)).Count());

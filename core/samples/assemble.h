@@ -61,6 +61,10 @@ struct LightTerms {
 // The most lights on in any one frame (the most terms a Sample can have).
 size_t MaxLightsOn(const std::vector<LightMask>& frame_masks, size_t num_lights);
 std::vector<LightMask> FrameLightMasks(const scene::Sequence& sequence);
+// Per frame t, 1 when it names its own lights (a scene.frame_lighting entry):
+// the frames of LightSelection::own. Empty when no frame or every frame does
+// (the configuration is then every light, so nothing is special).
+std::vector<uint8_t> OwnLightingFrames(const scene::Sequence& sequence);
 
 // Every light on: the mask of a frame without its own lighting.
 LightMask AllLights(size_t num_lights);

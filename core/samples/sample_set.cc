@@ -303,10 +303,11 @@ absl::StatusOr<LightMask> SampleSet::MaskOf(const std::vector<std::string>& name
   return mask;
 }
 
-glm::vec3 SampleSet::Illumination(size_t i, const LightMask& mask) const {
+glm::vec3 SampleSet::Illumination(size_t i, const LightSelection& lights) const {
   glm::vec3 sum(0.0f);
+  const bool own = lights.Own(frame[i]);
   for (size_t j = TermsBegin(i); j < TermsEnd(i); ++j) {
-    if (mask.Test(light[j])) sum += light_intensity[light[j]] * g[j];
+    if (own || lights.config.Test(light[j])) sum += light_intensity[light[j]] * g[j];
   }
   return sum;
 }

@@ -32,6 +32,7 @@
 #include <glm/glm.hpp>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -99,6 +100,26 @@ class LightMask {
   std::vector<uint64_t> high_;  // lights 64.., no trailing zero words
 };
 
+// The lights a configuration selects in each Sample: `config` in a frame
+// without its own lights, every light in a frame with its own
+// (scene.frame_lighting; FrameStream already dropped the lights off in it, so
+// its Samples hold exactly its own lights' terms). Implicit from a mask: no
+// frame has its own lights. `own` is per frame (samples::OwnLightingFrames),
+// derived from the scene, so a SampleSet's encoding need not carry it.
+struct LightSelection {
+  LightSelection(LightMask mask) : config(std::move(mask)) {}  // NOLINT: implicit
+  LightSelection(LightMask mask, std::vector<uint8_t> own_frames)
+      : config(std::move(mask)), own(std::move(own_frames)) {}
+  bool Own(size_t frame) const { return frame < own.size() && own[frame] != 0; }
+  // Whether light k counts in a Sample of `frame`.
+  bool Selects(size_t frame, size_t k) const { return Own(frame) || config.Test(k); }
+  // The mask of `frame`'s Samples (`all`: every light of the set).
+  const LightMask& Of(size_t frame, const LightMask& all) const { return Own(frame) ? all : config; }
+
+  LightMask config;
+  std::vector<uint8_t> own;
+};
+
 struct SampleSet {
   // The candidate lights, in the scene's order.
   std::vector<std::string> light_names;
@@ -146,7 +167,7 @@ struct SampleSet {
   absl::StatusOr<LightMask> MaskOf(const std::vector<std::string>& names) const;
   // Sum over the lights in `mask` of I_k g_k: the diffuse illumination of
   // sample i per channel.
-  glm::vec3 Illumination(size_t i, const LightMask& mask) const;
+  glm::vec3 Illumination(size_t i, const LightSelection& lights) const;
   // Bytes held (for reports and cache limits).
   size_t MemoryBytes() const;
 };
