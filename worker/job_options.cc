@@ -4,9 +4,16 @@
 #include <cstdint>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 
 namespace mvbrdf::worker {
 namespace {
+
+// INVALID_ARGUMENT "FIELD: must be EXPECTED, got VALUE" unless value is finite and >= 0.
+absl::Status CheckFiniteNonNegative(const char* field, double value, const char* expected) {
+  if (std::isfinite(value) && value >= 0.0) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(field, ": must be ", expected, ", got ", value));
+}
 
 // Upper bounds of the request's counts. The proto fields are unsigned 32-bit
 // and the pipeline's are int: without a bound 4294967295 would become -1.
@@ -29,10 +36,18 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
     run.light_table = run.brdf_atlases = run.correction = run.camera_errors = false;
     for (int i = 0; i < request.outputs_size(); ++i) {
       switch (request.outputs(i)) {
-        case v1::OUTPUT_LIGHT_TABLE: run.light_table = true; break;
-        case v1::OUTPUT_BRDF_ATLASES: run.brdf_atlases = true; break;
-        case v1::OUTPUT_CORRECTION: run.correction = true; break;
-        case v1::OUTPUT_CAMERA_ERRORS: run.camera_errors = true; break;
+        case v1::OUTPUT_LIGHT_TABLE:
+          run.light_table = true;
+          break;
+        case v1::OUTPUT_BRDF_ATLASES:
+          run.brdf_atlases = true;
+          break;
+        case v1::OUTPUT_CORRECTION:
+          run.correction = true;
+          break;
+        case v1::OUTPUT_CAMERA_ERRORS:
+          run.camera_errors = true;
+          break;
         default:
           return absl::InvalidArgumentError(
               absl::StrCat("outputs[", i, "]: unknown output ", static_cast<int>(request.outputs(i))));
@@ -47,7 +62,8 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
   const v1::FittingOptions& f = request.options();
   if (f.atlas_size() != 0) {
     if (f.atlas_size() < 16 || f.atlas_size() > 16384) {
-      return absl::InvalidArgumentError(absl::StrCat("options.atlas_size: must be in [16, 16384], got ", f.atlas_size()));
+      return absl::InvalidArgumentError(
+          absl::StrCat("options.atlas_size: must be in [16, 16384], got ", f.atlas_size()));
     }
     o.atlas.size = static_cast<int>(f.atlas_size());
   }
@@ -83,21 +99,15 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
         "options.depth_tolerance_absolute, depth_tolerance_relative: give at most one, got both");
   }
   if (f.has_depth_tolerance_absolute()) {
-    const double v = f.depth_tolerance_absolute();
-    if (!(std::isfinite(v) && v >= 0.0)) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "options.depth_tolerance_absolute: must be a finite number >= 0 (world units), got ", v));
-    }
-    o.resampler.absolute_depth_tolerance = v;
+    MVBRDF_RETURN_IF_ERROR(CheckFiniteNonNegative("options.depth_tolerance_absolute", f.depth_tolerance_absolute(),
+                                                  "a finite number >= 0 (world units)"));
+    o.resampler.absolute_depth_tolerance = f.depth_tolerance_absolute();
     o.resampler.relative_depth_tolerance = 0.0;
   }
   if (f.has_depth_tolerance_relative()) {
-    const double v = f.depth_tolerance_relative();
-    if (!(std::isfinite(v) && v >= 0.0)) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "options.depth_tolerance_relative: must be a finite number >= 0 (a fraction of the depth), got ", v));
-    }
-    o.resampler.relative_depth_tolerance = v;
+    MVBRDF_RETURN_IF_ERROR(CheckFiniteNonNegative("options.depth_tolerance_relative", f.depth_tolerance_relative(),
+                                                  "a finite number >= 0 (a fraction of the depth)"));
+    o.resampler.relative_depth_tolerance = f.depth_tolerance_relative();
   }
   if (f.has_grazing_margin_degrees()) {
     const double v = f.grazing_margin_degrees();
@@ -108,10 +118,8 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
     o.resampler.grazing_margin_deg = v;
   }
   if (f.has_kd_prior_strength()) {
-    if (!std::isfinite(f.kd_prior_strength()) || f.kd_prior_strength() < 0.0) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("options.kd_prior_strength: must be finite and >= 0, got ", f.kd_prior_strength()));
-    }
+    MVBRDF_RETURN_IF_ERROR(
+        CheckFiniteNonNegative("options.kd_prior_strength", f.kd_prior_strength(), "finite and >= 0"));
     o.kd_prior_weight = f.kd_prior_strength();
   }
   if (absl::Status s = o.fit.Check(); !s.ok()) return absl::InvalidArgumentError(absl::StrCat("options.", s.message()));
