@@ -70,25 +70,20 @@ expect "the prior lowers kd RMSE against the truth by > 0.02" python3 -c "import
 expect "the default prior's kd RMSE < 0.025" python3 -c "import sys; sys.exit(not $with < 0.025)"
 
 # Automatic k keeps one cluster on a one-material object (issue #13 item 8):
-# the sphere preset (helper B's `synth --preset sphere`, another branch) when
-# this binary has it; kmeans_test AutomaticKOnOneMaterialWithShadingIsOne
+# the sphere preset; kmeans_test AutomaticKOnOneMaterialWithShadingIsOne
 # covers the rule itself.
-if "$bin" synth --help 2>&1 | grep -A1 -- '--preset' | grep -q sphere; then
-  "$bin" synth --preset sphere --cameras 3 --frames 6 --width 160 --height 120 --out "$work/sphere" >/dev/null || exit 1
-  python3 - "$work/sphere/scene.json" <<'EOF_PY'
+"$bin" synth --preset sphere --cameras 3 --frames 6 --width 160 --height 120 --out "$work/sphere" >/dev/null || exit 1
+python3 - "$work/sphere/scene.json" <<'EOF_PY'
 import json, sys
 scene = json.load(open(sys.argv[1]))
 for key in ("materialSeeds", "segmentMaterials", "segmentationPath"):
-    scene.pop(key, None)
+  scene.pop(key, None)
 json.dump(scene, open(sys.argv[1], "w"))
 EOF_PY
-  check "automatic k on the one-material sphere" 0 "wrote" -- \
-    "$bin" run --direct "$work/sphere/scene.json" --no-powell --atlas 128 --outputs brdf --out "$work/r_sphere"
-  expect "one cluster" python3 -c '
+check "automatic k on the one-material sphere" 0 "wrote" -- \
+  "$bin" run --direct "$work/sphere/scene.json" --no-powell --atlas 128 --outputs brdf --out "$work/r_sphere"
+expect "one cluster" python3 -c '
 import json, sys
 sys.exit(len(json.load(open(sys.argv[1]))["clusters"]) != 1)' "$work/r_sphere/result.json"
-else
-  echo "skip automatic k on the sphere: this mvbrdf's synth has no --preset sphere"
-fi
 
 summary
