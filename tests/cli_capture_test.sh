@@ -75,6 +75,12 @@ echo "     texels seen: default $(seen "$work/o_default"), grazing margin 80 $(s
 expect "a huge grazing margin leaves fewer texels seen" less "$(seen "$work/o_grazing")" "$(seen "$work/o_default")"
 expect "an absolute tolerance bigger than the object makes hidden texels seen" \
   less "$(seen "$work/o_default")" "$(seen "$work/o_absolute")"
+# The relative tolerance through the job: 1 (hidden only when twice as far as
+# the depth map) lets hidden texels through as well.
+"$bin" run "$work/s/scene.json" "${fit[@]}" --depth-tolerance-relative 1 --out "$work/o_relative" >/dev/null 2>&1
+echo "     texels seen: default $(seen "$work/o_default"), relative tolerance 1: $(seen "$work/o_relative")"
+expect "run --depth-tolerance-relative 1 makes hidden texels seen" \
+  less "$(seen "$work/o_default")" "$(seen "$work/o_relative")"
 # Against the resample evaluator's truth: the texels marked valid though hidden.
 "$bin" resample "$work/s/scene.json" --atlas 128 --save none --out "$work/rs_default" >/dev/null 2>&1
 "$bin" resample "$work/s/scene.json" --atlas 128 --save none --depth-tolerance-absolute 100 --out "$work/rs_absolute" >/dev/null 2>&1
