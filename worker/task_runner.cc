@@ -62,6 +62,7 @@ absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& s
   result.set_seconds(Since(start));
   result.set_samples_sha256(bundle::Sha256Bytes(out.samples));
   result.set_texel_statistics(texels);
+  result.set_peak_rss_bytes(PeakRssBytes());
   result.SerializeToString(&out.result);
   out.metrics["samples"] = static_cast<double>(set.size());
   out.sample_set = std::make_shared<const samples::SampleSet>(std::move(set));
@@ -126,6 +127,7 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
       stage->set_name(gathered.texel_statistics() || !plan.Has(pipeline::Stage::kTexelPass) ? "gather_samples"
                                                                                               : "gather_light_samples");
       stage->set_seconds(gathered.seconds());
+      stage->set_peak_rss_bytes(gathered.peak_rss_bytes());
       continue;
     }
     v1::LightConfigurationRow* row = report.add_light_configurations();
