@@ -84,31 +84,58 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
     }
     in->cameras.push_back(std::move(cmp));
   }
-  // Thesis Fig. 7.7: one point light circling the model at its top.
+  // Thesis Fig. 7.7: one point light moving around the model, kept on the
+  // camera's side (a light behind the model leaves the view black).
   glm::vec3 lo(INFINITY), hi(-INFINITY);
   for (const glm::vec3& p : sequence.rest_positions) {
     lo = glm::min(lo, p);
     hi = glm::max(hi, p);
   }
-  const glm::vec3 centre = 0.5f * (lo + hi);
-  const float radius = 1.5f * glm::length(hi - lo);
   glm::vec3 intensity(0.0f);
   for (const scene::Light& l : lights) intensity += l.intensity;
   intensity *= 0.6f;  // most of the configuration's light from one place
-  for (int k = 0; k < options.relit_frames && !sequence.cameras.empty(); ++k) {
-    const float angle = 2.0f * 3.14159265f * static_cast<float>(k) / static_cast<float>(options.relit_frames);
+  if (sequence.cameras.empty()) return absl::OkStatus();
+  const std::vector<RelitLight> path = RelitLightPath(sequence.cameras[0], lo, hi, options.relit_frames);
+  for (const RelitLight& step : path) {
     scene::Light light;
     light.name = "orbit";
-    light.position = centre + glm::vec3(radius * std::cos(angle), 0.5f * (hi.y - lo.y), radius * std::sin(angle));
+    light.position = step.position;
     light.intensity = intensity;
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat relit, renderer->Render(sequence.cameras[0], {light}, frame, false));
     MVBRDF_ASSIGN_OR_RETURN(std::string png, Png(relit));
-    in->relit.push_back({absl::StrCat(static_cast<int>(std::lround(angle * 180.0f / 3.14159265f)), "°"), std::move(png)});
+    in->relit.push_back({absl::StrCat(step.degrees, "° from the camera"), std::move(png)});
   }
   return absl::OkStatus();
 }
 
 }  // namespace
+
+std::vector<RelitLight> RelitLightPath(const scene::CameraModel& camera, const glm::vec3& lo, const glm::vec3& hi,
+                                       int frames) {
+  std::vector<RelitLight> path;
+  if (frames <= 0) return path;
+  const glm::vec3 centre = 0.5f * (lo + hi);
+  const float radius = 1.5f * glm::length(hi - lo);
+  // The camera's axes in the world: right (x) and up (-y, OpenCV's y points down).
+  const glm::dmat3 world_from_cam = glm::transpose(camera.cam_from_world_rotation);
+  const glm::vec3 right = glm::normalize(glm::vec3(world_from_cam[0]));
+  const glm::vec3 up = -glm::normalize(glm::vec3(world_from_cam[1]));
+  glm::vec3 towards = glm::vec3(camera.ViewDirection(glm::dvec3(centre)));  // model -> camera
+  towards -= glm::dot(towards, up) * up;
+  towards = glm::length(towards) > 1e-6f ? glm::normalize(towards) : glm::cross(right, up);
+  constexpr float kPi = 3.14159265f;
+  constexpr float kSwing = 80.0f;      // degrees either side of the camera
+  constexpr float kElevation = 25.0f;  // degrees above the model's centre, towards the camera's up
+  const float e = kElevation * kPi / 180.0f;
+  for (int k = 0; k < frames; ++k) {
+    const float degrees = frames == 1 ? 0.0f : -kSwing + 2.0f * kSwing * static_cast<float>(k) / (frames - 1);
+    const float a = degrees * kPi / 180.0f;
+    const glm::vec3 around = std::cos(a) * towards + std::sin(a) * right;
+    path.push_back(
+        {centre + radius * (std::cos(e) * around + std::sin(e) * up), static_cast<int>(std::lround(degrees))});
+  }
+  return path;
+}
 
 absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const ReportOptions& options) {
   ReportInputs in;
