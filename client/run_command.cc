@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "client/bundle_upload.h"
 #include "client/commands.h"
 #include "client/embedded_service.h"
@@ -55,6 +56,23 @@ void PrintReport(const v1::RunReport& report, const std::string& out) {
       std::printf("%-10s %-20s %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %8.2f %8.2f %8.2f %12.6g %8.3f\n",
                   s.cluster().c_str(), s.solver().c_str(), s.kd(0), s.kd(1), s.kd(2), s.ks(0), s.ks(1), s.ks(2),
                   s.ke(0), s.ke(1), s.ke(2), s.final_cost(), s.seconds());
+    }
+  }
+  if (report.clusters_size() > 0) {
+    // Every cluster with its texels; one that is not a material (flags
+    // "tiny": merged into the nearest; "no_samples") is marked, not a row of
+    // fitted numbers (docs/glossary.md "cluster").
+    std::printf("\n%-10s %8s %-26s %s\n", "cluster", "texels", "centre (linear RGB)", "flags");
+    for (const auto& c : report.clusters()) {
+      std::string centre;
+      for (double v : c.centre()) {
+        char value[32];
+        std::snprintf(value, sizeof value, "%8.4f ", v);
+        centre += value;
+      }
+      const std::string flags = absl::StrJoin(c.flags(), ", ");
+      std::printf("%-10s %8llu %-26s %s\n", c.name().c_str(), static_cast<unsigned long long>(c.texels()),
+                  centre.c_str(), flags.empty() ? "-" : flags.c_str());
     }
   }
   if (report.cameras_size() > 0) {

@@ -352,4 +352,105 @@ absl::StatusOr<KMeansResult> KMeans(const KMeansInput& input, const KMeansOption
   return chosen;
 }
 
+std::vector<bool> MergeTinyClusters(const KMeansInput& input, KMeansResult* result) {
+  const size_t k = result->centres.size();
+  std::vector<bool> tiny(k, false);
+  const size_t n = result->assignment.size();
+  if (k < 2 || n == 0) return tiny;
+  const double limit = std::max(static_cast<double>(kMinMaterialPoints), kMinMaterialShare * static_cast<double>(n));
+  const size_t largest =
+      static_cast<size_t>(std::max_element(result->sizes.begin(), result->sizes.end()) - result->sizes.begin());
+  bool any = false;
+  for (size_t c = 0; c < k; ++c) {
+    tiny[c] = c != largest && result->sizes[c] > 0 && static_cast<double>(result->sizes[c]) < limit;
+    any = any || tiny[c];
+  }
+  if (!any) return tiny;
+  std::vector<uint32_t> kept;
+  for (size_t c = 0; c < k; ++c) {
+    if (!tiny[c]) kept.push_back(static_cast<uint32_t>(c));
+  }
+  std::vector<bool> received(k, false);
+  for (size_t i = 0; i < n; ++i) {
+    if (!tiny[result->assignment[i]]) continue;
+    float d;
+    const uint32_t to = Nearest(input.points[i], result->centres, kept, &d);
+    --result->sizes[result->assignment[i]];
+    ++result->sizes[to];
+    result->assignment[i] = to;
+    received[to] = true;
+  }
+  std::vector<glm::dvec3> sums(k, glm::dvec3(0.0));
+  std::vector<double> totals(k, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    const double w = Weight(input, i);
+    sums[result->assignment[i]] += w * glm::dvec3(input.points[i]);
+    totals[result->assignment[i]] += w;
+  }
+  for (size_t c = 0; c < k; ++c) {
+    if (received[c] && totals[c] > 0.0) result->centres[c] = glm::vec3(sums[c] / totals[c]);
+  }
+  result->inertia = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    result->inertia +=
+        static_cast<double>(Weight(input, i)) * Distance2(input.points[i], result->centres[result->assignment[i]]);
+  }
+  return tiny;
+}
+
+absl::StatusOr<KMeansResult> KMeansOfMaterials(const KMeansInput& input, const KMeansOptions& options,
+                                               std::vector<bool>* tiny) {
+  absl::StatusOr<KMeansResult> first = KMeans(input, options);
+  if (!first.ok()) return first.status();
+  tiny->assign(first->centres.size(), false);
+  if (!first->automatic_k) return first;
+  KMeansResult merged = *first;
+  const std::vector<bool> first_tiny = MergeTinyClusters(input, &merged);
+  if (std::find(first_tiny.begin(), first_tiny.end(), true) == first_tiny.end()) return first;
+  KMeansInput rest;
+  std::vector<size_t> rest_index;
+  for (size_t i = 0; i < input.points.size(); ++i) {
+    if (first_tiny[first->assignment[i]]) continue;
+    rest.points.push_back(input.points[i]);
+    if (!input.weights.empty()) rest.weights.push_back(input.weights[i]);
+    rest_index.push_back(i);
+  }
+  absl::StatusOr<KMeansResult> second = KMeans(rest, options);
+  if (!second.ok()) {  // e.g. the rest weighs nothing: the merged first run
+    *tiny = first_tiny;
+    return merged;
+  }
+  KMeansResult result;
+  result.automatic_k = true;
+  result.iterations = second->iterations;
+  result.centres = second->centres;
+  const size_t k = second->centres.size();
+  for (size_t c = 0; c < first_tiny.size(); ++c) {
+    if (first_tiny[c]) result.centres.push_back(first->centres[c]);
+  }
+  std::vector<uint32_t> materials(k);
+  for (size_t c = 0; c < k; ++c) materials[c] = static_cast<uint32_t>(c);
+  result.assignment.assign(input.points.size(), 0);
+  std::vector<bool> is_rest(input.points.size(), false);
+  for (size_t j = 0; j < rest_index.size(); ++j) {
+    result.assignment[rest_index[j]] = second->assignment[j];
+    is_rest[rest_index[j]] = true;
+  }
+  for (size_t i = 0; i < input.points.size(); ++i) {
+    float d;
+    if (!is_rest[i]) result.assignment[i] = Nearest(input.points[i], result.centres, materials, &d);
+  }
+  result.sizes.assign(result.centres.size(), 0);
+  result.inertia = 0.0;
+  for (size_t i = 0; i < input.points.size(); ++i) {
+    ++result.sizes[result.assignment[i]];
+    result.inertia +=
+        static_cast<double>(Weight(input, i)) * Distance2(input.points[i], result.centres[result.assignment[i]]);
+  }
+  *tiny = MergeTinyClusters(input, &result);
+  for (size_t c = k; c < result.centres.size(); ++c) (*tiny)[c] = true;
+  for (size_t c = 0; c < result.centres.size(); ++c) result.names.push_back(absl::StrCat("cluster ", c));
+  return result;
+}
+
 }  // namespace mvbrdf::cluster

@@ -50,6 +50,31 @@ struct KMeansResult {
 
 absl::StatusOr<KMeansResult> KMeans(const KMeansInput& input, const KMeansOptions& options);
 
+// Clusters too small to be a material: fewer points than
+// max(kMinMaterialPoints, kMinMaterialShare of all points). Automatic k can
+// give a handful of outlier texels (a few badly lit ones, albedo estimates
+// far off) a cluster of their own, whose BRDF fit is noise or fails for lack
+// of data. MergeTinyClusters moves every point of such a cluster to the
+// nearest (by its own distance) cluster that is not tiny, moves the centres
+// that received points to the weighted mean of their points, and leaves the
+// tiny clusters empty (size 0, centre kept). The largest cluster is never
+// tiny. Returns per cluster whether it was merged.
+inline constexpr uint64_t kMinMaterialPoints = 16;
+inline constexpr double kMinMaterialShare = 0.005;
+std::vector<bool> MergeTinyClusters(const KMeansInput& input, KMeansResult* result);
+
+// KMeans, and with automatic k (no seeds) the tiny clusters' points left out
+// of choosing k: outliers take splits that belong to materials (on a
+// synthetic actor of three materials, two clusters of a few texels with
+// albedo estimates in the thousands left one cluster for everything). k and
+// the centres are chosen again on the other points; the outliers then join
+// their nearest cluster without moving its centre, and any cluster still
+// tiny is merged (MergeTinyClusters). The first run's tiny clusters come last,
+// empty, and `tiny` (per cluster) marks them and the merged ones. Seeded
+// clusters are the scene's materials: as KMeans gives them, none tiny.
+absl::StatusOr<KMeansResult> KMeansOfMaterials(const KMeansInput& input, const KMeansOptions& options,
+                                               std::vector<bool>* tiny);
+
 }  // namespace mvbrdf::cluster
 
 #endif  // MVBRDF_CORE_CLUSTER_KMEANS_H_

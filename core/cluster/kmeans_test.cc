@@ -1,5 +1,6 @@
 #include "core/cluster/kmeans.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -214,6 +215,74 @@ TEST(KMeans, AutomaticKOnOneMaterialWithShadingIsOne) {
   auto two = KMeans(input, KMeansOptions{});
   ASSERT_TRUE(two.ok());
   EXPECT_EQ(two->centres.size(), 2u);
+}
+
+// Issue #20: automatic k gave 36 outlier texels (albedo ~201, far above
+// the data) a cluster of their own, printed like a material. Two
+// materials of 3000 points and 12 far outliers: k-means gives the outliers a
+// cluster; MergeTinyClusters empties it into the nearest material, every
+// point ends in its true material's cluster (the outliers in their nearer
+// one), and the receiving centre stays within the noise of its material.
+TEST(KMeans, TinyClusterMergedIntoNearest) {
+  const glm::vec3 a(0.2f, 0.2f, 0.2f), b(0.6f, 0.3f, 0.2f);
+  Blobs blobs = MakeBlobs({a, b}, 3000, 0.02f, 5);
+  for (int i = 0; i < 12; ++i) {
+    blobs.input.points.push_back(glm::vec3(0.9f, 0.9f, 0.9f) + 0.01f * glm::vec3(i % 3, i % 2, 0));
+    blobs.labels.push_back(1);  // nearer to b
+  }
+  KMeansInput input = blobs.input;
+  std::vector<glm::vec3> seeds = {a, b, glm::vec3(0.9f)};
+  KMeansOptions options;
+  options.seeds = seeds;
+  auto result = KMeans(input, options);
+  ASSERT_TRUE(result.ok());
+  ASSERT_EQ(result->sizes[2], 12u);  // the outliers' own cluster
+  const std::vector<bool> tiny = MergeTinyClusters(input, &*result);
+  EXPECT_EQ(tiny, (std::vector<bool>{false, false, true}));
+  EXPECT_EQ(result->sizes[2], 0u);
+  EXPECT_EQ(result->sizes[0] + result->sizes[1], input.points.size());
+  EXPECT_GE(Purity(result->assignment, blobs.labels, 2, 3), kMinCorrect);
+  EXPECT_LT(glm::length(result->centres[1] - b), 0.01f);  // 12 of 3012 points at distance ~0.7
+  // Nothing tiny: nothing changes.
+  KMeansResult again = *result;
+  EXPECT_EQ(MergeTinyClusters(input, &again), (std::vector<bool>(3, false)));
+  EXPECT_EQ(again.assignment, result->assignment);
+}
+
+// Issue #20, as the synthetic actor without seeds showed it: the thesis's
+// three materials and a few texels whose albedo estimates are in the
+// thousands (almost unlit: sum r / sum G). Automatic k spent its splits on
+// the outliers; KMeansOfMaterials chooses k without them: three clusters, each
+// material in its own, the outliers merged and their clusters marked tiny.
+TEST(KMeans, AutomaticKLeavesOutliersOut) {
+  Blobs blobs = MakeBlobs({kCloth, kSkin, kHair}, 2000, 0.02f, 3);
+  for (int i = 0; i < 20; ++i) {
+    blobs.input.points.push_back(glm::vec3(i < 10 ? 3600.0f : 9700.0f, 900.0f + i, 900.0f));
+    blobs.labels.push_back(0);
+  }
+  auto plain = KMeans(blobs.input, KMeansOptions{});
+  ASSERT_TRUE(plain.ok());
+  std::vector<bool> tiny;
+  auto result = KMeansOfMaterials(blobs.input, KMeansOptions{}, &tiny);
+  ASSERT_TRUE(result.ok());
+  size_t materials = 0;
+  for (size_t c = 0; c < result->centres.size(); ++c) materials += tiny[c] ? 0 : 1;
+  EXPECT_EQ(materials, 3u);
+  KMeansResult plain_merged = *plain;
+  const std::vector<bool> plain_tiny = MergeTinyClusters(blobs.input, &plain_merged);
+  EXPECT_LT(plain->centres.size() - std::count(plain_tiny.begin(), plain_tiny.end(), true), 3u)
+      << "plain automatic k found the materials anyway: the case is not shown";
+  const std::vector<uint32_t> labels(blobs.labels.begin(), blobs.labels.begin() + 6000);
+  const std::vector<uint32_t> assignment(result->assignment.begin(), result->assignment.begin() + 6000);
+  EXPECT_GE(Purity(assignment, labels, 3, result->centres.size()), kMinCorrect);
+  for (size_t c = 0; c < result->centres.size(); ++c) {
+    if (tiny[c]) EXPECT_EQ(result->sizes[c], 0u);
+  }
+  // With seeds nothing is tiny.
+  KMeansOptions seeded;
+  seeded.seeds = {kCloth, kSkin, kHair};
+  ASSERT_TRUE(KMeansOfMaterials(blobs.input, seeded, &tiny).ok());
+  EXPECT_EQ(tiny, std::vector<bool>(3, false));
 }
 
 TEST(KMeans, DegenerateInputs) {

@@ -459,8 +459,25 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       }
     }
   }
-  MVBRDF_ASSIGN_OR_RETURN(const cluster::KMeansResult clusters, cluster::KMeans(km_input, km_options));
+  // Automatic k: a cluster of a few outlier texels is not a material; k is
+  // chosen without them, they join the nearest cluster and their row says
+  // "tiny" (cluster::KMeansOfMaterials). Seeded clusters are kept as given.
+  std::vector<bool> tiny;
+  MVBRDF_ASSIGN_OR_RETURN(cluster::KMeansResult clusters, cluster::KMeansOfMaterials(km_input, km_options, &tiny));
   const size_t num_clusters = clusters.centres.size();
+  {
+    std::vector<std::string> names;
+    for (size_t k = 0; k < num_clusters; ++k) {
+      if (tiny[k]) names.push_back(absl::StrCat("\"", scene::ShownName(clusters.names[k]), "\""));
+    }
+    if (!names.empty()) {
+      report.add_warnings(
+          absl::StrCat("cluster", names.size() > 1 ? "s " : " ", absl::StrJoin(names, ", "),
+                       ": too few texels for a material (under ", cluster::kMinMaterialPoints, " or ",
+                       100.0 * cluster::kMinMaterialShare, " % of the ", seen_texels.size(),
+                       " seen); k was chosen without them and their texels joined the nearest cluster"));
+    }
+  }
   std::vector<int32_t> texel_cluster(num_texels, -1);
   std::vector<std::vector<uint32_t>> cluster_texels(num_clusters);
   for (size_t i = 0; i < seen_texels.size(); ++i) {
@@ -538,12 +555,12 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   t0 = Clock::now();
   std::vector<fit::PhongRgb> cluster_brdf(num_clusters);
   for (size_t k = 0; k < num_clusters; ++k) {
-    if (!has_data[k]) {  // its texels joined another cluster (above)
+    if (!has_data[k] || tiny[k]) {  // its texels joined another cluster (above)
       v1::ClusterRow* row = report.add_clusters();
       row->set_name(clusters.names[k]);
       row->set_texels(0);
       for (int c = 0; c < 3; ++c) row->add_centre(clusters.centres[k][c]);
-      row->add_flags("no_samples");
+      row->add_flags(tiny[k] ? "tiny" : "no_samples");
       continue;
     }
     samples::SampleSet set = samples::MakeSampleSet(sequence.lights);
