@@ -140,7 +140,7 @@ std::string FlagParser::Usage() const {
     absl::StrAppend(&out, "\n  ", f.name, f.is_bool ? "" : " VALUE", "\n      ", f.help);
     if (!f.default_text.empty()) absl::StrAppend(&out, " (default: ", f.default_text, ")");
   }
-  absl::StrAppend(&out, "\n");
+  absl::StrAppend(&out, "\n\nterms: docs/glossary.md\n");
   return out;
 }
 

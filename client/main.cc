@@ -34,6 +34,7 @@ constexpr char kUsage[] =
     "  health     ask a server's gRPC health service (for probes); exit 0 when serving\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
+    "terms (E_a, E_d, Tables 6.1, 6.2, 7.1, Samples, clusters, ...): docs/glossary.md\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
     "  disk full, memory, server unreachable or at its limits), 5 the watched job failed, 6 the watched\n"
     "  job was cancelled, 7 the server refused the credentials (no, unknown or wrong-role token)\n";

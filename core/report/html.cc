@@ -28,11 +28,19 @@ std::string PngImg(absl::string_view png, const std::string& alt, int width) {
                       width > 0 ? absl::StrCat(" width=\"", width, "\"") : "", ">");
 }
 
+std::string Abbr(absl::string_view text, absl::string_view title) {
+  return absl::StrCat("<abbr title=\"", Escape(title), "\">", Escape(text), "</abbr>");
+}
+
 std::string Table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows,
-                  const std::string& css_class) {
+                  const std::string& css_class, const std::vector<std::string>& header_titles) {
   std::string out = css_class.empty() ? "<table>" : "<table class=\"" + Escape(css_class) + "\">";
   out += "<thead><tr>";
-  for (const std::string& h : header) out += "<th>" + Escape(h) + "</th>";
+  for (size_t i = 0; i < header.size(); ++i) {
+    const bool titled = i < header_titles.size() && !header_titles[i].empty();
+    out += (titled ? "<th title=\"" + Escape(header_titles[i]) + "\">" : std::string("<th>")) + Escape(header[i]) +
+           "</th>";
+  }
   out += "</tr></thead><tbody>";
   for (const auto& row : rows) {
     out += "<tr>";

@@ -16,8 +16,13 @@ std::string Base64(absl::string_view bytes);
 std::string PngImg(absl::string_view png, const std::string& alt, int width = 0);
 // A table of text: every header and cell is escaped (a cell is never HTML, so
 // a camera or cluster name such as "<img src=x onerror=...>" stays text).
+// header_titles (optional, per column; empty: none) become the headers'
+// tooltips (title attributes, escaped).
 std::string Table(const std::vector<std::string>& header, const std::vector<std::vector<std::string>>& rows,
-                  const std::string& css_class = "");
+                  const std::string& css_class = "", const std::vector<std::string>& header_titles = {});
+// <abbr title="TITLE">TEXT</abbr>, both escaped: a term with its definition
+// as a tooltip (docs/glossary.md).
+std::string Abbr(absl::string_view text, absl::string_view title);
 
 }  // namespace mvbrdf::report
 

@@ -56,6 +56,62 @@ window.addEventListener('load', function () {
 });
 )js";
 
+// Tooltips: the definitions of docs/glossary.md, shortened (title attributes
+// and <abbr>, escaped like every other text).
+namespace term {
+constexpr char kEa[] =
+    "E_a (thesis Eq. 6.7): mean squared error over all Samples of the fit of one Phong BRDF for the whole model, "
+    "averaged over R, G, B (linear units). Lower is better.";
+constexpr char kEd[] =
+    "E_d (thesis Eq. 6.8): mean over triangles of each triangle's mean squared error when it has its own kd, averaged "
+    "over R, G, B (linear units). The configuration with the lowest E_d is chosen (ties by E_a).";
+constexpr char kTable61[] =
+    "Table 6.1 of the thesis: every candidate light configuration with its lit triangles, E_a and E_d; the lowest "
+    "E_d is chosen.";
+constexpr char kTable62[] =
+    "Table 6.2 of the thesis: one Phong BRDF per cluster, fitted by Levenberg-Marquardt and by Powell's method.";
+constexpr char kTable71[] =
+    "Table 7.1 of the thesis: per camera, the mean squared error between the resampled input and the rendering with "
+    "the BRDF atlases, and with the per-frame correction atlases added to kd.";
+constexpr char kConfiguration[] =
+    "Light configuration: a named set of the scene's lights assumed on together (scene lightConfigurations).";
+constexpr char kLitTriangles[] = "Triangles lit by at least one light of the configuration in the Samples used.";
+constexpr char kMargin[] =
+    "Configuration margin: how much higher the second-best E_d is than the chosen one's, relative; small (< 1 %) "
+    "means the choice is uncertain.";
+constexpr char kKd[] = "kd: diffuse albedo per colour channel, linear, in the scene's intensity units.";
+constexpr char kKs[] = "ks: specular coefficient per colour channel (extended Phong, mirror lobe).";
+constexpr char kKe[] =
+    "ke: specular exponent of the mirror lobe (higher: a sharper highlight; a Blinn-Phong exponent is about 4x).";
+constexpr char kSamples[] =
+    "Samples: one observation of a surface point: its radiance in one camera and frame with the light and view "
+    "cosines (per triangle for the light sweep, per texel for the fits).";
+constexpr char kCluster[] =
+    "Cluster: texels grouped by albedo (k-means) into one material, which gets one BRDF fit; seeded by the scene's "
+    "materialSeeds or with k chosen automatically.";
+constexpr char kClusterFlags[] =
+    "Flags: why a cluster's numbers are not a trusted material: tiny (too few texels, < 0.5 % of the seen ones or "
+    "< 16: merged into the nearest cluster), no_samples (no data: merged), ks_ke_not_identifiable, at_bound, ...";
+constexpr char kCost[] = "The solver's final cost: half the sum of squared residuals over the cluster's Samples.";
+constexpr char kMse[] = "Mean squared error of the fit over its Samples, linear units.";
+constexpr char kMseBrdf[] = "MSE between the resampled input and the rendering with the BRDF atlases (kd, ks, ke).";
+constexpr char kMseCorrection[] =
+    "MSE with each frame's correction atlas added to kd (kd + c): what the fixed BRDF cannot explain.";
+constexpr char kObservations[] = "Texel observations compared: texels visible in this camera, summed over frames.";
+constexpr char kKdRmse[] =
+    "kd RMSE: root mean squared difference from the true kd over the texels seen at least 10 times.";
+constexpr char kClusterAccuracy[] = "Share of the texels whose cluster's majority material is their true material.";
+constexpr char kRefused[] =
+    "Masked: outside the camera's video.maskPath; saturated: a channel at or above video.saturationLevel. Neither "
+    "becomes an observation.";
+constexpr char kPlan[] =
+    "The plan: the stages this run needs and why; a skipped stage names its reason (e.g. one configuration: no "
+    "sweep).";
+constexpr char kRelit[] =
+    "The reconstruction rendered from the first camera under one point light moving around the model on the "
+    "camera's side.";
+}  // namespace term
+
 std::string Figure(const ReportImage& image, int width = 0) {
   return "<figure>" + PngImg(image.png, image.caption, width) + "<figcaption>" + Escape(image.caption) +
          "</figcaption></figure>";
@@ -92,6 +148,21 @@ std::string TradeoffSection(const v1::TradeoffReport& tradeoff) {
   return out + "</section>";
 }
 
+// Every cluster with its texels and flags; one that is not a material
+// ("tiny", "no_samples": its texels joined the nearest cluster) is marked.
+std::string ClustersTable(const v1::RunReport& run) {
+  if (run.clusters_size() == 0) return "";
+  std::vector<std::vector<std::string>> rows;
+  for (const v1::ClusterRow& c : run.clusters()) {
+    const std::string flags = absl::StrJoin(c.flags(), ", ");
+    rows.push_back({c.name(), absl::StrCat(c.texels()), Rgb(c.centre()), Rgb(c.ks()), Rgb(c.ke(), "%.1f"),
+                    flags.empty() ? "-" : flags});
+  }
+  return "<h3 id=\"clusters\">Clusters</h3>" +
+         Table({"cluster", "texels", "centre (linear RGB)", "ks (RGB)", "ke (RGB)", "flags"}, rows, "",
+               {term::kCluster, "", term::kKd, term::kKs, term::kKe, term::kClusterFlags});
+}
+
 }  // namespace
 
 std::string BuildReportHtml(const ReportInputs& in) {
@@ -100,18 +171,22 @@ std::string BuildReportHtml(const ReportInputs& in) {
                   Escape(run.scene()) + "</title><style>" + kStyle + "</style><script>" + kCheckScript +
                   "</script></head><body>";
   h += "<h1>BRDF reconstruction</h1><p class=\"summary\"><code>" + Escape(run.scene()) + "</code> — " +
-       absl::StrCat(run.frames()) + " frames, " + absl::StrCat(run.cameras_size()) + " cameras in Table 7.1, " +
-       "atlas " + absl::StrCat(run.atlas().size()) + "², " + F(run.seconds(), "%.1f") + " s, peak memory " +
-       F(run.peak_rss_bytes() / 1048576.0, "%.0f") + " MiB; " + Escape(run.gl_renderer()) + "</p>";
-  h += "<p>Light configuration: <b>" + Escape(run.chosen_configuration()) + "</b>";
+       absl::StrCat(run.frames()) + " frames, " + absl::StrCat(run.cameras_size()) + " cameras in " +
+       Abbr("Table 7.1", term::kTable71) + ", " + "atlas " + absl::StrCat(run.atlas().size()) + "², " +
+       F(run.seconds(), "%.1f") + " s, peak memory " + F(run.peak_rss_bytes() / 1048576.0, "%.0f") + " MiB; " +
+       Escape(run.gl_renderer()) + "</p>";
+  h +=
+      "<p>" + Abbr("Light configuration", term::kConfiguration) + ": <b>" + Escape(run.chosen_configuration()) + "</b>";
   if (run.light_configurations_size() > 1) {
-    h += " (the next best E_d is " + F(100.0 * run.configuration_margin(), "%.1f") + " % higher)";
+    h += " (the next best " + Abbr("E_d", term::kEd) + " is " +
+         Abbr(F(100.0 * run.configuration_margin(), "%.1f") + " % higher", term::kMargin) + ")";
   }
   h += ". Rule: " + Escape(run.configuration_rule()) + ".</p>";
   if (!run.configuration_warning().empty()) h += "<p class=\"warning\">" + Escape(run.configuration_warning()) + "</p>";
   for (const std::string& w : run.warnings()) h += "<p class=\"warning\">warning: " + Escape(w) + "</p>";
-  h += "<p id=\"refused\">Refused texel observations: " + absl::StrCat(run.masked_observations()) +
-       " outside a camera's mask, " + absl::StrCat(run.saturated_observations()) + " saturated.</p>";
+  h += "<p id=\"refused\">" + Abbr("Refused texel observations", term::kRefused) + ": " +
+       absl::StrCat(run.masked_observations()) + " outside a camera's mask, " +
+       absl::StrCat(run.saturated_observations()) + " saturated.</p>";
 
   if (in.evaluation.has_value()) {
     const v1::EvaluationReport& e = *in.evaluation;
@@ -119,23 +194,24 @@ std::string BuildReportHtml(const ReportInputs& in) {
          std::string(e.configuration_correct() ? "<b class=\"ok\">right</b>" : "<b class=\"bad\">wrong</b>") +
          " (truth: " + Escape(e.true_configuration()) + "); kd RMSE " + F(e.kd_rmse(), "%.4f") + " over " +
          absl::StrCat(e.kd_texels()) + " texels seen ≥ 10 times (median " + F(e.kd_median_abs_error(), "%.4f") +
-         ", p95 " + F(e.kd_p95_abs_error(), "%.4f") + "); cluster accuracy " + F(e.cluster_accuracy(), "%.3f") + ".</p>";
+         ", p95 " + F(e.kd_p95_abs_error(), "%.4f") + "); " + Abbr("cluster accuracy", term::kClusterAccuracy) + " " +
+         F(e.cluster_accuracy(), "%.3f") + ".</p>";
     std::vector<std::vector<std::string>> rows;
     for (const v1::MaterialComparison& c : e.clusters()) {
       rows.push_back({c.cluster(), c.material(), F(c.kd_rmse(), "%.4f"), Rgb(c.ks()), Rgb(c.ks_true()),
                       F(c.ks_rel_error(), "%.3f"), Rgb(c.ke(), "%.1f"), Rgb(c.ke_true(), "%.1f"),
                       F(c.ke_rel_error(), "%.3f")});
     }
-    h += Table({"cluster", "true material", "kd RMSE", "ks", "ks true", "ks rel. error", "ke", "ke true",
-                "ke rel. error"},
-               rows);
+    h += Table(
+        {"cluster", "true material", "kd RMSE", "ks", "ks true", "ks rel. error", "ke", "ke true", "ke rel. error"},
+        rows, "", {term::kCluster, "", term::kKdRmse, term::kKs, "", "", term::kKe});
     h += "</section>";
   }
 
   if (in.tradeoff.has_value() && in.tradeoff->points_size() > 0) h += TradeoffSection(*in.tradeoff);
 
   // The plan and where the time goes.
-  h += "<section id=\"plan\"><h2>Plan, time and memory</h2>";
+  h += "<section id=\"plan\"><h2>" + Abbr("Plan", term::kPlan) + ", time and memory</h2>";
   std::vector<std::vector<std::string>> plan_rows;
   for (const v1::PlannedStage& s : run.plan().stages()) plan_rows.push_back({s.name(), "runs", s.why()});
   for (const v1::SkippedStage& s : run.plan().skipped()) plan_rows.push_back({s.name(), "skipped", s.reason()});
@@ -153,9 +229,11 @@ std::string BuildReportHtml(const ReportInputs& in) {
 
   // Table 6.1.
   if (run.light_configurations_size() > 0) {
-    h += "<section id=\"table61\"><h2>Table 6.1: light configurations</h2>";
-    std::string rows_html = "<table><thead><tr><th>configuration</th><th>lit triangles</th><th>E_a</th><th>E_d</th>"
-                            "<th>seconds</th></tr></thead><tbody>";
+    h += "<section id=\"table61\"><h2>" + Abbr("Table 6.1", term::kTable61) + ": light configurations</h2>";
+    std::string rows_html = "<table><thead><tr><th title=\"" + Escape(term::kConfiguration) +
+                            "\">configuration</th><th title=\"" + Escape(term::kLitTriangles) +
+                            "\">lit triangles</th><th title=\"" + Escape(term::kEa) + "\">E_a</th><th title=\"" +
+                            Escape(term::kEd) + "\">E_d</th><th>seconds</th></tr></thead><tbody>";
     std::vector<std::string> names;
     BarSeries e_d{"E_d", {}, "#109618"};
     for (const v1::LightConfigurationRow& r : run.light_configurations()) {
@@ -174,7 +252,7 @@ std::string BuildReportHtml(const ReportInputs& in) {
 
   // Table 6.2.
   if (run.solvers_size() > 0) {
-    h += "<section id=\"table62\"><h2>Table 6.2: one BRDF per cluster</h2>";
+    h += "<section id=\"table62\"><h2>" + Abbr("Table 6.2", term::kTable62) + ": one BRDF per cluster</h2>";
     std::vector<std::vector<std::string>> rows;
     for (const v1::SolverRow& s : run.solvers()) {
       rows.push_back({s.cluster(), s.solver(), Rgb(s.kd()), Rgb(s.ks()), Rgb(s.ke(), "%.1f"), F(s.final_cost(), "%.6g"),
@@ -182,13 +260,16 @@ std::string BuildReportHtml(const ReportInputs& in) {
                       absl::StrJoin(s.flags(), ", ")});
     }
     h += Table({"cluster", "solver", "kd (RGB)", "ks (RGB)", "ke (RGB)", "cost", "MSE", "Samples", "seconds", "flags"},
-               rows);
+               rows, "",
+               {term::kCluster, "", term::kKd, term::kKs, term::kKe, term::kCost, term::kMse, term::kSamples, "",
+                term::kClusterFlags});
+    h += ClustersTable(run);
     h += "</section>";
   }
 
   // Table 7.1.
   if (run.cameras_size() > 0) {
-    h += "<section id=\"table71\"><h2>Table 7.1: error per camera</h2>";
+    h += "<section id=\"table71\"><h2>" + Abbr("Table 7.1", term::kTable71) + ": error per camera</h2>";
     std::vector<std::vector<std::string>> rows;
     std::vector<std::string> names;
     BarSeries brdf{"BRDF atlases", {}, "#dc3912"}, corrected{"with correction atlas", {}, "#3366cc"};
@@ -202,7 +283,8 @@ std::string BuildReportHtml(const ReportInputs& in) {
       brdf.values.push_back(c.mse_brdf());
       corrected.values.push_back(c.mse_correction());
     }
-    h += Table({"camera", "BRDF atlas MSE", "correction atlas MSE", "observations"}, rows);
+    h += Table({"camera", "BRDF atlas MSE", "correction atlas MSE", "observations"}, rows, "",
+               {"", term::kMseBrdf, term::kMseCorrection, term::kObservations});
     h += BarChartSvg("Mean squared error per camera", names, {brdf, corrected}, "");
     h += "</section>";
   }
@@ -224,11 +306,13 @@ std::string BuildReportHtml(const ReportInputs& in) {
     h += "</div></section>";
   }
   if (!in.relit.empty()) {
-    h += "<section id=\"relit\"><h2>Relit: a light moving around the model</h2><div class=\"relit\">";
+    h += "<section id=\"relit\"><h2>" + Abbr("Relit", term::kRelit) +
+         ": a light moving around the model on the camera's side</h2><div class=\"relit\">";
     for (const ReportImage& image : in.relit) h += Figure(image);
     h += "</div></section>";
   }
-  h += "<p class=\"summary\">Written by <code>mvbrdf report</code>.</p></body></html>\n";
+  h += "<p class=\"summary\">Written by <code>mvbrdf report</code>. Terms (hover for a definition): "
+       "<code>docs/glossary.md</code> in the mvbrdf repository.</p></body></html>\n";
   return h;
 }
 

@@ -95,6 +95,13 @@ ReportInputs SampleInputs() {
     solver->add_ks(0.05);
     solver->add_ke(30);
   }
+  for (const char* name : {"skin", "cluster 1"}) {
+    v1::ClusterRow* cluster = run.add_clusters();
+    cluster->set_name(name);
+    cluster->set_texels(std::string(name) == "skin" ? 5000 : 0);
+    for (int c = 0; c < 3; ++c) cluster->add_centre(0.3);
+    if (std::string(name) != "skin") cluster->add_flags("tiny");
+  }
   v1::CameraErrorRow* cam = run.add_cameras();
   cam->set_name("cam0");
   cam->set_mse_brdf(2e-4);
@@ -133,6 +140,41 @@ TEST(ReportPageTest, HasEverySectionAndEscapesText) {
   EXPECT_NE(html.find("class=\"chosen\""), std::string::npos);
   EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org"));  // nothing fetched from the network
   EXPECT_EQ(html.find("src=\"http"), std::string::npos);
+}
+
+// Issue #20: the terms a reader meets carry their definition (docs/glossary.md)
+// as a tooltip, escaped like all text: E_a, E_d and the table names, the
+// headings of Tables 6.1, 6.2 and 7.1, kd/ks/ke, Samples, the cluster flags.
+TEST(ReportPageTest, TermsHaveEscapedTooltips) {
+  const std::string html = BuildReportHtml(SampleInputs());
+  for (const char* term :
+       {"<th title=\"E_a (thesis Eq. 6.7)", "<th title=\"E_d (thesis Eq. 6.8)", "<abbr title=\"Table 6.1 of the thesis",
+        "<abbr title=\"Table 6.2 of the thesis", "<abbr title=\"Table 7.1 of the thesis",
+        "<th title=\"kd: diffuse albedo", "<th title=\"ks: specular", "<th title=\"ke: specular exponent",
+        "<th title=\"Samples: ", "<th title=\"Flags: why", "<abbr title=\"Configuration margin", "docs/glossary.md"}) {
+    EXPECT_NE(html.find(term), std::string::npos) << term;
+  }
+  // Every title attribute holds escaped text only: "< 0.5 %" in the flags'
+  // definition comes out as "&lt; 0.5 %".
+  size_t titles = 0;
+  for (size_t at = html.find("title=\""); at != std::string::npos; at = html.find("title=\"", at + 1)) {
+    const size_t end = html.find('"', at + 7);
+    ASSERT_NE(end, std::string::npos);
+    const std::string value = html.substr(at + 7, end - at - 7);
+    EXPECT_EQ(value.find_first_of("<>"), std::string::npos) << value;
+    ++titles;
+  }
+  EXPECT_GE(titles, 20u);
+  EXPECT_NE(html.find("tiny (too few texels, &lt; 0.5 % of the seen ones"), std::string::npos);
+}
+
+// Issue #20: a cluster that is not a material is marked in the clusters table.
+TEST(ReportPageTest, TinyClusterIsMarked) {
+  const std::string html = BuildReportHtml(SampleInputs());
+  const size_t table = html.find("id=\"clusters\"");
+  ASSERT_NE(table, std::string::npos);
+  EXPECT_NE(html.find("<td>cluster 1</td><td>0</td>", table), std::string::npos);
+  EXPECT_NE(html.find("<td>tiny</td>", table), std::string::npos);
 }
 
 constexpr char kHostile[] = "<img src=x onerror=alert(1)>\"q'</script><script>alert(2)</script>";
