@@ -9,11 +9,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 #include <regex>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include "core/report/html.h"
+#include "core/report/report_inputs.h"
 #include "core/report/svg_plot.h"
 
 namespace mvbrdf::report {
@@ -175,6 +175,44 @@ TEST(ReportPageTest, TinyClusterIsMarked) {
   ASSERT_NE(table, std::string::npos);
   EXPECT_NE(html.find("<td>cluster 1</td><td>0</td>", table), std::string::npos);
   EXPECT_NE(html.find("<td>tiny</td>", table), std::string::npos);
+}
+
+// Issue #20: half of the relit sequence was black, the light circling behind
+// the model. The path stays on the camera's side, whichever way the camera
+// looks and whichever axis is up: every light sees the model's camera-facing
+// side (its direction from the centre within 90 degrees of the camera's), it
+// swings from the camera's left to its right, and it stays above the centre
+// in the camera's up direction.
+TEST(RelitLightPathTest, StaysOnTheCameraSide) {
+  const glm::vec3 lo(-1.0f, -2.0f, -0.5f), hi(1.0f, 2.0f, 0.5f);
+  const glm::vec3 centre = 0.5f * (lo + hi);
+  // Looking at the origin from +z with world y up, and from +x with world z up.
+  for (int view = 0; view < 2; ++view) {
+    scene::CameraModel camera;
+    camera.fx = camera.fy = 100.0;
+    // Rows: the camera's x (right), y (down) and z (forward) in the world.
+    const glm::dvec3 right = view == 0 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    const glm::dvec3 down = view == 0 ? glm::dvec3(0, -1, 0) : glm::dvec3(0, 0, -1);
+    const glm::dvec3 forward = glm::cross(right, down);
+    camera.cam_from_world_rotation = glm::transpose(glm::dmat3(right, down, forward));
+    const glm::dvec3 position = -6.0 * forward;
+    camera.cam_from_world_translation = -(camera.cam_from_world_rotation * position);
+    ASSERT_LT(glm::length(camera.CenterInWorld() - position), 1e-9);
+    const std::vector<RelitLight> path = RelitLightPath(camera, lo, hi, 12);
+    ASSERT_EQ(path.size(), 12u);
+    EXPECT_EQ(path.front().degrees, -80);
+    EXPECT_EQ(path.back().degrees, 80);
+    const glm::vec3 to_camera = glm::normalize(glm::vec3(position) - centre);
+    for (size_t k = 0; k < path.size(); ++k) {
+      const glm::vec3 to_light = glm::normalize(path[k].position - centre);
+      EXPECT_GT(glm::dot(to_light, to_camera), 0.1f) << "view " << view << " light " << k;
+      EXPECT_GT(glm::dot(to_light, -glm::vec3(down)), 0.3f) << "view " << view << " light " << k;
+      if (k > 0) {
+        EXPECT_GT(glm::dot(path[k].position - path[k - 1].position, glm::vec3(right)), 0.0f) << "left to right";
+      }
+    }
+  }
+  EXPECT_TRUE(RelitLightPath(scene::CameraModel{}, lo, hi, 0).empty());
 }
 
 constexpr char kHostile[] = "<img src=x onerror=alert(1)>\"q'</script><script>alert(2)</script>";
