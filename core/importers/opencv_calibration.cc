@@ -114,14 +114,18 @@ absl::StatusOr<std::vector<double>> Values(const std::filesystem::path& file, co
   return Invalid(file, key, "must be a matrix (an OpenCV matrix or a sequence of numbers)");
 }
 
-// Exactly rows x cols values (a vector may be given as a row or a column).
+// Exactly rows x cols values: an OpenCV matrix of that size, a sequence of
+// rows, or a flat sequence of rows * cols numbers; a vector may be a row or a
+// column.
 absl::StatusOr<std::vector<double>> Matrix(const std::filesystem::path& file, const std::string& key,
                                            const cv::FileNode& n, int rows, int cols) {
   int r = 0, c = 0;
   auto values = Values(file, key, n, &r, &c);
   if (!values.ok()) return values.status();
-  const bool vector_ok = (rows == 1 || cols == 1) && (r == 1 || c == 1) && values->size() == size_t(rows * cols);
-  if (!vector_ok && !(r == rows && c == cols) && !(r == 1 && values->size() == size_t(rows * cols))) {
+  const size_t count = static_cast<size_t>(rows) * static_cast<size_t>(cols);
+  const bool vector_ok = (rows == 1 || cols == 1) && (r == 1 || c == 1) && values->size() == count;
+  const bool flat_ok = !n.isMap() && r == 1 && values->size() == count;
+  if (!vector_ok && !flat_ok && !(r == rows && c == cols)) {
     return Invalid(file, key, absl::StrCat("must be ", rows, "x", cols, ", got ", r, "x", c));
   }
   return values;

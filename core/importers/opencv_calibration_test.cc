@@ -111,6 +111,9 @@ TEST(OpenCvCalibration, BadInputsNameFileAndKey) {
   for (const Case& c : std::vector<Case>{
            {"%YAML:1.0\n" + size + pose, "bad.yml: camera_matrix: missing"},
            {"%YAML:1.0\n" + size + "K: [1, 0, 0, 0, 1, 0]\n" + pose, "bad.yml: K: must be 3x3, got 1x6"},
+           {"%YAML:1.0\n" + size +
+                "K: !!opencv-matrix\n  rows: 1\n  cols: 9\n  dt: d\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n" + pose,
+            "bad.yml: K: must be 3x3, got 1x9"},
            {"%YAML:1.0\n" + size + "K: [1, 0.5, 0, 0, 1, 0, 0, 0, 1]\n" + pose, "bad.yml: K: has skew"},
            {"%YAML:1.0\nimage_height: 3\nK: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n" + pose, "bad.yml: image_width: missing"},
            {"%YAML:1.0\n" + size + "K: [1, 0, 0, 0, 1, 0, 0, 0, 1]\nT: [0, 0, 1]\n", "bad.yml: R: missing"},
