@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <opencv2/calib3d.hpp>
 #include <string>
@@ -106,6 +107,38 @@ TEST(MetashapeXml, ConventionsAgainstMetashapesOwnProjection) {
     for (int j = 0; j < 3; ++j) v += c.cam_from_world().rotation(i * 3 + j) * world[j];
     EXPECT_NEAR(v, 2 * p_cam[i], 1e-12) << i;  // world units are twice the chunk's
   }
+}
+
+// A camera in a component: chunk_from_camera = component * camera. Camera "C"
+// sits in a component (90 degrees about x, scale 0.5, shifted) with its
+// transform written so that component * transform is camera A's: it must
+// come out with A's pose.
+TEST(MetashapeXml, ComponentTransform) {
+  std::string xml = Document();
+  const std::string component =
+      "  <components><component id=\"0\" label=\"Component 1\"><transform>"
+      "<rotation>1 0 0  0 0 -1  0 1 0</rotation><translation>4 5 6</translation><scale>0.5</scale>"
+      "</transform></component></components>\n";
+  xml.insert(xml.find("  <cameras>"), component);
+  // component^-1 * A: rotation R_c^T R_A, translation R_c^T (c_A - t_c) / s.
+  // R_c^T = [1 0 0; 0 0 1; 0 -1 0]; R_A = [0 -1 0; 1 0 0; 0 0 1]; c_A - t_c = (-3, -3, -3).
+  xml.insert(xml.find("   <group"),
+             "   <camera id=\"2\" sensor_id=\"0\" component_id=\"0\" label=\"C\">\n"
+             "    <transform>0 -1 0 -6  0 0 1 -6  -1 0 0 6  0 0 0 1</transform>\n   </camera>\n");
+  auto cameras = ReadMetashapeCameras(Write("ms_component.xml", xml));
+  ASSERT_TRUE(cameras.ok()) << cameras.status();
+  ASSERT_EQ(cameras->size(), 2u);
+  const v1::Camera &a = (*cameras)[0], &c = (*cameras)[1];
+  EXPECT_EQ(c.name(), "C");
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(c.cam_from_world().rotation(i), a.cam_from_world().rotation(i), 1e-15) << i;
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(c.cam_from_world().translation(i), a.cam_from_world().translation(i), 1e-13) << i;
+  }
+  // Without the component the pose differs (the component is applied).
+  xml.replace(xml.find(" component_id=\"0\""), std::strlen(" component_id=\"0\""), "");
+  auto plain = ReadMetashapeCameras(Write("ms_component.xml", xml));
+  ASSERT_TRUE(plain.ok()) << plain.status();
+  EXPECT_GT(std::abs((*plain)[1].cam_from_world().translation(0) - a.cam_from_world().translation(0)), 0.1);
 }
 
 TEST(MetashapeXml, BadInputsNameFileAndElement) {
