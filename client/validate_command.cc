@@ -25,10 +25,10 @@ int RunValidate(const std::vector<std::string>& args) {
   flags.AddBool("--quick", &quick, "check only frame 0's mesh and skip the videos");
   std::string fix_out;
   flags.AddString("--fix", &fix_out,
-                  "OUT.json: write the scene with each camera rotation replaced by the nearest rotation (SVD) and\n"
-                  "light directions scaled to unit length, print what changed, then validate OUT.json. Refused:\n"
-                  "det < 0 or max |R*R^T - I| > 1e-3 (not rounding), a zero direction. OUT.json goes in SCENE's\n"
-                  "directory (the scene's paths are relative to it)");
+                  "OUT.json: write the scene with each camera rotation replaced by the nearest rotation (SVD)\n"
+                  "      and light directions scaled to unit length, print what changed, then validate OUT.json.\n"
+                  "      Refused (exit 3): det < 0 or max |R*R^T - I| > 1e-3 (not rounding), a zero direction.\n"
+                  "      OUT.json goes in SCENE's directory (the scene's paths are relative to it)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf validate: %s\n", std::string(s.message()).c_str());
     return kExitUsage;
