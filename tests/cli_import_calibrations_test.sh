@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# `mvbrdf import opencv|metashape` (issue #20 item 1): calibration files written
+# by each format's own rules (tests/calibration_write.py) from a synthetic
+# bundle's cameras are imported back; every camera must equal the bundle's
+# (plus the distortion written into the files) to 1e-9, and the imported
+# scene must validate. Bad inputs exit 3 naming the file and the key/element.
+# Usage: cli_import_calibrations_test.sh MVBRDF_BINARY WORK_DIR
+set -u
+bin=$1
+work=$2
+rm -rf "$work"
+mkdir -p "$work"
+source "$(dirname "$0")/lib.sh"
+writer="$(dirname "$0")/calibration_write.py"
+
+check "synth" 0 "ground truth" -- \
+  "$bin" synth --preset sphere --cameras 3 --frames 2 --width 64 --height 48 --out "$work/b"
+scene="$work/b/scene.json"
+cal="$work/b/calibration"
+expect "write the calibration files" python3 "$writer" write "$scene" "$cal"
+
+# import FORMAT INPUT OUT: the bundle's lights, mesh and videos with INPUT's cameras.
+import_cal() {
+  "$bin" import "$1" "$2" --lights "$scene" --mesh "meshes/mesh_%04d.obj" --video "videos/{camera}.mkv" --out "$3"
+}
+for input in "opencv $cal/opencv_yaml" "opencv $cal/opencv.json" "metashape $cal/metashape.xml"; do
+  set -- $input
+  out="$work/b/imported_$(basename "${2%.*}").json"
+  check "import $1 $(basename "$2")" 0 "" -- import_cal "$1" "$2" "$out"
+  check "$(basename "$2"): cameras equal the truth to 1e-9" 0 "max difference" -- \
+    python3 "$writer" compare "$cal/expected.json" "$out" 1e-9
+  python3 "$writer" compare "$cal/expected.json" "$out" 1e-9 | sed 's/^/     /'
+  check "$(basename "$2"): imported scene validates" 0 "valid: " -- "$bin" validate --quick "$out"
+done
+check "metashape: the unaligned camera is left out with a warning" 0 "camera\[label=not_aligned\]: no transform" -- \
+  import_cal metashape "$cal/metashape.xml" "$work/b/imported_again.json"
+
+# Bad inputs: exit 3, the file and the key or element named.
+bad="$work/b/bad"
+mkdir -p "$bad"
+sed 's/^camera_matrix:/camera_mat:/' "$cal/opencv_yaml/cam0.yml" > "$bad/no_k.yml"
+check "missing camera_matrix" 3 "no_k.yml: camera_matrix: missing" -- import_cal opencv "$bad/no_k.yml" "$bad/o.json"
+sed '0,/rows: 3/s//rows: 1/; 0,/cols: 3/s//cols: 9/' "$cal/opencv_yaml/cam0.yml" > "$bad/k_size.yml"
+check "wrong matrix size" 3 "k_size.yml: camera_matrix: must be 3x3, got 1x9" -- \
+  import_cal opencv "$bad/k_size.yml" "$bad/o.json"
+sed 's/<document version="1.5.0">/<opencv_storage>/; s#</document>#</opencv_storage>#' "$cal/metashape.xml" > "$bad/root.xml"
+check "unknown XML root" 3 "root.xml: <opencv_storage>: unknown root element" -- \
+  import_cal metashape "$bad/root.xml" "$bad/o.json"
+sed 's/sensor_id="1" label="cam1"/sensor_id="9" label="cam1"/' "$cal/metashape.xml" > "$bad/sensor.xml"
+check "unknown sensor_id" 3 "sensor.xml: chunk/cameras/camera\[label=cam1\]: sensor_id \"9\" names no sensor" -- \
+  import_cal metashape "$bad/sensor.xml" "$bad/o.json"
+expect "nothing written for bad inputs" test ! -e "$bad/o.json"
+
+summary
