@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <optional>
 #include <system_error>
 
 #include "absl/strings/str_cat.h"
@@ -159,6 +160,14 @@ absl::StatusOr<OutputDirLock> PrepareOutputDir(absl::string_view flag, const fs:
     if (ec) return ErrnoStatus(ec.value(), absl::StrCat(flag, ": cannot list the directory"), dir.string());
     return absl::OkStatus();
   };
+  // A directory mvbrdf locked before is locked first, so that a command
+  // still writing it is reported as such (UNAVAILABLE); any other directory
+  // is inspected before anything is created in it.
+  std::optional<OutputDirLock> lock;
+  if (fs::exists(fs::path(dir) / ".mvbrdf.lock", ec)) {
+    MVBRDF_ASSIGN_OR_RETURN(OutputDirLock taken, OutputDirLock::Acquire(flag, dir));
+    lock.emplace(std::move(taken));
+  }
   std::string first;
   bool marked = false;
   MVBRDF_RETURN_IF_ERROR(inspect(&first, &marked));
@@ -174,7 +183,10 @@ absl::StatusOr<OutputDirLock> PrepareOutputDir(absl::string_view flag, const fs:
                      kOutputMarker, " (it holds ", (fs::path(dir) / first).string(),
                      "); nothing was deleted: empty it yourself or choose another directory"));
   }
-  MVBRDF_ASSIGN_OR_RETURN(OutputDirLock lock, OutputDirLock::Acquire(flag, dir));
+  if (!lock.has_value()) {
+    MVBRDF_ASSIGN_OR_RETURN(OutputDirLock taken, OutputDirLock::Acquire(flag, dir));
+    lock.emplace(std::move(taken));
+  }
   if (force && !first.empty()) {
     // Under the lock, listed before anything is removed.
     std::vector<fs::path> entries;
@@ -192,7 +204,7 @@ absl::StatusOr<OutputDirLock> PrepareOutputDir(absl::string_view flag, const fs:
   }
   MVBRDF_RETURN_IF_ERROR(WriteStringToFile(fs::path(dir) / kOutputMarker,
                                            "This directory was written by mvbrdf; `--force` may clear it.\n"));
-  return lock;
+  return std::move(*lock);
 }
 
 }  // namespace mvbrdf::client
