@@ -202,8 +202,12 @@ absl::StatusOr<OutputDirLock> PrepareOutputDir(absl::string_view flag, const fs:
       }
     }
   }
-  MVBRDF_RETURN_IF_ERROR(WriteStringToFile(fs::path(dir) / kOutputMarker,
-                                           "This directory was written by mvbrdf; `--force` may clear it.\n"));
+  // An empty file: it takes no data block, so a full disk still lets the
+  // command report its own write failure.
+  const fs::path marker = fs::path(dir) / kOutputMarker;
+  const int fd = ::open(marker.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return ErrnoStatus(errno, absl::StrCat(flag, ": cannot create the marker file"), marker.string());
+  ::close(fd);
   return std::move(*lock);
 }
 
