@@ -13,7 +13,9 @@
 //
 // Output layout under out_dir:
 //   result.json                     RunReport
-//   atlas/mesh.obj                  rest pose with the atlas UVs (render with these)
+//   atlas/mesh.obj                  rest pose with the atlas UVs (render with these): v = the input's
+//                                   vertices in its order, vt = atlas vertices (scene::WriteAtlasMesh)
+//   atlas/seams.txt                 per atlas vertex its input vertex
 //   atlas/triangle_id.exr, rest_position.exr
 //   atlases/kd.exr ks.exr ke.exr    grown for rendering (RGB), PNG previews
 //   atlases/cluster.exr (+ .png)    cluster per texel, -1 where never seen
