@@ -60,6 +60,7 @@ struct ReportFlags {
   int relit_frames = 12;
   bool no_render = false;
   std::string egl = "auto";
+  std::string scene;  // `report --scene`: the run's scene file (default: result.json's)
 };
 void AddReportFlags(FlagParser& parser, ReportFlags* flags);
 // Writes the HTML report of the run in `run_dir` to `out`.

@@ -17,6 +17,7 @@
 #include "client/commands.h"
 #include "client/connection.h"
 #include "client/flags.h"
+#include "client/output_dir.h"
 #include "core/bundle/sha256.h"
 #include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
@@ -144,7 +145,10 @@ int RunFetch(const std::vector<std::string>& args) {
   flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
-  flags.AddString("--out", &out_dir, "the directory to write to (required; created when missing)");
+  flags.AddString("--out", &out_dir,
+                  "the directory to write to (required; created when missing, refused when not empty)");
+  bool force = false;
+  flags.AddBool("--force", &force, kForceHelp);
   // FlagParser takes a fixed number of positionals: pass it JOB and the first
   // NAME, keep the other names here.
   std::vector<std::string> parsed, names;
@@ -191,6 +195,8 @@ int RunFetch(const std::vector<std::string>& args) {
     std::fprintf(stderr, "mvbrdf fetch: %s\n", std::string(channel.status().message()).c_str());
     return kExitUsage;
   }
+  absl::StatusOr<OutputDirLock> lock = PrepareOutputDir("--out", out_dir, force);
+  if (!lock.ok()) return ReportFailure(lock.status(), "mvbrdf fetch");
   auto stub = v1::Mvbrdf::NewStub(*channel);
   for (const std::string& name : names) {
     if (int code = FetchOne(*stub, address, client_name, job_id, name, out_dir); code != kExitOk) return code;

@@ -32,7 +32,8 @@ std::vector<InputPath> SceneInputs(const std::filesystem::path& scene_file, cons
 // atlases/correction/, and, when result.json names a scene that can be read,
 // that scene's inputs. What cannot be read is left out (the command reading
 // it fails on its own).
-std::vector<InputPath> RunInputs(const std::filesystem::path& run_dir);
+// `scene_flag`: a --scene given instead of result.json's scene.
+std::vector<InputPath> RunInputs(const std::filesystem::path& run_dir, const std::filesystem::path& scene_flag = {});
 
 // INVALID_ARGUMENT when the directory `out_dir` (flag `flag`), or anything
 // below it, holds one of `inputs`; paths are compared canonically (symlinks
@@ -61,6 +62,24 @@ class OutputDirLock {
   explicit OutputDirLock(int fd) : fd_(fd) {}
   int fd_ = -1;
 };
+
+// The file each command writing an output directory (run, resample, synth,
+// fetch) leaves in it: the mark of a directory mvbrdf wrote, the only kind
+// `--force` clears.
+inline constexpr char kOutputMarker[] = ".mvbrdf-output";
+
+// What --help says about --force.
+inline constexpr char kForceHelp[] =
+    "clear a non-empty output directory first; only one an mvbrdf command wrote (holding .mvbrdf-output) is "
+    "cleared, any other is refused and nothing is deleted";
+
+// Takes the output directory `dir` (flag `flag`) for a command: a directory
+// holding anything but the lock and the marker is refused (INVALID_ARGUMENT,
+// naming a file it holds) unless `force`; with `force` it is emptied first,
+// but only when it holds kOutputMarker, so a mistyped --out ($HOME) is never
+// deleted (refused as without --force, nothing removed). Then locks it as
+// OutputDirLock::Acquire and writes the marker.
+absl::StatusOr<OutputDirLock> PrepareOutputDir(absl::string_view flag, const std::filesystem::path& dir, bool force);
 
 }  // namespace mvbrdf::client
 

@@ -15,6 +15,7 @@
 #include "core/gl/egl_context.h"
 #include "core/image/exr.h"
 #include "core/pipeline/reconstruction_renderer.h"
+#include "core/pipeline/run_scene.h"
 #include "core/scene/names.h"
 #include "core/scene/sequence.h"
 #include "core/synth/frame_encoder.h"
@@ -61,13 +62,14 @@ absl::StatusOr<std::vector<scene::Light>> ReadLights(const std::string& file) {
 }
 
 absl::Status Render(const std::string& dir, const std::string& camera_arg, const std::string& lights_file, int frame,
-                    bool correction, const std::string& out, gl::EglPlatform platform) {
+                    bool correction, const std::string& out, gl::EglPlatform platform, const std::string& scene_flag) {
   const std::filesystem::path run_dir = dir;
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
   scene::LoadOptions load;
   load.check_all_frames = false;
   load.probe_videos = false;
-  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(run.scene(), load));
+  MVBRDF_ASSIGN_OR_RETURN(const std::filesystem::path scene_file, pipeline::SceneOfRun(run_dir, run, scene_flag));
+  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(scene_file, load));
   {
     // Up front: --out is a .png or .exr, and not a file render reads.
     const std::filesystem::path out_path = out;
@@ -125,7 +127,7 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
 }  // namespace
 
 int RunRender(const std::vector<std::string>& args) {
-  std::string dir, camera, lights, out, egl = "auto";
+  std::string dir, camera, lights, out, egl = "auto", scene_flag;
   int frame = 0;
   bool correction = false;
   FlagParser flags("render",
@@ -139,6 +141,9 @@ int RunRender(const std::vector<std::string>& args) {
   flags.AddBool("--correction", &correction, "add the frame's correction atlas to kd");
   flags.AddString("--out", &out, "the image to write: .png (sRGB 8-bit) or .exr (linear float)");
   flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  flags.AddString(
+      "--scene", &scene_flag,
+      "the scene file (default: result.json's scene, relative to DIR; needed for a fetched service result)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf render: %s\n", std::string(s.message()).c_str());
     return kExitUsage;
@@ -154,7 +159,7 @@ int RunRender(const std::vector<std::string>& args) {
                  !platform.ok() ? std::string(platform.status().message()).c_str() : (missing + ": required").c_str());
     return kExitUsage;
   }
-  const absl::Status s = Render(dir, camera, lights, frame, correction, out, *platform);
+  const absl::Status s = Render(dir, camera, lights, frame, correction, out, *platform, scene_flag);
   if (!s.ok()) return ReportFailure(s);
   std::printf("wrote %s\n", out.c_str());
   return kExitOk;

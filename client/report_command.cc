@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 absl::Status WriteRunReport(const fs::path& run_dir, const fs::path& out, const ReportFlags& flags) {
   // Up front: the page must not replace a file it is made of (--out
   // DIR/result.json or the scene file exited 0 and destroyed it).
-  std::vector<InputPath> read = RunInputs(run_dir);
+  std::vector<InputPath> read = RunInputs(run_dir, flags.scene);
   if (!flags.tradeoff.empty()) read.push_back({"--tradeoff", flags.tradeoff, false});
   if (!flags.truth.empty()) {
     read.push_back({"--truth", fs::path(flags.truth) / "truth.json", false});
@@ -37,6 +37,7 @@ absl::Status WriteRunReport(const fs::path& run_dir, const fs::path& out, const 
   }
   report::ReportOptions options;
   options.truth = flags.truth;
+  options.scene = flags.scene;
   options.use_truth = !flags.no_truth;
   options.tradeoff = flags.tradeoff;
   options.relit_frames = flags.relit_frames;
@@ -78,6 +79,9 @@ int RunReport(const std::vector<std::string>& args) {
   flags.AddString("--out", &out, "the HTML file (default: DIR/report.html)");
   AddReportFlags(flags, &report_flags);
   flags.AddString("--egl", &report_flags.egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  flags.AddString(
+      "--scene", &report_flags.scene,
+      "the scene file (default: result.json's scene, relative to DIR; needed for a fetched service result)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf report: %s\n", std::string(s.message()).c_str());
     return kExitUsage;

@@ -17,7 +17,7 @@ namespace mvbrdf::client {
 int RunResample(const std::vector<std::string>& args) {
   std::string scene_file, out, save = "first", egl = "auto";
   pipeline::ResampleStageOptions o;
-  bool no_evaluate = false;
+  bool no_evaluate = false, force = false;
   FlagParser flags("resample",
                    "Resamples every frame of every camera into one texture atlas of the mesh (projective texturing\n"
                    "on the GPU, visibility by shadow mapping from the camera), builds per-frame geometry and shadow\n"
@@ -25,6 +25,7 @@ int RunResample(const std::vector<std::string>& args) {
                    "synthetic scenes with ground_truth/ - the error against the truth per camera.");
   flags.AddPositional("SCENE", &scene_file, true, "the scene JSON file");
   flags.AddString("--out", &out, "output directory (required)");
+  flags.AddBool("--force", &force, kForceHelp);
   flags.AddInt("--atlas", &o.atlas.size, "atlas resolution in texels per side");
   flags.AddInt("--gutter", &o.atlas.gutter, "empty texels between charts");
   flags.AddDouble("--chart-angle", &o.atlas.max_normal_deviation_deg,
@@ -101,8 +102,8 @@ int RunResample(const std::vector<std::string>& args) {
   if (absl::Status s = CheckOutputDirSparesInputs("--out", out, SceneInputs(*sequence)); !s.ok()) {
     return ReportFailure(s);
   }
-  absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
-  if (!lock.ok()) return ReportFailure(lock.status());
+  absl::StatusOr<OutputDirLock> lock = PrepareOutputDir("--out", out, force);
+  if (!lock.ok()) return ReportFailure(lock.status(), "mvbrdf resample");
   // An atlas that cannot fit fails now, not in an allocation minutes in.
   if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(o.atlas.size, pipeline::LightLoadOf(*sequence, 0));
       !fits.ok()) {

@@ -26,6 +26,7 @@
 #include "core/gl/egl_context.h"
 #include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/reconstruct_stage.h"
+#include "core/pipeline/run_scene.h"
 #include "core/scene/names.h"
 #include "core/scene/sequence.h"
 #include "worker/job_options.h"
@@ -109,10 +110,12 @@ class TempDir {
 };
 
 int RunDirect(const scene::Sequence& sequence, const v1::SubmitJobRequest& request, gl::EglPlatform platform,
-              int threads, const std::string& out) {
+              int threads, const std::string& out, const std::vector<std::string>& command_line) {
   absl::StatusOr<pipeline::ReconstructOptions> o = worker::ReconstructOptionsFor(request, threads);
   if (!o.ok()) return ReportFailure(o.status(), "mvbrdf run");
   o->out_dir = out;
+  for (const std::string& arg : command_line) o->run_options.add_command_line(arg);
+  o->run_options.set_direct(true);
   auto context = gl::EglContext::Create(platform);
   if (!context.ok()) return ReportFailure(context.status(), "mvbrdf run");
   ProgressPrinter progress(stderr);
@@ -153,7 +156,8 @@ absl::StatusOr<v1::JobState> FollowJob(v1::Mvbrdf::Stub& stub, const std::string
 }
 
 int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base, gl::EglPlatform platform, int threads,
-                int workers, const std::string& data_flag, const std::string& out, InterruptCleanup* cleanup) {
+                int workers, const std::string& data_flag, const std::string& out, InterruptCleanup* cleanup,
+                const std::vector<std::string>& command_line) {
   const auto start = std::chrono::steady_clock::now();
   // The server's state: --data keeps it (and its Sample cache) across runs.
   std::string temp_template = (fs::temp_directory_path() / "mvbrdf-run-XXXXXX").string();
@@ -214,13 +218,16 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
   }
   absl::StatusOr<std::vector<std::string>> copied = (*service)->CopyArtifacts(submitted.job().id(), out);
   if (!copied.ok()) return ReportFailure(copied.status(), "mvbrdf run");
-  // result.json as a one-process run writes it: the user's scene path, the
-  // whole run's time and memory.
+  // result.json as a one-process run writes it: the user's scene file
+  // (relative to DIR, not the in-process server's bundle), the command line,
+  // the whole run's time and memory.
   v1::RunReport report;
   if (absl::Status s = ReadJsonFile(fs::path(out) / "result.json", &report); !s.ok()) {
     return ReportFailure(s, "mvbrdf run");
   }
-  report.set_scene(scene_file);
+  report.set_scene(pipeline::SceneRelativeTo(scene_file, out));
+  report.clear_bundle_sha256();
+  for (const std::string& arg : command_line) report.mutable_options()->add_command_line(arg);
   report.set_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   report.set_peak_rss_bytes(PeakRssBytes());
   if (absl::Status s = WriteJsonFile(fs::path(out) / "result.json", report); !s.ok()) {
@@ -238,7 +245,7 @@ int RunRun(const std::vector<std::string>& args) {
   std::string scene_file, out, egl = "auto", data_dir;
   JobFlags job;
   int threads = 2, workers = 1;
-  bool direct = false, write_report = false;
+  bool direct = false, write_report = false, force = false;
   ReportFlags report_flags;
   FlagParser flags("run",
                    "Reconstructs a spatially varying Phong BRDF from the scene: resamples every frame into the\n"
@@ -250,6 +257,7 @@ int RunRun(const std::vector<std::string>& args) {
                    "and --workers workers (no set-up); --direct runs the pipeline in one thread instead.");
   flags.AddPositional("SCENE", &scene_file, true, "the scene JSON file");
   flags.AddString("--out", &out, "output directory (required)");
+  flags.AddBool("--force", &force, kForceHelp);
   AddJobFlags(flags, &job);
   flags.AddInt("--threads", &threads, "threads per worker (light sweep)");
   flags.AddInt("--workers", &workers, "in-process workers, each with its own EGL context");
@@ -283,8 +291,8 @@ int RunRun(const std::vector<std::string>& args) {
     return kExitUsage;
   }
 
-  // result.json names the scene absolutely, so that `render` and `report`
-  // find it from anywhere.
+  // Absolute for the in-process server; result.json names it relative to
+  // --out (pipeline::SceneRelativeTo).
   std::error_code absolute_error;
   const std::filesystem::path absolute_scene = std::filesystem::absolute(scene_file, absolute_error);
   if (!absolute_error) scene_file = absolute_scene.lexically_normal().string();
@@ -312,8 +320,8 @@ int RunRun(const std::vector<std::string>& args) {
   auto plan = pipeline::MakePlan(*sequence, options->request);
   if (!plan.ok()) return ReportFailure(plan.status());
   // One command at a time writes DIR (held to the end, the report included).
-  absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
-  if (!lock.ok()) return ReportFailure(lock.status());
+  absl::StatusOr<OutputDirLock> lock = PrepareOutputDir("--out", out, force);
+  if (!lock.ok()) return ReportFailure(lock.status(), "mvbrdf run");
   // Direct or through the in-process workers, the atlas is allocated here.
   const int reservoir_slots =
       plan->Has(pipeline::Stage::kTexelPass) ? options->reservoir_uniform + options->reservoir_highlight : 0;
@@ -334,8 +342,11 @@ int RunRun(const std::vector<std::string>& args) {
   }
   std::fputs(plan->Describe().c_str(), stdout);
   std::fflush(stdout);
-  const int ran = direct ? RunDirect(*sequence, request, *platform, threads, out)
-                         : RunEmbedded(scene_file, request, *platform, threads, workers, data_dir, out, &cleanup);
+  std::vector<std::string> command_line = {"mvbrdf", "run"};
+  command_line.insert(command_line.end(), args.begin(), args.end());
+  const int ran = direct ? RunDirect(*sequence, request, *platform, threads, out, command_line)
+                         : RunEmbedded(scene_file, request, *platform, threads, workers, data_dir, out, &cleanup,
+                                       command_line);
   if (ran != kExitOk || !write_report) return ran;
   report_flags.egl = egl;
   const std::filesystem::path report_file = std::filesystem::path(out) / "report.html";

@@ -14,6 +14,7 @@ int RunSynth(const std::vector<std::string>& args) {
   synth::SynthOptions o;
   std::string preset = "actor";
   std::string out;
+  bool force = false;
   std::string format = "ffv1";
   std::string egl = "auto";
   std::string lighting = "studio";
@@ -28,6 +29,7 @@ int RunSynth(const std::vector<std::string>& args) {
                   "actor (procedural, no data needed), sphere (a static UV sphere of one material, no data), spot or "
                   "samba (read from --data)");
   flags.AddString("--out", &out, "output directory (required)");
+  flags.AddBool("--force", &force, kForceHelp);
   flags.AddInt("--cameras", &o.num_cameras, "number of cameras on the ring");
   flags.AddInt("--frames", &o.num_frames, "number of frames");
   flags.AddInt("--width", &o.width, "image width in pixels");
@@ -96,7 +98,7 @@ int RunSynth(const std::vector<std::string>& args) {
   }
 
   // One writer per directory, as run and resample (two synths into one --out would mix their files).
-  absl::StatusOr<OutputDirLock> lock = OutputDirLock::Acquire("--out", out);
+  absl::StatusOr<OutputDirLock> lock = PrepareOutputDir("--out", out, force);
   if (!lock.ok()) return ReportFailure(lock.status(), "mvbrdf synth");
   auto context = gl::EglContext::Create(*platform);
   if (!context.ok()) {

@@ -8,13 +8,13 @@
 #include <utility>
 #include <vector>
 
-#include <google/protobuf/util/json_util.h>
 #include <grpcpp/grpcpp.h>
 
 #include "client/commands.h"
 #include "client/connection.h"
 #include "client/flags.h"
 #include "client/job_state_name.h"
+#include "core/base/proto_json.h"
 #include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
@@ -22,13 +22,7 @@ namespace mvbrdf::client {
 namespace {
 
 // One JSON object on one line (MessageToJson adds line breaks).
-std::string OneLineJson(const google::protobuf::Message& message) {
-  google::protobuf::util::JsonPrintOptions options;
-  options.add_whitespace = false;
-  std::string out;
-  (void)google::protobuf::util::MessageToJsonString(message, &out, options);
-  return out;
-}
+std::string OneLineJson(const google::protobuf::Message& message) { return MessageToOneLineJson(message); }
 
 // Plain lines, with progress updated in place on a terminal.
 class EventPrinter {

@@ -392,8 +392,8 @@ check "a second run into the same --out at once fails, exit 4" 4 "another mvbrdf
   "$bin" run "$scene" --direct "${opts[@]}" --out "$work/twice"
 wait "$first"
 expect "the first run succeeds alone" test "$?" -eq 0
-check "once it is done the directory can be written again" 0 "wrote" -- \
-  "$bin" run "$scene" --direct "${opts[@]}" --out "$work/twice"
+check "once it is done the directory can be written again (--force)" 0 "wrote" -- \
+  "$bin" run "$scene" --direct "${opts[@]}" --out "$work/twice" --force
 
 # --- Weak spots: inputs that are no regular files; SIGINT of run.
 check "validate a directory as the scene" 3 "is a directory" -- "$bin" validate "$work/b"
@@ -414,7 +414,7 @@ for sig in INT TERM; do
   rm -rf "$work/tmp"/* "$work/interrupted"
   cp -r "$work/run" "$work/interrupted"  # a previous run's outputs: its result.json must not survive beside new atlases
   /usr/bin/python3 -c 'import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); os.execv(sys.argv[1], sys.argv[1:])' \
-    "$bin" run "$scene" --atlas 256 --no-powell --config "NE,NW,SE,SW" --out "$work/interrupted" > "$work/int.log" 2>&1 &
+    "$bin" run "$scene" --atlas 256 --no-powell --config "NE,NW,SE,SW" --out "$work/interrupted" --force > "$work/int.log" 2>&1 &
   runner=$!
   for _ in $(seq 1 400); do ls "$work/tmp" | grep -q mvbrdf-run- && break; sleep 0.02; done
   expect "run made its temporary state directory" bash -c "ls '$work/tmp' | grep -q mvbrdf-run-"

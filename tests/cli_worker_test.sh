@@ -44,6 +44,17 @@ check "fetch the kd atlas and the report" 0 "" -- "$bin" fetch "$job" atlases/kd
   --server "$address" --client tester --out "$work/fetched"
 expect "the kd atlas arrived" test -s "$work/fetched/atlases/kd.exr"
 expect "result.json has the light table" grep -q '"lightConfigurations"' "$work/fetched/result.json"
+# Issue #20 item 3: a fetched result names the scene inside its bundle, not a worker's cache, and records the
+# request's options; render finds no scene beside it and says how to give one.
+expect "the fetched result.json names the scene inside the bundle, with the bundle's hash" /usr/bin/python3 -c "
+import json, sys
+d = json.load(open(sys.argv[1]))
+ok = d['scene'] == 'scene.json' and len(d.get('bundleSha256', '')) == 64 and 'cache' not in json.dumps(d)
+sys.exit(0 if ok and d['options']['fitting']['atlasSize'] == 128 and not d['options'].get('commandLine') else 1)" \
+  "$work/fetched/result.json"
+printf '{"lights": [{"name": "key", "position": [2.0, 3.0, 2.0], "intensity": [1.0, 0.9, 0.8]}]}' > "$work/lights.json"
+check "render of a fetched result names the bundle and --scene" 3 "bundle_sha256.*--scene FILE" -- \
+  "$bin" render "$work/fetched" --camera cam0 --lights "$work/lights.json" --out "$work/fetched.png"
 expect "both workers ran tasks" bash -c "grep -q 'done in' '$work/w1.log' && grep -q 'done in' '$work/w2.log'"
 
 # The same sweep again: the server answers gather from its Sample cache.

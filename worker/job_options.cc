@@ -124,6 +124,26 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
   }
   if (absl::Status s = o.fit.Check(); !s.ok()) return absl::InvalidArgumentError(absl::StrCat("options.", s.message()));
   o.threads = threads;
+  // result.json's record of the request, with the fitting options as
+  // resolved (defaults filled in, the depth tolerance that applies).
+  v1::RunOptions& r = o.run_options;
+  r.mutable_outputs()->CopyFrom(request.outputs());
+  r.mutable_configurations()->CopyFrom(request.configurations());
+  r.set_configuration(request.configuration());
+  v1::FittingOptions& fit = *r.mutable_fitting();
+  fit.set_atlas_size(static_cast<uint32_t>(o.atlas.size));
+  fit.set_max_iterations(static_cast<uint32_t>(o.fit.max_iterations));
+  fit.set_max_cluster_samples(o.max_cluster_samples);
+  fit.set_compare_solvers(run.compare_solvers);
+  fit.set_sweep_frame_stride(static_cast<uint32_t>(o.sweep_frame_stride));  // 0: automatic (plan says the frames)
+  fit.set_grow_iterations(static_cast<uint32_t>(o.grow_iterations));
+  if (o.resampler.relative_depth_tolerance > 0.0 || o.resampler.absolute_depth_tolerance <= 0.0) {
+    fit.set_depth_tolerance_relative(o.resampler.relative_depth_tolerance);
+  } else {
+    fit.set_depth_tolerance_absolute(o.resampler.absolute_depth_tolerance);
+  }
+  fit.set_grazing_margin_degrees(o.resampler.grazing_margin_deg);
+  fit.set_kd_prior_strength(o.kd_prior_weight);
   return o;
 }
 

@@ -32,6 +32,9 @@ absl::StatusOr<pipeline::ReconstructOptions> OptionsOf(const v1::Task& task, con
   MVBRDF_ASSIGN_OR_RETURN(pipeline::ReconstructOptions o, ReconstructOptionsFor(task.request(), env.threads));
   o.progress = env.progress;
   o.cancelled = env.cancelled;
+  // result.json names the scene inside the bundle, never the worker's cache.
+  o.bundle_sha256 = task.bundle_sha256();
+  o.scene_in_bundle = task.request().scene_path().empty() ? "scene.json" : task.request().scene_path();
   return o;
 }
 

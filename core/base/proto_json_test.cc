@@ -1,8 +1,16 @@
 #include "core/base/proto_json.h"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <google/protobuf/util/message_differencer.h>
 
+#include <google/protobuf/descriptor.pb.h>
+#include <google/protobuf/dynamic_message.h>
+#include <google/protobuf/text_format.h>
+#include <google/protobuf/wrappers.pb.h>
+
+#include "mvbrdf/v1/run_report.pb.h"
 #include "mvbrdf/v1/scene.pb.h"
 
 namespace mvbrdf {
@@ -88,6 +96,86 @@ TEST(ProtoJsonTest, FileRoundTrip) {
   ASSERT_TRUE(back.ok()) << back.status();
   EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(scene, *back));
   std::filesystem::remove_all(path.parent_path());
+}
+
+// Counts are JSON numbers (issue #20 item 5): Protobuf's mapping would write
+// "texelsSeen": "5891".
+TEST(ProtoJsonTest, SixtyFourBitCountsAreNumbers) {
+  v1::RunReport report;
+  report.set_scene("123");  // a string of digits stays a string
+  report.set_texels_seen(5891);
+  report.set_peak_rss_bytes(uint64_t{1} << 40);
+  report.add_stages()->set_peak_rss_bytes(77);
+  for (const std::string& json : {MessageToJson(report), MessageToJsonWithDefaults(report),
+                                  MessageToOneLineJson(report)}) {
+    std::string compact = json;
+    compact.erase(std::remove_if(compact.begin(), compact.end(), [](char c) { return c == ' ' || c == '\n'; }),
+                  compact.end());
+    EXPECT_NE(compact.find("\"texelsSeen\":5891"), std::string::npos) << json;
+    EXPECT_EQ(json.find("\"5891\""), std::string::npos) << json;
+    EXPECT_NE(compact.find("\"scene\":\"123\""), std::string::npos) << json;
+    EXPECT_NE(json.find("1099511627776"), std::string::npos) << json;
+    EXPECT_EQ(json.find("\"1099511627776\""), std::string::npos) << json;
+    EXPECT_EQ(json.find("\"77\""), std::string::npos) << json;
+    v1::RunReport back;
+    ASSERT_TRUE(JsonToMessage(json, "test", &back).ok()) << json;
+    EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(report, back)) << json;
+  }
+}
+
+// Every kind of 64-bit field, repeated, in a map, wrapped, nested, and a
+// string field with the json name of a 64-bit field of another message: a
+// message built at run time so the test needs no proto of its own.
+TEST(ProtoJsonTest, EverySixtyFourBitKindIsANumberAndOnlyThose) {
+  google::protobuf::FileDescriptorProto file;
+  ASSERT_TRUE(google::protobuf::TextFormat::ParseFromString(R"pb(
+    name: "proto_json_test.proto" package: "t" syntax: "proto3"
+    dependency: "google/protobuf/wrappers.proto"
+    message_type {
+      name: "Inner"
+      field { name: "n" number: 1 type: TYPE_STRING label: LABEL_OPTIONAL json_name: "n" }
+      field { name: "small" number: 2 type: TYPE_UINT32 label: LABEL_OPTIONAL json_name: "small" }
+    }
+    message_type {
+      name: "Outer"
+      field { name: "n" number: 1 type: TYPE_INT64 label: LABEL_OPTIONAL json_name: "n" }
+      field { name: "u" number: 2 type: TYPE_UINT64 label: LABEL_OPTIONAL json_name: "u" }
+      field { name: "s" number: 3 type: TYPE_SINT64 label: LABEL_OPTIONAL json_name: "s" }
+      field { name: "f" number: 4 type: TYPE_FIXED64 label: LABEL_OPTIONAL json_name: "f" }
+      field { name: "sf" number: 5 type: TYPE_SFIXED64 label: LABEL_OPTIONAL json_name: "sf" }
+      field { name: "list" number: 6 type: TYPE_INT64 label: LABEL_REPEATED json_name: "list" }
+      field { name: "counts" number: 7 type: TYPE_MESSAGE label: LABEL_REPEATED type_name: ".t.Outer.CountsEntry" json_name: "counts" }
+      field { name: "inner" number: 8 type: TYPE_MESSAGE label: LABEL_OPTIONAL type_name: ".t.Inner" json_name: "inner" }
+      field { name: "inners" number: 9 type: TYPE_MESSAGE label: LABEL_REPEATED type_name: ".t.Inner" json_name: "inners" }
+      field { name: "wrapped" number: 10 type: TYPE_MESSAGE label: LABEL_OPTIONAL type_name: ".google.protobuf.Int64Value" json_name: "wrapped" }
+      field { name: "text" number: 11 type: TYPE_STRING label: LABEL_OPTIONAL json_name: "text" }
+      nested_type {
+        name: "CountsEntry" options { map_entry: true }
+        field { name: "key" number: 1 type: TYPE_INT64 label: LABEL_OPTIONAL json_name: "key" }
+        field { name: "value" number: 2 type: TYPE_UINT64 label: LABEL_OPTIONAL json_name: "value" }
+      }
+    }
+  )pb", &file));
+  google::protobuf::DescriptorPool pool(google::protobuf::DescriptorPool::generated_pool());
+  const google::protobuf::FileDescriptor* fd = pool.BuildFile(file);
+  ASSERT_NE(fd, nullptr);
+  google::protobuf::DynamicMessageFactory factory(&pool);
+  std::unique_ptr<google::protobuf::Message> m(factory.GetPrototype(fd->FindMessageTypeByName("Outer"))->New());
+  ASSERT_TRUE(google::protobuf::TextFormat::ParseFromString(R"pb(
+    n: -9007199254740993 u: 18446744073709551615 s: -5 f: 12 sf: -13 list: [1, -2, 3]
+    counts { key: 4 value: 40 } counts { key: -5 value: 50 }
+    inner { n: "123" small: 7 } inners { n: "456" } inners { n: "-1" }
+    wrapped { value: 99 } text: "789"
+  )pb", m.get()));
+  const std::string json = MessageToOneLineJson(*m);
+  EXPECT_EQ(json,
+            R"({"n":-9007199254740993,"u":18446744073709551615,"s":-5,"f":12,"sf":-13,"list":[1,-2,3],)"
+            R"("counts":{"4":40,"-5":50},"inner":{"n":"123","small":7},"inners":[{"n":"456"},{"n":"-1"}],)"
+            R"("wrapped":99,"text":"789"})");
+  // Beyond 2^53 the text is exact and Protobuf's parser reads it back exactly.
+  std::unique_ptr<google::protobuf::Message> back(m->New());
+  ASSERT_TRUE(JsonToMessage(MessageToJson(*m), "test", back.get()).ok()) << MessageToJson(*m);
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(*m, *back)) << MessageToJson(*m);
 }
 
 }  // namespace

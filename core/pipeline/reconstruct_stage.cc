@@ -15,6 +15,7 @@
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
+#include "core/base/version.h"
 #include "core/cluster/kmeans.h"
 #include "core/fit/light_sweep.h"
 #include "core/image/exr.h"
@@ -22,9 +23,11 @@
 #include "core/pipeline/frame_stream.h"
 #include "core/pipeline/gather_stage.h"
 #include "core/pipeline/light_table.h"
+#include "core/pipeline/run_scene.h"
 #include "core/pipeline/texel_reservoir.h"
 #include "core/resample/atlas_ops.h"
 #include "core/samples/sample_set.h"
+#include "core/scene/atlas_mesh.h"
 #include "core/scene/fingerprint.h"
 #include "core/scene/mesh_loader.h"
 #include "core/scene/names.h"
@@ -245,7 +248,17 @@ inline glm::vec3 IlluminationOf(const samples::LightTerms& terms, const std::vec
 absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, const ReconstructOptions& options,
                                            const std::string& gl_renderer) {
   v1::RunReport report;
-  report.set_scene(sequence.scene_file.string());
+  if (!options.bundle_sha256.empty()) {
+    report.set_scene(options.scene_in_bundle);
+    report.set_bundle_sha256(options.bundle_sha256);
+  } else if (!options.out_dir.empty()) {
+    report.set_scene(SceneRelativeTo(sequence.scene_file, options.out_dir));
+  } else {
+    report.set_scene(sequence.scene_file.string());
+  }
+  report.set_mvbrdf_version(std::string(MvbrdfVersion()));
+  report.set_git_commit(std::string(GitCommit()));
+  *report.mutable_options() = options.run_options;
   report.set_frames(static_cast<uint32_t>(sequence.num_frames));
   report.set_gl_renderer(gl_renderer);
   report.set_configuration_rule("lowest E_d; E_a breaks ties");
@@ -329,7 +342,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas,
                           atlas::BuildAtlas(sequence.topology, sequence.rest_positions, options.atlas));
   SetAtlasFigures(atlas, Since(t0), report.mutable_atlas());
-  MVBRDF_RETURN_IF_ERROR(scene::WriteObj(out / "atlas" / "mesh.obj", atlas.topology, sequence.rest_positions));
+  MVBRDF_RETURN_IF_ERROR(scene::WriteAtlasMesh(out / "atlas", atlas.topology, sequence));
   MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "triangle_id.exr", atlas.triangle_id));
   AddStage(&report, "atlas", Since(t0), options.progress);
   const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);

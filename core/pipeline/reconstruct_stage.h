@@ -13,7 +13,9 @@
 //
 // Output layout under out_dir:
 //   result.json                     RunReport
-//   atlas/mesh.obj                  rest pose with the atlas UVs (render with these)
+//   atlas/mesh.obj                  rest pose with the atlas UVs (render with these): v = the input's
+//                                   vertices in its order, vt = atlas vertices (scene::WriteAtlasMesh)
+//   atlas/seams.txt                 per atlas vertex its input vertex
 //   atlas/triangle_id.exr, rest_position.exr
 //   atlases/kd.exr ks.exr ke.exr    grown for rendering (RGB), PNG previews
 //   atlases/cluster.exr (+ .png)    cluster per texel, -1 where never seen
@@ -38,6 +40,7 @@
 #include "core/resample/resampler.h"
 #include "core/samples/assemble.h"
 #include "core/scene/sequence.h"
+#include "mvbrdf/v1/job_options.pb.h"
 #include "mvbrdf/v1/run_report.pb.h"
 
 namespace mvbrdf::pipeline {
@@ -87,6 +90,13 @@ struct ReconstructOptions {
   // them pass 1 gathers them itself.
   std::shared_ptr<TexelStatistics> texel_statistics;
   std::filesystem::path out_dir;
+  // Recorded in result.json (issue #20): every option as asked and resolved
+  // (RunReport.options), and where its scene is. A service run names the
+  // scene by its path inside the uploaded bundle `bundle_sha256`; otherwise
+  // RunReport.scene is the scene file relative to out_dir.
+  v1::RunOptions run_options;
+  std::string bundle_sha256;
+  std::string scene_in_bundle;
   // Called on the calling thread as the job advances: the stage's name (as in
   // result.json's stages), units done and the total (frames for the passes;
   // 1 of 1 for the other stages when they finish). May be empty.

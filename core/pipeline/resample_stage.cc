@@ -14,6 +14,7 @@
 #include "core/pipeline/atlas_figures.h"
 #include "core/pipeline/stage_timer.h"
 #include "core/resample/atlas_ops.h"
+#include "core/scene/atlas_mesh.h"
 #include "core/scene/mesh_loader.h"
 #include "core/scene/names.h"
 #include "core/scene/video_source.h"
@@ -84,7 +85,7 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
   }
   if (options.save != SaveFrames::kNone) {
     StageTimer::Scope t(&timer, "write");
-    MVBRDF_RETURN_IF_ERROR(scene::WriteObj(out / "atlas" / "mesh.obj", atlas.topology, sequence.rest_positions));
+    MVBRDF_RETURN_IF_ERROR(scene::WriteAtlasMesh(out / "atlas", atlas.topology, sequence));
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "triangle_id.exr", atlas.triangle_id));
     MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(out / "atlas" / "charts.png", ChartPreview(atlas)));
   }

@@ -6,7 +6,7 @@
 //
 // Output layout under `out_dir`:
 //   resample.json                         ResampleReport (figures per camera and overall, stage times)
-//   atlas/mesh.obj                        the rest-pose mesh with the atlas UVs
+//   atlas/mesh.obj, seams.txt             the rest-pose mesh with the atlas UVs in the input's vertex order
 //   atlas/triangle_id.exr, charts.png     the layout: triangle per texel, charts for people
 //   frames/NNNN/CAM.exr (+ .png)          resampled radiance, RGBA half: A = 1 valid, 0 invalid
 //   frames/NNNN/CAM_averaged.exr (+.png)  per-triangle means (thesis Fig. 5.5)

@@ -11,6 +11,7 @@
 #include "core/evaluate/reconstruction_evaluator.h"
 #include "core/image/exr.h"
 #include "core/pipeline/reconstruction_renderer.h"
+#include "core/pipeline/run_scene.h"
 #include "core/scene/sequence.h"
 #include "core/scene/video_source.h"
 
@@ -43,7 +44,8 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
   scene::LoadOptions load;
   load.check_all_frames = false;
   load.probe_videos = false;
-  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(run.scene(), load));
+  MVBRDF_ASSIGN_OR_RETURN(const fs::path scene_file, pipeline::SceneOfRun(run_dir, run, options.scene));
+  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(scene_file, load));
   MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *options.gl));
   const int frame = sequence.num_frames / 2;
   // The input frame is lit by its own lights where scene.frame_lighting has
@@ -163,9 +165,11 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
 
   // The ground truth.
   fs::path truth = options.truth;
-  if (truth.empty() && options.use_truth && !in.run.scene().empty()) {
-    const fs::path beside = fs::path(in.run.scene()).parent_path();
-    if (fs::exists(beside / "ground_truth" / "truth.json")) truth = beside;
+  if (truth.empty() && options.use_truth) {
+    if (absl::StatusOr<fs::path> scene_file = pipeline::SceneOfRun(run_dir, in.run, options.scene); scene_file.ok()) {
+      const fs::path beside = scene_file->parent_path();
+      if (fs::exists(beside / "ground_truth" / "truth.json")) truth = beside;
+    }
   }
   if (!truth.empty()) {
     const fs::path error_png = options.scratch_dir / "kd_error.png";

@@ -24,6 +24,8 @@ struct ReportOptions {
   // own directory when it has one).
   std::filesystem::path truth;
   bool use_truth = true;
+  // The run's scene file (empty: result.json's, pipeline::SceneOfRun).
+  std::filesystem::path scene;
   // A TradeoffReport JSON (scripts/bench-tradeoff); empty: none.
   std::filesystem::path tradeoff;
   // Renderings (input beside reconstruction, the relit sequence) need a
