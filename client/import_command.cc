@@ -100,8 +100,8 @@ int RunImport(const std::vector<std::string>& args) {
                   "mesh file or per-frame pattern, e.g. meshes/mesh_%04d.obj (required; scene.mesh.path)");
   flags.AddString("--video", &options.video,
                   "video or image-sequence pattern per camera, {camera} replaced by its name, e.g. "
-                  "videos/{camera}.mkv (scene.cameras[].video.path; required with more than one camera "
-                  "to contain {camera})");
+                  "videos/{camera}.mkv or frames/{camera}/%04d.png (required; scene.cameras[].video.path; "
+                  "must contain {camera} when there is more than one camera)");
   flags.AddString("--encoding", &encoding, "the videos' colour encoding: srgb or linear");
   flags.AddUint("--bit-depth", &options.bit_depth, "bits per channel of the videos' frames: 8 or 16");
   flags.AddInt("--first", &first, "absolute index of the first frame (scene.frames.first)");
@@ -140,6 +140,8 @@ int RunImport(const std::vector<std::string>& args) {
     usage_error = "--out is required";
   } else if (options.mesh.empty()) {
     usage_error = "--mesh is required";
+  } else if (options.video.empty()) {
+    usage_error = "--video is required";
   } else if (frames <= 0) {
     usage_error = "--frames is required (> 0)";
   } else if (first < 0) {

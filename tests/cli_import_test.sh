@@ -169,6 +169,13 @@ sed 's/^2 PINHOLE 160 120 \([^ ]*\) \([^ ]*\)/2 OPENCV_FISHEYE 160 120 \1 \2 0 0
   > "$work/fisheye/cameras.txt"
 check "unknown camera model names file, line and model" 3 'fisheye/cameras.txt:5: unsupported camera model "OPENCV_FISHEYE"' -- \
   "$bin" import colmap "$work/fisheye" "${common[@]}" --out "$work/x.json"
+mkdir -p "$work/zero" && cp "$work/txt/images.txt" "$work/zero/"
+sed 's/^1 PINHOLE 160 120 [^ ]*/1 PINHOLE 160 120 0/' "$work/txt/cameras.txt" > "$work/zero/cameras.txt"
+check "the scene's validation names the field" 3 'scene.cameras\[0\].intrinsics.fx: must be > 0' -- \
+  "$bin" import colmap "$work/zero" "${common[@]}" --out "$work/x.json"
+check "a mesh that is not there: written, but exit 3" 3 'wrote .*nomesh.json, but it does not load: .*nomesh.obj' -- \
+  "$bin" import colmap "$work/txt" --mesh "$work/b/nomesh.obj" --video "$work/b/videos/{camera}.mkv" --frames 3 \
+  --fps 15 --lights "$scene" --out "$work/b/nomesh.json"
 mkdir -p "$work/trunc" && cp "$work/bin/cameras.bin" "$work/trunc/"
 head -c -30 "$work/bin/images.bin" > "$work/trunc/images.bin"
 check "truncated images.bin" 3 'trunc/images.bin: truncated: ends at byte' -- \
@@ -191,6 +198,18 @@ echo '[1, 0, 0, 0,  0, 1, 0, 0,  0, 0, 1, 0,  0, 0, 0]' > "$work/short.json"
 check "--transform: 15 numbers" 3 'expected 16 numbers (a 4x4 row-major world_from_calibration), got 15' -- \
   "$bin" import colmap "$work/txt" "${common[@]}" --transform "$work/short.json" --out "$work/x.json"
 check "unknown format" 2 'unknown FORMAT "bundler"' -- "$bin" import bundler "$work/txt" "${common[@]}" --out "$work/x.json"
+check "--video is required" 2 '--video is required' -- \
+  "$bin" import colmap "$work/txt" --mesh "$work/b/meshes/mesh_%04d.obj" --frames 3 --fps 15 --out "$work/x.json"
+check "--first, --frames, --name" 0 "imported" -- "$bin" import colmap "$work/txt" --mesh "$work/b/meshes/mesh_%04d.obj" \
+  --video "$work/b/videos/{camera}.mkv" --first 1 --frames 2 --fps 30 --name "imported studio" --lights "$scene" \
+  --out "$work/b/later.json"
+expect "frames 1 and 2 at 30 fps, the scene's name" python3 -c '
+import json, sys
+s = json.load(open(sys.argv[1]))
+assert s["frames"] == {"first": 1, "count": 2, "fps": 30} and s["name"] == "imported studio", (s["frames"], s.get("name"))' \
+  "$work/b/later.json"
+check "--first 1 --frames 2 validates (frames 1, 2 of the videos and meshes)" 0 "valid:" -- \
+  "$bin" validate "$work/b/later.json"
 check "--mesh is required" 2 '--mesh is required' -- "$bin" import colmap "$work/txt" --frames 3 --fps 15 --out "$work/x.json"
 
 # The shipped example: the commands of docs/examples/colmap/README.md's sh

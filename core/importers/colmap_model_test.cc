@@ -137,6 +137,9 @@ TEST(TransformCamera, SeesTheMappedPointAtTheSamePixel) {
     EXPECT_NEAR(a[0], b[0], 1e-9);
     EXPECT_NEAR(a[1], b[1], 1e-9);
   }
+  // A telecentric camera's pixel is s times as large in the mesh's world.
+  c.set_pixel_size(0.01);
+  EXPECT_NEAR(TransformCamera(c, *w).pixel_size(), 0.025, kTolerance);
 }
 
 TEST(SimilarityFromMatrix, RefusesShearMirrorsAndWrongCounts) {
