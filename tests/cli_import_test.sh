@@ -20,68 +20,9 @@ python3 "$writer" "$scene" "$work/txt" || exit 1
 python3 "$writer" "$scene" "$work/bin" --binary || exit 1
 common=(--mesh "$work/b/meshes/mesh_%04d.obj" --video "$work/b/videos/{camera}.mkv" --frames 3 --fps 15)
 
-# same_cameras A B [NAMES]: A's cameras equal B's (those named, comma-separated)
-# to 1e-9 in every intrinsic and pose value (distortion padded with zeros, an
-# unspecified model is PINHOLE), names, sizes and video paths equal, and the
-# scenes' frames equal (--geometry first: not the video paths, for scenes in
-# different directories); prints the largest difference.
-same_cameras() {
-  python3 - "$@" <<'EOF_PY'
-import json, sys
-geometry_only = sys.argv[1] == "--geometry"
-if geometry_only:
-    del sys.argv[1]
-a, b = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
-names = sys.argv[3].split(",") if len(sys.argv) > 3 else [c["name"] for c in b["cameras"]]
-ca, cb = a["cameras"], [c for c in b["cameras"] if c["name"] in names]
-assert [c["name"] for c in ca] == names, ([c["name"] for c in ca], names)
-assert a["frames"] == b["frames"], (a["frames"], b["frames"])
-worst = 0.0
-for x, y in zip(ca, cb):
-    for k in ("width", "height") + (() if geometry_only else ("video",)):
-        assert x.get(k) == y.get(k), (x["name"], k, x.get(k), y.get(k))
-    assert x.get("model", "PINHOLE") == y.get("model", "PINHOLE")
-    xi, yi = x["intrinsics"], y["intrinsics"]
-    vx = [xi.get(k, 0.0) for k in ("fx", "fy", "cx", "cy")] + (xi.get("distortion", []) + [0.0] * 8)[:8]
-    vy = [yi.get(k, 0.0) for k in ("fx", "fy", "cx", "cy")] + (yi.get("distortion", []) + [0.0] * 8)[:8]
-    vx += x["camFromWorld"]["rotation"] + x["camFromWorld"]["translation"]
-    vy += y["camFromWorld"]["rotation"] + y["camFromWorld"]["translation"]
-    assert len(vx) == len(vy) == 24
-    worst = max([worst] + [abs(p - q) for p, q in zip(vx, vy)])
-print("max camera difference %.3g" % worst)
-sys.exit(0 if worst <= 1e-9 else 1)
-EOF_PY
-}
-
-# same_results A B: every number of two result.json files (or evaluate
-# outputs) equal to 1e-6 relative, every string equal, but for timings, memory,
-# the renderer and the scene's path; prints the largest relative difference.
-same_results() {
-  python3 - "$@" <<'EOF_PY'
-import json, sys
-skip = {"seconds", "peakRssBytes", "glRenderer", "scene", "peakBytes", "bytes", "rssBytes"}
-worst = [0.0, ""]
-def walk(x, y, path):
-    if isinstance(x, dict):
-        assert isinstance(y, dict) and set(x) == set(y), (path, sorted(set(x) ^ set(y)))
-        for k in x:
-            if k not in skip and not k.endswith("Seconds") and not k.endswith("Bytes"):
-                walk(x[k], y[k], path + "." + k)
-    elif isinstance(x, list):
-        assert isinstance(y, list) and len(x) == len(y), path
-        for i, (p, q) in enumerate(zip(x, y)):
-            walk(p, q, "%s[%d]" % (path, i))
-    elif isinstance(x, (int, float)) and not isinstance(x, bool):
-        d = abs(x - y) / max(abs(x), abs(y), 1e-12)
-        if d > worst[0]:
-            worst[:] = [d, path]
-    else:
-        assert x == y, (path, x, y)
-walk(json.load(open(sys.argv[1])), json.load(open(sys.argv[2])), "")
-print("max relative difference %.3g (%s)" % tuple(worst))
-sys.exit(0 if worst[0] <= 1e-6 else 1)
-EOF_PY
-}
+# same_cameras [--geometry] A B [NAMES], same_results A B: tests/scene_compare.py.
+same_cameras() { python3 "$here/scene_compare.py" cameras "$@"; }
+same_results() { python3 "$here/scene_compare.py" results "$@"; }
 
 check "import help states the half-pixel shift" 0 "cx = cx_colmap - 0.5" -- "$bin" import --help
 check "import a COLMAP text model" 0 "imported 4 of 4 cameras" -- \
@@ -103,6 +44,20 @@ check "run on the text import: result.json equal to 1e-6" 0 "max relative differ
 "$bin" evaluate "$work/run_text" --truth "$work/b" > "$work/eval_text.json" 2>/dev/null
 check "evaluate (kd rmse, clusters vs truth) equal to 1e-6" 0 "max relative difference" -- \
   same_results "$work/eval_text.json" "$work/eval_bundle.json"
+
+# Distortion: synth's radial k1 becomes an OPENCV camera (k1 k2 p1 p2), text and binary.
+"$bin" synth --cameras 2 --frames 1 --width 64 --height 48 --actor-segments 6 --distortion -0.1 --out "$work/d" \
+  >/dev/null || exit 1
+python3 "$writer" "$work/d/scene.json" "$work/d_txt" || exit 1
+python3 "$writer" "$work/d/scene.json" "$work/d_bin" --binary || exit 1
+expect "the distorted cameras are written as OPENCV" grep -q '^1 OPENCV 64 48 ' "$work/d_txt/cameras.txt"
+for m in txt bin; do
+  check "distortion ($m): imported" 0 "imported 2 of 2" -- "$bin" import colmap "$work/d_$m" \
+    --mesh "$work/d/meshes/mesh_%04d.obj" --video "$work/d/videos/{camera}.mkv" --frames 1 --fps 15 \
+    --lights "$work/d/scene.json" --out "$work/d/$m.json"
+  check "distortion ($m): the bundle's cameras to 1e-9" 0 "max camera difference" -- \
+    same_cameras "$work/d/$m.json" "$work/d/scene.json"
+done
 
 # --transform: a model written in another world (scale 2, a rotation, a
 # shift) imports with the same world_from_calibration into the bundle's cameras.
