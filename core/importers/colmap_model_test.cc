@@ -142,6 +142,24 @@ TEST(TransformCamera, SeesTheMappedPointAtTheSamePixel) {
   EXPECT_NEAR(TransformCamera(c, *w).pixel_size(), 0.025, kTolerance);
 }
 
+TEST(SimilarityFromMatrix, RoundedRotationBecomesOrthonormal) {
+  // A 30° turn about z, scale 2, written with 6 decimals (error ~3e-7).
+  const std::vector<double> m = {1.732051, -1.0, 0, 0.5, 1.0, 1.732051, 0, 0, 0, 0, 2.0, 0, 0, 0, 0, 1};
+  auto w = SimilarityFromMatrix(m, "f");
+  ASSERT_TRUE(w.ok()) << w.status();
+  const auto& r = w->rotation;
+  double worst = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const double dot = r[3 * i] * r[3 * j] + r[3 * i + 1] * r[3 * j + 1] + r[3 * i + 2] * r[3 * j + 2];
+      worst = std::max(worst, std::abs(dot - (i == j ? 1.0 : 0.0)));
+    }
+  }
+  EXPECT_LT(worst, 1e-14);
+  EXPECT_NEAR(r[0], std::sqrt(3.0) / 2, 1e-6);
+  EXPECT_NEAR(w->scale, 2.0, 1e-6);
+}
+
 TEST(SimilarityFromMatrix, RefusesShearMirrorsAndWrongCounts) {
   std::vector<double> shear = {1, 0.1, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   EXPECT_NE(SimilarityFromMatrix(shear, "f").status().message().find("not a similarity"), std::string::npos);

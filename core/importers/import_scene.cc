@@ -37,6 +37,20 @@ std::array<double, 9> Transposed(const std::array<double, 9>& a) {
   return {a[0], a[3], a[6], a[1], a[4], a[7], a[2], a[5], a[8]};
 }
 
+// The rotation nearest to `x` (its polar factor), for a near-rotation such as
+// one written with 7 digits: Newton's iteration X <- (X + X^-T) / 2, which
+// converges quadratically; X^-T is the cofactor matrix over det X.
+std::array<double, 9> NearestRotation(std::array<double, 9> x) {
+  for (int iteration = 0; iteration < 8; ++iteration) {
+    const std::array<double, 9> cof{x[4] * x[8] - x[5] * x[7], x[5] * x[6] - x[3] * x[8], x[3] * x[7] - x[4] * x[6],
+                                    x[2] * x[7] - x[1] * x[8], x[0] * x[8] - x[2] * x[6], x[1] * x[6] - x[0] * x[7],
+                                    x[1] * x[5] - x[2] * x[4], x[2] * x[3] - x[0] * x[5], x[0] * x[4] - x[1] * x[3]};
+    const double det = x[0] * cof[0] + x[1] * cof[1] + x[2] * cof[2];
+    for (int i = 0; i < 9; ++i) x[i] = 0.5 * (x[i] + cof[i] / det);
+  }
+  return x;
+}
+
 absl::Status CopyLights(const std::filesystem::path& file, const std::filesystem::path& scene_dir, v1::Scene* scene) {
   // A LightList ({"lights": [...]}) is also valid scene JSON: one parser for both.
   MVBRDF_ASSIGN_OR_RETURN(const v1::Scene source, scene::ReadScene(file));
@@ -97,6 +111,9 @@ absl::StatusOr<Similarity> SimilarityFromMatrix(const std::vector<double>& m, co
         field, ": not a similarity s R (rotation, scale s > 0): with s = cbrt(det) = ", s.scale,
         ", max |A A^T / s^2 - I| is ", worst, " (at most ", kSimilarityTolerance, "; shear or unequal scales)"));
   }
+  // Within the tolerance, the nearest rotation: the cameras' R_c R^T stay
+  // orthonormal to rounding (the scene's own check allows 1e-6 too).
+  s.rotation = NearestRotation(s.rotation);
   s.translation = {m[3], m[7], m[11]};
   return s;
 }

@@ -31,7 +31,8 @@ struct Similarity {
 // A 4x4 row-major matrix [s R | t; 0 0 0 1] as a Similarity. `field` names it
 // in errors. Refused: not 16 finite values, a bottom row other than 0 0 0 1,
 // det <= 0 (a mirror) or a 3x3 block that is not a scaled rotation
-// (max |A A^T / s^2 - I| > 1e-6, s = cbrt(det A)).
+// (max |A A^T / s^2 - I| > 1e-6, s = cbrt(det A)). Within that, A / s is
+// replaced by its nearest rotation (a transform written with 7 digits).
 absl::StatusOr<Similarity> SimilarityFromMatrix(const std::vector<double>& m, const std::string& field);
 // The same from a JSON file holding an array of 16 numbers.
 absl::StatusOr<Similarity> ReadSimilarityFile(const std::filesystem::path& file);
