@@ -50,6 +50,7 @@ int RunFetch(const std::vector<std::string>& args);
 int RunCancel(const std::vector<std::string>& args);
 int RunHealth(const std::vector<std::string>& args);
 int RunReport(const std::vector<std::string>& args);
+int RunImport(const std::vector<std::string>& args);
 
 class FlagParser;
 // What `mvbrdf report` and `mvbrdf run --report` take (report_command.cc).

@@ -18,6 +18,7 @@ constexpr char kUsage[] =
     "\n"
     "commands:\n"
     "  synth      render a synthetic multi-view sequence with its ground truth\n"
+    "  import     write a scene from a camera calibration (COLMAP, ...): cameras, mesh, videos, lights\n"
     "  validate   load a scene, check everything, print a summary or the errors\n"
     "  resample   resample every frame into the texture atlas; coverage, timing and error vs truth\n"
     "  run        reconstruct the BRDF: light sweep, clustering, fitting, atlases, errors\n"
@@ -76,6 +77,7 @@ int Dispatch(int argc, char** argv) {
     if (command == client) mvbrdf::client::QuietGrpcLog();
   }
   if (command == "synth") return mvbrdf::client::RunSynth(args);
+  if (command == "import") return mvbrdf::client::RunImport(args);
   if (command == "validate") return mvbrdf::client::RunValidate(args);
   if (command == "resample") return mvbrdf::client::RunResample(args);
   if (command == "run") return mvbrdf::client::RunRun(args);

@@ -16,12 +16,14 @@ writer="$(dirname "$0")/calibration_write.py"
 check "synth" 0 "ground truth" -- \
   "$bin" synth --preset sphere --cameras 3 --frames 2 --width 64 --height 48 --out "$work/b"
 scene="$work/b/scene.json"
+read -r first frames fps < <(python3 -c 'import json,sys; f=json.load(open(sys.argv[1]))["frames"]; print(f.get("first",0), f["count"], f["fps"])' "$scene")
 cal="$work/b/calibration"
 expect "write the calibration files" python3 "$writer" write "$scene" "$cal"
 
 # import FORMAT INPUT OUT: the bundle's lights, mesh and videos with INPUT's cameras.
 import_cal() {
-  "$bin" import "$1" "$2" --lights "$scene" --mesh "meshes/mesh_%04d.obj" --video "videos/{camera}.mkv" --out "$3"
+  "$bin" import "$1" "$2" --lights "$scene" --mesh "meshes/mesh_%04d.obj" --video "videos/{camera}.mkv" \
+    --first "$first" --frames "$frames" --fps "$fps" --out "$3"
 }
 for input in "opencv $cal/opencv_yaml" "opencv $cal/opencv.json" "metashape $cal/metashape.xml"; do
   set -- $input
