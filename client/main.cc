@@ -29,6 +29,7 @@ constexpr char kUsage[] =
     "  jobs       list jobs on a server\n"
     "  submit     upload a scene's bundle to a server and queue a job\n"
     "  watch      follow a job's events until it ends\n"
+    "  artifacts  list a job's outputs (name, size, sha256) for fetch\n"
     "  fetch      download a job's artifacts\n"
     "  cancel     cancel a job\n"
     "  health     ask a server's gRPC health service (for probes); exit 0 when serving\n"
@@ -36,7 +37,8 @@ constexpr char kUsage[] =
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
     "  disk full, memory, server unreachable or at its limits), 5 the watched job failed, 6 the watched\n"
-    "  job was cancelled, 7 the server refused the credentials (no, unknown or wrong-role token)\n";
+    "  job was cancelled, 7 the server refused the credentials (no, unknown or wrong-role token);\n"
+    "  service commands: 3 no such job (or artifact, or no results yet), cancel of a finished job 0\n";
 
 }  // namespace
 
@@ -71,7 +73,7 @@ int Dispatch(int argc, char** argv) {
   const std::string command = argv[1];
   const std::vector<std::string> args(argv + 2, argv + argc);
   // One-shot clients print one line per failure; gRPC's own log would repeat it.
-  for (const char* client : {"jobs", "submit", "watch", "fetch", "cancel", "health"}) {
+  for (const char* client : {"jobs", "submit", "watch", "fetch", "artifacts", "cancel", "health"}) {
     if (command == client) mvbrdf::client::QuietGrpcLog();
   }
   if (command == "synth") return mvbrdf::client::RunSynth(args);
@@ -88,6 +90,7 @@ int Dispatch(int argc, char** argv) {
   if (command == "watch") return mvbrdf::client::RunWatch(args);
   if (command == "fetch") return mvbrdf::client::RunFetch(args);
   if (command == "cancel") return mvbrdf::client::RunCancel(args);
+  if (command == "artifacts") return mvbrdf::client::RunArtifacts(args);
   if (command == "health") return mvbrdf::client::RunHealth(args);
   std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", mvbrdf::scene::ShownName(command).c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
