@@ -131,6 +131,11 @@ check "cancel of a succeeded job: nothing to cancel, exit 0" 0 "already succeede
 check "artifacts of an unknown job" 3 "no such job" -- "$bin" artifacts "$(printf 'f%.0s' $(seq 32))" \
   --server "$address" --client ux
 check "watch of an unknown job" 3 "no such job" -- "$bin" watch "$(printf 'f%.0s' $(seq 32))" --server "$address"
+light=$("$bin" submit "$work/b/scene.json" --server "$address" --client ux --atlas 128 --outputs light 2> /dev/null)
+check "a light-table job succeeds" 0 "state: succeeded" -- "$bin" watch "$light" --server "$address" --client ux
+check "a light-table job has its report.html too" 0 "report.html" -- \
+  "$bin" fetch "$light" report.html result.json --server "$address" --client ux --out "$work/light"
+expect "the light table's report is an HTML page" grep -qi '<html' "$work/light/report.html"
 kill -TERM "$worker"
 wait "$worker"
 queued=$("$bin" submit "$work/b/scene.json" --server "$address" --client ux --atlas 128 2> /dev/null)

@@ -48,10 +48,11 @@ std::vector<std::pair<std::string, fs::path>> FilesUnder(const fs::path& dir) {
 }
 
 // DIR/report.html from the outputs just written to DIR (env.scratch_dir), as
-// `mvbrdf report DIR` makes it: a service artifact like the others.
-absl::Status WriteReportHtml(const TaskEnvironment& env) {
+// `mvbrdf report DIR` makes it: a service artifact like the others. `gl`: the
+// context of a GL task (renderings), null on a CPU task's thread.
+absl::Status WriteReportHtml(const TaskEnvironment& env, gl::EglContext* gl) {
   report::ReportOptions options;
-  options.gl = env.gl;
+  options.gl = gl;
   options.scratch_dir = env.scratch_dir.string() + ".report";  // beside: not an artifact
   std::error_code ec;
   fs::create_directories(options.scratch_dir, ec);
@@ -172,7 +173,8 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
     fs::create_directories(env.scratch_dir, ec);
     MVBRDF_RETURN_IF_ERROR(WriteJsonFile(file, report));
     if (env.report_html) {
-      MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env));
+      // A light table has nothing to render; the context is the GL thread's.
+      MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env, nullptr));
       out.artifacts.emplace_back("report.html", env.scratch_dir / "report.html");
     }
     out.artifacts.emplace_back("result.json", file);
@@ -202,7 +204,7 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
   o.out_dir = env.scratch_dir;
   o.texel_statistics = std::move(env.texel_statistics);  // consumed: freed as soon as the fits are done
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport report, pipeline::RunReconstruction(sequence, *env.gl, o));
-  if (env.report_html) MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env));
+  if (env.report_html) MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env, env.gl));
   TaskOutput out;
   report.SerializeToString(&out.result);
   out.artifacts = FilesUnder(env.scratch_dir);
