@@ -34,7 +34,7 @@ std::string WhyNotSafeName(const std::string& name) {
   const std::filesystem::path path(name);
   if (path.has_root_path()) return "must be a relative path (artifact names are relative to the job's output)";
   for (const std::filesystem::path& part : std::filesystem::path(name).relative_path()) {
-    if (part == "..") return "must not contain \"..\"";
+    if (part == "..") return "must be a relative path without \"..\" (inside --out)";
   }
   return "";
 }

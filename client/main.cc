@@ -35,10 +35,11 @@ constexpr char kUsage[] =
     "  health     ask a server's gRPC health service (for probes); exit 0 when serving\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
+    "Service commands: a job that does not exist, an artifact it does not have and 'artifacts' of a job\n"
+    "  without results are invalid input; 'cancel' of a job that already finished exits ok, saying so.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
     "  disk full, memory, server unreachable or at its limits), 5 the watched job failed, 6 the watched\n"
-    "  job was cancelled, 7 the server refused the credentials (no, unknown or wrong-role token);\n"
-    "  service commands: 3 no such job (or artifact, or no results yet), cancel of a finished job 0\n";
+    "  job was cancelled, 7 the server refused the credentials (no, unknown or wrong-role token)\n";
 
 }  // namespace
 
