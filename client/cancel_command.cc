@@ -8,6 +8,7 @@
 #include "client/commands.h"
 #include "client/connection.h"
 #include "client/flags.h"
+#include "client/job_state_name.h"
 #include "core/base/proto_json.h"
 #include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
@@ -18,8 +19,9 @@ int RunCancel(const std::vector<std::string>& args) {
   std::string job_id, address, client_name = "anonymous";
   bool json = false;
   FlagParser flags("cancel",
-                   "Cancels a job (its unfinished tasks are not run; a finished job keeps its state) and prints the "
-                   "job's state. Exit code 3 when there is no such job.");
+                   "Cancels a job (its unfinished tasks are not run) and prints the job's state. A job that already "
+                   "succeeded or failed keeps its state: cancel says so and exits 0 (nothing to cancel). Exit code "
+                   "3 when there is no such job, 4 when the server is unreachable.");
   flags.AddPositional("JOB", &job_id, true, "the job id");
   flags.AddString("--server", &address, "the server, host:port (required)");
   flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
@@ -64,9 +66,11 @@ int RunCancel(const std::vector<std::string>& args) {
     std::printf("%s\n", MessageToJson(job).c_str());
     return kExitOk;
   }
-  std::string state = v1::JobState_Name(job.state());
-  for (char& c : state) c = static_cast<char>(c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c);
-  std::printf("%s  %s\n", job.id().c_str(), state.c_str());
+  if (job.state() == v1::SUCCEEDED || job.state() == v1::FAILED) {
+    std::printf("job %s already %s; nothing to cancel\n", job.id().c_str(), JobStateName(job.state()));
+    return kExitOk;
+  }
+  std::printf("%s  %s\n", job.id().c_str(), JobStateName(job.state()));
   return kExitOk;
 }
 

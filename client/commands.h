@@ -12,7 +12,12 @@
 
 namespace grpc {
 class Channel;
+class Status;
 }  // namespace grpc
+
+namespace mvbrdf::v1 {
+class ListArtifactsResponse;
+}  // namespace mvbrdf::v1
 
 namespace mvbrdf::client {
 
@@ -26,7 +31,10 @@ enum ExitCode : int {
                           // disk, an atlas too large for memory); the server is unreachable or at its limits
   kExitJobFailed = 5,     // `watch` (and `submit --watch`): the job failed (its reason is printed)
   kExitJobCancelled = 6,  // `watch` (and `submit --watch`): the job was cancelled
-  kExitDenied = 7,        // the server refused the credentials (no, unknown or wrong-role token)
+  // Service commands: a job that does not exist (or is another client's) is 3, as is `artifacts` of a job that
+  // has not succeeded and `fetch` of a name the job does not have; `cancel` of a job that already succeeded or
+  // failed is 0 ("job ID already succeeded; nothing to cancel": its state is kept).
+  kExitDenied = 7,  // the server refused the credentials (no, unknown or wrong-role token)
 };
 
 // The exit code of a failed Status (kExitInvalidInput, kExitEnvironment,
@@ -48,6 +56,7 @@ int RunSubmit(const std::vector<std::string>& args);
 int RunWatch(const std::vector<std::string>& args);
 int RunFetch(const std::vector<std::string>& args);
 int RunCancel(const std::vector<std::string>& args);
+int RunArtifacts(const std::vector<std::string>& args);
 int RunHealth(const std::vector<std::string>& args);
 int RunReport(const std::vector<std::string>& args);
 int RunImport(const std::vector<std::string>& args);
@@ -82,6 +91,10 @@ int ExitCodeForRpc(int grpc_code);
 // an RPC failure's code (watch_command.cc; also `submit --watch`).
 int WatchJobEvents(const std::string& command, const std::shared_ptr<grpc::Channel>& channel,
                    const std::string& client_name, const std::string& job_id, bool json);
+
+// ListArtifacts of job `job_id` (artifacts_command.cc; also `fetch --all`).
+grpc::Status ListJobArtifacts(const std::shared_ptr<grpc::Channel>& channel, const std::string& client_name,
+                              const std::string& job_id, v1::ListArtifactsResponse* response);
 
 }  // namespace mvbrdf::client
 

@@ -43,6 +43,7 @@ void EmbeddedService::AddWorker() {
   wo.wait_seconds = 2;
   // One worker runs the job's reflectance after its gather: one pass.
   wo.gather_texel_statistics = options_.workers == 1;
+  wo.report_html = false;  // `run --report` writes DIR/report.html itself
   if (options_.log) {
     wo.log = [log = options_.log, name = wo.name](const std::string& line) { log(absl::StrCat("worker ", name, ": ", line)); };
   }

@@ -2,6 +2,7 @@
 // artifacts to DIR/NAME, each verified against the SHA-256 the server sends.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -13,6 +14,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/connection.h"
@@ -25,15 +27,17 @@
 namespace mvbrdf::client {
 namespace {
 
-// A name may only place a file under DIR: relative, no "..", no empty name.
-bool SafeName(const std::string& name) {
-  if (name.empty()) return false;
+// Why `name` cannot place a file under DIR (empty when it can): relative,
+// no "..", no empty component. A trailing "/" names a directory of artifacts
+// (e.g. "atlases/"), which the caller expands.
+std::string WhyNotSafeName(const std::string& name) {
+  if (name.empty() || name == "/") return "must not be empty";
   const std::filesystem::path path(name);
-  if (path.has_root_path() || !path.has_filename()) return false;
-  for (const std::filesystem::path& part : path) {
-    if (part == "..") return false;
+  if (path.has_root_path()) return "must be a relative path (artifact names are relative to the job's output)";
+  for (const std::filesystem::path& part : std::filesystem::path(name).relative_path()) {
+    if (part == "..") return "must be a relative path without \"..\" (inside --out)";
   }
-  return true;
+  return "";
 }
 
 // Value flags of `fetch` (their values are not names).
@@ -43,7 +47,7 @@ bool TakesValue(const std::string& arg) {
 }
 
 // Returns kExitOk or the exit code after printing the error.
-int FetchOne(v1::Mvbrdf::Stub& stub, const std::string& address, const std::string& client_name,
+int FetchOne(v1::Mvbrdf::Stub& stub, const std::shared_ptr<grpc::Channel>& channel, const std::string& client_name,
              const std::string& job_id, const std::string& name, const std::filesystem::path& out_dir) {
   const std::filesystem::path target = out_dir / name;
   std::filesystem::path part = target;
@@ -115,7 +119,24 @@ int FetchOne(v1::Mvbrdf::Stub& stub, const std::string& address, const std::stri
     if (write_errno != 0) local_error += absl::StrCat(": ", std::strerror(write_errno));
     return fail(local_error, kExitEnvironment);
   }
-  if (!status.ok()) return fail(status.error_message(), ExitCodeForRpc(status.error_code()));
+  if (!status.ok()) {
+    std::string message = status.error_message();
+    if (status.error_code() == grpc::StatusCode::NOT_FOUND && absl::StartsWith(message, "name:")) {
+      // The job exists but has no such artifact: say which names it has.
+      v1::ListArtifactsResponse listed;
+      if (ListJobArtifacts(channel, client_name, job_id, &listed).ok()) {
+        std::string under, all;
+        for (const v1::ArtifactReady& a : listed.artifacts()) {
+          all += (all.empty() ? "" : ", ") + a.name();
+          if (a.name().compare(0, name.size() + 1, name + "/") == 0) under += (under.empty() ? "" : ", ") + a.name();
+        }
+        message += under.empty()
+                       ? "; its artifacts: " + all
+                       : "; it is a directory of artifacts (fetch \"" + name + "/\" for all of them): " + under;
+      }
+    }
+    return fail(message, ExitCodeForRpc(status.error_code()));
+  }
   if (first) {
     // An empty artifact still sends one chunk; nothing at all is a server bug.
     return fail("the server sent no data", kExitInternal);
@@ -132,15 +153,68 @@ int FetchOne(v1::Mvbrdf::Stub& stub, const std::string& address, const std::stri
   return kExitOk;
 }
 
+// The names to fetch: every artifact for --all, and for a name ending in "/"
+// (or one the job does not have that is a directory of artifacts) every
+// artifact under it. On a name that matches nothing, prints which exist.
+int ExpandNames(const std::shared_ptr<grpc::Channel>& channel, const std::string& client_name,
+                const std::string& job_id, bool all, std::vector<std::string>* names) {
+  const bool has_prefix =
+      all || std::any_of(names->begin(), names->end(), [](const std::string& n) { return n.back() == '/'; });
+  if (!has_prefix) return kExitOk;  // plain names: fetched as given (also from a running job)
+  v1::ListArtifactsResponse listed;
+  const grpc::Status status = ListJobArtifacts(channel, client_name, job_id, &listed);
+  if (!status.ok()) {
+    std::fprintf(stderr, "mvbrdf fetch: error: %s: %s\n", scene::ShownName(job_id).c_str(),
+                 scene::ShownName(status.error_message()).c_str());
+    return ExitCodeForRpc(status.error_code());
+  }
+  std::vector<std::string> expanded;
+  if (all) {
+    for (const v1::ArtifactReady& a : listed.artifacts()) expanded.push_back(a.name());
+  }
+  for (const std::string& name : *names) {
+    if (name.back() != '/') {
+      expanded.push_back(name);
+      continue;
+    }
+    size_t matched = 0;
+    for (const v1::ArtifactReady& a : listed.artifacts()) {
+      if (a.name().compare(0, name.size(), name) == 0) {
+        expanded.push_back(a.name());
+        ++matched;
+      }
+    }
+    if (matched == 0) {
+      std::string known;
+      for (const v1::ArtifactReady& a : listed.artifacts()) known += "\n  " + scene::ShownName(a.name());
+      std::fprintf(stderr, "mvbrdf fetch: error: %s: job %s has no artifact under \"%s\"; its artifacts are:%s\n",
+                   scene::ShownName(name).c_str(), scene::ShownName(job_id).c_str(), scene::ShownName(name).c_str(),
+                   known.c_str());
+      return kExitInvalidInput;
+    }
+  }
+  // Each once, in name order.
+  std::sort(expanded.begin(), expanded.end());
+  expanded.erase(std::unique(expanded.begin(), expanded.end()), expanded.end());
+  *names = std::move(expanded);
+  return kExitOk;
+}
+
 }  // namespace
 
 int RunFetch(const std::vector<std::string>& args) {
   std::string job_id, first_name, address, client_name = "anonymous", out_dir;
+  bool all = false;
   FlagParser flags("fetch",
-                   "Downloads artifacts of a job (names as 'mvbrdf watch' lists them, e.g. atlases/kd.exr) to "
-                   "DIR/NAME, verifying each one's SHA-256. Exit code 3 when the job or an artifact does not exist.");
+                   "Downloads artifacts of a job (names as 'mvbrdf artifacts JOB' lists them, e.g. atlases/kd.exr; "
+                   "a name ending in \"/\" such as atlases/ fetches everything under it; --all fetches every one) "
+                   "to DIR/NAME, each through a temporary renamed into place after its SHA-256 was verified. Exit "
+                   "code 3 when the job or an artifact does not exist (the job's artifact names are listed), 4 "
+                   "when the server is unreachable or DIR cannot be written.");
   flags.AddPositional("JOB", &job_id, true, "the job id");
-  flags.AddPositional("NAME...", &first_name, true, "artifact names: relative paths without \"..\"");
+  flags.AddPositional("NAME...", &first_name, false,
+                      "artifact names (relative paths without \"..\"; DIR/ for a directory of them)");
+  flags.AddBool("--all", &all, "fetch every artifact of the job (a succeeded job), keeping their relative paths");
   flags.AddString("--server", &address, "the server, host:port (required)");
   flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
   ConnectionFlags connection;
@@ -182,11 +256,16 @@ int RunFetch(const std::vector<std::string>& args) {
     std::fprintf(stderr, "mvbrdf fetch: %s: required\n", address.empty() ? "--server" : "--out");
     return kExitUsage;
   }
-  names.insert(names.begin(), first_name);
+  if (positionals >= 2) names.insert(names.begin(), first_name);
+  if (all == !names.empty()) {
+    std::fprintf(stderr, "mvbrdf fetch: %s\n",
+                 all ? "--all: fetches every artifact; give no NAME with it"
+                     : "NAME...: required (an artifact name, a directory such as atlases/, or --all)");
+    return kExitUsage;
+  }
   for (const std::string& name : names) {
-    if (!SafeName(name)) {
-      std::fprintf(stderr, "mvbrdf fetch: NAME \"%s\": must be a relative path without \"..\"\n",
-                   scene::ShownName(name).c_str());
+    if (const std::string why = WhyNotSafeName(name); !why.empty()) {
+      std::fprintf(stderr, "mvbrdf fetch: NAME \"%s\": %s\n", scene::ShownName(name).c_str(), why.c_str());
       return kExitUsage;
     }
   }
@@ -195,11 +274,12 @@ int RunFetch(const std::vector<std::string>& args) {
     std::fprintf(stderr, "mvbrdf fetch: %s\n", std::string(channel.status().message()).c_str());
     return kExitUsage;
   }
+  if (int code = ExpandNames(*channel, client_name, job_id, all, &names); code != kExitOk) return code;
   absl::StatusOr<OutputDirLock> lock = PrepareOutputDir("--out", out_dir, force);
   if (!lock.ok()) return ReportFailure(lock.status(), "mvbrdf fetch");
   auto stub = v1::Mvbrdf::NewStub(*channel);
   for (const std::string& name : names) {
-    if (int code = FetchOne(*stub, address, client_name, job_id, name, out_dir); code != kExitOk) return code;
+    if (int code = FetchOne(*stub, *channel, client_name, job_id, name, out_dir); code != kExitOk) return code;
   }
   return kExitOk;
 }

@@ -7,7 +7,9 @@
 #include "client/connection.h"
 #include "client/flags.h"
 #include "client/job_state_name.h"
+#include "client/stage_lines.h"
 #include "core/base/proto_json.h"
+#include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
 namespace mvbrdf::client {
@@ -16,7 +18,8 @@ int RunJobs(const std::vector<std::string>& args) {
   std::string address, client_name = "anonymous";
   bool json = false;
   int limit = 100;
-  FlagParser flags("jobs", "Lists the caller's jobs on a server, newest last, with each task's worker and run time.");
+  FlagParser flags(
+      "jobs", "Lists the caller's jobs on a server, newest last, with each task's worker (by --name) and run time.");
   flags.AddString("--server", &address, "the server, host:port (required)");
   flags.AddString("--client", &client_name, "the client name jobs were submitted as (without tokens)");
   ConnectionFlags connection;
@@ -65,8 +68,11 @@ int RunJobs(const std::vector<std::string>& args) {
     std::printf("%s  %-9s  %d tasks%s%s\n", job.id().c_str(), JobStateName(job.state()), job.tasks_size(),
                 job.error().empty() ? "" : "  ", job.error().c_str());
     for (const v1::TaskInfo& t : job.tasks()) {
-      std::printf("    %-12s %-28s %-9s %-16s %6.1f s%s\n", t.kind().c_str(), t.key().c_str(), t.state().c_str(),
-                  t.worker().empty() ? "-" : t.worker().c_str(), t.seconds(), t.samples_from_cache() ? "  (cache)" : "");
+      // The worker by its --name; its id (first 8 digits) as a detail.
+      std::string worker = t.worker().empty() ? "-" : WorkerShown(t.worker_name(), t.worker());
+      if (!t.worker_name().empty() && !t.worker().empty()) worker += " (" + t.worker().substr(0, 8) + ")";
+      std::printf("    %-12s %-28s %-9s %-24s %6.1f s%s\n", t.kind().c_str(), scene::ShownName(t.key()).c_str(),
+                  t.state().c_str(), worker.c_str(), t.seconds(), t.samples_from_cache() ? "  (cache)" : "");
     }
   }
   return kExitOk;

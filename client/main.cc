@@ -30,12 +30,15 @@ constexpr char kUsage[] =
     "  jobs       list jobs on a server\n"
     "  submit     upload a scene's bundle to a server and queue a job\n"
     "  watch      follow a job's events until it ends\n"
+    "  artifacts  list a job's outputs (name, size, sha256) for fetch\n"
     "  fetch      download a job's artifacts\n"
     "  cancel     cancel a job\n"
     "  health     ask a server's gRPC health service (for probes); exit 0 when serving\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "terms (E_a, E_d, Tables 6.1, 6.2, 7.1, Samples, clusters, ...): docs/glossary.md\n"
+    "Service commands: a job that does not exist, an artifact it does not have and 'artifacts' of a job\n"
+    "  without results are invalid input; 'cancel' of a job that already finished exits ok, saying so.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
     "  disk full, memory, server unreachable or at its limits), 5 the watched job failed, 6 the watched\n"
     "  job was cancelled, 7 the server refused the credentials (no, unknown or wrong-role token)\n";
@@ -73,7 +76,7 @@ int Dispatch(int argc, char** argv) {
   const std::string command = argv[1];
   const std::vector<std::string> args(argv + 2, argv + argc);
   // One-shot clients print one line per failure; gRPC's own log would repeat it.
-  for (const char* client : {"jobs", "submit", "watch", "fetch", "cancel", "health"}) {
+  for (const char* client : {"jobs", "submit", "watch", "fetch", "artifacts", "cancel", "health"}) {
     if (command == client) mvbrdf::client::QuietGrpcLog();
   }
   if (command == "synth") return mvbrdf::client::RunSynth(args);
@@ -91,6 +94,7 @@ int Dispatch(int argc, char** argv) {
   if (command == "watch") return mvbrdf::client::RunWatch(args);
   if (command == "fetch") return mvbrdf::client::RunFetch(args);
   if (command == "cancel") return mvbrdf::client::RunCancel(args);
+  if (command == "artifacts") return mvbrdf::client::RunArtifacts(args);
   if (command == "health") return mvbrdf::client::RunHealth(args);
   std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", mvbrdf::scene::ShownName(command).c_str(), kUsage);
   return mvbrdf::client::kExitUsage;

@@ -19,6 +19,7 @@
 #include "client/job_flags.h"
 #include "client/output_dir.h"
 #include "client/progress.h"
+#include "client/stage_lines.h"
 #include "core/base/files.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
@@ -118,8 +119,10 @@ int RunDirect(const scene::Sequence& sequence, const v1::SubmitJobRequest& reque
   o->run_options.set_direct(true);
   auto context = gl::EglContext::Create(platform);
   if (!context.ok()) return ReportFailure(context.status(), "mvbrdf run");
-  ProgressPrinter progress(stderr);
+  // One line per finished stage, with result.json's seconds for it.
+  ProgressPrinter progress(stderr, /*timed_done_lines=*/false);
   o->progress = [&progress](const std::string& stage, int done, int total) { progress.Update(stage, done, total); };
+  o->stage_done = [&progress](const v1::StageRow& row) { progress.StageDone(row.name(), row.seconds()); };
   auto report = pipeline::CatchOutOfMemory("run", o->atlas.size,
                                            [&] { return pipeline::RunReconstruction(sequence, **context, *o); });
   if (!report.ok()) return ReportFailure(report.status(), "mvbrdf run");
@@ -133,11 +136,15 @@ absl::StatusOr<v1::JobState> FollowJob(v1::Mvbrdf::Stub& stub, const std::string
   v1::WatchJobRequest request;
   request.set_job_id(job_id);
   std::unique_ptr<grpc::ClientReader<v1::JobEvent>> reader = stub.WatchJob(&context, request);
-  ProgressPrinter progress(stderr);
+  ProgressPrinter progress(stderr, /*timed_done_lines=*/false);
   v1::JobEvent event;
   v1::JobState state = v1::QUEUED;
   while (reader->Read(&event)) {
-    if (event.has_progress()) {
+    if (event.has_stage_finished()) {
+      // One line per finished task (as `watch` shows it); the stages' own
+      // lines follow from result.json when the job is done.
+      for (const std::string& line : StageFinishedLines(event.stage_finished())) progress.Line(line);
+    } else if (event.has_progress()) {
       progress.Update(event.progress().stage(), static_cast<int>(event.progress().fraction() * 100.0 + 0.5), 100);
     } else if (event.has_state()) {
       state = event.state();
@@ -224,6 +231,12 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
   v1::RunReport report;
   if (absl::Status s = ReadJsonFile(fs::path(out) / "result.json", &report); !s.ok()) {
     return ReportFailure(s, "mvbrdf run");
+  }
+  {
+    // The stages as result.json has them (a one-process run prints these as
+    // they finish).
+    ProgressPrinter stages(stderr, /*timed_done_lines=*/false);
+    for (const v1::StageRow& row : report.stages()) stages.StageDone(row.name(), row.seconds());
   }
   report.set_scene(pipeline::SceneRelativeTo(scene_file, out));
   report.clear_bundle_sha256();

@@ -15,6 +15,7 @@
 #include "client/flags.h"
 #include "client/job_state_name.h"
 #include "core/base/proto_json.h"
+#include "client/stage_lines.h"
 #include "core/scene/names.h"
 #include "mvbrdf/v1/service.grpc.pb.h"
 
@@ -34,14 +35,9 @@ class EventPrinter {
       case v1::JobEvent::kState:
         Line("state: " + std::string(JobStateName(event.state())));
         break;
-      case v1::JobEvent::kStageStarted: {
-        const v1::StageStarted& s = event.stage_started();
-        std::string line = "stage " + s.stage() + " started";
-        if (!s.worker().empty()) line += " on " + s.worker();
-        if (!s.task_id().empty()) line += " (task " + s.task_id() + ")";
-        Line(line);
+      case v1::JobEvent::kStageStarted:
+        Line(StageStartedLine(event.stage_started()));
         break;
-      }
       case v1::JobEvent::kProgress: {
         const v1::Progress& p = event.progress();
         char text[256];
@@ -60,30 +56,10 @@ class EventPrinter {
         }
         break;
       }
-      case v1::JobEvent::kStageFinished: {
-        const v1::StageFinished& f = event.stage_finished();
-        char text[256];
-        std::snprintf(text, sizeof text, "stage %s finished in %.1f s", f.stage().c_str(), f.seconds());
-        std::string line = text;
-        std::vector<std::pair<std::string, double>> metrics(f.metrics().begin(), f.metrics().end());
-        std::sort(metrics.begin(), metrics.end());
-        std::vector<std::string> warnings;
-        for (const auto& [name, value] : metrics) {
-          if (name.rfind("flag/", 0) == 0) {  // a flagged cluster fit (worker/task_runner.cc)
-            const std::string rest = name.substr(5);
-            const size_t slash = rest.rfind('/');
-            warnings.push_back("warning: cluster \"" + scene::ShownName(rest.substr(0, slash)) +
-                               "\": " + (slash == std::string::npos ? "" : rest.substr(slash + 1)) +
-                               " (result.json's clusters[].flags)");
-            continue;
-          }
-          std::snprintf(text, sizeof text, "  %s=%.6g", name.c_str(), value);
-          line += text;
-        }
-        Line(line);
-        for (const std::string& w : warnings) Line(w);
+      case v1::JobEvent::kStageFinished:
+        // One line per finished task: stage, key, worker, time, metrics.
+        for (const std::string& line : StageFinishedLines(event.stage_finished())) Line(line);
         break;
-      }
       case v1::JobEvent::kArtifact: {
         const v1::ArtifactReady& a = event.artifact();
         Line("artifact " + a.name() + "  " + std::to_string(a.size()) + " bytes  sha256 " + a.sha256());
@@ -168,9 +144,10 @@ int RunWatch(const std::vector<std::string>& args) {
   std::string job_id, address, client_name = "anonymous";
   bool json = false;
   FlagParser flags("watch",
-                   "Follows a job's events (state changes, stages started and finished with their run time and "
-                   "metrics, progress, artifacts) until the job ends. Exit code: 0 the job succeeded, 5 it failed "
-                   "(the reason is printed), 6 it was cancelled; 3 no such job, 4 the server is unreachable.");
+                   "Follows a job's events (state changes, each stage started and finished with its configuration, "
+                   "its worker's --name, its run time and metrics, progress, artifacts) until the job ends. Exit code: "
+                   "0 the job succeeded, 5 it failed (the reason is printed), 6 it was cancelled; 3 no such job, 4 the "
+                   "server is unreachable.");
   flags.AddPositional("JOB", &job_id, true, "the job id (from 'mvbrdf submit' or 'mvbrdf jobs')");
   flags.AddString("--server", &address, "the server, host:port (required)");
   flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");

@@ -169,13 +169,17 @@ TEST_F(ServiceIntegrationTest, SubmitWatchFetchEqualsADirectLibraryRun) {
       ++started;
       EXPECT_FALSE(e.stage_started().worker().empty());
     }
-    if (e.has_stage_finished()) ++finished;
+    if (e.has_stage_finished()) {
+      ++finished;
+      EXPECT_FALSE(e.stage_finished().worker_name().empty());
+      EXPECT_FALSE(e.stage_finished().task_id().empty());
+    }
     if (e.has_artifact()) ++artifacts;
     if (e.has_progress()) ++progress;
   }
   // gather (replayed when it was leased before the watch began), 8 sweeps, choose, reflectance.
   EXPECT_EQ(started, 1 + 8 + 1 + 1);
-  EXPECT_GE(finished, 11);
+  EXPECT_EQ(finished, 1 + 8 + 1 + 1);  // one event per finished task (issue #20)
   EXPECT_GT(progress, 0);
   EXPECT_GT(artifacts, 5);
 

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
+#include "core/base/files.h"
 #include "core/base/status_macros.h"
 #include "core/bundle/sha256.h"
 #include "core/fit/light_sweep.h"
@@ -16,6 +17,7 @@
 #include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/plan.h"
 #include "core/pipeline/reconstruct_stage.h"
+#include "core/report/report_inputs.h"
 #include "core/samples/assemble.h"
 #include "worker/job_options.h"
 #include "worker/worker_fault.h"
@@ -46,6 +48,23 @@ std::vector<std::pair<std::string, fs::path>> FilesUnder(const fs::path& dir) {
   }
   std::sort(files.begin(), files.end());
   return files;
+}
+
+// DIR/report.html from the outputs just written to DIR (env.scratch_dir), as
+// `mvbrdf report DIR` makes it: a service artifact like the others. `gl`: the
+// context of a GL task (renderings), null on a CPU task's thread.
+absl::Status WriteReportHtml(const TaskEnvironment& env, gl::EglContext* gl) {
+  report::ReportOptions options;
+  options.gl = gl;
+  options.scratch_dir = env.scratch_dir.string() + ".report";  // beside: not an artifact
+  std::error_code ec;
+  fs::create_directories(options.scratch_dir, ec);
+  absl::StatusOr<report::ReportInputs> inputs = report::CollectReportInputs(env.scratch_dir, options);
+  fs::remove_all(options.scratch_dir, ec);
+  if (!inputs.ok()) {
+    return absl::Status(inputs.status().code(), absl::StrCat("report.html: ", inputs.status().message()));
+  }
+  return WriteStringToFile(env.scratch_dir / "report.html", report::BuildReportHtml(*inputs));
 }
 
 absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
@@ -158,6 +177,11 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
     std::error_code ec;
     fs::create_directories(env.scratch_dir, ec);
     MVBRDF_RETURN_IF_ERROR(WriteJsonFile(file, report));
+    if (env.report_html) {
+      // A light table has nothing to render; the context is the GL thread's.
+      MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env, nullptr));
+      out.artifacts.emplace_back("report.html", env.scratch_dir / "report.html");
+    }
     out.artifacts.emplace_back("result.json", file);
   }
   report.SerializeToString(&out.result);
@@ -185,6 +209,7 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
   o.out_dir = env.scratch_dir;
   o.texel_statistics = std::move(env.texel_statistics);  // consumed: freed as soon as the fits are done
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport report, pipeline::RunReconstruction(sequence, *env.gl, o));
+  if (env.report_html) MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env, env.gl));
   TaskOutput out;
   report.SerializeToString(&out.result);
   out.artifacts = FilesUnder(env.scratch_dir);

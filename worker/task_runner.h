@@ -50,6 +50,10 @@ struct TaskEnvironment {
   // reflectance: pass 1's texel statistics from this worker's gather of the
   // same job, or null (then the task gathers them).
   std::shared_ptr<pipeline::TexelStatistics> texel_statistics;
+  // The task that writes the job's result.json (choose for a light table,
+  // else reflectance) also writes report.html beside it: the page `mvbrdf
+  // report` makes of those outputs (renderings only with `gl`).
+  bool report_html = false;
   // The job's triangle Samples (sweep tasks), given its gather's result.
   std::function<absl::StatusOr<std::shared_ptr<const samples::SampleSet>>(const v1::GatherResult&)> samples;
 };

@@ -495,6 +495,7 @@ absl::Status Worker::RunLeased(v1::Workers::Stub& stub, const v1::Task& task, gl
   env.cancelled = [&renewer, &stream_ok] { return renewer.lost() || !stream_ok; };
   env.samples = [this, &stub, &task](const v1::GatherResult& gathered) { return FetchSamples(stub, task, gathered); };
   env.gather_texel_statistics = options_.gather_texel_statistics;
+  env.report_html = options_.report_html;
   {
     // Pass 1's texel statistics from this worker's gather of the same job.
     std::lock_guard<std::mutex> lock(texels_mu_);

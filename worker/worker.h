@@ -54,6 +54,10 @@ struct WorkerOptions {
   // the frames instead of two). Worth it when this worker will likely run
   // the reflectance too: a single worker (mvbrdf run's default).
   bool gather_texel_statistics = false;
+  // The job's report.html is one of its artifacts (TaskEnvironment::
+  // report_html). Off for `mvbrdf run`'s in-process workers: run writes its
+  // own with --report, from the outputs in --out.
+  bool report_html = true;
 };
 
 class Worker {

@@ -40,13 +40,13 @@ using Clock = std::chrono::steady_clock;
 
 double Since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-void AddStage(v1::RunReport* report, const char* name, double seconds,
-              const std::function<void(const std::string&, int, int)>& progress) {
-  if (progress) progress(name, 1, 1);
+void AddStage(v1::RunReport* report, const char* name, double seconds, const ReconstructOptions& options) {
+  if (options.progress) options.progress(name, 1, 1);
   v1::StageRow* row = report->add_stages();
   row->set_name(name);
   row->set_seconds(seconds);
   row->set_peak_rss_bytes(PeakRssBytes());
+  if (options.stage_done) options.stage_done(*row);
 }
 
 std::vector<std::string> FlagNames(uint32_t flags) {
@@ -344,7 +344,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   SetAtlasFigures(atlas, Since(t0), report.mutable_atlas());
   MVBRDF_RETURN_IF_ERROR(scene::WriteAtlasMesh(out / "atlas", atlas.topology, sequence));
   MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "triangle_id.exr", atlas.triangle_id));
-  AddStage(&report, "atlas", Since(t0), options.progress);
+  AddStage(&report, "atlas", Since(t0), options);
   const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
   const bool reflectance = plan.Has(Stage::kTexelPass);
 
@@ -370,7 +370,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "rest_position.exr", g.rest_position));
   }
   // (No stage when another task gathered everything: its report has it.)
-  if (gather_triangles || gather_texels) AddStage(&report, "gather_samples", Since(t0), options.progress);
+  if (gather_triangles || gather_texels) AddStage(&report, "gather_samples", Since(t0), options);
 
   // The light configuration.
   t0 = Clock::now();
@@ -398,7 +398,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     for (const fit::SweepRow& row : sweep.rows) SweepRowToProto(row, report.add_light_configurations());
     MVBRDF_RETURN_IF_ERROR(ChooseConfiguration(&report));
     chosen = report.chosen_configuration();
-    AddStage(&report, "light_sweep", Since(t0), options.progress);
+    AddStage(&report, "light_sweep", Since(t0), options);
   }
   if (chosen.empty()) {
     mask = samples::AllLights(sequence.lights.size());
@@ -562,7 +562,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       if (texel_cluster[t] >= 0) cluster_texels[static_cast<size_t>(texel_cluster[t])].push_back(t);
     }
   }
-  AddStage(&report, "clustering", Since(t0), options.progress);
+  AddStage(&report, "clustering", Since(t0), options);
 
   // One BRDF per cluster.
   t0 = Clock::now();
@@ -618,7 +618,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     }
   }
   g.texels.reset();
-  AddStage(&report, "cluster_fit", Since(t0), options.progress);
+  AddStage(&report, "cluster_fit", Since(t0), options);
 
   // Pass 2: per-texel kd, observed diffuse per frame, camera errors.
   t0 = Clock::now();
@@ -756,7 +756,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   fit::DiffuseOptions texel_diffuse = options.diffuse;
   texel_diffuse.prior_weight = options.kd_prior_weight;
   const fit::DiffuseSolution kd = diffuse.Solve(texel_diffuse, fallback);
-  AddStage(&report, "texel_pass", Since(t0), options.progress);
+  AddStage(&report, "texel_pass", Since(t0), options);
 
   // Table 7.1.
   if (camera_errors) {
@@ -852,7 +852,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
   }
   std::error_code ec;
   std::filesystem::remove_all(observed_dir, ec);
-  AddStage(&report, "write_atlases", Since(t0), options.progress);
+  AddStage(&report, "write_atlases", Since(t0), options);
   MVBRDF_RETURN_IF_ERROR(CheckMetricsFinite(report));
 
   report.set_seconds(Since(start));

@@ -101,6 +101,9 @@ struct ReconstructOptions {
   // result.json's stages), units done and the total (frames for the passes;
   // 1 of 1 for the other stages when they finish). May be empty.
   std::function<void(const std::string& stage, int done, int total)> progress;
+  // Called on the calling thread with each stage's row as result.json's
+  // stages get it (its name and seconds), once per stage. May be empty.
+  std::function<void(const v1::StageRow& stage)> stage_done;
   // Asked once per frame of each pass; true stops the run with CANCELLED
   // (a worker whose lease was lost or whose job was cancelled). May be empty.
   std::function<bool()> cancelled;

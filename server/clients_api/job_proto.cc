@@ -25,6 +25,7 @@ v1::TaskInfo ToProto(const store::Task& task) {
   info.set_key(task.key);
   info.set_state(std::string(store::TaskStateName(task.state)));
   info.set_worker(task.lease_owner);
+  info.set_worker_name(task.worker_name);
   info.set_attempts(static_cast<uint32_t>(task.attempts));
   const bool finished = task.state == store::TaskState::kDone || task.state == store::TaskState::kFailed;
   if (finished && task.started_ms > 0 && task.updated_ms >= task.started_ms) {

@@ -52,13 +52,21 @@ std::vector<v1::JobEvent> Diff(Seen& seen, const Snapshot& now, bool initial, in
       started->set_stage(task.kind);
       started->set_task_id(task.id);
       started->set_worker(task.lease_owner);
+      started->set_worker_name(task.worker_name);
+      started->set_key(task.key);
     }
     if (task.state != store::TaskState::kDone || !seen.done_tasks.insert(task.id).second) continue;
-    // The time of the last lease; workers forward their own StageFinished
-    // (with their times and metrics) via Push.
+    // One event per finished task: the worker's own report (its run time
+    // and metrics) as the store keeps it, else the time of the last lease.
     v1::StageFinished* finished = event().mutable_stage_finished();
-    finished->set_stage(task.key.empty() ? task.kind : task.kind + "[" + task.key + "]");
-    finished->set_seconds(ToProto(task).seconds());
+    if (!task.stage_finished.has_value() || !finished->ParseFromString(*task.stage_finished)) {
+      finished->Clear();
+      finished->set_stage(task.kind);
+      finished->set_seconds(ToProto(task).seconds());
+    }
+    finished->set_key(task.key);
+    finished->set_task_id(task.id);
+    finished->set_worker_name(task.worker_name);
   }
   if (initial || now.job.state != seen.state) {
     event().set_state(ToProto(now.job.state));
@@ -201,6 +209,9 @@ void JobWatchers::Push(const v1::JobEvent& event) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = watches_.find(event.job_id());
   if (it == watches_.end()) return;
+  // Finished stages and states come from the store (the poller's Diff):
+  // exactly one StageFinished per task, in order before the final state.
+  if (event.has_stage_finished() || event.has_state() || event.has_failed()) return;
   for (JobWatch* watch : it->second) {
     // A start the replay already showed (the task was leased between the
     // store write and this push) is not sent twice.

@@ -6,8 +6,10 @@
 // StageFinished for every task done so far, the reason when failed), then
 // follows the job: one poller thread (owned here) reads the store every
 // `poll_interval` for every watched job and sends a JobState event when the
-// state changed and a StageFinished per newly done task; other parts of the
-// server forward progress events with Push. A stream ends after a final state
+// state changed and a StageFinished per newly done task (the worker's report
+// kept with the task: its seconds and metrics, key and worker name); other
+// parts of the server forward stage starts, progress and artifacts with Push
+// (Push drops finished stages and states: those come from the store, once). A stream ends after a final state
 // (succeeded, failed, cancelled). A client cancelling its watch only ends the
 // stream, never the job.
 //

@@ -392,12 +392,55 @@ grpc::ServerWriteReactor<v1::ArtifactChunk>* MvbrdfService::FetchArtifact(grpc::
   return new FetchReactor(artifacts_, *request, chunk_bytes);
 }
 
+absl::Status MvbrdfService::ListArtifactsOf(const std::string& job_id, v1::ListArtifactsResponse* response) {
+  absl::StatusOr<store::Job> job = jobs_.GetJob(job_id);
+  if (!job.ok()) return job.status();
+  if (job->state != store::JobState::kSucceeded) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "job ", job_id, " is ", store::JobStateName(job->state),
+        job->state == store::JobState::kQueued || job->state == store::JobState::kRunning
+            ? ": its artifacts are listed once it has succeeded ('mvbrdf watch' follows it)"
+            : ": it has no results"));
+  }
+  absl::StatusOr<std::vector<store::Artifact>> listed = artifacts_.ArtifactsOfJob(job_id);
+  if (!listed.ok()) return listed.status();
+  std::vector<store::Artifact> sorted = *std::move(listed);
+  std::sort(sorted.begin(), sorted.end(),
+            [](const store::Artifact& a, const store::Artifact& b) { return a.name < b.name; });
+  for (const store::Artifact& a : sorted) {
+    v1::ArtifactReady* ready = response->add_artifacts();
+    ready->set_name(a.name);
+    ready->set_sha256(a.sha256);
+    ready->set_size(static_cast<uint64_t>(a.size));
+  }
+  return absl::OkStatus();
+}
+
+grpc::ServerUnaryReactor* MvbrdfService::ListArtifacts(grpc::CallbackServerContext* context,
+                                                       const v1::ListArtifactsRequest* request,
+                                                       v1::ListArtifactsResponse* response) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  absl::StatusOr<auth::Principal> caller = Caller(*context);
+  absl::Status status = caller.ok() ? CheckJobAccess(*caller, request->job_id()) : caller.status();
+  if (status.ok()) status = ListArtifactsOf(request->job_id(), response);
+  reactor->Finish(ToGrpc(status));
+  return reactor;
+}
+
 grpc::ServerUnaryReactor* MvbrdfService::CancelJob(grpc::CallbackServerContext* context,
                                                    const v1::CancelJobRequest* request, v1::Job* response) {
   grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
   absl::StatusOr<auth::Principal> caller = Caller(*context);
   absl::Status status = caller.ok() ? CheckJobAccess(*caller, request->job_id()) : caller.status();
-  if (status.ok()) status = jobs_.CancelJob(request->job_id(), clock_());
+  if (status.ok()) {
+    status = jobs_.CancelJob(request->job_id(), clock_());
+    // A job that already succeeded or failed keeps its state: the answer
+    // says which (not an error: nothing is left to cancel).
+    if (absl::IsFailedPrecondition(status)) {
+      absl::StatusOr<store::Job> job = jobs_.GetJob(request->job_id());
+      if (job.ok() && store::IsFinal(job->state)) status = absl::OkStatus();
+    }
+  }
   if (status.ok()) {
     absl::StatusOr<v1::Job> job = JobMessage(request->job_id());
     status = job.status();

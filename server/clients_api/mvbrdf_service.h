@@ -83,6 +83,13 @@ class MvbrdfService final : public v1::Mvbrdf::CallbackService {
                                                    const v1::WatchJobRequest* request) override;
   grpc::ServerWriteReactor<v1::ArtifactChunk>* FetchArtifact(grpc::CallbackServerContext* context,
                                                              const v1::FetchArtifactRequest* request) override;
+  // Every artifact of a succeeded job, by name. NOT_FOUND for an unknown
+  // (or another client's) job; FAILED_PRECONDITION naming the state for a
+  // job that has not succeeded (it has no results to list yet, or none).
+  grpc::ServerUnaryReactor* ListArtifacts(grpc::CallbackServerContext* context, const v1::ListArtifactsRequest* request,
+                                          v1::ListArtifactsResponse* response) override;
+  // Cancels a queued or running job. A job already succeeded or failed keeps
+  // its state and is answered as it is (OK; Job.state says which).
   grpc::ServerUnaryReactor* CancelJob(grpc::CallbackServerContext* context, const v1::CancelJobRequest* request,
                                       v1::Job* response) override;
   grpc::ServerUnaryReactor* ListJobs(grpc::CallbackServerContext* context, const v1::ListJobsRequest* request,
@@ -91,6 +98,7 @@ class MvbrdfService final : public v1::Mvbrdf::CallbackService {
  private:
   absl::Status Submit(const std::string& client, const v1::SubmitJobRequest& request, v1::Job* job);
   absl::StatusOr<v1::Job> JobMessage(const std::string& job_id);
+  absl::Status ListArtifactsOf(const std::string& job_id, v1::ListArtifactsResponse* response);
   // Authorize with a client token (see the top of this file).
   absl::StatusOr<auth::Principal> Caller(const grpc::CallbackServerContext& context) const;
   // OK when `caller` may act on job `job_id` (always without tokens or for

@@ -16,6 +16,7 @@
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include "absl/strings/str_join.h"
 #include "core/base/files.h"
 #include "core/bundle/bundle.h"
 #include "core/gl/egl_context.h"
@@ -504,14 +505,97 @@ TEST_F(MvbrdfServiceTest, WatchReportsFinishedStagesAndSuccess) {
   }
   std::vector<std::string> seen;
   while (reader->Read(&event)) {
-    if (event.has_stage_finished()) seen.push_back(event.stage_finished().stage());
-    if (event.event_case() == v1::JobEvent::kState) seen.push_back(v1::JobState_Name(event.state()));
+    if (event.has_stage_finished()) {
+      const v1::StageFinished& f = event.stage_finished();
+      seen.push_back(f.key().empty() ? f.stage() : f.stage() + "[" + f.key() + "]");
+      EXPECT_FALSE(f.task_id().empty());
+    }
+    // (RUNNING only when a poll fell between the two completions.)
+    if (event.event_case() == v1::JobEvent::kState && event.state() != v1::RUNNING) {
+      seen.push_back(v1::JobState_Name(event.state()));
+    }
   }
   EXPECT_TRUE(reader->Finish().ok());
-  ASSERT_FALSE(seen.empty());
-  EXPECT_EQ(seen.back(), "SUCCEEDED");
-  EXPECT_NE(std::find(seen.begin(), seen.end(), "gather"), seen.end());
-  EXPECT_NE(std::find(seen.begin(), seen.end(), "reflectance[NE,NW,SE,SW]"), seen.end());
+  // Each finished task once (issue #20), then the final state.
+  EXPECT_EQ(seen, (std::vector<std::string>{"gather", "reflectance[NE,NW,SE,SW]", "SUCCEEDED"}))
+      << absl::StrJoin(seen, " ");
+}
+
+// Issue #20: a finished stage is one event, with the worker's numbers kept
+// with the task (a pushed copy is not sent again), its key, task and worker
+// name; a late watch replays the same. ListArtifacts lists a succeeded
+// job's artifacts by name; NOT_FOUND for an unknown job, FAILED_PRECONDITION
+// before success; cancelling a succeeded job answers its state.
+TEST_F(MvbrdfServiceTest, FinishedStagesAreOneEventWithTheWorkersNumbers) {
+  UploadGood();
+  v1::SubmitJobRequest submit;
+  submit.set_bundle_sha256(good_->sha256);
+  submit.set_configuration("NE,NW,SE,SW");
+  v1::Job job;
+  ASSERT_TRUE(Submit(submit, &job).ok());
+  auto list = [&](const std::string& id, v1::ListArtifactsResponse* response) {
+    auto context = Context();
+    v1::ListArtifactsRequest request;
+    request.set_job_id(id);
+    return stub_->ListArtifacts(context.get(), request, response);
+  };
+  v1::ListArtifactsResponse listed;
+  EXPECT_EQ(list(job.id(), &listed).error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_EQ(list(std::string(32, 'f'), &listed).error_code(), grpc::StatusCode::NOT_FOUND);
+
+  ASSERT_TRUE(jobs_->RegisterWorker("w1", "studio-gpu-1", now_ms_).ok());
+  for (int i = 0; i < 2; ++i) {
+    auto task = jobs_->LeaseTask("w1", now_ms_, 60'000);
+    ASSERT_TRUE(task.ok() && task->has_value());
+    v1::StageFinished finished;
+    finished.set_stage((*task)->kind);
+    finished.set_seconds(1.25 + i);
+    (*finished.mutable_metrics())["E_d"] = 0.5;
+    ASSERT_TRUE(jobs_->SetStageFinished((*task)->id, "w1", finished.SerializeAsString()).ok());
+    v1::JobEvent pushed;  // as the workers' service forwards it: not sent again
+    pushed.set_job_id(job.id());
+    *pushed.mutable_stage_finished() = finished;
+    service_->PushEvent(pushed);
+    ASSERT_TRUE(jobs_->CompleteTask((*task)->id, "w1", "ok", now_ms_).ok());
+  }
+  ASSERT_TRUE(artifacts_->PutBytes(job.id(), "result.json", "{}", now_ms_).ok());
+  ASSERT_TRUE(artifacts_->PutBytes(job.id(), "atlases/kd.exr", "kd", now_ms_).ok());
+  for (int watch = 0; watch < 2; ++watch) {
+    auto context = Context();
+    v1::WatchJobRequest request;
+    request.set_job_id(job.id());
+    auto reader = stub_->WatchJob(context.get(), request);
+    v1::JobEvent event;
+    std::vector<v1::StageFinished> finished;
+    while (reader->Read(&event)) {
+      if (event.has_stage_finished()) finished.push_back(event.stage_finished());
+    }
+    EXPECT_TRUE(reader->Finish().ok());
+    ASSERT_EQ(finished.size(), 2u);
+    EXPECT_EQ(finished[0].stage(), "gather");
+    EXPECT_DOUBLE_EQ(finished[0].seconds(), 1.25);
+    EXPECT_EQ(finished[1].stage(), "reflectance");
+    EXPECT_EQ(finished[1].key(), "NE,NW,SE,SW");
+    EXPECT_DOUBLE_EQ(finished[1].seconds(), 2.25);
+    EXPECT_DOUBLE_EQ(finished[1].metrics().at("E_d"), 0.5);
+    EXPECT_EQ(finished[1].worker_name(), "studio-gpu-1");
+    EXPECT_EQ(finished[1].task_id().size(), 32u);
+  }
+  ASSERT_TRUE(list(job.id(), &listed).ok());
+  ASSERT_EQ(listed.artifacts_size(), 2);
+  EXPECT_EQ(listed.artifacts(0).name(), "atlases/kd.exr");
+  EXPECT_EQ(listed.artifacts(0).size(), 2u);
+  EXPECT_EQ(listed.artifacts(1).name(), "result.json");
+  EXPECT_EQ(listed.artifacts(1).sha256().size(), 64u);
+
+  auto context = Context();
+  v1::CancelJobRequest cancel;
+  cancel.set_job_id(job.id());
+  v1::Job answered;
+  const grpc::Status s = stub_->CancelJob(context.get(), cancel, &answered);
+  ASSERT_TRUE(s.ok()) << s.error_message();
+  EXPECT_EQ(answered.state(), v1::SUCCEEDED);
+  for (const v1::TaskInfo& t : answered.tasks()) EXPECT_EQ(t.worker_name(), "studio-gpu-1");
 }
 
 TEST_F(MvbrdfServiceTest, FetchArtifactRoundTripsInChunks) {

@@ -113,6 +113,13 @@ std::vector<std::pair<std::string, Call>> ClientMethods(v1::Mvbrdf::Stub& stub) 
          }
          return reader->Finish();
        }},
+      {"ListArtifacts",
+       [&stub](grpc::ClientContext& c) {
+         v1::ListArtifactsRequest request;
+         request.set_job_id("no-such-job");
+         v1::ListArtifactsResponse response;
+         return stub.ListArtifacts(&c, request, &response);
+       }},
       {"CancelJob",
        [&stub](grpc::ClientContext& c) {
          v1::CancelJobRequest request;
@@ -416,7 +423,7 @@ TEST_F(SecurityTest, EachRoleReachesOnlyItsService) {
   const auto worker_methods = WorkerMethods(*workers_);
   std::vector<std::pair<std::string, Call>> all = client_methods;
   all.insert(all.end(), worker_methods.begin(), worker_methods.end());
-  ASSERT_EQ(all.size(), 13u);
+  ASSERT_EQ(all.size(), 14u);
 
   for (const auto& [name, call] : all) {
     SCOPED_TRACE(name);

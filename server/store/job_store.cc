@@ -18,7 +18,8 @@ constexpr const char* kJobColumns =
 // tasks.depends_on is unused since schema version 2 (see task_deps).
 constexpr const char* kTaskColumns =
     "id, job_id, kind, key, added_by, state, attempts, max_attempts, lease_owner, lease_expires_ms, result, "
-    "error, created_ms, updated_ms, started_ms, samples_from_cache, worker_faults";
+    "error, created_ms, updated_ms, started_ms, samples_from_cache, worker_faults, stage_finished, "
+    "(SELECT name FROM workers WHERE workers.id = tasks.lease_owner)";
 constexpr absl::string_view kFollowUpRefPrefix = "follow_up:";
 
 absl::StatusOr<Job> ReadJob(const Statement& row) {
@@ -54,6 +55,8 @@ absl::StatusOr<Task> ReadTask(const Statement& row) {
   task.started_ms = row.ColumnInt64(14);
   task.samples_from_cache = row.ColumnInt64(15) != 0;
   task.worker_faults = static_cast<int>(row.ColumnInt64(16));
+  if (!row.ColumnIsNull(17)) task.stage_finished = row.ColumnBlob(17);
+  if (!row.ColumnIsNull(18)) task.worker_name = row.ColumnText(18);
   return task;
 }
 
@@ -380,8 +383,9 @@ absl::Status JobStore::RedoDependency(absl::string_view task_id, absl::string_vi
         MVBRDF_ASSIGN_OR_RETURN(
             Statement redo,
             Statement::Prepare(*db_,
-                               "UPDATE tasks SET state = 'queued', result = NULL, lease_expires_ms = NULL, "
-                               "samples_from_cache = 0, error = ?2, updated_ms = ?3 WHERE id = ?1"));
+                               "UPDATE tasks SET state = 'queued', result = NULL, stage_finished = NULL, "
+                               "lease_expires_ms = NULL, samples_from_cache = 0, error = ?2, updated_ms = ?3 "
+                               "WHERE id = ?1"));
         MVBRDF_RETURN_IF_ERROR(redo.BindText(1, dependency_id));
         MVBRDF_RETURN_IF_ERROR(redo.BindText(2, reason));
         MVBRDF_RETURN_IF_ERROR(redo.BindInt64(3, now_ms));
@@ -425,6 +429,35 @@ absl::Status JobStore::SetSamplesFromCache(absl::string_view task_id, bool from_
   MVBRDF_RETURN_IF_ERROR(update.BindInt64(2, from_cache ? 1 : 0));
   MVBRDF_RETURN_IF_ERROR(update.Run());
   if (db_->Changes() == 0) return absl::NotFoundError(absl::StrCat("task ", task_id, ": no such task"));
+  return absl::OkStatus();
+}
+
+absl::Status JobStore::RegisterWorker(absl::string_view worker_id, absl::string_view name, int64_t now_ms) {
+  std::lock_guard<std::mutex> lock(mu_);
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement insert,
+      Statement::Prepare(*db_, "INSERT OR REPLACE INTO workers (id, name, registered_ms) VALUES (?1, ?2, ?3)"));
+  MVBRDF_RETURN_IF_ERROR(insert.BindText(1, worker_id));
+  MVBRDF_RETURN_IF_ERROR(insert.BindText(2, name));
+  MVBRDF_RETURN_IF_ERROR(insert.BindInt64(3, now_ms));
+  return insert.Run();
+}
+
+absl::Status JobStore::SetStageFinished(absl::string_view task_id, absl::string_view worker,
+                                        absl::string_view report) {
+  std::lock_guard<std::mutex> lock(mu_);
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement update,
+      Statement::Prepare(*db_, "UPDATE tasks SET stage_finished = ?3 WHERE id = ?1 AND state = 'leased' "
+                               "AND lease_owner = ?2"));
+  MVBRDF_RETURN_IF_ERROR(update.BindText(1, task_id));
+  MVBRDF_RETURN_IF_ERROR(update.BindText(2, worker));
+  MVBRDF_RETURN_IF_ERROR(update.BindBlob(3, report));
+  MVBRDF_RETURN_IF_ERROR(update.Run());
+  if (db_->Changes() == 0) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("SetStageFinished: task ", task_id, " is not leased by worker ", worker));
+  }
   return absl::OkStatus();
 }
 

@@ -116,6 +116,10 @@ struct Task {
   int worker_faults = 0;
   std::optional<std::string> result;  // set when done
   std::string error;                  // the last failure reported
+  // The --name lease_owner registered with (RegisterWorker); empty when unknown.
+  std::string worker_name;
+  // The worker's report of the finished stage (SetStageFinished; opaque).
+  std::optional<std::string> stage_finished;
   int64_t created_ms = 0;
   int64_t updated_ms = 0;
 };
@@ -219,6 +223,14 @@ class JobStore {
   // job reports). Any state; NOT_FOUND for an unknown task. Does not touch
   // updated_ms (it times the task).
   absl::Status SetSamplesFromCache(absl::string_view task_id, bool from_cache);
+  // Records a worker and its name (kept after it goes away, so tasks it ran
+  // still name it). Registering an id again replaces its name.
+  absl::Status RegisterWorker(absl::string_view worker_id, absl::string_view name, int64_t now_ms);
+  // The lease owner's report of the task's stage (opaque bytes; the service
+  // keeps a serialized StageFinished), kept with the task for Task::
+  // stage_finished. FAILED_PRECONDITION unless the task is leased by
+  // `worker`. Does not touch updated_ms.
+  absl::Status SetStageFinished(absl::string_view task_id, absl::string_view worker, absl::string_view report);
 
   absl::StatusOr<Job> GetJob(absl::string_view job_id);
   // The client's jobs, oldest first.

@@ -819,3 +819,53 @@ INSERT INTO task_deps (task_id, depends_on) VALUES ('s1', 'g1');
 
 }  // namespace
 }  // namespace mvbrdf::store
+
+namespace mvbrdf::store {
+namespace {
+
+// Issue #20: a version 4 file (no workers table, no stage_finished) opens
+// and migrates; its tasks have no worker name or report; new workers and
+// reports are kept from then on, also across a reopen.
+TEST(JobStoreMigrationTest, Version4DatabaseGainsWorkerNamesAndStageReports) {
+  TestDir dir;
+  {
+    auto db = SqliteDb::Open(dir.db());
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE(ApplyMigrationsUpTo(**db, 4).ok());
+    ASSERT_TRUE((*db)->Exec(R"sql(
+INSERT INTO jobs (id, client, state, scene_hash, request, created_ms, updated_ms, sealed) VALUES
+  ('j1', 'alice', 'running', 'h', x'00', 1, 1, 1);
+INSERT INTO tasks (id, job_id, kind, key, state, attempts, max_attempts, lease_owner, result,
+                   created_ms, updated_ms) VALUES
+  ('g1', 'j1', 'gather', '', 'done', 1, 3, 'old-worker', x'72', 1, 5),
+  ('s1', 'j1', 'sweep', 'NE', 'queued', 0, 3, NULL, NULL, 2, 2);
+INSERT INTO task_deps (task_id, depends_on) VALUES ('s1', 'g1');
+)sql").ok());
+  }
+  auto store = OpenOrDie(dir.db());
+  auto gather = store->GetTask("g1");
+  ASSERT_TRUE(gather.ok()) << gather.status();
+  EXPECT_EQ(gather->worker_name, "");  // registered before names were kept
+  EXPECT_FALSE(gather->stage_finished.has_value());
+
+  ASSERT_TRUE(store->RegisterWorker("w2id", "studio-gpu-1", kT0).ok());
+  Task sweep = LeaseOrDie(*store, "w2id", kT0);
+  EXPECT_EQ(sweep.id, "s1");
+  // Only the lease owner reports the stage.
+  EXPECT_EQ(store->SetStageFinished("s1", "someone-else", "x").code(), absl::StatusCode::kFailedPrecondition);
+  ASSERT_TRUE(store->SetStageFinished("s1", "w2id", "report bytes").ok());
+  ASSERT_TRUE(store->CompleteTask("s1", "w2id", "row", kT0 + 1).ok());
+  store.reset();
+  ExpectIntegrityOk(dir.db());
+  auto reopened = OpenOrDie(dir.db());
+  auto tasks = reopened->TasksOfJob("j1");
+  ASSERT_TRUE(tasks.ok()) << tasks.status();
+  ASSERT_EQ(tasks->size(), 2u);
+  EXPECT_EQ((*tasks)[1].worker_name, "studio-gpu-1");
+  EXPECT_EQ((*tasks)[1].lease_owner, "w2id");
+  EXPECT_EQ((*tasks)[1].stage_finished.value_or(""), "report bytes");
+  EXPECT_EQ(StateOf(*reopened, "j1"), JobState::kSucceeded);
+}
+
+}  // namespace
+}  // namespace mvbrdf::store

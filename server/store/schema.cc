@@ -99,6 +99,15 @@ ALTER TABLE tasks ADD COLUMN samples_from_cache INTEGER NOT NULL DEFAULT 0 CHECK
     R"sql(
 ALTER TABLE tasks ADD COLUMN worker_faults INTEGER NOT NULL DEFAULT 0 CHECK (worker_faults >= 0);
 )sql",
+    // 4 -> 5: worker names; the worker's report of each finished task.
+    R"sql(
+CREATE TABLE workers (
+  id             TEXT PRIMARY KEY,
+  name           TEXT NOT NULL,
+  registered_ms  INTEGER NOT NULL
+);
+ALTER TABLE tasks ADD COLUMN stage_finished BLOB;
+)sql",
 };
 static_assert(sizeof(kMigrations) / sizeof(kMigrations[0]) == kSchemaVersion,
               "one migration per schema version");

@@ -28,6 +28,13 @@
 //   tasks.worker_faults: failures a worker reported as its own environment's
 //     (its disk, memory, EGL), which went back to the queue without using an
 //     attempt; bounded by twice max_attempts
+// Version 5 (what `watch` and `jobs` show, issue #20):
+//   workers(id, name, registered_ms): every worker that registered, so a task's
+//     lease_owner (a worker id) is shown with the worker's --name, also after
+//     the worker or the server went away
+//   tasks.stage_finished: the worker's StageFinished for the task (serialized
+//     mvbrdf.v1.StageFinished, opaque here: seconds and metrics), NULL before;
+//     a watch replays it, so each finished task is one event with its numbers
 // Times are unix milliseconds.
 #ifndef MVBRDF_SERVER_STORE_SCHEMA_H_
 #define MVBRDF_SERVER_STORE_SCHEMA_H_
@@ -42,7 +49,7 @@
 namespace mvbrdf::store {
 
 // The newest schema this build knows.
-constexpr int kSchemaVersion = 4;
+constexpr int kSchemaVersion = 5;
 
 // Brings the database up to kSchemaVersion. FAILED_PRECONDITION when the file
 // was written by a newer build (its version is above kSchemaVersion).

@@ -172,10 +172,20 @@ absl::StatusOr<WorkersService::ReportReactor::Step> WorkersService::ReportReacto
       *event.mutable_progress() = update.progress();
       service_->Emit(std::move(event));
       return Step::kNext;
-    case v1::TaskUpdate::kStageFinished:
-      *event.mutable_stage_finished() = update.stage_finished();
+    case v1::TaskUpdate::kStageFinished: {
+      // Which task, on which worker: one event says it all (issue #20). Kept
+      // with the task, so that a watch replays it with its numbers.
+      v1::StageFinished* finished = event.mutable_stage_finished();
+      *finished = update.stage_finished();
+      finished->set_key(task->key);
+      finished->set_task_id(task_id_);
+      finished->set_worker_name(service_->WorkerName(worker_id_));
+      absl::Status kept = service_->jobs_.SetStageFinished(task_id_, worker_id_, finished->SerializeAsString());
+      if (absl::IsFailedPrecondition(kept)) return Step::kLeaseLost;
+      if (!kept.ok()) return kept;
       service_->Emit(std::move(event));
       return Step::kNext;
+    }
     case v1::TaskUpdate::kArtifact: {
       absl::Status added = AddChunk(update.artifact_name(), update.artifact());
       if (!added.ok()) return added;
@@ -459,6 +469,11 @@ std::optional<RegisteredWorker> WorkersService::FindWorker(absl::string_view wor
   return it->second;
 }
 
+std::string WorkersService::WorkerName(absl::string_view worker_id) const {
+  std::optional<RegisteredWorker> worker = FindWorker(worker_id);
+  return worker.has_value() ? worker->name : std::string();
+}
+
 std::vector<RegisteredWorker> WorkersService::ListWorkers() const {
   std::lock_guard<std::mutex> lock(workers_mu_);
   std::vector<RegisteredWorker> all;
@@ -528,6 +543,11 @@ grpc::ServerUnaryReactor* WorkersService::RegisterWorker(grpc::CallbackServerCon
   worker.threads = request->threads();
   worker.registered_ms = clock_();
   if (caller->authenticated) worker.principal = caller->name;
+  // The name outlives this registration in the store: tasks name their worker.
+  if (absl::Status kept = jobs_.RegisterWorker(worker.id, worker.name, worker.registered_ms); !kept.ok()) {
+    reactor->Finish(ToGrpc(kept));
+    return reactor;
+  }
   {
     std::lock_guard<std::mutex> lock(workers_mu_);
     workers_[worker.id] = worker;
@@ -707,7 +727,16 @@ absl::StatusOr<bool> WorkersService::AnswerGatherFromCache(const store::Task& ta
   result.set_encoded_bytes((*bytes)->size());
   result.set_from_cache(true);
   result.set_seconds(0.0);
-  absl::Status completed = jobs_.CompleteTask(task.id, worker_id, result.SerializeAsString(), now_ms);
+  v1::StageFinished finished;
+  finished.set_stage(kGatherKind);
+  finished.set_seconds(0.0);
+  (*finished.mutable_metrics())["samples_from_cache"] = 1.0;
+  finished.set_key(task.key);
+  finished.set_task_id(task.id);
+  finished.set_worker_name(WorkerName(worker_id));
+  absl::Status kept = jobs_.SetStageFinished(task.id, worker_id, finished.SerializeAsString());
+  absl::Status completed =
+      kept.ok() ? jobs_.CompleteTask(task.id, worker_id, result.SerializeAsString(), now_ms) : kept;
   if (absl::IsFailedPrecondition(completed)) return true;  // cancelled meanwhile: nothing left to run
   MVBRDF_RETURN_IF_ERROR(completed);
   MVBRDF_RETURN_IF_ERROR(jobs_.SetSamplesFromCache(task.id, true));
@@ -719,12 +748,11 @@ absl::StatusOr<bool> WorkersService::AnswerGatherFromCache(const store::Task& ta
   started->set_stage(kGatherKind);
   started->set_task_id(task.id);
   started->set_worker(worker_id);
+  started->set_worker_name(finished.worker_name());
+  started->set_key(task.key);
   Emit(event);
   event.clear_stage_started();
-  v1::StageFinished* finished = event.mutable_stage_finished();
-  finished->set_stage(kGatherKind);
-  finished->set_seconds(0.0);
-  (*finished->mutable_metrics())["samples_from_cache"] = 1.0;
+  *event.mutable_stage_finished() = std::move(finished);
   Emit(std::move(event));
   NotifyWork();  // the sweeps are leasable now
   EmitFinalState(task.job_id);
@@ -784,6 +812,8 @@ absl::StatusOr<std::optional<v1::Task>> WorkersService::TryLease(const std::stri
     started->set_stage(task.kind);
     started->set_task_id(task.id);
     started->set_worker(worker_id);
+    started->set_worker_name(WorkerName(worker_id));
+    started->set_key(task.key);
     Emit(std::move(event));
     return out;
   }

@@ -142,6 +142,8 @@ class WorkersService final : public v1::Workers::CallbackService {
   // restarted server forgets them and they register again).
   std::optional<RegisteredWorker> FindWorker(absl::string_view worker_id) const;
   std::vector<RegisteredWorker> ListWorkers() const;
+  // Its --name (RegisterWorkerRequest.name); empty for an unknown id.
+  std::string WorkerName(absl::string_view worker_id) const;
 
   // The job's events recorded so far, in order, for watchers that join late:
   // stage starts, stage finishes and artifacts all kept; progress only the
