@@ -21,8 +21,8 @@ int RunCancel(const std::vector<std::string>& args) {
                    "Cancels a job (its unfinished tasks are not run; a finished job keeps its state) and prints the "
                    "job's state. Exit code 3 when there is no such job.");
   flags.AddPositional("JOB", &job_id, true, "the job id");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--client NAME", &client_name, "the client name sent to the server (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
   flags.AddBool("--json", &json, "print the Job as JSON");

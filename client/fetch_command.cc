@@ -140,11 +140,11 @@ int RunFetch(const std::vector<std::string>& args) {
                    "DIR/NAME, verifying each one's SHA-256. Exit code 3 when the job or an artifact does not exist.");
   flags.AddPositional("JOB", &job_id, true, "the job id");
   flags.AddPositional("NAME...", &first_name, true, "artifact names: relative paths without \"..\"");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--client NAME", &client_name, "the client name sent to the server (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
-  flags.AddString("--out", &out_dir, "the directory to write to (required; created when missing)");
+  flags.AddString("--out DIR", &out_dir, "the directory to write to (required; created when missing)");
   // FlagParser takes a fixed number of positionals: pass it JOB and the first
   // NAME, keep the other names here.
   std::vector<std::string> parsed, names;

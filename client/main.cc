@@ -32,6 +32,7 @@ constexpr char kUsage[] =
     "  fetch      download a job's artifacts\n"
     "  cancel     cancel a job\n"
     "  health     ask a server's gRPC health service (for probes); exit 0 when serving\n"
+    "  version    mvbrdf's version, git commit and library versions (also --version)\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "exit codes: 0 ok, 1 internal error, 2 usage, 3 invalid input, 4 environment (EGL, codecs, files,\n"
@@ -69,6 +70,7 @@ int Dispatch(int argc, char** argv) {
     return argc < 2 ? mvbrdf::client::kExitUsage : mvbrdf::client::kExitOk;
   }
   const std::string command = argv[1];
+  if (command == "--version") return mvbrdf::client::RunVersion({argv + 2, argv + argc});
   const std::vector<std::string> args(argv + 2, argv + argc);
   // One-shot clients print one line per failure; gRPC's own log would repeat it.
   for (const char* client : {"jobs", "submit", "watch", "fetch", "cancel", "health"}) {
@@ -89,7 +91,14 @@ int Dispatch(int argc, char** argv) {
   if (command == "fetch") return mvbrdf::client::RunFetch(args);
   if (command == "cancel") return mvbrdf::client::RunCancel(args);
   if (command == "health") return mvbrdf::client::RunHealth(args);
-  std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", mvbrdf::scene::ShownName(command).c_str(), kUsage);
+  if (command == "version") return mvbrdf::client::RunVersion(args);
+  // The closest command, when it is a likely typo ("rnu": did you mean "run"?).
+  const std::vector<std::string> commands = {"synth",  "validate", "resample", "run",    "render", "evaluate",
+                                             "report", "server",   "worker",   "jobs",   "submit", "watch",
+                                             "fetch",  "cancel",   "health",   "version"};
+  const std::string closest = mvbrdf::scene::ClosestName(command, commands);
+  std::fprintf(stderr, "mvbrdf: unknown command \"%s\"%s\n\n%s", mvbrdf::scene::ShownName(command).c_str(),
+               closest.empty() ? "" : ("; did you mean \"" + closest + "\"?").c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }
 
