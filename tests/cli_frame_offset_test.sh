@@ -47,7 +47,8 @@ cp -r "$work/shifted" "$work/unaligned"
 edit "$work/shifted/scene.json" 1 4 -1
 edit "$work/unaligned/scene.json" 1 4
 
-check "validate the shifted scene" 0 "" -- "$bin" validate "$work/shifted/scene.json"
+check "validate the shifted scene states the offset" 0 "frame offset -1: sequence frame f is its frame f - 1" -- \
+  "$bin" validate "$work/shifted/scene.json"
 run_opts=(--config "NE,NW,SE,SW" --no-powell --atlas 128)
 for name in ref shifted unaligned; do
   check "run on $name" 0 "wrote" -- "$bin" run --direct "$work/$name/scene.json" "${run_opts[@]}" --out "$work/r_$name"

@@ -914,6 +914,10 @@ std::string Summarize(const Sequence& seq) {
                     c.video().has_saturation_level()
                         ? absl::StrCat(", saturated at ", c.video().saturation_level())
                         : absl::StrCat(", saturated at ", c.video().bit_depth() == 16 ? 65535 : 255, " (default)"),
+                    c.video().frame_offset() == 0
+                        ? ""
+                        : absl::StrCat(", frame offset ", c.video().frame_offset(), ": sequence frame f is its frame f ",
+                                       c.video().frame_offset() > 0 ? "+ " : "- ", std::abs(c.video().frame_offset())),
                     ")\n");
   }
   absl::StrAppend(&s, "Lights: ", seq.lights.size(),
