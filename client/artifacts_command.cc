@@ -34,8 +34,8 @@ int RunArtifacts(const std::vector<std::string>& args) {
                    "is no such job or it has not succeeded (queued or running: no results yet; failed or "
                    "cancelled: none), 4 when the server is unreachable.");
   flags.AddPositional("JOB", &job_id, true, "the job id");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--client NAME", &client_name, "the client name sent to the server (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
   flags.AddBool("--json", &json, "print the ListArtifactsResponse as JSON");

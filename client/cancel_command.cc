@@ -23,8 +23,8 @@ int RunCancel(const std::vector<std::string>& args) {
                    "succeeded or failed keeps its state: cancel says so and exits 0 (nothing to cancel). Exit code "
                    "3 when there is no such job, 4 when the server is unreachable.");
   flags.AddPositional("JOB", &job_id, true, "the job id");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--client NAME", &client_name, "the client name sent to the server (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
   flags.AddBool("--json", &json, "print the Job as JSON");

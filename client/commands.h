@@ -60,6 +60,9 @@ int RunArtifacts(const std::vector<std::string>& args);
 int RunHealth(const std::vector<std::string>& args);
 int RunReport(const std::vector<std::string>& args);
 int RunImport(const std::vector<std::string>& args);
+// `mvbrdf --version`; VersionText() is its output (version_command.cc).
+int RunVersion(const std::vector<std::string>& args);
+std::string VersionText();
 
 class FlagParser;
 // What `mvbrdf report` and `mvbrdf run --report` take (report_command.cc).

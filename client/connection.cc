@@ -94,13 +94,13 @@ absl::Status CheckLabel(absl::string_view value, absl::string_view flag) {
 }
 
 void AddConnectionFlags(FlagParser& flags, ConnectionFlags* connection) {
-  flags.AddString("--token-file", &connection->token_file,
+  flags.AddString("--token-file FILE", &connection->token_file,
                   "file holding the bearer token (default: the environment variable MVBRDF_TOKEN)");
   flags.AddBool("--tls", &connection->tls, "connect with TLS, trusting the system's root certificates");
-  flags.AddString("--tls-ca", &connection->tls_ca, "connect with TLS, trusting this CA certificate (PEM)");
-  flags.AddString("--tls-cert", &connection->tls_cert, "client certificate for mutual TLS (PEM)");
-  flags.AddString("--tls-key", &connection->tls_key, "private key of --tls-cert (PEM)");
-  flags.AddString("--tls-server-name", &connection->tls_server_name,
+  flags.AddString("--tls-ca FILE", &connection->tls_ca, "connect with TLS, trusting this CA certificate (PEM)");
+  flags.AddString("--tls-cert FILE", &connection->tls_cert, "client certificate for mutual TLS (PEM)");
+  flags.AddString("--tls-key FILE", &connection->tls_key, "private key of --tls-cert (PEM)");
+  flags.AddString("--tls-server-name NAME", &connection->tls_server_name,
                   "the name the server's certificate must carry (default: the host of --server)");
 }
 

@@ -18,8 +18,8 @@ int RunEvaluate(const std::vector<std::string>& args) {
                    "generator's ground truth and prints JSON: configuration_correct, kd_rmse (texels seen at\n"
                    "least 10 times), per cluster ks and ke relative errors, cluster_accuracy.");
   flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
-  flags.AddString("--truth", &truth, "the synthetic bundle (or its ground_truth/ directory)");
-  flags.AddString("--error-atlas", &error_atlas, "also write the per-texel kd error (.png, x10, or .exr)");
+  flags.AddString("--truth DIR", &truth, "the synthetic bundle (or its ground_truth/ directory)");
+  flags.AddString("--error-atlas FILE", &error_atlas, "also write the per-texel kd error (.png, x10, or .exr)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf evaluate: %s\n", std::string(s.message()).c_str());
     return kExitUsage;

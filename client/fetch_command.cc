@@ -215,11 +215,11 @@ int RunFetch(const std::vector<std::string>& args) {
   flags.AddPositional("NAME...", &first_name, false,
                       "artifact names (relative paths without \"..\"; DIR/ for a directory of them)");
   flags.AddBool("--all", &all, "fetch every artifact of the job (a succeeded job), keeping their relative paths");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--client NAME", &client_name, "the client name sent to the server (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
-  flags.AddString("--out", &out_dir,
+  flags.AddString("--out DIR", &out_dir,
                   "the directory to write to (required; created when missing, refused when not empty)");
   bool force = false;
   flags.AddBool("--force", &force, kForceHelp);

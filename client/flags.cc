@@ -17,68 +17,81 @@ absl::Status Expected(const std::string& flag, const char* what, const std::stri
 
 }  // namespace
 
+void FlagParser::Add(const std::string& name_and_placeholder, const char* type_placeholder, std::string help,
+                     std::string default_text, bool is_bool,
+                     std::function<absl::Status(const std::string&, const std::string&)> set) {
+  const size_t space = name_and_placeholder.find(' ');
+  Flag flag;
+  flag.name = name_and_placeholder.substr(0, space);
+  if (!is_bool) {
+    flag.placeholder = space == std::string::npos ? type_placeholder : name_and_placeholder.substr(space + 1);
+  }
+  flag.help = std::move(help);
+  flag.default_text = std::move(default_text);
+  flag.is_bool = is_bool;
+  flag.set = [name = flag.name, set = std::move(set)](const std::string& v) { return set(name, v); };
+  flags_.push_back(std::move(flag));
+}
+
 void FlagParser::AddString(const std::string& name, std::string* value, const std::string& help) {
-  flags_.push_back({name, help, *value, false, [value](const std::string& v) {
-                      *value = v;
-                      return absl::OkStatus();
-                    }});
+  Add(name, "TEXT", help, *value, false, [value](const std::string&, const std::string& v) {
+    *value = v;
+    return absl::OkStatus();
+  });
 }
 
 void FlagParser::AddInt(const std::string& name, int* value, const std::string& help) {
-  flags_.push_back({name, help, std::to_string(*value), false, [name, value](const std::string& v) {
-                      char* end = nullptr;
-                      errno = 0;
-                      const long x = std::strtol(v.c_str(), &end, 10);
-                      if (v.empty() || *end != '\0' || errno != 0 || x < std::numeric_limits<int>::min() ||
-                          x > std::numeric_limits<int>::max()) {
-                        return Expected(name, "an integer", v);
-                      }
-                      *value = static_cast<int>(x);
-                      return absl::OkStatus();
-                    }});
+  Add(name, "N", help, std::to_string(*value), false, [value](const std::string& flag, const std::string& v) {
+    char* end = nullptr;
+    errno = 0;
+    const long x = std::strtol(v.c_str(), &end, 10);
+    if (v.empty() || *end != '\0' || errno != 0 || x < std::numeric_limits<int>::min() ||
+        x > std::numeric_limits<int>::max()) {
+      return Expected(flag, "an integer", v);
+    }
+    *value = static_cast<int>(x);
+    return absl::OkStatus();
+  });
 }
 
 void FlagParser::AddUint(const std::string& name, uint32_t* value, const std::string& help) {
-  flags_.push_back({name, help, std::to_string(*value), false, [name, value](const std::string& v) {
-                      char* end = nullptr;
-                      errno = 0;
-                      const unsigned long long x = std::strtoull(v.c_str(), &end, 10);
-                      if (v.empty() || v[0] == '-' || *end != '\0' || errno != 0 ||
-                          x > std::numeric_limits<uint32_t>::max()) {
-                        return Expected(name, "a non-negative integer", v);
-                      }
-                      *value = static_cast<uint32_t>(x);
-                      return absl::OkStatus();
-                    }});
+  Add(name, "N", help, std::to_string(*value), false, [value](const std::string& flag, const std::string& v) {
+    char* end = nullptr;
+    errno = 0;
+    const unsigned long long x = std::strtoull(v.c_str(), &end, 10);
+    if (v.empty() || v[0] == '-' || *end != '\0' || errno != 0 || x > std::numeric_limits<uint32_t>::max()) {
+      return Expected(flag, "a non-negative integer", v);
+    }
+    *value = static_cast<uint32_t>(x);
+    return absl::OkStatus();
+  });
 }
 
 void FlagParser::AddDouble(const std::string& name, double* value, const std::string& help) {
   std::string def = std::to_string(*value);
   def.erase(def.find_last_not_of('0') + 1);
   if (!def.empty() && def.back() == '.') def.pop_back();
-  flags_.push_back({name, help, def, false, [name, value](const std::string& v) {
-                      char* end = nullptr;
-                      errno = 0;
-                      const double x = std::strtod(v.c_str(), &end);
-                      if (v.empty() || *end != '\0' || errno != 0 || !std::isfinite(x)) {
-                        return Expected(name, "a finite number", v);
-                      }
-                      *value = x;
-                      return absl::OkStatus();
-                    }});
+  Add(name, "X", help, def, false, [value](const std::string& flag, const std::string& v) {
+    char* end = nullptr;
+    errno = 0;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || *end != '\0' || errno != 0 || !std::isfinite(x)) return Expected(flag, "a finite number", v);
+    *value = x;
+    return absl::OkStatus();
+  });
 }
 
 void FlagParser::AddBool(const std::string& name, bool* value, const std::string& help) {
-  flags_.push_back({name, help, *value ? "true" : "false", true, [name, value](const std::string& v) {
-                      if (v == "true" || v == "1" || v.empty()) {
-                        *value = true;
-                      } else if (v == "false" || v == "0") {
-                        *value = false;
-                      } else {
-                        return Expected(name, "true or false", v);
-                      }
-                      return absl::OkStatus();
-                    }});
+  Add(name, "", help, *value ? "true" : "false", true, [value](const std::string& flag, const std::string& v) {
+    if (v == "true" || v == "1" || v.empty()) {
+      *value = true;
+    } else if (v == "false" || v == "0") {
+      *value = false;
+    } else {
+      return Expected(flag, "true or false", v);
+    }
+    return absl::OkStatus();
+  });
 }
 
 void FlagParser::AddPositional(const std::string& name, std::string* value, bool required, const std::string& help) {
@@ -101,8 +114,13 @@ absl::Status FlagParser::Parse(const std::vector<std::string>& args) {
         if (f.name == name) flag = &f;
       }
       if (flag == nullptr) {
-        return absl::InvalidArgumentError(absl::StrCat(scene::ShownName(name), ": unknown option for 'mvbrdf ",
-                                                       command_, "' (see 'mvbrdf ", command_, " --help')"));
+        std::vector<std::string> names;
+        for (const Flag& f : flags_) names.push_back(f.name);
+        const std::string closest = scene::ClosestName(name, names);
+        return absl::InvalidArgumentError(
+            absl::StrCat(scene::ShownName(name), ": unknown option for 'mvbrdf ", command_, "'",
+                         closest.empty() ? "" : absl::StrCat("; did you mean ", closest, "?"), " (see 'mvbrdf ",
+                         command_, " --help')"));
       }
       std::string value;
       if (eq != std::string::npos) {
@@ -137,7 +155,7 @@ std::string FlagParser::Usage() const {
   absl::StrAppend(&out, "\n\n", synopsis_, "\n");
   for (const Positional& p : positionals_) absl::StrAppend(&out, "\n  ", p.name, "\n      ", p.help);
   for (const Flag& f : flags_) {
-    absl::StrAppend(&out, "\n  ", f.name, f.is_bool ? "" : " VALUE", "\n      ", f.help);
+    absl::StrAppend(&out, "\n  ", f.name, f.is_bool ? "" : " ", f.placeholder, "\n      ", f.help);
     if (!f.default_text.empty()) absl::StrAppend(&out, " (default: ", f.default_text, ")");
   }
   absl::StrAppend(&out, "\n\nterms: docs/glossary.md\n");

@@ -16,6 +16,9 @@ class FlagParser {
  public:
   FlagParser(std::string command, std::string synopsis) : command_(std::move(command)), synopsis_(std::move(synopsis)) {}
 
+  // `name` is the flag, optionally followed by a space and the placeholder
+  // its help shows for the value: "--atlas N", "--out DIR". Without one the
+  // placeholder says the type: N (integers), X (numbers), TEXT (strings).
   void AddString(const std::string& name, std::string* value, const std::string& help);
   void AddInt(const std::string& name, int* value, const std::string& help);
   void AddUint(const std::string& name, uint32_t* value, const std::string& help);
@@ -33,6 +36,7 @@ class FlagParser {
  private:
   struct Flag {
     std::string name;
+    std::string placeholder;  // empty for booleans
     std::string help;
     std::string default_text;
     bool is_bool = false;
@@ -44,6 +48,9 @@ class FlagParser {
     bool required;
     std::string help;
   };
+  void Add(const std::string& name_and_placeholder, const char* type_placeholder, std::string help,
+           std::string default_text, bool is_bool,
+           std::function<absl::Status(const std::string&, const std::string&)> set);
   std::string command_;
   std::string synopsis_;
   std::vector<Flag> flags_;

@@ -75,5 +75,41 @@ TEST(FlagParserTest, RequiredPositionalAndHelp) {
   EXPECT_TRUE(help.help_requested());
 }
 
+TEST(FlagParserTest, HelpShowsTypedPlaceholders) {
+  std::string out, text;
+  int atlas = 512;
+  double x = 1.5;
+  bool flag = false;
+  FlagParser parser("t", "synopsis");
+  parser.AddString("--out DIR", &out, "out");
+  parser.AddString("--text", &text, "text");
+  parser.AddInt("--atlas N", &atlas, "atlas");
+  parser.AddDouble("--x", &x, "x");
+  parser.AddBool("--flag", &flag, "flag");
+  const std::string usage = parser.Usage();
+  for (const char* line : {"\n  --out DIR\n", "\n  --text TEXT\n", "\n  --atlas N\n", "\n  --x X\n", "\n  --flag\n"}) {
+    EXPECT_NE(usage.find(line), std::string::npos) << line << " in\n" << usage;
+  }
+  EXPECT_EQ(usage.find("VALUE"), std::string::npos) << usage;
+  // The flag is its name without the placeholder.
+  EXPECT_TRUE(parser.Parse({"--out", "d", "--atlas=64"}).ok());
+  EXPECT_EQ(out, "d");
+  EXPECT_EQ(atlas, 64);
+  const absl::Status bad = parser.Parse({"--atlas", "x"});
+  EXPECT_EQ(bad.message(), "--atlas: expected an integer, got \"x\"");
+}
+
+TEST(FlagParserTest, UnknownFlagSuggestsTheClosest) {
+  std::string out;
+  int atlas = 512;
+  FlagParser parser("run", "synopsis");
+  parser.AddString("--out DIR", &out, "out");
+  parser.AddInt("--atlas N", &atlas, "atlas");
+  EXPECT_EQ(parser.Parse({"--atlass", "3"}).message(),
+            "--atlass: unknown option for 'mvbrdf run'; did you mean --atlas? (see 'mvbrdf run --help')");
+  EXPECT_EQ(parser.Parse({"--zzzzzzzz"}).message(),
+            "--zzzzzzzz: unknown option for 'mvbrdf run' (see 'mvbrdf run --help')");
+}
+
 }  // namespace
 }  // namespace mvbrdf::client

@@ -79,9 +79,9 @@ int RunHealth(const std::vector<std::string>& args) {
                    "Asks a server's standard health service (grpc.health.v1.Health/Check) whether it is serving; "
                    "for container probes over TLS. Prints the status. Exit 0: SERVING; 4: unreachable or not "
                    "serving; 3: the server does not know --service.");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--service", &service, "the service to ask about (default: the whole server)");
-  flags.AddInt("--timeout", &timeout_seconds, "seconds to wait for the answer");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--service NAME", &service, "the service to ask about (default: the whole server)");
+  flags.AddInt("--timeout SECONDS", &timeout_seconds, "seconds to wait for the answer");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
   if (absl::Status s = flags.Parse(args); !s.ok()) {

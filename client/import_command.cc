@@ -124,30 +124,30 @@ int RunImport(const std::vector<std::string>& args) {
   FlagParser flags("import", Synopsis());
   flags.AddPositional("FORMAT", &format, true, "the calibration's format (see above)");
   flags.AddPositional("INPUT", &input, true, "the calibration (file or directory, per FORMAT)");
-  flags.AddString("--out", &out, "the scene JSON to write (required)");
-  flags.AddString("--mesh", &options.mesh,
+  flags.AddString("--out FILE", &out, "the scene JSON to write (required)");
+  flags.AddString("--mesh PATTERN", &options.mesh,
                   "mesh file or per-frame pattern, e.g. meshes/mesh_%04d.obj (required; scene.mesh.path)");
-  flags.AddString("--video", &options.video,
+  flags.AddString("--video PATTERN", &options.video,
                   "video or image-sequence pattern per camera, {camera} replaced by its name, e.g. "
                   "videos/{camera}.mkv or frames/{camera}/%04d.png (required; scene.cameras[].video.path; "
                   "must contain {camera} when there is more than one camera)");
-  flags.AddString("--encoding", &encoding, "the videos' colour encoding: srgb or linear");
-  flags.AddUint("--bit-depth", &options.bit_depth, "bits per channel of the videos' frames: 8 or 16");
-  flags.AddInt("--first", &first, "absolute index of the first frame (scene.frames.first)");
-  flags.AddInt("--frames", &frames, "number of frames (required; scene.frames.count)");
-  flags.AddDouble("--fps", &options.fps, "frames per second of the videos (required; scene.frames.fps)");
-  flags.AddString("--lights", &options.lights_file,
+  flags.AddString("--encoding srgb|linear", &encoding, "the videos' colour encoding: srgb or linear");
+  flags.AddUint("--bit-depth 8|16", &options.bit_depth, "bits per channel of the videos' frames: 8 or 16");
+  flags.AddInt("--first N", &first, "absolute index of the first frame (scene.frames.first)");
+  flags.AddInt("--frames N", &frames, "number of frames (required; scene.frames.count)");
+  flags.AddDouble("--fps FPS", &options.fps, "frames per second of the videos (required; scene.frames.fps)");
+  flags.AddString("--lights FILE", &options.lights_file,
                   "a LightList JSON ({\"lights\": [...]}) or a scene JSON whose lights, lightConfigurations, "
                   "frameLighting, lighting, materialSeeds, segmentMaterials and segmentationPath are copied");
-  flags.AddString("--cameras", &cameras, "keep only these cameras, comma-separated names (default all)");
-  flags.AddString("--camera-name", &reader_flags.camera_name,
+  flags.AddString("--cameras A,B,...", &cameras, "keep only these cameras, comma-separated names (default all)");
+  flags.AddString("--camera-name stem|dir", &reader_flags.camera_name,
                   "colmap: how an image NAME such as cam0/0001.png names its camera: stem (0001) or dir (cam0); "
                   "two images giving one name are refused");
-  flags.AddString("--transform", &transform,
+  flags.AddString("--transform FILE", &transform,
                   "JSON file with a 4x4 row-major similarity world_from_calibration [s R | t; 0 0 0 1] (16 "
                   "numbers, scale s > 0 allowed) taking the calibration's world into the mesh's: every camera "
                   "becomes R' = R_c R^T, t' = s t_c - R_c R^T t");
-  flags.AddString("--name", &options.name, "scene.name (free-form, for reports)");
+  flags.AddString("--name TEXT", &options.name, "scene.name (free-form, for reports)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf import: %s\n", std::string(s.message()).c_str());
     return kExitUsage;

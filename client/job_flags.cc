@@ -10,24 +10,24 @@
 namespace mvbrdf::client {
 
 void AddJobFlags(FlagParser& flags, JobFlags* job) {
-  flags.AddString("--outputs", &job->outputs, "comma-separated: light (Table 6.1), brdf (atlases), correction, errors");
-  flags.AddString("--config", &job->configuration, "a known light configuration: skips the sweep");
-  flags.AddString("--candidates", &job->candidates,
+  flags.AddString("--outputs LIST", &job->outputs, "comma-separated: light (Table 6.1), brdf (atlases), correction, errors");
+  flags.AddString("--config NAME", &job->configuration, "a known light configuration: skips the sweep");
+  flags.AddString("--candidates LIST", &job->candidates,
                   "configurations to sweep, separated by ';' (default: every configuration of the scene)");
   flags.AddBool("--no-powell", &job->no_powell, "skip the Powell comparison (Table 6.2)");
-  flags.AddInt("--atlas", &job->atlas, "atlas resolution in texels per side");
-  flags.AddInt("--cluster-samples", &job->cluster_samples, "Samples per cluster fit, at most");
-  flags.AddInt("--max-iterations", &job->max_iterations, "iterations of each BRDF fit, at most");
-  flags.AddInt("--sweep-frame-stride", &job->sweep_frame_stride, "use every n-th frame for the light sweep (0: every frame up to 64 frames, else at most 64)");
-  flags.AddInt("--grow", &job->grow, "dilation iterations of the written atlases");
-  flags.AddString("--depth-tolerance-absolute", &job->depth_tolerance_absolute,
+  flags.AddInt("--atlas N", &job->atlas, "atlas resolution in texels per side");
+  flags.AddInt("--cluster-samples N", &job->cluster_samples, "Samples per cluster fit, at most");
+  flags.AddInt("--max-iterations N", &job->max_iterations, "iterations of each BRDF fit, at most");
+  flags.AddInt("--sweep-frame-stride N", &job->sweep_frame_stride, "use every n-th frame for the light sweep (0: every frame up to 64 frames, else at most 64)");
+  flags.AddInt("--grow N", &job->grow, "dilation iterations of the written atlases");
+  flags.AddString("--depth-tolerance-absolute DISTANCE", &job->depth_tolerance_absolute,
                   "occlusion test: a texel is hidden when it lies farther than the camera's depth map by more than "
                   "this, in world units (default: relative 0.001; at most one of the two)");
-  flags.AddString("--depth-tolerance-relative", &job->depth_tolerance_relative,
+  flags.AddString("--depth-tolerance-relative FRACTION", &job->depth_tolerance_relative,
                   "occlusion test as a fraction of the texel's depth (default: 0.001)");
-  flags.AddDouble("--grazing-margin", &job->grazing_margin,
+  flags.AddDouble("--grazing-margin DEGREES", &job->grazing_margin,
                   "texels seen within this angle of edge-on are not observations, degrees in [0, 90)");
-  flags.AddDouble("--kd-prior-strength", &job->kd_prior_strength,
+  flags.AddDouble("--kd-prior-strength X", &job->kd_prior_strength,
                   "per-texel kd shrinks towards its cluster's kd with this many pseudo-observations at the data's "
                   "typical illumination (>= 0; 0: plain least squares; relative, so independent of intensity units)");
 }

@@ -20,11 +20,11 @@ int RunJobs(const std::vector<std::string>& args) {
   int limit = 100;
   FlagParser flags(
       "jobs", "Lists the caller's jobs on a server, newest last, with each task's worker (by --name) and run time.");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name jobs were submitted as (without tokens)");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--client NAME", &client_name, "the client name jobs were submitted as (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
-  flags.AddInt("--limit", &limit, "jobs to list, at most");
+  flags.AddInt("--limit N", &limit, "jobs to list, at most");
   flags.AddBool("--json", &json, "print the ListJobsResponse as JSON");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf jobs: %s\n", std::string(s.message()).c_str());

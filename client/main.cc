@@ -18,7 +18,7 @@ constexpr char kUsage[] =
     "\n"
     "commands:\n"
     "  synth      render a synthetic multi-view sequence with its ground truth\n"
-    "  import     write a scene from a camera calibration (COLMAP, ...): cameras, mesh, videos, lights\n"
+    "  import     write a scene from a camera calibration (COLMAP, OpenCV, Metashape): cameras, mesh, videos, lights\n"
     "  validate   load a scene, check everything, print a summary or the errors\n"
     "  resample   resample every frame into the texture atlas; coverage, timing and error vs truth\n"
     "  run        reconstruct the BRDF: light sweep, clustering, fitting, atlases, errors\n"
@@ -34,6 +34,7 @@ constexpr char kUsage[] =
     "  fetch      download a job's artifacts\n"
     "  cancel     cancel a job\n"
     "  health     ask a server's gRPC health service (for probes); exit 0 when serving\n"
+    "  version    mvbrdf's version, git commit and library versions (also --version)\n"
     "\n"
     "'mvbrdf COMMAND --help' describes a command's options.\n"
     "terms (E_a, E_d, Tables 6.1, 6.2, 7.1, Samples, clusters, ...): docs/glossary.md\n"
@@ -74,6 +75,7 @@ int Dispatch(int argc, char** argv) {
     return argc < 2 ? mvbrdf::client::kExitUsage : mvbrdf::client::kExitOk;
   }
   const std::string command = argv[1];
+  if (command == "--version") return mvbrdf::client::RunVersion({argv + 2, argv + argc});
   const std::vector<std::string> args(argv + 2, argv + argc);
   // One-shot clients print one line per failure; gRPC's own log would repeat it.
   for (const char* client : {"jobs", "submit", "watch", "fetch", "artifacts", "cancel", "health"}) {
@@ -96,7 +98,14 @@ int Dispatch(int argc, char** argv) {
   if (command == "cancel") return mvbrdf::client::RunCancel(args);
   if (command == "artifacts") return mvbrdf::client::RunArtifacts(args);
   if (command == "health") return mvbrdf::client::RunHealth(args);
-  std::fprintf(stderr, "mvbrdf: unknown command \"%s\"\n\n%s", mvbrdf::scene::ShownName(command).c_str(), kUsage);
+  if (command == "version") return mvbrdf::client::RunVersion(args);
+  // The closest command, when it is a likely typo ("rnu": did you mean "run"?).
+  const std::vector<std::string> commands = {"synth",  "import", "validate", "resample",  "run",   "render",
+                                             "evaluate", "report", "server", "worker",   "jobs",   "submit",
+                                             "watch",  "artifacts", "fetch", "cancel",   "health", "version"};
+  const std::string closest = mvbrdf::scene::ClosestName(command, commands);
+  std::fprintf(stderr, "mvbrdf: unknown command \"%s\"%s\n\n%s", mvbrdf::scene::ShownName(command).c_str(),
+               closest.empty() ? "" : ("; did you mean \"" + closest + "\"?").c_str(), kUsage);
   return mvbrdf::client::kExitUsage;
 }
 

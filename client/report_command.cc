@@ -59,10 +59,10 @@ absl::Status WriteRunReport(const fs::path& run_dir, const fs::path& out, const 
 }
 
 void AddReportFlags(FlagParser& parser, ReportFlags* flags) {
-  parser.AddString("--truth", &flags->truth, "ground-truth bundle (default: the scene's directory when it has one)");
+  parser.AddString("--truth DIR", &flags->truth, "ground-truth bundle (default: the scene's directory when it has one)");
   parser.AddBool("--no-truth", &flags->no_truth, "leave out the comparison with the ground truth");
-  parser.AddString("--tradeoff", &flags->tradeoff, "error-against-run-time points (scripts/bench-tradeoff's JSON)");
-  parser.AddInt("--relit-frames", &flags->relit_frames,
+  parser.AddString("--tradeoff FILE", &flags->tradeoff, "error-against-run-time points (scripts/bench-tradeoff's JSON)");
+  parser.AddInt("--relit-frames N", &flags->relit_frames,
                 "positions of the light moving around the model, on the camera's side");
   parser.AddBool("--no-render", &flags->no_render, "no renderings (input vs reconstruction, relit sequence)");
 }
@@ -76,11 +76,11 @@ int RunReport(const std::vector<std::string>& args) {
                    "7.1, the comparison with the ground truth, the atlases, input beside reconstruction per\n"
                    "camera and a relit sequence. One self-contained file: plots are inline SVG, images embedded.");
   flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
-  flags.AddString("--out", &out, "the HTML file (default: DIR/report.html)");
+  flags.AddString("--out FILE", &out, "the HTML file (default: DIR/report.html)");
   AddReportFlags(flags, &report_flags);
-  flags.AddString("--egl", &report_flags.egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  flags.AddString("--egl PLATFORM", &report_flags.egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   flags.AddString(
-      "--scene", &report_flags.scene,
+      "--scene FILE", &report_flags.scene,
       "the scene file (default: result.json's scene, relative to DIR; needed for a fetched service result)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf report: %s\n", std::string(s.message()).c_str());

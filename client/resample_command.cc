@@ -24,23 +24,23 @@ int RunResample(const std::vector<std::string>& args) {
                    "atlases, grows and averages them, and writes DIR/resample.json with coverage, timing and - for\n"
                    "synthetic scenes with ground_truth/ - the error against the truth per camera.");
   flags.AddPositional("SCENE", &scene_file, true, "the scene JSON file");
-  flags.AddString("--out", &out, "output directory (required)");
+  flags.AddString("--out DIR", &out, "output directory (required)");
   flags.AddBool("--force", &force, kForceHelp);
-  flags.AddInt("--atlas", &o.atlas.size, "atlas resolution in texels per side");
-  flags.AddInt("--gutter", &o.atlas.gutter, "empty texels between charts");
-  flags.AddDouble("--chart-angle", &o.atlas.max_normal_deviation_deg,
+  flags.AddInt("--atlas N", &o.atlas.size, "atlas resolution in texels per side");
+  flags.AddInt("--gutter TEXELS", &o.atlas.gutter, "empty texels between charts");
+  flags.AddDouble("--chart-angle DEGREES", &o.atlas.max_normal_deviation_deg,
                   "chart growth: max angle between a triangle's normal and its chart's, degrees");
-  flags.AddInt("--grow", &o.grow_iterations, "dilation iterations of the grown atlases");
-  flags.AddDouble("--grazing-margin", &o.resampler.grazing_margin_deg,
+  flags.AddInt("--grow N", &o.grow_iterations, "dilation iterations of the grown atlases");
+  flags.AddDouble("--grazing-margin DEGREES", &o.resampler.grazing_margin_deg,
                   "texels seen within this angle of edge-on are invalid, degrees");
-  flags.AddDouble("--depth-tolerance", &o.resampler.relative_depth_tolerance,
+  flags.AddDouble("--depth-tolerance FRACTION", &o.resampler.relative_depth_tolerance,
                   "occlusion test: a texel is hidden when further than this fraction of its depth behind the camera's depth map");
-  flags.AddDouble("--depth-tolerance-absolute", &o.resampler.absolute_depth_tolerance,
+  flags.AddDouble("--depth-tolerance-absolute DISTANCE", &o.resampler.absolute_depth_tolerance,
                   "occlusion test: and hidden only when further than this many world units (added to the relative one)");
-  flags.AddInt("--shadow-map-size", &o.resampler.shadow_map_size, "cube shadow map resolution per face");
-  flags.AddString("--save", &save, "which frames' atlases to write: first, all or none (figures cover all)");
+  flags.AddInt("--shadow-map-size N", &o.resampler.shadow_map_size, "cube shadow map resolution per face");
+  flags.AddString("--save WHICH", &save, "which frames' atlases to write: first, all or none (figures cover all)");
   flags.AddBool("--no-evaluate", &no_evaluate, "skip the comparison with ground_truth/ even when present");
-  flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  flags.AddString("--egl PLATFORM", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf resample: %s\n", std::string(s.message()).c_str());
     return kExitUsage;

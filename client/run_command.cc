@@ -269,14 +269,14 @@ int RunRun(const std::vector<std::string>& args) {
                    "plan says which were skipped and why. Runs as the service would, on an in-process server\n"
                    "and --workers workers (no set-up); --direct runs the pipeline in one thread instead.");
   flags.AddPositional("SCENE", &scene_file, true, "the scene JSON file");
-  flags.AddString("--out", &out, "output directory (required)");
+  flags.AddString("--out DIR", &out, "output directory (required)");
   flags.AddBool("--force", &force, kForceHelp);
   AddJobFlags(flags, &job);
-  flags.AddInt("--threads", &threads, "threads per worker (light sweep)");
-  flags.AddInt("--workers", &workers, "in-process workers, each with its own EGL context");
-  flags.AddString("--data", &data_dir, "keep the in-process server's state (and Sample cache) here (default: temporary)");
+  flags.AddInt("--threads N", &threads, "threads per worker (light sweep)");
+  flags.AddInt("--workers N", &workers, "in-process workers, each with its own EGL context");
+  flags.AddString("--data DIR", &data_dir, "keep the in-process server's state (and Sample cache) here (default: temporary)");
   flags.AddBool("--direct", &direct, "run the pipeline directly, without the in-process service");
-  flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  flags.AddString("--egl PLATFORM", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   flags.AddBool("--report", &write_report, "also write DIR/report.html (see 'mvbrdf report')");
   AddReportFlags(flags, &report_flags);
   if (absl::Status s = flags.Parse(args); !s.ok()) {

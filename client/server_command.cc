@@ -80,28 +80,28 @@ int RunServer(const std::vector<std::string>& args) {
                    "their tasks. State (SQLite database, bundles, artifacts, the Sample cache) lives in --data and\n"
                    "survives restarts. Settings: defaults, then --config FILE (JSON, mvbrdf.v1.ServerConfig), then\n"
                    "the flags. Prints 'listening on HOST:PORT' once ready; stops cleanly on SIGINT/SIGTERM.");
-  flags.AddString("--config", &config_path, "JSON config file (mvbrdf.v1.ServerConfig); flags override it");
-  flags.AddString("--listen", &listen, "address to listen on, host:port (port 0: any free port)");
-  flags.AddString("--data", &data_dir, "the server's state directory (required, here or in the config)");
-  flags.AddInt("--lease-seconds", &lease_seconds, "how long a worker's task lease lasts without renewal");
-  flags.AddInt("--max-wait-seconds", &max_wait_seconds, "longest long poll of a worker asking for a task, s");
-  flags.AddInt("--poll-interval-ms", &poll_interval_ms, "how often waiting workers' polls re-check the store");
-  flags.AddInt("--max-artifact-mib", &max_artifact_mib, "largest artifact a worker may send, MiB");
-  flags.AddInt("--max-samples-mib", &max_samples_mib, "largest encoded Samples a gather task may send, MiB");
-  flags.AddInt("--sample-cache-mib", &sample_cache_mib, "Sample cache size (compressed), MiB (0: unlimited)");
-  flags.AddInt("--sample-cache-compression", &compression_level, "Sample cache zlib level, 1 (fast) .. 9 (small)");
-  flags.AddInt("--max-bundle-mib", &max_bundle_mib, "largest accepted bundle, MiB");
-  flags.AddInt("--max-jobs-per-client", &max_jobs, "unfinished jobs per client, at most (0: no limit)");
-  flags.AddInt("--max-message-mib", &max_message_mib, "largest gRPC message, MiB");
-  flags.AddInt("--watch-poll-ms", &watch_poll_ms, "how often job watches re-read the store, ms");
-  flags.AddInt("--max-atlas-size", &max_atlas_size, "largest atlas a job may ask for, texels per side");
-  flags.AddInt("--max-frames", &max_frames, "most frames a job's sequence may have");
-  flags.AddString("--tokens-file", &tokens_file,
+  flags.AddString("--config FILE", &config_path, "JSON config file (mvbrdf.v1.ServerConfig); flags override it");
+  flags.AddString("--listen ADDR", &listen, "address to listen on, host:port (port 0: any free port)");
+  flags.AddString("--data DIR", &data_dir, "the server's state directory (required, here or in the config)");
+  flags.AddInt("--lease-seconds SECONDS", &lease_seconds, "how long a worker's task lease lasts without renewal");
+  flags.AddInt("--max-wait-seconds SECONDS", &max_wait_seconds, "longest long poll of a worker asking for a task, s");
+  flags.AddInt("--poll-interval-ms MS", &poll_interval_ms, "how often waiting workers' polls re-check the store");
+  flags.AddInt("--max-artifact-mib MIB", &max_artifact_mib, "largest artifact a worker may send, MiB");
+  flags.AddInt("--max-samples-mib MIB", &max_samples_mib, "largest encoded Samples a gather task may send, MiB");
+  flags.AddInt("--sample-cache-mib MIB", &sample_cache_mib, "Sample cache size (compressed), MiB (0: unlimited)");
+  flags.AddInt("--sample-cache-compression LEVEL", &compression_level, "Sample cache zlib level, 1 (fast) .. 9 (small)");
+  flags.AddInt("--max-bundle-mib MIB", &max_bundle_mib, "largest accepted bundle, MiB");
+  flags.AddInt("--max-jobs-per-client N", &max_jobs, "unfinished jobs per client, at most (0: no limit)");
+  flags.AddInt("--max-message-mib MIB", &max_message_mib, "largest gRPC message, MiB");
+  flags.AddInt("--watch-poll-ms MS", &watch_poll_ms, "how often job watches re-read the store, ms");
+  flags.AddInt("--max-atlas-size N", &max_atlas_size, "largest atlas a job may ask for, texels per side");
+  flags.AddInt("--max-frames N", &max_frames, "most frames a job's sequence may have");
+  flags.AddString("--tokens-file FILE", &tokens_file,
                   "bearer tokens, one 'role name token' a line (role: client, worker or admin); without it "
                   "every call is let in");
-  flags.AddString("--tls-cert", &tls_cert, "TLS certificate chain (PEM); with --tls-key the port speaks only TLS");
-  flags.AddString("--tls-key", &tls_key, "TLS private key (PEM)");
-  flags.AddString("--tls-client-ca", &tls_client_ca, "mutual TLS: clients need a certificate signed by this CA");
+  flags.AddString("--tls-cert FILE", &tls_cert, "TLS certificate chain (PEM); with --tls-key the port speaks only TLS");
+  flags.AddString("--tls-key FILE", &tls_key, "TLS private key (PEM)");
+  flags.AddString("--tls-client-ca FILE", &tls_client_ca, "mutual TLS: clients need a certificate signed by this CA");
   flags.AddBool("--allow-unauthenticated", &allow_unauthenticated,
                 "listen on a non-loopback address without --tokens-file (refused otherwise)");
   if (absl::Status s = flags.Parse(args); !s.ok()) return UsageError(s);

@@ -65,8 +65,8 @@ int RunSubmit(const std::vector<std::string>& args) {
                    "yet, queues a job and prints its id. With --watch, then follows the job like 'mvbrdf watch' "
                    "(exit code 0 succeeded, 5 failed, 6 cancelled).");
   flags.AddPositional("SCENE", &scene, true, "the scene file (scene.json)");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name the job is submitted as (without tokens)");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--client NAME", &client_name, "the client name the job is submitted as (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
   AddJobFlags(flags, &job);

@@ -25,44 +25,44 @@ int RunSynth(const std::vector<std::string>& args) {
                    "Renders a synthetic multi-view sequence in a studio like the thesis's (8 cameras on a ring,\n"
                    "9 ceiling lights, one light configuration active) and writes DIR/scene.json, the videos,\n"
                    "the meshes and DIR/ground_truth/ (lights, cameras, materials as rendered).");
-  flags.AddString("--preset", &preset,
+  flags.AddString("--preset NAME", &preset,
                   "actor (procedural, no data needed), sphere (a static UV sphere of one material, no data), spot or "
                   "samba (read from --data)");
-  flags.AddString("--out", &out, "output directory (required)");
+  flags.AddString("--out DIR", &out, "output directory (required)");
   flags.AddBool("--force", &force, kForceHelp);
-  flags.AddInt("--cameras", &o.num_cameras, "number of cameras on the ring");
-  flags.AddInt("--frames", &o.num_frames, "number of frames");
-  flags.AddInt("--width", &o.width, "image width in pixels");
-  flags.AddInt("--height", &o.height, "image height in pixels");
-  flags.AddDouble("--fps", &o.fps, "frames per second");
-  flags.AddDouble("--noise", &o.noise_sigma, "sensor noise sigma in 8-bit code values");
-  flags.AddString("--config", &o.configuration,
+  flags.AddInt("--cameras N", &o.num_cameras, "number of cameras on the ring");
+  flags.AddInt("--frames N", &o.num_frames, "number of frames");
+  flags.AddInt("--width PIXELS", &o.width, "image width in pixels");
+  flags.AddInt("--height PIXELS", &o.height, "image height in pixels");
+  flags.AddDouble("--fps FPS", &o.fps, "frames per second");
+  flags.AddDouble("--noise SIGMA", &o.noise_sigma, "sensor noise sigma in 8-bit code values");
+  flags.AddString("--config NAME", &o.configuration,
                   "active light configuration, e.g. \"NE,NW,SE,SW\" (the default) or \"C\"; with --dome \"all\" "
                   "(the default) or dome light names, e.g. \"D000,D007\"");
-  flags.AddInt("--dome", &o.dome,
+  flags.AddInt("--dome N", &o.dome,
                "N > 0: N directional lights D000.. spread over the upper hemisphere replace the 9 ceiling lights "
                "(with --lighting olat frame t is lit by dome light t mod N); 0: the ceiling lights");
-  flags.AddString("--lighting", &lighting,
+  flags.AddString("--lighting MODE", &lighting,
                   "studio (every frame lit by --config) or olat (one light at a time: frame t by ceiling light "
                   "t mod 9, or dome light t mod N; in scene.json's frameLighting and the truth)");
-  flags.AddString("--camera-model", &camera_model,
+  flags.AddString("--camera-model MODEL", &camera_model,
                   "pinhole or orthographic (telecentric: the same ring of viewpoints, the pixel size the "
                   "pinhole's at the subject; scene.json's cameras[].model and pixelSize, and the truth)");
-  flags.AddUint("--seed", &o.seed, "random seed (noise, perturbations)");
-  flags.AddString("--format", &format, "ffv1 (lossless .mkv) or png (image sequences)");
+  flags.AddUint("--seed N", &o.seed, "random seed (noise, perturbations)");
+  flags.AddString("--format FORMAT", &format, "ffv1 (lossless .mkv) or png (image sequences)");
   flags.AddBool("--lossy", &o.lossy_video, "write lossy MPEG-4 video instead (a perturbation)");
-  flags.AddDouble("--camera-rotation-error", &o.camera_rotation_error_deg,
+  flags.AddDouble("--camera-rotation-error DEGREES", &o.camera_rotation_error_deg,
                   "calibration error: rotate the scene's cameras by this many degrees");
-  flags.AddDouble("--camera-translation-error", &o.camera_translation_error,
+  flags.AddDouble("--camera-translation-error DISTANCE", &o.camera_translation_error,
                   "calibration error: move the scene's cameras by this distance");
-  flags.AddDouble("--vertex-noise", &o.vertex_noise,
+  flags.AddDouble("--vertex-noise DISTANCE", &o.vertex_noise,
                   "render geometry displaced by this amplitude that the scene's mesh does not model");
-  flags.AddDouble("--exposure", &o.exposure, "gain before 8-bit clipping; > 1 clips highlights");
-  flags.AddDouble("--distortion", &o.distortion_k1, "radial distortion k1 of every camera");
-  flags.AddInt("--actor-segments", &o.actor_segments, "actor tessellation (24: ~8k triangles, 48: ~35k)");
-  flags.AddInt("--shadow-map-size", &o.shadow_map_size, "shadow map resolution per cube face");
-  flags.AddString("--data", &data_dir, "directory holding spot/ and samba/ (env MVBRDF_DATA_DIR)");
-  flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  flags.AddDouble("--exposure GAIN", &o.exposure, "gain before 8-bit clipping; > 1 clips highlights");
+  flags.AddDouble("--distortion K1", &o.distortion_k1, "radial distortion k1 of every camera");
+  flags.AddInt("--actor-segments N", &o.actor_segments, "actor tessellation (24: ~8k triangles, 48: ~35k)");
+  flags.AddInt("--shadow-map-size N", &o.shadow_map_size, "shadow map resolution per cube face");
+  flags.AddString("--data DIR", &data_dir, "directory holding spot/ and samba/ (env MVBRDF_DATA_DIR)");
+  flags.AddString("--egl PLATFORM", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf synth: %s\n", std::string(s.message()).c_str());
     return kExitUsage;

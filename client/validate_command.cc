@@ -24,7 +24,7 @@ int RunValidate(const std::vector<std::string>& args) {
   flags.AddPositional("SCENE", &scene_file, true, "the scene JSON file");
   flags.AddBool("--quick", &quick, "check only frame 0's mesh and skip the videos");
   std::string fix_out;
-  flags.AddString("--fix", &fix_out,
+  flags.AddString("--fix FILE", &fix_out,
                   "OUT.json: write the scene with each camera rotation replaced by the nearest rotation (SVD)\n"
                   "      and light directions scaled to unit length, print what changed, then validate OUT.json.\n"
                   "      Refused (exit 3): det < 0 or max |R*R^T - I| > 1e-3 (not rounding), a zero direction.\n"

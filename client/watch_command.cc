@@ -149,8 +149,8 @@ int RunWatch(const std::vector<std::string>& args) {
                    "0 the job succeeded, 5 it failed (the reason is printed), 6 it was cancelled; 3 no such job, 4 the "
                    "server is unreachable.");
   flags.AddPositional("JOB", &job_id, true, "the job id (from 'mvbrdf submit' or 'mvbrdf jobs')");
-  flags.AddString("--server", &address, "the server, host:port (required)");
-  flags.AddString("--client", &client_name, "the client name sent to the server (without tokens)");
+  flags.AddString("--server ADDR", &address, "the server, host:port (required)");
+  flags.AddString("--client NAME", &client_name, "the client name sent to the server (without tokens)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
   flags.AddBool("--json", &json, "print each JobEvent as one JSON object per line");

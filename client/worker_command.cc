@@ -50,15 +50,15 @@ int RunWorker(const std::vector<std::string>& args) {
                    "sweep configurations, reflectance), runs them on its own EGL context and streams progress,\n"
                    "metrics, Samples and atlases back. Sequence bundles are downloaded once into --cache.\n"
                    "SIGINT/SIGTERM stop it after the task in hand.");
-  flags.AddString("--server", &address, "the server's address, HOST:PORT (required)");
-  flags.AddString("--name", &o.name, "name shown in jobs/watch (default: host-pid)");
+  flags.AddString("--server ADDR", &address, "the server's address, HOST:PORT (required)");
+  flags.AddString("--name NAME", &o.name, "name shown in jobs/watch (default: host-pid)");
   ConnectionFlags connection;
   AddConnectionFlags(flags, &connection);
-  flags.AddString("--cache", &cache_dir, "bundle cache and scratch directory");
-  flags.AddString("--egl", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
-  flags.AddInt("--threads", &o.threads, "threads for fitting");
-  flags.AddInt("--wait", &o.wait_seconds, "long-poll seconds per lease request");
-  flags.AddInt("--max-tasks", &o.max_tasks, "exit after this many tasks (0: run until stopped)");
+  flags.AddString("--cache DIR", &cache_dir, "bundle cache and scratch directory");
+  flags.AddString("--egl PLATFORM", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
+  flags.AddInt("--threads N", &o.threads, "threads for fitting");
+  flags.AddInt("--wait SECONDS", &o.wait_seconds, "long-poll seconds per lease request");
+  flags.AddInt("--max-tasks N", &o.max_tasks, "exit after this many tasks (0: run until stopped)");
   flags.AddBool("--gather-texels", &o.gather_texel_statistics,
                 "keep a job's texel statistics from its gather for its reflectance (a lone worker: one pass, not two)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {

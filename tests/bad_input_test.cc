@@ -381,6 +381,23 @@ std::vector<BadInputCase> Cases() {
        Expect::kRejected,
        kInvalid,
        {"scene.cameras[1].video", "has 2 frames", "needs 3"}},
+      // Video.frame_offset (issue #20): the shifted frames must lie in the video.
+      {"FrameOffsetBeforeTheVideosStart",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_frame_offset(-1); });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[1].video.frame_offset: camera \"cam1\": frame 0 of the sequence would be frame -1 of its "
+        "video"}},
+      {"FrameOffsetPastTheVideosEnd",
+       [](CaseInput& in) {
+         in.EditScene([](v1::Scene* s) { s->mutable_cameras(1)->mutable_video()->set_frame_offset(1); });
+       },
+       Expect::kRejected,
+       kInvalid,
+       {"scene.cameras[1].video",
+        "camera \"cam1\": frame 2 of the sequence is frame 3 of its video, past the video's end"}},
       {"CorruptVideoFile",
        [](CaseInput& in) { WriteText(in.dir / "videos/cam0.mkv", std::string(4096, 'x')); },
        Expect::kRejected,

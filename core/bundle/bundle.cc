@@ -488,11 +488,13 @@ absl::StatusOr<std::vector<std::string>> BundleFiles(const fs::path& scene_file,
   MVBRDF_RETURN_IF_ERROR(AddMeshFiles(scene_dir, scene.mesh().path(), selection, count, &files));
   for (int i = 0; i < scene.cameras_size(); ++i) {
     const v1::Video& video = scene.cameras(i).video();
-    MVBRDF_RETURN_IF_ERROR(
-        AddFrames(scene_dir, video.path(), absl::StrCat("scene.cameras[", i, "].video.path"), selection, count, &files));
+    // Its files are numbered by its own frames (Video.frame_offset).
+    const scene::FrameSelection camera_frames = scene::CameraFrames(selection, video);
+    MVBRDF_RETURN_IF_ERROR(AddFrames(scene_dir, video.path(), absl::StrCat("scene.cameras[", i, "].video.path"),
+                                     camera_frames, count, &files));
     if (!video.mask_path().empty()) {
       MVBRDF_RETURN_IF_ERROR(AddFrames(scene_dir, video.mask_path(), absl::StrCat("scene.cameras[", i, "].video.mask_path"),
-                                       selection, count, &files));
+                                       camera_frames, count, &files));
     }
   }
   if (!scene.segmentation_path().empty()) {

@@ -133,6 +133,30 @@ TEST(BundleTest, ListsEveryReferencedFile) {
   EXPECT_EQ(*files, expected);
 }
 
+// Video.frame_offset: a camera's files are its own frames f + frame_offset
+// (camera 1's videos/cam1/0003.png is frame 2 of the sequence), so the bundle
+// carries those and not the unshifted ones.
+TEST(BundleTest, CameraFilesFollowTheirFrameOffset) {
+  TempDir tmp;
+  v1::Scene scene = TinyScene();
+  scene.mutable_cameras(1)->mutable_video()->set_frame_offset(1);
+  scene.mutable_cameras(1)->mutable_video()->set_mask_path("masks/%04d.png");
+  const fs::path scene_file = WriteScene(tmp.path(), scene);
+  fs::create_directories(tmp.path() / "masks");
+  for (int t = 1; t <= kFrames; ++t) {
+    WriteText(tmp.path() / absl::StrFormat("videos/cam1/%04d.png", t), "x");
+    WriteText(tmp.path() / absl::StrFormat("masks/%04d.png", t), "x");
+  }
+  const auto files = BundleFiles(scene_file, {});
+  ASSERT_TRUE(files.ok()) << files.status();
+  const std::vector<std::string> expected = {
+      "masks/0001.png",        "masks/0002.png",        "masks/0003.png",        "meshes/mesh_0000.obj",
+      "meshes/mesh_0001.obj",  "meshes/mesh_0002.obj",  "scene.json",            "segments.txt",
+      "videos/cam0/0000.png",  "videos/cam0/0001.png",  "videos/cam0/0002.png",  "videos/cam1/0001.png",
+      "videos/cam1/0002.png",  "videos/cam1/0003.png"};
+  EXPECT_EQ(*files, expected);
+}
+
 TEST(BundleTest, IncludesGroundTruthAndItsTextures) {
   TempDir tmp;
   const fs::path scene_file = WriteScene(tmp.path(), TinyScene());

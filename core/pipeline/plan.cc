@@ -2,6 +2,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/scene/names.h"
 
 namespace mvbrdf::pipeline {
 
@@ -65,12 +66,13 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   };
   const auto known_list = [&]() {
     std::vector<std::string> names;
-    for (const auto& c : scene.light_configurations()) names.push_back(absl::StrCat("\"", c.name(), "\""));
-    return names.empty() ? std::string("none") : absl::StrJoin(names, ", ");
+    for (const auto& c : scene.light_configurations()) names.push_back(c.name());
+    return scene::NameList(names);
   };
   if (!request.configuration.empty() && !known(request.configuration)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--config: the scene has no light configuration \"", request.configuration, "\""));
+    return absl::InvalidArgumentError(absl::StrCat("--config: the scene has no light configuration \"",
+                                                   scene::ShownName(request.configuration), "\" (it has ", known_list(),
+                                                   ")"));
   }
   if (!request.configuration.empty() && !request.candidates.empty()) {
     return absl::InvalidArgumentError("--config: give either a known configuration or --candidates to sweep, not both");

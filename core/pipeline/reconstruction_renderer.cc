@@ -1,5 +1,7 @@
 #include "core/pipeline/reconstruction_renderer.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 #include "absl/strings/str_cat.h"
@@ -16,6 +18,58 @@ absl::StatusOr<cv::Mat> ReadRgb(const std::filesystem::path& file) {
   MVBRDF_ASSIGN_OR_RETURN(image::ExrImage exr, image::ReadExr(file));
   if (exr.image.type() != CV_32FC3) return absl::InvalidArgumentError(absl::StrCat(file.string(), ": expected RGB"));
   return exr.image;
+}
+
+// Bilinear lookup of an atlas image (row 0 = v 1; texel (i, j) centred at
+// u = (i + 0.5) / size, v = 1 - (j + 0.5) / size), edges clamped, as GL's
+// linear filtering of the renderer's textures.
+cv::Vec3f SampleAtlas(const cv::Mat& atlas, glm::dvec2 uv) {
+  const double x = uv.x * atlas.cols - 0.5;
+  const double y = (1.0 - uv.y) * atlas.rows - 0.5;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  const auto at = [&](int xi, int yi) {
+    return atlas.at<cv::Vec3f>(std::clamp(yi, 0, atlas.rows - 1), std::clamp(xi, 0, atlas.cols - 1));
+  };
+  return (at(x0, y0) * (1 - fx) + at(x0 + 1, y0) * fx) * (1 - fy) +
+         (at(x0, y0 + 1) * (1 - fx) + at(x0 + 1, y0 + 1) * fx) * fy;
+}
+
+// kd * ambient added to every pixel the undistorted image's triangle ids
+// cover: the pixel's ray (pinhole: through its centre from the camera
+// centre; orthographic: along +z) meets its triangle at barycentric (a, b,
+// c), whose UVs give the kd atlas texel.
+void AddAmbient(const cv::Mat& triangle_ids, const scene::CameraModel& camera, const render::RenderMesh& mesh,
+                const render::Pose& pose, const cv::Mat& kd, const glm::vec3& ambient, cv::Mat* radiance) {
+  for (int y = 0; y < triangle_ids.rows; ++y) {
+    for (int x = 0; x < triangle_ids.cols; ++x) {
+      const int id = triangle_ids.at<int32_t>(y, x);
+      if (id < 0) continue;
+      const glm::uvec3 tri = mesh.triangles[static_cast<size_t>(id)];
+      glm::dvec3 p[3];
+      for (int k = 0; k < 3; ++k) p[k] = camera.CamFromWorld(glm::dvec3(pose.positions[tri[k]]));
+      glm::dvec3 origin(0.0), direction;
+      if (camera.orthographic()) {
+        origin = glm::dvec3((x - camera.cx) * camera.pixel_size, (y - camera.cy) * camera.pixel_size, 0.0);
+        direction = glm::dvec3(0.0, 0.0, 1.0);
+      } else {
+        direction = glm::dvec3((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy, 1.0);
+      }
+      // Moller-Trumbore: origin + t direction = p0 + b (p1 - p0) + c (p2 - p0).
+      const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+      const glm::dvec3 h = glm::cross(direction, e2);
+      const double det = glm::dot(e1, h);
+      if (std::abs(det) < 1e-300) continue;
+      const glm::dvec3 s = origin - p[0];
+      const double b = glm::dot(s, h) / det;
+      const double c = glm::dot(direction, glm::cross(s, e1)) / det;
+      const double bc = std::clamp(b, 0.0, 1.0), cc = std::clamp(c, 0.0, 1.0 - bc);
+      const glm::dvec2 uv = glm::dvec2(mesh.uvs[tri[0]]) * (1.0 - bc - cc) + glm::dvec2(mesh.uvs[tri[1]]) * bc +
+                            glm::dvec2(mesh.uvs[tri[2]]) * cc;
+      const cv::Vec3f k = SampleAtlas(kd, uv);
+      radiance->at<cv::Vec3f>(y, x) += cv::Vec3f(k[0] * ambient.x, k[1] * ambient.y, k[2] * ambient.z);
+    }
+  }
 }
 
 }  // namespace
@@ -36,7 +90,7 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   MVBRDF_ASSIGN_OR_RETURN(r->kd_, ReadRgb(run_dir / "atlases" / "kd.exr"));
   MVBRDF_ASSIGN_OR_RETURN(r->ks_, ReadRgb(run_dir / "atlases" / "ks.exr"));
   MVBRDF_ASSIGN_OR_RETURN(r->ke_, ReadRgb(run_dir / "atlases" / "ke.exr"));
-  render::RenderMesh mesh;
+  render::RenderMesh& mesh = r->mesh_;
   mesh.triangles = r->atlas_.topology.triangles;
   mesh.uvs = r->atlas_.topology.uvs;
   mesh.rest_positions = scene::ToRenderVertices(r->atlas_.topology, sequence.rest_positions);
@@ -48,6 +102,12 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
 absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel& camera,
                                                        const std::vector<scene::Light>& lights, int frame,
                                                        bool correction) {
+  return Render(camera, lights, frame, correction, Extras());
+}
+
+absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel& camera,
+                                                       const std::vector<scene::Light>& lights, int frame,
+                                                       bool correction, const Extras& extras) {
   if (frame < 0 || frame >= sequence_.num_frames) {
     return absl::InvalidArgumentError(absl::StrCat("frame: must be in [0, ", sequence_.num_frames, "), got ", frame));
   }
@@ -55,7 +115,8 @@ absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel&
     char name[32];
     std::snprintf(name, sizeof(name), "%04d.exr", sequence_.AbsoluteFrame(frame));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat c, ReadRgb(run_dir_ / "atlases" / "correction" / name));
-    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_ + c, ks_, ke_));  // render with kd + c
+    corrected_kd_ = kd_ + c;
+    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(corrected_kd_, ks_, ke_));  // render with kd + c
     with_correction_ = true;
   } else if (with_correction_) {
     MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_, ks_, ke_));
@@ -66,7 +127,16 @@ absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel&
   render::Pose pose;
   pose.positions = scene::ToRenderVertices(atlas_.topology, positions);
   pose.normals = scene::ToRenderVertices(atlas_.topology, scene::ComputeFileVertexNormals(atlas_.topology, positions));
-  MVBRDF_ASSIGN_OR_RETURN(const render::RenderOutput image, renderer_->Render(pose, camera));
+  MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer_->Render(pose, camera));
+  if (extras.ambient != glm::vec3(0.0f)) {
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ids, renderer_->RenderTriangleIds(pose, camera, 1));
+    AddAmbient(ids, camera, mesh_, pose, correction ? corrected_kd_ : kd_, extras.ambient, &image.radiance);
+  }
+  if (extras.coverage != nullptr) {
+    cv::Mat coverage;
+    image.coverage.convertTo(coverage, CV_32FC1, 1.0 / 255.0);
+    *extras.coverage = synth::ApplyDistortion(coverage, camera);
+  }
   return synth::ApplyDistortion(image.radiance, camera);
 }
 

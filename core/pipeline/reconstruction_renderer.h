@@ -33,6 +33,19 @@ class ReconstructionRenderer {
   absl::StatusOr<cv::Mat> Render(const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
                                  int frame, bool correction);
 
+  struct Extras {
+    // A constant ambient term (linear RGB, the lights' units): every covered
+    // pixel gets kd * ambient added, kd the reconstruction's (with the
+    // frame's correction when asked) at the pixel's surface point.
+    glm::vec3 ambient{0.0f};
+    // When set: the mesh's coverage of each pixel, CV_32FC1 in [0, 1] (1
+    // where it covers the pixel centre, 0 where it does not; fractional only
+    // where lens distortion resamples an edge).
+    cv::Mat* coverage = nullptr;
+  };
+  absl::StatusOr<cv::Mat> Render(const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
+                                 int frame, bool correction, const Extras& extras);
+
  private:
   ReconstructionRenderer(const std::filesystem::path& run_dir, const scene::Sequence& sequence, atlas::Atlas atlas)
       : run_dir_(run_dir), sequence_(sequence), atlas_(std::move(atlas)) {}
@@ -41,6 +54,8 @@ class ReconstructionRenderer {
   const scene::Sequence& sequence_;
   const atlas::Atlas atlas_;
   cv::Mat kd_, ks_, ke_;
+  cv::Mat corrected_kd_;  // kd + the last correction atlas rendered
+  render::RenderMesh mesh_;
   bool with_correction_ = false;  // the renderer's kd currently includes a correction atlas
   std::unique_ptr<render::PhongRenderer> renderer_;
 };

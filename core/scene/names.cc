@@ -1,7 +1,9 @@
 #include "core/scene/names.h"
 
+#include <algorithm>
 #include <cstdint>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
@@ -104,6 +106,43 @@ std::string ShownText(absl::string_view text) {
     first = false;
   }
   return shown;
+}
+
+std::string NameList(const std::vector<std::string>& names, size_t max_shown) {
+  if (names.empty()) return "none";
+  std::string out;
+  const size_t shown = names.size() > max_shown ? max_shown : names.size();
+  for (size_t i = 0; i < shown; ++i) absl::StrAppend(&out, i == 0 ? "" : ", ", "\"", ShownName(names[i]), "\"");
+  if (shown < names.size()) absl::StrAppend(&out, ", \u2026 (", names.size(), " in all)");
+  return out;
+}
+
+std::string ClosestName(absl::string_view name, const std::vector<std::string>& candidates) {
+  const std::string a = absl::AsciiStrToLower(name);
+  std::string best;
+  size_t best_distance = SIZE_MAX;
+  for (const std::string& candidate : candidates) {
+    const std::string b = absl::AsciiStrToLower(candidate);
+    // Levenshtein distance, one row.
+    std::vector<size_t> row(b.size() + 1);
+    for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (size_t i = 1; i <= a.size(); ++i) {
+      size_t diagonal = row[0];
+      row[0] = i;
+      for (size_t j = 1; j <= b.size(); ++j) {
+        const size_t up = row[j];
+        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+        diagonal = up;
+      }
+    }
+    if (row[b.size()] < best_distance) {
+      best_distance = row[b.size()];
+      best = candidate;
+    }
+  }
+  const size_t allowed = std::max<size_t>(2, a.size() / 3);
+  if (best.empty() || best_distance > allowed || best_distance >= a.size() || best == name) return "";
+  return best;
 }
 
 }  // namespace mvbrdf::scene

@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -39,6 +40,16 @@ std::string ShownName(absl::string_view name);
 
 // ShownName of each line of `text`, the newlines kept (messages, summaries).
 std::string ShownText(absl::string_view text);
+
+// The valid names of something, for an error message: "\"a\", \"b\", \"c\""
+// (each ShownName, quoted), the first `max_shown` of more than that followed
+// by "… (N in all)"; "none" when there are none.
+std::string NameList(const std::vector<std::string>& names, size_t max_shown = 10);
+
+// The name of `candidates` closest to `name` by edit distance (case
+// ignored), when it is close enough to be a likely typo (at most 2 edits or
+// a third of its length, fewer than its length, not equal); empty otherwise.
+std::string ClosestName(absl::string_view name, const std::vector<std::string>& candidates);
 
 }  // namespace mvbrdf::scene
 

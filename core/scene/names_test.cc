@@ -106,3 +106,26 @@ TEST(NamesTest, ReferenceErrorsShowTheNameEscaped) {
 
 }  // namespace
 }  // namespace mvbrdf::scene
+
+namespace mvbrdf::scene {
+namespace {
+
+TEST(NamesTest, NameListTruncatesLongLists) {
+  EXPECT_EQ(NameList({}), "none");
+  EXPECT_EQ(NameList({"cam0", "cam1"}), "\"cam0\", \"cam1\"");
+  std::vector<std::string> many;
+  for (int i = 0; i < 12; ++i) many.push_back("D" + std::to_string(i));
+  EXPECT_EQ(NameList(many, 3), "\"D0\", \"D1\", \"D2\", \u2026 (12 in all)");
+  EXPECT_EQ(NameList(many).find("D10"), std::string::npos);
+}
+
+TEST(NamesTest, ClosestNameSuggestsOnlyLikelyTypos) {
+  EXPECT_EQ(ClosestName("--atlass", {"--atlas", "--out", "--grow"}), "--atlas");
+  EXPECT_EQ(ClosestName("rnu", {"run", "render", "synth"}), "run");
+  EXPECT_EQ(ClosestName("cam9", {"cam0", "cam1"}), "cam0");
+  EXPECT_EQ(ClosestName("--zzzzzz", {"--atlas", "--out"}), "");
+  EXPECT_EQ(ClosestName("x", {}), "");
+}
+
+}  // namespace
+}  // namespace mvbrdf::scene

@@ -83,13 +83,17 @@ class NameRegistry {
       return Invalid(
           field, absl::StrCat("duplicate \"", ShownName(name), "\", also ", list_, "[", it->second, "].", key_));
     }
+    names_.push_back(name);
     return absl::OkStatus();
   }
   bool Has(const std::string& name) const { return index_of_.count(name) != 0; }
+  // The names in the scene's order.
+  const std::vector<std::string>& names() const { return names_; }
 
  private:
   std::string list_, key_;
   std::map<std::string, int> index_of_;
+  std::vector<std::string> names_;
 };
 
 // A list of references into a registry: each known and listed once.
@@ -99,8 +103,10 @@ absl::Status CheckReferences(const std::string& field, const google::protobuf::R
   for (int i = 0; i < names.size(); ++i) {
     const std::string item = absl::StrCat(field, "[", i, "]");
     const std::string& name = names.Get(i);
-    if (!known.Has(name))
-      return Invalid(item, absl::StrCat("unknown ", kind, " \"", ShownName(name), "\"", owner));
+    if (!known.Has(name)) {
+      return Invalid(item, absl::StrCat("unknown ", kind, " \"", ShownName(name), "\"", owner, " (the scene has ",
+                                        NameList(known.names()), ")"));
+    }
     const auto [it, inserted] = seen.emplace(name, i);
     if (!inserted) {
       return Invalid(item, absl::StrCat("duplicate ", kind, " \"", ShownName(name), "\", also ", field, "[",
@@ -146,6 +152,31 @@ absl::Status ValidateRotation(const std::string& field, const google::protobuf::
                      r.Get(2) * (r.Get(3) * r.Get(7) - r.Get(4) * r.Get(6));
   if (std::abs(det - 1.0) > kRotationTolerance) {
     return Invalid(field, absl::StrCat("determinant must be +1, got ", Num(det), " (a reflection, not a rotation)"));
+  }
+  return absl::OkStatus();
+}
+
+// Video.frame_offset: every selected frame, shifted, is a frame number of
+// the video (>= 0, < 2^31 - 1). Whether the video is that long is checked
+// when it is probed (ProbeVideo).
+absl::Status ValidateFrameOffset(const v1::Camera& camera, const v1::Frames& frames, const std::string& f) {
+  const int64_t offset = camera.video().frame_offset();
+  if (offset == 0) return absl::OkStatus();
+  const bool listed = frames.indices_size() != 0;
+  const int64_t first = listed ? frames.indices(0) : frames.first();
+  const int64_t last = listed ? frames.indices(frames.indices_size() - 1)
+                              : first + (static_cast<int64_t>(std::max<uint32_t>(frames.count(), 1)) - 1) *
+                                            std::max<uint32_t>(1, frames.step());
+  const std::string name = ShownName(camera.name());
+  if (first + offset < 0) {
+    return Invalid(f + ".video.frame_offset",
+                   absl::StrCat("camera \"", name, "\": frame ", first, " of the sequence would be frame ",
+                                first + offset, " of its video, before the video's start (frame_offset ", offset, ")"));
+  }
+  if (last + offset >= static_cast<int64_t>(INT32_MAX)) {
+    return Invalid(f + ".video.frame_offset",
+                   absl::StrCat("camera \"", name, "\": frame ", last, " of the sequence would be frame ",
+                                last + offset, " of its video, must be < 2^31 - 1 (frame_offset ", offset, ")"));
   }
   return absl::OkStatus();
 }
@@ -346,21 +377,24 @@ namespace {
 // refused by validate and run --direct too, with the same message.
 absl::Status CheckFilesResolveInside(const Sequence& seq) {
   const v1::Scene& scene = seq.scene;
-  auto each_frame = [&](const std::string& path, const std::string& field) -> absl::Status {
+  auto each_frame = [&](const std::string& path, const std::string& field,
+                        const FrameSelection& selection) -> absl::Status {
     if (!IsFramePattern(path)) return CheckResolvesInsideSceneDir(seq.scene_dir, path, field);
     for (int t = 0; t < seq.num_frames; ++t) {
-      const int absolute = seq.AbsoluteFrame(t);
+      const int absolute = selection.Absolute(t);
       MVBRDF_RETURN_IF_ERROR(CheckResolvesInsideSceneDir(seq.scene_dir, FormatFramePattern(path, absolute),
                                                          absl::StrCat(field, " (frame ", absolute, ")")));
     }
     return absl::OkStatus();
   };
-  MVBRDF_RETURN_IF_ERROR(each_frame(scene.mesh().path(), "scene.mesh.path"));
+  MVBRDF_RETURN_IF_ERROR(each_frame(scene.mesh().path(), "scene.mesh.path", seq.frames));
   for (int i = 0; i < scene.cameras_size(); ++i) {
     const v1::Video& video = scene.cameras(i).video();
-    MVBRDF_RETURN_IF_ERROR(each_frame(video.path(), absl::StrCat("scene.cameras[", i, "].video.path")));
+    const FrameSelection camera_frames = CameraFrames(seq.frames, video);
+    MVBRDF_RETURN_IF_ERROR(each_frame(video.path(), absl::StrCat("scene.cameras[", i, "].video.path"), camera_frames));
     if (!video.mask_path().empty()) {
-      MVBRDF_RETURN_IF_ERROR(each_frame(video.mask_path(), absl::StrCat("scene.cameras[", i, "].video.mask_path")));
+      MVBRDF_RETURN_IF_ERROR(
+          each_frame(video.mask_path(), absl::StrCat("scene.cameras[", i, "].video.mask_path"), camera_frames));
     }
   }
   if (!scene.segmentation_path().empty()) {
@@ -449,6 +483,7 @@ absl::Status ValidateSceneMessage(const v1::Scene& scene) {
   for (int i = 0; i < scene.cameras_size(); ++i) {
     MVBRDF_RETURN_IF_ERROR(cameras.Add(i, scene.cameras(i).name()));
     MVBRDF_RETURN_IF_ERROR(ValidateCamera(scene.cameras(i), absl::StrCat("scene.cameras[", i, "]")));
+    MVBRDF_RETURN_IF_ERROR(ValidateFrameOffset(scene.cameras(i), frames, absl::StrCat("scene.cameras[", i, "]")));
   }
 
   // Lights and which of them are on.
@@ -586,10 +621,22 @@ absl::Status CheckSegmentation(const Sequence& seq) {
   return absl::OkStatus();
 }
 
+// For a camera with a frame_offset whose video ends early: which frame of
+// the sequence is missing, and which video frame that is.
+std::string OffsetNote(const Sequence& seq, const v1::Camera& camera, int t) {
+  const int offset = camera.video().frame_offset();
+  if (offset == 0 || t >= seq.num_frames) return "";
+  const int absolute = seq.AbsoluteFrame(t);
+  return absl::StrCat("; camera \"", ShownName(camera.name()), "\": frame ", absolute, " of the sequence is frame ",
+                      static_cast<int64_t>(absolute) + offset, " of its video, past the video's end (frame_offset ",
+                      offset, ")");
+}
+
 absl::Status ProbeVideo(const Sequence& seq, int i) {
   const v1::Camera& camera = seq.scene.cameras(i);
   const std::string field = absl::StrCat("scene.cameras[", i, "]");
-  const int first = seq.AbsoluteFrame(0);
+  const FrameSelection camera_frames = CameraFrames(seq.frames, camera.video());
+  const int first = camera_frames.Absolute(0);
   MVBRDF_ASSIGN_OR_RETURN(auto source, VideoSource::Open(camera, seq.scene_dir, seq.frames, seq.num_frames, field));
   MVBRDF_ASSIGN_OR_RETURN(const VideoProbe probe, source->Probe());
   if (probe.width != static_cast<int>(camera.width()) || probe.height != static_cast<int>(camera.height())) {
@@ -597,18 +644,18 @@ absl::Status ProbeVideo(const Sequence& seq, int i) {
                                                   camera.width(), "x", camera.height(), " (camera width x height)"));
   }
   if (probe.frame_count < seq.num_frames) {
-    return Invalid(field + ".video", absl::StrCat("has ", probe.frame_count, " frames from frame ", first,
-                                                  ", the scene needs ", seq.num_frames,
-                                                  seq.frames.step > 1 || !seq.frames.indices.empty()
-                                                      ? " (of those scene.frames selects)"
-                                                      : ""));
+    return Invalid(
+        field + ".video",
+        absl::StrCat("has ", probe.frame_count, " frames from frame ", first, ", the scene needs ", seq.num_frames,
+                     seq.frames.step > 1 || !seq.frames.indices.empty() ? " (of those scene.frames selects)" : "",
+                     OffsetNote(seq, camera, probe.frame_count)));
   }
   // Every mask file exists (a stat each; read with its frame).
   const std::string& mask = camera.video().mask_path();
   if (!mask.empty()) {
     const int masks = IsFramePattern(mask) ? seq.num_frames : 1;
     for (int t = 0; t < masks; ++t) {
-      const std::string shown = IsFramePattern(mask) ? FormatFramePattern(mask, seq.AbsoluteFrame(t)) : mask;
+      const std::string shown = IsFramePattern(mask) ? FormatFramePattern(mask, camera_frames.Absolute(t)) : mask;
       if (const std::string why = WhyNotRegularFile(ResolvePath(seq.scene_dir, shown)); !why.empty()) {
         return NotRegularFileError(why, absl::StrCat(field, ".video.mask_path: mask image ", why, ": ",
                                                      ElideForMessage(shown, kMaxShownPathChars)));
@@ -867,6 +914,10 @@ std::string Summarize(const Sequence& seq) {
                     c.video().has_saturation_level()
                         ? absl::StrCat(", saturated at ", c.video().saturation_level())
                         : absl::StrCat(", saturated at ", c.video().bit_depth() == 16 ? 65535 : 255, " (default)"),
+                    c.video().frame_offset() == 0
+                        ? ""
+                        : absl::StrCat(", frame offset ", c.video().frame_offset(), ": sequence frame f is its frame f ",
+                                       c.video().frame_offset() > 0 ? "+ " : "- ", std::abs(c.video().frame_offset())),
                     ")\n");
   }
   absl::StrAppend(&s, "Lights: ", seq.lights.size(),

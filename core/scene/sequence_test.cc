@@ -262,7 +262,18 @@ const std::vector<MessageErrorCase>& MessageErrorCases() {
       {"ConfigurationNoLights", [](v1::Scene* s) { s->mutable_light_configurations(1)->clear_lights(); },
        "scene.light_configurations[1].lights: at least one light"},
       {"ConfigurationUnknownLight", [](v1::Scene* s) { s->mutable_light_configurations(0)->add_lights("SE"); },
-       "scene.light_configurations[0].lights[2]: unknown light \"SE\" in configuration \"NE,NW\""},
+       "scene.light_configurations[0].lights[2]: unknown light \"SE\" in configuration \"NE,NW\" (the scene has "
+       "\"NE\", \"NW\", \"sun\")"},
+      {"FrameOffsetBeforeStart",
+       [](v1::Scene* s) {
+         s->mutable_frames()->set_first(2);
+         s->mutable_cameras(1)->mutable_video()->set_frame_offset(-3);
+       },
+       "scene.cameras[1].video.frame_offset: camera \"cam1\": frame 2 of the sequence would be frame -1 of its video, "
+       "before the video's start (frame_offset -3)"},
+      {"FrameOffsetPastInt32",
+       [](v1::Scene* s) { s->mutable_cameras(0)->mutable_video()->set_frame_offset(INT32_MAX); },
+       "scene.cameras[0].video.frame_offset: camera \"cam0\": frame 3 of the sequence would be frame 2147483650"},
       {"ConfigurationDuplicateLight", [](v1::Scene* s) { s->mutable_light_configurations(0)->add_lights("NE"); },
        "scene.light_configurations[0].lights[2]: duplicate light \"NE\", also "
        "scene.light_configurations[0].lights[0]"},
@@ -372,6 +383,10 @@ const std::vector<FileErrorCase>& FileErrorCases() {
        nullptr, absl::StatusCode::kNotFound, "scene.cameras[1].video.path: first frame not found"},
       {"WrongImageSize", [](v1::Scene* s) { s->mutable_cameras(1)->set_width(64); }, nullptr,
        absl::StatusCode::kInvalidArgument, "scene.cameras[1].video: frames are 32x24, expected 64x24"},
+      {"FrameOffsetPastTheVideosEnd", [](v1::Scene* s) { s->mutable_cameras(0)->mutable_video()->set_frame_offset(1); },
+       nullptr, absl::StatusCode::kInvalidArgument,
+       "scene.cameras[0].video: has 3 frames from frame 1, the scene needs 4; camera \"cam0\": frame 3 of the sequence "
+       "is frame 4 of its video, past the video's end (frame_offset 1)"},
       {"TooFewFrames", nullptr,
        [](const std::filesystem::path& dir) { std::filesystem::remove(dir / "cam0/0003.png"); },
        absl::StatusCode::kInvalidArgument, "scene.cameras[0].video: has 3 frames from frame 0, the scene needs 4"},

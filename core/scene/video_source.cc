@@ -336,6 +336,13 @@ class VideoFileSource : public VideoSource {
 
 }  // namespace
 
+FrameSelection CameraFrames(const FrameSelection& selection, const v1::Video& video) {
+  FrameSelection shifted = selection;
+  shifted.first += video.frame_offset();
+  for (int& index : shifted.indices) index += video.frame_offset();
+  return shifted;
+}
+
 absl::StatusOr<cv::Mat> ReadLinearRgbImage(const std::filesystem::path& file, bool srgb) {
   const cv::Mat stored = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
   if (stored.empty()) return absl::NotFoundError(absl::StrCat(file.string(), ": cannot read image"));
@@ -353,10 +360,11 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
 
 absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera& camera,
                                                                const std::filesystem::path& scene_dir,
-                                                               const FrameSelection& selection, int num_frames,
+                                                               const FrameSelection& sequence_frames, int num_frames,
                                                                absl::string_view field) {
-  const int first_frame = selection.Absolute(0);
   const v1::Video& video = camera.video();
+  const FrameSelection selection = CameraFrames(sequence_frames, video);
+  const int first_frame = selection.Absolute(0);
   const std::string path_field = absl::StrCat(field, ".video.path");
   if (video.path().empty()) return absl::InvalidArgumentError(absl::StrCat(path_field, ": required"));
   const absl::Status pattern_ok = ValidateFramePattern(video.path(), path_field);
@@ -367,6 +375,11 @@ absl::StatusOr<std::unique_ptr<VideoSource>> VideoSource::Open(const v1::Camera&
         absl::StrCat(field, ".video.bit_depth: must be 0, 8 or 16, got ", video.bit_depth()));
   }
   if (first_frame < 0) {
+    if (video.frame_offset() != 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ".video.frame_offset: frame ", sequence_frames.Absolute(0), " of the sequence is frame ",
+                       first_frame, " of the video, before its start (frame_offset ", video.frame_offset(), ")"));
+    }
     return absl::InvalidArgumentError(absl::StrCat(field, ": first frame must be >= 0, got ", first_frame));
   }
   const bool srgb = video.encoding() != v1::LINEAR;

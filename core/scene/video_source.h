@@ -32,6 +32,13 @@ struct FrameSelection {
   }
 };
 
+// The file frames of one camera (Video.frame_offset, issue #20): the
+// sequence's `selection` shifted by `video.frame_offset`, so that absolute
+// frame f of the sequence is frame f + frame_offset of the camera's video,
+// image sequence and mask pattern. Validated scenes keep every shifted frame
+// in [0, 2^31 - 1).
+FrameSelection CameraFrames(const FrameSelection& selection, const v1::Video& video);
+
 // Mask and saturation (Video.mask_path, saturation_level): a decoded frame
 // holds a negative value in every channel of a pixel that must never become
 // a Sample: kMaskedPixel outside the mask, kSaturatedPixel where a stored
@@ -47,7 +54,8 @@ class VideoSource {
   static absl::StatusOr<std::unique_ptr<VideoSource>> Open(const v1::Camera& camera,
                                                            const std::filesystem::path& scene_dir,
                                                            int first_frame, absl::string_view field);
-  // The frames of `selection`; frame t of ReadFrame is selection.Absolute(t).
+  // The frames of `selection` (the sequence's); frame t of ReadFrame is file
+  // frame CameraFrames(selection, camera.video()).Absolute(t).
   static absl::StatusOr<std::unique_ptr<VideoSource>> Open(const v1::Camera& camera,
                                                            const std::filesystem::path& scene_dir,
                                                            const FrameSelection& selection, int num_frames,

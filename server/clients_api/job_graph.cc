@@ -3,6 +3,7 @@
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "core/scene/names.h"
 #include "worker/job_options.h"
 
 namespace mvbrdf::clients_api {
@@ -13,6 +14,13 @@ bool SceneHasConfiguration(const v1::Scene& scene, const std::string& name) {
     if (c.name() == name) return true;
   }
   return false;
+}
+
+// "(it has \"C\", \"NE,NW,SE,SW\", ...)" for an unknown configuration's message.
+std::string KnownConfigurations(const v1::Scene& scene) {
+  std::vector<std::string> names;
+  for (const auto& c : scene.light_configurations()) names.push_back(c.name());
+  return absl::StrCat(" (it has ", scene::NameList(names), ")");
 }
 
 }  // namespace
@@ -28,8 +36,8 @@ absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene
   for (int i = 0; i < request.configurations_size(); ++i) {
     const std::string& name = request.configurations(i);
     if (!SceneHasConfiguration(scene, name)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("configurations[", i, "]: the scene has no light configuration \"", name, "\""));
+      return absl::InvalidArgumentError(absl::StrCat("configurations[", i, "]: the scene has no light configuration \"",
+                                                     scene::ShownName(name), "\"", KnownConfigurations(scene)));
     }
     if (!seen.insert(name).second) {
       return absl::InvalidArgumentError(absl::StrCat("configurations[", i, "]: \"", name, "\" is listed twice"));
@@ -38,7 +46,8 @@ absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene
   if (!request.configuration().empty()) {
     if (!SceneHasConfiguration(scene, request.configuration())) {
       return absl::InvalidArgumentError(absl::StrCat("configuration: the scene has no light configuration \"",
-                                                     request.configuration(), "\""));
+                                                     scene::ShownName(request.configuration()), "\"",
+                                                     KnownConfigurations(scene)));
     }
     if (request.configurations_size() != 0) {
       return absl::InvalidArgumentError("configuration: give either a known configuration or candidates to sweep");
