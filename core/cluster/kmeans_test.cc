@@ -276,7 +276,9 @@ TEST(KMeans, AutomaticKLeavesOutliersOut) {
   const std::vector<uint32_t> assignment(result->assignment.begin(), result->assignment.begin() + 6000);
   EXPECT_GE(Purity(assignment, labels, 3, result->centres.size()), kMinCorrect);
   for (size_t c = 0; c < result->centres.size(); ++c) {
-    if (tiny[c]) EXPECT_EQ(result->sizes[c], 0u);
+    if (tiny[c]) {
+      EXPECT_EQ(result->sizes[c], 0u);
+    }
   }
   // With seeds nothing is tiny.
   KMeansOptions seeded;
