@@ -53,9 +53,12 @@ std::vector<std::pair<std::string, fs::path>> FilesUnder(const fs::path& dir) {
 // DIR/report.html from the outputs just written to DIR (env.scratch_dir), as
 // `mvbrdf report DIR` makes it: a service artifact like the others. `gl`: the
 // context of a GL task (renderings), null on a CPU task's thread.
-absl::Status WriteReportHtml(const TaskEnvironment& env, gl::EglContext* gl) {
+absl::Status WriteReportHtml(const TaskEnvironment& env, const scene::Sequence& sequence, gl::EglContext* gl) {
   report::ReportOptions options;
   options.gl = gl;
+  // result.json names the scene inside the bundle (RunReport.bundle_sha256);
+  // here it is the unpacked bundle's file.
+  options.scene = sequence.scene_file;
   options.scratch_dir = env.scratch_dir.string() + ".report";  // beside: not an artifact
   std::error_code ec;
   fs::create_directories(options.scratch_dir, ec);
@@ -179,7 +182,7 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
     MVBRDF_RETURN_IF_ERROR(WriteJsonFile(file, report));
     if (env.report_html) {
       // A light table has nothing to render; the context is the GL thread's.
-      MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env, nullptr));
+      MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env, sequence, nullptr));
       out.artifacts.emplace_back("report.html", env.scratch_dir / "report.html");
     }
     out.artifacts.emplace_back("result.json", file);
@@ -209,7 +212,7 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
   o.out_dir = env.scratch_dir;
   o.texel_statistics = std::move(env.texel_statistics);  // consumed: freed as soon as the fits are done
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport report, pipeline::RunReconstruction(sequence, *env.gl, o));
-  if (env.report_html) MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env, env.gl));
+  if (env.report_html) MVBRDF_RETURN_IF_ERROR(WriteReportHtml(env, sequence, env.gl));
   TaskOutput out;
   report.SerializeToString(&out.result);
   out.artifacts = FilesUnder(env.scratch_dir);
