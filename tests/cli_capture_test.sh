@@ -158,7 +158,7 @@ saturated=$(json "$work/sat/result.json" 'int(d["saturatedObservations"])')
 per_camera=$(json "$work/sat/result.json" 'sum(int(c.get("saturatedObservations", 0)) for c in d["cameras"])')
 echo "     saturated observations: $saturated (cameras sum to $per_camera)"
 expect "saturated observations > 0, per camera summing to the total" test "$saturated" -gt 0 -a "$per_camera" = "$saturated"
-expect "the report says it" grep -q "Refused texel observations: 0 outside a camera's mask, $saturated saturated" "$work/sat/report.html"
+expect "the report says it" grep -q "Refused texel observations</abbr>: 0 outside a camera's mask, $saturated saturated" "$work/sat/report.html"
 # worst ke relative error (ke does not scale with exposure).
 ke_error() { "$bin" evaluate "$1" --truth "$work/e4" | python3 -c 'import json, sys; print(max(c["keRelError"] for c in json.load(sys.stdin)["clusters"]))'; }
 ke_sat=$(ke_error "$work/sat")

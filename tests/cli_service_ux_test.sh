@@ -98,6 +98,8 @@ listed = {a['name']: (int(a['size']), a['sha256']) for a in json.load(open(sys.a
 found = {}
 for root, _, files in os.walk(sys.argv[2]):
     for f in files:
+        if f in ('.mvbrdf-output', '.mvbrdf.lock'):
+            continue  # the output directory's marker and lock (client/output_dir.h), not artifacts
         p = os.path.join(root, f)
         data = open(p, 'rb').read()
         found[os.path.relpath(p, sys.argv[2])] = (len(data), hashlib.sha256(data).hexdigest())
