@@ -85,37 +85,13 @@ check "--frames bad: exit 3" 3 '--frames: 0:9 must satisfy 0 <= A < B <= 2' -- "
 check "--frames without a pattern: exit 3" 3 '--out: with --frames, expected a pattern' -- \
   "${r[@]}" --frames 0:2 --out "$work/f.png"
 
-python3 - "$work" "$work/sphere/ground_truth/truth.json" <<'EOF_PY'
+python3 - "$work" "$work/sphere/ground_truth/truth.json" "$(dirname "$0")" <<'EOF_PY'
 import json, struct, sys, zlib
 work = sys.argv[1]
+sys.path.insert(0, sys.argv[3])
+from png_read import read_png as read_rgba
 def read_png(path):  # 8-bit RGB or RGBA -> rows of channel tuples
-    data = open(path, "rb").read()
-    pos, idat = 8, b""
-    while pos < len(data):
-        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
-        body = data[pos + 8:pos + 8 + n]
-        if kind == b"IHDR":
-            w, h, depth, color = struct.unpack(">IIBB", body[:10])
-            bpp = 3 if color == 2 else 4
-        elif kind == b"IDAT":
-            idat += body
-        pos += 12 + n
-    raw, stride, rows, prev = zlib.decompress(idat), w * bpp, [], bytearray(w * bpp)
-    for y in range(h):
-        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
-        for i in range(stride):
-            a = line[i - bpp] if i >= bpp else 0
-            b, c = prev[i], prev[i - bpp] if i >= bpp else 0
-            if f == 1: line[i] = (line[i] + a) & 255
-            elif f == 2: line[i] = (line[i] + b) & 255
-            elif f == 3: line[i] = (line[i] + (a + b) // 2) & 255
-            elif f == 4:
-                p = a + b - c
-                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        rows.append(line)
-        prev = line
-    return [[tuple(r[x * bpp:(x + 1) * bpp]) for x in range(w)] for r in rows]
+    return read_rgba(path, alpha=True)
 def lin(c):
     c /= 255.0
     return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4

@@ -1,37 +1,9 @@
 # png_diff.py A.png B.png: prints "LIT DIFFERING": pixels of A with a channel > 10, and pixels whose
 # channels differ by more than 3 code values (8-bit RGB or RGBA PNGs of one size; no libraries needed).
-import struct, sys, zlib
+import os, sys
 
-def read_png(path):
-    data = open(path, "rb").read()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n", path
-    pos, idat, w = 8, b"", 0
-    while pos < len(data):
-        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
-        body = data[pos + 8:pos + 8 + n]
-        if kind == b"IHDR":
-            w, h, depth, color = struct.unpack(">IIBB", body[:10])
-            assert depth == 8 and color in (2, 6), (depth, color)
-            bpp = 3 if color == 2 else 4
-        elif kind == b"IDAT":
-            idat += body
-        pos += 12 + n
-    raw, stride, rows, prev = zlib.decompress(idat), w * bpp, [], bytearray(w * bpp)
-    for y in range(h):
-        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
-        for i in range(stride):
-            a = line[i - bpp] if i >= bpp else 0
-            b, c = prev[i], prev[i - bpp] if i >= bpp else 0
-            if f == 1: line[i] = (line[i] + a) & 255
-            elif f == 2: line[i] = (line[i] + b) & 255
-            elif f == 3: line[i] = (line[i] + (a + b) // 2) & 255
-            elif f == 4:
-                p = a + b - c
-                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        rows.append(line)
-        prev = line
-    return [[tuple(r[x * bpp:x * bpp + 3]) for x in range(w)] for r in rows]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from png_read import read_png  # noqa: E402
 
 a, b = read_png(sys.argv[1]), read_png(sys.argv[2])
 assert len(a) == len(b) and len(a[0]) == len(b[0])
