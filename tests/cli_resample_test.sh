@@ -29,6 +29,13 @@ check "resample 16 frames" 0 "recall" -- "$bin" resample "$work/b16/scene.json" 
 for f in resample.json atlas/mesh.obj atlas/charts.png frames/0003/cam1.exr frames/0003/cam1_grown.png frames/0003/shadows.exr; do
   if [ -f "$work/r4/$f" ]; then echo "ok   wrote $f"; passes=$((passes + 1)); else echo "FAIL missing $f"; failures=$((failures + 1)); fi
 done
+# resample.json names its scene relative to itself (issue #20), so input and output move together.
+check "resample.json's scene resolves from its own directory to the scene" 0 "same" -- python3 -c '
+import json, os, sys
+d = sys.argv[1]
+scene = json.load(open(os.path.join(d, "resample.json")))["scene"]
+ok = not os.path.isabs(scene) and os.path.samefile(os.path.join(d, scene), sys.argv[2])
+print("same" if ok else "differs: %s" % scene)' "$work/r4" "$work/b4/scene.json"
 [ ! -d "$work/r16/frames" ] && { echo "ok   --save none writes no frames"; passes=$((passes + 1)); } || { echo "FAIL --save none wrote frames"; failures=$((failures + 1)); }
 
 # Streaming: 4x the frames must not need noticeably more memory.

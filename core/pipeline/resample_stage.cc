@@ -12,6 +12,7 @@
 #include "core/evaluate/resample_evaluator.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
+#include "core/pipeline/run_scene.h"
 #include "core/pipeline/stage_timer.h"
 #include "core/resample/atlas_ops.h"
 #include "core/scene/atlas_mesh.h"
@@ -66,7 +67,9 @@ absl::StatusOr<v1::ResampleReport> RunResampleStage(const scene::Sequence& seque
   const auto start = std::chrono::steady_clock::now();
   StageTimer timer;
   v1::ResampleReport report;
-  report.set_scene(sequence.scene_file.string());
+  // Relative to resample.json's directory, as result.json's (run_scene.h).
+  report.set_scene(options.out_dir.empty() ? sequence.scene_file.string()
+                                           : SceneRelativeTo(sequence.scene_file, options.out_dir));
   report.set_frames(static_cast<uint32_t>(sequence.num_frames));
   report.set_gl_renderer(context.Describe());
   report.set_grow_iterations(static_cast<uint32_t>(options.grow_iterations));
