@@ -59,9 +59,11 @@ absl::Status WriteRunReport(const fs::path& run_dir, const fs::path& out, const 
 }
 
 void AddReportFlags(FlagParser& parser, ReportFlags* flags) {
-  parser.AddString("--truth DIR", &flags->truth, "ground-truth bundle (default: the scene's directory when it has one)");
+  parser.AddString("--truth DIR", &flags->truth,
+                   "ground-truth bundle (default: the scene's directory when it has one)");
   parser.AddBool("--no-truth", &flags->no_truth, "leave out the comparison with the ground truth");
-  parser.AddString("--tradeoff FILE", &flags->tradeoff, "error-against-run-time points (scripts/bench-tradeoff's JSON)");
+  parser.AddString("--tradeoff FILE", &flags->tradeoff,
+                   "error-against-run-time points (scripts/bench-tradeoff's JSON)");
   parser.AddInt("--relit-frames N", &flags->relit_frames,
                 "positions of the light moving around the model, on the camera's side");
   parser.AddBool("--no-render", &flags->no_render, "no renderings (input vs reconstruction, relit sequence)");
