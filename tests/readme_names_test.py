@@ -4,7 +4,7 @@
 # passes when it is a key (at any depth) or a string value (a flag such as `tiny`) of it. Proto3 JSON leaves out
 # fields that are zero or empty in this run: such a name must then be the JSON name (lowerCamelCase) of a field
 # of proto/mvbrdf/v1/run_report.proto, and is listed as "not in this run". Exit 1 naming every name that is neither.
-import json, os, re, subprocess, sys
+import json, os, re, shutil, subprocess, sys
 
 binary, work = sys.argv[1], sys.argv[2]
 root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -15,6 +15,7 @@ assert len(row) == 1, "README.md: expected one outputs-table row for `DIR/result
 names = [n for n in re.findall(r"`([^`]+)`", row[0].split("|")[2])]
 assert names, "no backquoted names in the result.json row"
 
+shutil.rmtree(work, ignore_errors=True)  # a fresh run every time (outputs refuse a used --out)
 os.makedirs(work, exist_ok=True)
 env = dict(os.environ, LP_NUM_THREADS=os.environ.get("LP_NUM_THREADS", "2"))
 def run(*args):
