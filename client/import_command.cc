@@ -16,6 +16,7 @@
 #include "core/importers/import_scene.h"
 #include "core/importers/metashape_xml.h"
 #include "core/importers/opencv_calibration.h"
+#include "core/scene/names.h"
 #include "core/scene/sequence.h"
 
 namespace mvbrdf::client {
@@ -165,6 +166,8 @@ int RunImport(const std::vector<std::string>& args) {
   std::string usage_error;
   if (chosen == nullptr) {
     usage_error = absl::StrCat("unknown FORMAT \"", format, "\" (expected ", absl::StrJoin(names, ", "), ")");
+  } else if (std::string(chosen->name) != "colmap" && reader_flags.camera_name != "stem") {
+    usage_error = absl::StrCat("--camera-name is for colmap only; ", chosen->name, " names its cameras itself");
   } else if (out.empty()) {
     usage_error = "--out is required";
   } else if (options.mesh.empty()) {
@@ -199,7 +202,9 @@ int RunImport(const std::vector<std::string>& args) {
   std::vector<std::string> reader_warnings;
   reader_flags.warnings = &reader_warnings;
   absl::StatusOr<std::vector<v1::Camera>> read = chosen->read(input, reader_flags);
-  for (const std::string& w : reader_warnings) std::fprintf(stderr, "mvbrdf import: warning: %s\n", w.c_str());
+  for (const std::string& w : reader_warnings) {
+    std::fprintf(stderr, "mvbrdf import: warning: %s\n", scene::ShownText(w).c_str());  // labels are the file's
+  }
   if (!read.ok()) return ReportFailure(read.status(), "mvbrdf import");
   const size_t calibrated = read->size();
   absl::StatusOr<v1::Scene> scene = importers::BuildScene(*std::move(read), options);

@@ -48,7 +48,7 @@ int RunValidate(const std::vector<std::string>& args) {
                    fix_out.c_str(), scene_dir.string().c_str());
       return kExitUsage;
     }
-    auto scene = ReadJsonFileAs<v1::Scene>(scene_file);
+    absl::StatusOr<v1::Scene> scene = scene::ReadScene(scene_file);
     if (!scene.ok()) return ReportFailure(scene.status());
     std::vector<std::string> changes;
     if (absl::Status s = scene::FixRounding(&*scene, &changes); !s.ok()) return ReportFailure(s);

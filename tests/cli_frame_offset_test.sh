@@ -62,8 +62,8 @@ a, b = (json.load(open(p)) for p in sys.argv[1:3])
 def rel(x, y): return abs(x - y) / max(abs(x), abs(y), 1e-12)
 bad = []
 for x, y in zip(a["cameras"], b["cameras"]):
-    for key in ("mseBrdf", "mseCorrected"):
-        if key in x and rel(x[key], y.get(key, float("nan"))) > 1e-6: bad.append("camera %s %s: %r vs %r" % (x["name"], key, x[key], y.get(key)))
+    for key in ("mseBrdf", "mseCorrection"):
+        if (key in x) != (key in y) or (key in x and rel(x[key], y[key]) > 1e-6): bad.append("camera %s %s: %r vs %r" % (x["name"], key, x.get(key), y.get(key)))
 for x, y in zip(a["clusters"], b["clusters"]):
     for key in ("ks", "ke", "centre"):
         for u, v in zip(x.get(key, []), y.get(key, [])):
@@ -72,6 +72,7 @@ for x, y in zip(a["solvers"], b["solvers"]):
     for u, v in zip(x["kd"], y["kd"]):
         if rel(u, v) > 1e-6: bad.append("cluster %s kd: %r vs %r" % (x["cluster"], u, v))
 if len(a["cameras"]) != len(b["cameras"]) or not a["cameras"]: bad.append("camera lists differ")
+if len(a["clusters"]) != len(b["clusters"]) or len(a["solvers"]) != len(b["solvers"]): bad.append("cluster lists differ")
 for line in bad: print(line, file=sys.stderr)
 sys.exit(1 if bad else 0)
 EOF_PY

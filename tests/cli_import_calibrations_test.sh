@@ -23,12 +23,12 @@ expect "write the calibration files" python3 "$writer" write "$scene" "$cal"
 # import FORMAT INPUT OUT: the bundle's lights, mesh and videos with INPUT's cameras.
 import_cal() {
   "$bin" import "$1" "$2" --lights "$scene" --mesh "$work/b/meshes/mesh_%04d.obj" --video "$work/b/videos/{camera}.mkv" \
-    --first "$first" --frames "$frames" --fps "$fps" --out "$3"
+    --first "$first" --frames "$frames" --fps "$fps" --out "$3" "${@:4}"
 }
 for input in "opencv $cal/opencv_yaml" "opencv $cal/opencv.json" "metashape $cal/metashape.xml"; do
   set -- $input
   out="$work/b/imported_$(basename "${2%.*}").json"
-  check "import $1 $(basename "$2")" 0 "" -- import_cal "$1" "$2" "$out"
+  check "import $1 $(basename "$2")" 0 "imported" -- import_cal "$1" "$2" "$out"
   check "$(basename "$2"): cameras equal the truth to 1e-9" 0 "max difference" -- \
     python3 "$writer" compare "$cal/expected.json" "$out" 1e-9
   python3 "$writer" compare "$cal/expected.json" "$out" 1e-9 | sed 's/^/     /'
@@ -54,6 +54,8 @@ for imported in opencv_yaml metashape; do
     python3 "$(dirname "$0")/scene_compare.py" results "$work/run_$imported/result.json" "$work/run_expected/result.json"
 done
 
+check "--camera-name outside colmap is a usage error (it would change nothing)" 2 "--camera-name is for colmap only" -- \
+  import_cal opencv "$cal/opencv.json" "$work/b/o.json" --camera-name dir
 check "metashape: the unaligned camera is left out with a warning" 0 "camera\[label=not_aligned\]: no transform" -- \
   import_cal metashape "$cal/metashape.xml" "$work/b/imported_again.json"
 

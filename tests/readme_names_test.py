@@ -48,6 +48,7 @@ def walk(v):
 walk(result)
 
 proto = open(os.path.join(root, "proto", "mvbrdf", "v1", "run_report.proto"), encoding="utf-8").read()
+proto = proto[:proto.index("message MaterialComparison")]  # RunReport and its rows, not evaluate's kdRmse etc.
 def camel(n):
     p = n.split("_")
     return p[0] + "".join(x.capitalize() for x in p[1:])

@@ -26,6 +26,7 @@ def cameras(argv):
     names = argv[3].split(",") if len(argv) > 3 else [c["name"] for c in b["cameras"]]
     ca, cb = a["cameras"], [c for c in b["cameras"] if c["name"] in names]
     assert [c["name"] for c in ca] == names, ([c["name"] for c in ca], names)
+    assert [c["name"] for c in cb] == names, ([c["name"] for c in cb], names)
     assert a["frames"] == b["frames"], (a["frames"], b["frames"])
     worst = 0.0
     for x, y in zip(ca, cb):

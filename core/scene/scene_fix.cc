@@ -38,9 +38,10 @@ absl::Status FixRounding(v1::Scene* scene, std::vector<std::string>* changes) {
                                                      ", too far from a rotation to be rounding (--fix repairs up to ",
                                                      Num(kMaxFixableRotationError), ")"));
     }
-    if (error <= kOrthonormalAsItIs && cv::determinant(r) > 0.0) continue;
-    if (cv::determinant(r) < 0.0) {
-      return absl::InvalidArgumentError(absl::StrCat(field, ": determinant ", Num(cv::determinant(r)),
+    const double det = cv::determinant(r);
+    if (error <= kOrthonormalAsItIs && det > 0.0) continue;
+    if (det < 0.0) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ": determinant ", Num(det),
                                                      " < 0, a reflection, not a rotation (--fix cannot repair)"));
     }
     cv::Matx33d u, vt;
