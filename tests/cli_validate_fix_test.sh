@@ -56,7 +56,7 @@ d6=$(worst "$scene" "$work/b/fixed6.json")
 echo "     6 decimals: fixed rotations differ from the truth by $d6"
 expect "6 decimals: fixed within 1e-6 of the truth" below "$d6" 1e-6
 # (At 6 decimals the nearest rotation is not nearer the truth than the rounded input, element-wise: measured
-# 4.2e-7 either way; the 1e-6 bound above is then the rounding's own, and only the 5-decimal case shows --fix.)
+# 4.16e-7 fixed against 4.04e-7 rounded; the 1e-6 bound above is the rounding's own, only 5 decimals show --fix.)
 # The true scene is left as it is (orthonormal to double rounding).
 check "true scene unchanged" 0 "wrote .*same.json (0 changes)" -- \
   "$bin" validate --quick "$scene" --fix "$work/b/same.json"
