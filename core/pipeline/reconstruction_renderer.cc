@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/proto_json.h"
@@ -41,13 +42,15 @@ cv::Vec3f SampleAtlas(const cv::Mat& atlas, glm::dvec2 uv) {
 // c), whose UVs give the kd atlas texel.
 void AddAmbient(const cv::Mat& triangle_ids, const scene::CameraModel& camera, const render::RenderMesh& mesh,
                 const render::Pose& pose, const cv::Mat& kd, const glm::vec3& ambient, cv::Mat* radiance) {
+  // The pose in camera coordinates, once (not three vertices per pixel).
+  std::vector<glm::dvec3> in_camera(pose.positions.size());
+  for (size_t v = 0; v < in_camera.size(); ++v) in_camera[v] = camera.CamFromWorld(glm::dvec3(pose.positions[v]));
   for (int y = 0; y < triangle_ids.rows; ++y) {
     for (int x = 0; x < triangle_ids.cols; ++x) {
       const int id = triangle_ids.at<int32_t>(y, x);
       if (id < 0) continue;
       const glm::uvec3 tri = mesh.triangles[static_cast<size_t>(id)];
-      glm::dvec3 p[3];
-      for (int k = 0; k < 3; ++k) p[k] = camera.CamFromWorld(glm::dvec3(pose.positions[tri[k]]));
+      const glm::dvec3 p[3] = {in_camera[tri[0]], in_camera[tri[1]], in_camera[tri[2]]};
       glm::dvec3 origin(0.0), direction;
       if (camera.orthographic()) {
         origin = glm::dvec3((x - camera.cx) * camera.pixel_size, (y - camera.cy) * camera.pixel_size, 0.0);
