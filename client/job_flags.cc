@@ -3,9 +3,11 @@
 #include <cmath>
 #include <tuple>
 
+#include "absl/status/statusor.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "core/base/status_macros.h"
 
 namespace mvbrdf::client {
 
@@ -30,7 +32,89 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
   flags.AddDouble("--kd-prior-strength X", &job->kd_prior_strength,
                   "per-texel kd shrinks towards its cluster's kd with this many pseudo-observations at the data's "
                   "typical illumination (>= 0; 0: plain least squares; relative, so independent of intensity units)");
+  flags.AddString("--refine-cameras MODE", &job->refine_cameras,
+                  "auto (refine each camera's pose from the video when cross-camera consistency says the "
+                  "calibration is off), on or off");
+  flags.AddBool("--refine-focal", &job->refine_focal, "camera refinement also refines each camera's focal length");
+  flags.AddBool("--refine-distortion", &job->refine_distortion,
+                "camera refinement also refines each camera's radial distortion k1");
+  flags.AddString("--refine-frames N", &job->refine_frames, "frames the camera refinement uses (default: 8)");
+  flags.AddString("--refine-lights MODE", &job->refine_lights,
+                  "auto (refine the chosen configuration's light positions and intensities when a sweep chose "
+                  "it), on or off");
+  flags.AddString("--robust MODE", &job->robust,
+                  "on: robust loss with a scale estimated from the data in the sweep, cluster fits and per-texel "
+                  "kd; off: least squares");
+  flags.AddString("--edge-margin PIXELS", &job->edge_margin,
+                  "observations this close to a silhouette or depth discontinuity are rejected (0: none)");
+  flags.AddString("--gradient-rejection X", &job->gradient_rejection,
+                  "observations on steep image gradients are rejected (0: none)");
+  flags.AddString("--sweep-criterion NAME", &job->sweep_criterion,
+                  "held-out (kd fitted on some frames, error measured on the others) or e-d (the thesis's E_d)");
+  flags.AddString("--cluster-smoothness X", &job->cluster_smoothness,
+                  "spatial coherence of the clusters over the surface (0: each texel on its own)");
 }
+
+namespace {
+
+absl::StatusOr<v1::Refinement> ParseRefinement(const char* flag, const std::string& text) {
+  if (text == "auto") return v1::REFINEMENT_AUTO;
+  if (text == "on") return v1::REFINEMENT_ON;
+  if (text == "off") return v1::REFINEMENT_OFF;
+  return absl::InvalidArgumentError(absl::StrCat(flag, ": expected auto, on or off, got \"", text, "\""));
+}
+
+// An optional finite number >= 0 (empty: unset).
+absl::Status ParseNonNegative(const char* flag, const std::string& text, const char* unit, double* value,
+                              bool* set) {
+  *set = false;
+  if (text.empty()) return absl::OkStatus();
+  if (!absl::SimpleAtod(text, value) || !std::isfinite(*value) || *value < 0.0) {
+    return absl::InvalidArgumentError(absl::StrCat(flag, ": must be a finite number >= 0 (", unit, "), got \"",
+                                                   text, "\""));
+  }
+  *set = true;
+  return absl::OkStatus();
+}
+
+absl::Status SetRobustnessOptions(const JobFlags& job, v1::FittingOptions* o) {
+  absl::StatusOr<v1::Refinement> cameras = ParseRefinement("--refine-cameras", job.refine_cameras);
+  if (!cameras.ok()) return cameras.status();
+  absl::StatusOr<v1::Refinement> lights = ParseRefinement("--refine-lights", job.refine_lights);
+  if (!lights.ok()) return lights.status();
+  o->set_refine_cameras(*cameras);
+  o->set_refine_lights(*lights);
+  if (job.refine_focal) o->set_refine_focal(true);
+  if (job.refine_distortion) o->set_refine_distortion(true);
+  if (!job.refine_frames.empty()) {
+    uint32_t frames = 0;
+    if (!absl::SimpleAtoi(job.refine_frames, &frames) || frames < 1 || frames > 10000) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--refine-frames: must be an integer in [1, 10000], got \"", job.refine_frames, "\""));
+    }
+    o->set_refine_frames(frames);
+  }
+  if (job.robust == "on") o->set_robust(true);
+  else if (job.robust == "off") o->set_robust(false);
+  else return absl::InvalidArgumentError(absl::StrCat("--robust: expected on or off, got \"", job.robust, "\""));
+  if (job.sweep_criterion == "held-out") o->set_sweep_criterion(v1::SWEEP_CRITERION_HELD_OUT);
+  else if (job.sweep_criterion == "e-d") o->set_sweep_criterion(v1::SWEEP_CRITERION_E_D);
+  else {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--sweep-criterion: expected held-out or e-d, got \"", job.sweep_criterion, "\""));
+  }
+  double v = 0.0;
+  bool set = false;
+  MVBRDF_RETURN_IF_ERROR(ParseNonNegative("--edge-margin", job.edge_margin, "pixels", &v, &set));
+  if (set) o->set_edge_margin_pixels(v);
+  MVBRDF_RETURN_IF_ERROR(ParseNonNegative("--gradient-rejection", job.gradient_rejection, "relative", &v, &set));
+  if (set) o->set_gradient_rejection(v);
+  MVBRDF_RETURN_IF_ERROR(ParseNonNegative("--cluster-smoothness", job.cluster_smoothness, "relative", &v, &set));
+  if (set) o->set_cluster_smoothness(v);
+  return absl::OkStatus();
+}
+
+}  // namespace
 
 absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request) {
   request->clear_outputs();
@@ -115,7 +199,7 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   o->set_sweep_frame_stride(static_cast<uint32_t>(job.sweep_frame_stride));
   o->set_grow_iterations(static_cast<uint32_t>(job.grow));
   o->set_kd_prior_strength(job.kd_prior_strength);
-  return absl::OkStatus();
+  return SetRobustnessOptions(job, o);
 }
 
 }  // namespace mvbrdf::client

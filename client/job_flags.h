@@ -28,6 +28,18 @@ struct JobFlags {
   // Pseudo-observations of the cluster's kd per texel, at the data's typical
   // illumination (fit::DiffuseOptions::prior_weight).
   double kd_prior_strength = 1.0;
+  // Issue #14 (robustness). Empty numbers: unset, the pipeline's default
+  // (pipeline::ReconstructOptions).
+  std::string refine_cameras = "auto";  // auto|on|off
+  bool refine_focal = false;
+  bool refine_distortion = false;
+  std::string refine_frames;
+  std::string refine_lights = "auto";   // auto|on|off
+  std::string robust = "on";            // on|off
+  std::string edge_margin;
+  std::string gradient_rejection;
+  std::string sweep_criterion = "held-out";  // held-out|e-d
+  std::string cluster_smoothness;
 };
 
 void AddJobFlags(FlagParser& flags, JobFlags* job);

@@ -122,6 +122,42 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
         CheckFiniteNonNegative("options.kd_prior_strength", f.kd_prior_strength(), "finite and >= 0"));
     o.kd_prior_weight = f.kd_prior_strength();
   }
+  // Issue #14 (robustness).
+  o.refine_cameras = f.refine_cameras();
+  o.refine_lights = f.refine_lights();
+  run.refine_cameras = f.refine_cameras();
+  run.refine_lights = f.refine_lights();
+  if (!v1::Refinement_IsValid(f.refine_cameras()) || !v1::Refinement_IsValid(f.refine_lights())) {
+    return absl::InvalidArgumentError("options.refine_cameras, refine_lights: expected AUTO, ON or OFF");
+  }
+  if (f.has_refine_focal()) o.refine_focal = f.refine_focal();
+  if (f.has_refine_distortion()) o.refine_distortion = f.refine_distortion();
+  if (f.has_refine_frames()) {
+    if (f.refine_frames() < 1 || f.refine_frames() > 10000) {
+      return OutOfRange("options.refine_frames", f.refine_frames(), 1, 10000);
+    }
+    o.refine_frames = static_cast<int>(f.refine_frames());
+  }
+  if (f.has_robust()) o.robust = f.robust();
+  if (f.has_edge_margin_pixels()) {
+    MVBRDF_RETURN_IF_ERROR(CheckFiniteNonNegative("options.edge_margin_pixels", f.edge_margin_pixels(),
+                                                  "a finite number >= 0 (pixels)"));
+    o.edge_margin_pixels = f.edge_margin_pixels();
+  }
+  if (f.has_gradient_rejection()) {
+    MVBRDF_RETURN_IF_ERROR(
+        CheckFiniteNonNegative("options.gradient_rejection", f.gradient_rejection(), "a finite number >= 0"));
+    o.gradient_rejection = f.gradient_rejection();
+  }
+  if (!v1::SweepCriterion_IsValid(f.sweep_criterion())) {
+    return absl::InvalidArgumentError("options.sweep_criterion: expected HELD_OUT or E_D");
+  }
+  o.sweep_criterion = f.sweep_criterion();
+  if (f.has_cluster_smoothness()) {
+    MVBRDF_RETURN_IF_ERROR(
+        CheckFiniteNonNegative("options.cluster_smoothness", f.cluster_smoothness(), "a finite number >= 0"));
+    o.cluster_smoothness = f.cluster_smoothness();
+  }
   if (absl::Status s = o.fit.Check(); !s.ok()) return absl::InvalidArgumentError(absl::StrCat("options.", s.message()));
   o.threads = threads;
   // result.json's record of the request, with the fitting options as
@@ -144,6 +180,16 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
   }
   fit.set_grazing_margin_degrees(o.resampler.grazing_margin_deg);
   fit.set_kd_prior_strength(o.kd_prior_weight);
+  fit.set_refine_cameras(o.refine_cameras);
+  fit.set_refine_focal(o.refine_focal);
+  fit.set_refine_distortion(o.refine_distortion);
+  fit.set_refine_frames(static_cast<uint32_t>(o.refine_frames));
+  fit.set_refine_lights(o.refine_lights);
+  fit.set_robust(o.robust);
+  fit.set_edge_margin_pixels(o.edge_margin_pixels);
+  fit.set_gradient_rejection(o.gradient_rejection);
+  fit.set_sweep_criterion(o.sweep_criterion);
+  fit.set_cluster_smoothness(o.cluster_smoothness);
   return o;
 }
 

@@ -9,8 +9,10 @@ namespace mvbrdf::pipeline {
 const char* StageName(Stage stage) {
   switch (stage) {
     case Stage::kAtlas: return "atlas";
+    case Stage::kRefineCameras: return "refine_cameras";
     case Stage::kGatherSamples: return "gather_samples";
     case Stage::kLightSweep: return "light_sweep";
+    case Stage::kRefineLights: return "refine_lights";
     case Stage::kClustering: return "clustering";
     case Stage::kClusterFit: return "cluster_fit";
     case Stage::kSolverComparison: return "solver_comparison";
@@ -101,6 +103,17 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   } else {
     run(Stage::kAtlas, "the mesh has no UVs");
   }
+  if (request.refine_cameras == v1::REFINEMENT_OFF) {
+    skip(Stage::kRefineCameras, "--refine-cameras off");
+  } else if (sequence.cameras.size() < 2 && request.refine_cameras == v1::REFINEMENT_AUTO) {
+    skip(Stage::kRefineCameras, "one camera: no cross-camera consistency to measure the calibration by");
+  } else if (request.refine_cameras == v1::REFINEMENT_ON) {
+    run(Stage::kRefineCameras, "--refine-cameras on");
+  } else {
+    run(Stage::kRefineCameras, absl::StrCat("auto: the refined poses of ", sequence.cameras.size(),
+                                            " cameras are used when cross-camera consistency says the calibration "
+                                            "is off"));
+  }
   run(Stage::kGatherSamples, reflectance ? "Samples for the light sweep and texel statistics for clustering"
                                          : "triangle Samples for the light sweep");
 
@@ -133,6 +146,22 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   } else {
     for (const auto& c : scene.light_configurations()) plan.candidates.push_back(c.name());
     run(Stage::kLightSweep, absl::StrCat(scene.light_configurations_size(), " candidate configurations"));
+  }
+
+  const bool swept = plan.Has(Stage::kLightSweep);
+  const bool fixed_lights = !sequence.every_frame_lit_own() && !plan.fixed_configuration.empty();
+  if (request.refine_lights == v1::REFINEMENT_OFF) {
+    skip(Stage::kRefineLights, "--refine-lights off");
+  } else if (!reflectance) {
+    skip(Stage::kRefineLights, "only the light table was requested");
+  } else if (request.refine_lights == v1::REFINEMENT_ON && (swept || fixed_lights)) {
+    run(Stage::kRefineLights, "--refine-lights on");
+  } else if (request.refine_lights == v1::REFINEMENT_ON) {
+    skip(Stage::kRefineLights, "no configuration to refine the lights of (lighting per frame or every light on)");
+  } else if (swept) {
+    run(Stage::kRefineLights, "auto: the chosen configuration's light positions and intensities, after the sweep");
+  } else {
+    skip(Stage::kRefineLights, "auto: no sweep chose the configuration (--refine-lights on refines a given one)");
   }
 
   if (!reflectance) {

@@ -9,6 +9,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/scene/sequence.h"
+#include "mvbrdf/v1/job_options.pb.h"
 #include "mvbrdf/v1/run_report.pb.h"
 
 namespace mvbrdf::pipeline {
@@ -25,12 +26,17 @@ struct RunRequest {
   // The configurations to sweep (names of the scene's), in this order; empty:
   // every configuration of the scene. One is the same as `configuration`.
   std::vector<std::string> candidates;
+  // Issue #14: the refinement stages (v1::FittingOptions.refine_*).
+  v1::Refinement refine_cameras = v1::REFINEMENT_AUTO;
+  v1::Refinement refine_lights = v1::REFINEMENT_AUTO;
 };
 
 enum class Stage {
   kAtlas,            // build a texture atlas (meshes without UVs)
+  kRefineCameras,    // camera poses (and focal, k1) refined from the video (core/calibrate)
   kGatherSamples,    // pass 1: resample, triangle Samples, per-texel statistics
   kLightSweep,       // fit every candidate configuration, choose one
+  kRefineLights,     // the chosen configuration's lights refined continuously
   kClustering,       // k-means of texels into materials
   kClusterFit,       // one Phong BRDF per cluster (LM)
   kSolverComparison, // the same fits with Powell's method

@@ -160,7 +160,41 @@ TEST(PlanTest, PlanGoesIntoTheReport) {
   v1::Plan proto;
   plan->ToProto(&proto);
   EXPECT_EQ(proto.stages_size(), static_cast<int>(plan->steps.size()));
-  EXPECT_EQ(proto.skipped_size(), 3);  // atlas, sweep, correction
+  // atlas, sweep, refine_lights (no sweep), correction
+  EXPECT_EQ(proto.skipped_size(), 4);
+}
+
+// Issue #14: camera refinement runs unless off (auto needs two cameras to
+// compare); light refinement in auto only after a sweep, on also for a given
+// configuration, never when every frame has its own lights.
+TEST(PlanTest, RefinementStagesFollowTheModesAndTheScene) {
+  const scene::Sequence s = MakeSequence(8, 3, false, true);
+  auto plan = MakePlan(s, {});
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  EXPECT_TRUE(plan->Has(Stage::kRefineCameras));
+  EXPECT_TRUE(plan->Has(Stage::kRefineLights));
+  RunRequest request;
+  request.refine_cameras = v1::REFINEMENT_OFF;
+  request.refine_lights = v1::REFINEMENT_OFF;
+  plan = MakePlan(s, request);
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->Has(Stage::kRefineCameras));
+  EXPECT_FALSE(plan->Has(Stage::kRefineLights));
+  request = {};
+  request.configuration = "config3";
+  plan = MakePlan(s, request);
+  ASSERT_TRUE(plan.ok());
+  EXPECT_FALSE(plan->Has(Stage::kRefineLights));  // auto: no sweep chose it
+  request.refine_lights = v1::REFINEMENT_ON;
+  plan = MakePlan(s, request);
+  ASSERT_TRUE(plan.ok());
+  EXPECT_TRUE(plan->Has(Stage::kRefineLights));
+  scene::Sequence one = MakeSequence(1, 1, true, false);
+  one.cameras.resize(1);
+  request = {};
+  EXPECT_FALSE(MakePlan(one, request)->Has(Stage::kRefineCameras));
+  request.refine_cameras = v1::REFINEMENT_ON;
+  EXPECT_TRUE(MakePlan(one, request)->Has(Stage::kRefineCameras));
 }
 
 // Issue #13: when every frame has its own lights there is no configuration to

@@ -79,6 +79,27 @@ struct ReconstructOptions {
   // The sweep's average BRDF is fitted on at most this many triangle
   // Samples (E_a and E_d still use all of them); 0 = all.
   size_t sweep_fit_samples = 100000;
+  // Issue #14 (robustness), from v1::FittingOptions (worker/job_options.cc).
+  // Camera refinement before pass 1 (core/calibrate): auto runs it when
+  // cross-camera consistency says the calibration is off.
+  v1::Refinement refine_cameras = v1::REFINEMENT_AUTO;
+  bool refine_focal = false;
+  bool refine_distortion = false;
+  int refine_frames = 8;
+  // The chosen configuration's lights refined after the sweep: auto when a
+  // sweep chose the configuration.
+  v1::Refinement refine_lights = v1::REFINEMENT_AUTO;
+  // Robust loss (scale estimated from the data) in the sweep, the cluster fits
+  // and per-texel kd; false: least squares.
+  bool robust = true;
+  // Observations this close (pixels) to a silhouette or depth discontinuity
+  // are rejected; 0: none.
+  double edge_margin_pixels = 0.0;
+  // Observations on steep image gradients are rejected; 0: none.
+  double gradient_rejection = 0.0;
+  v1::SweepCriterion sweep_criterion = v1::SWEEP_CRITERION_HELD_OUT;
+  // Spatial coherence of the clusters over the surface; 0: off.
+  double cluster_smoothness = 0.0;
   int threads = 2;
   // The light sweep's outcome when it ran elsewhere (the service's `choose`
   // task): its light_configurations, chosen_configuration, margin, warning
