@@ -12,6 +12,7 @@
 #include "core/base/status_macros.h"
 #include "core/bundle/sha256.h"
 #include "core/fit/light_sweep.h"
+#include "core/pipeline/calibration_stage.h"
 #include "core/pipeline/gather_stage.h"
 #include "core/pipeline/light_table.h"
 #include "core/pipeline/memory_estimate.h"
@@ -72,19 +73,27 @@ absl::Status WriteReportHtml(const TaskEnvironment& env, const scene::Sequence& 
 
 absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& sequence, const TaskEnvironment& env) {
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::ReconstructOptions o, OptionsOf(task, env));
-  const auto start = Clock::now();
   MVBRDF_ASSIGN_OR_RETURN(const pipeline::Plan plan, pipeline::MakePlan(sequence, o.request));
   const bool texels = env.gather_texel_statistics && plan.Has(pipeline::Stage::kTexelPass);
-  MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas,
-                          atlas::BuildAtlas(sequence.topology, sequence.rest_positions, o.atlas));
-  MVBRDF_ASSIGN_OR_RETURN(pipeline::Gathered gathered, pipeline::GatherPass(sequence, *env.gl, atlas, o, true, texels));
+  // Camera refinement before resampling (issue #14): the Samples, and every
+  // later task of the job (GatherResult.calibration), use these cameras.
+  MVBRDF_ASSIGN_OR_RETURN(v1::CalibrationReport calibration,
+                          pipeline::RefineCamerasStage(sequence, *env.gl, plan, o));
+  MVBRDF_ASSIGN_OR_RETURN(const std::optional<scene::Sequence> calibrated,
+                          pipeline::CalibratedSequence(sequence, calibration));
+  const scene::Sequence& used = calibrated.has_value() ? *calibrated : sequence;
+  const auto gather_start = Clock::now();
+  MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas, atlas::BuildAtlas(used.topology, used.rest_positions, o.atlas));
+  MVBRDF_ASSIGN_OR_RETURN(pipeline::Gathered gathered, pipeline::GatherPass(used, *env.gl, atlas, o, true, texels));
   samples::SampleSet& set = gathered.triangle_samples;
   TaskOutput out;
   out.samples = samples::EncodeSampleSet(set, /*compact=*/false);
   v1::GatherResult result;
   result.set_samples(set.size());
   result.set_encoded_bytes(out.samples.size());
-  result.set_seconds(Since(start));
+  // Pass 1's time; the refinement's is calibration.cameras_seconds.
+  result.set_seconds(Since(gather_start));
+  *result.mutable_calibration() = std::move(calibration);
   result.set_samples_sha256(bundle::Sha256Bytes(out.samples));
   result.set_texel_statistics(texels);
   result.set_peak_rss_bytes(PeakRssBytes());
@@ -148,6 +157,15 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
       if (!gathered.ParseFromString(input.result())) {
         return absl::InvalidArgumentError(absl::StrCat("inputs[", i, "].result: not a GatherResult"));
       }
+      // The gather's camera refinement (issue #14): in the report, and on to
+      // the reflectance task with the light table.
+      *report.mutable_calibration() = gathered.calibration();
+      if (plan.Has(pipeline::Stage::kRefineCameras)) {
+        v1::StageRow* refine = report.add_stages();
+        refine->set_name("refine_cameras");
+        refine->set_seconds(gathered.calibration().cameras_seconds());
+        refine->set_peak_rss_bytes(gathered.peak_rss_bytes());
+      }
       v1::StageRow* stage = report.add_stages();
       stage->set_name(gathered.texel_statistics() || !plan.Has(pipeline::Stage::kTexelPass) ? "gather_samples"
                                                                                               : "gather_light_samples");
@@ -198,6 +216,8 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
     if (!table.ParseFromString(task.inputs(0).result())) {
       return absl::InvalidArgumentError("inputs[0].result: not the choose task's RunReport");
     }
+    // The gather's camera refinement, passed on by choose (issue #14).
+    if (table.has_calibration()) o.calibration = table.calibration();
     o.light_table = std::move(table);
   } else {
     // No sweep: the key is the known configuration (empty: every light on),
@@ -207,6 +227,15 @@ absl::StatusOr<TaskOutput> Reflectance(const v1::Task& task, const scene::Sequen
     if (plan.Has(pipeline::Stage::kLightSweep) || plan.fixed_configuration != task.key()) {
       return absl::InvalidArgumentError(absl::StrCat(
           "key: \"", task.key(), "\" is not the configuration the request fixes (\"", plan.fixed_configuration, "\")"));
+    }
+    // The gather's camera refinement (issue #14); without a gather input
+    // (a task made by hand) RunReconstruction refines itself.
+    if (task.inputs_size() == 1 && task.inputs(0).kind() == "gather") {
+      v1::GatherResult gathered;
+      if (!gathered.ParseFromString(task.inputs(0).result())) {
+        return absl::InvalidArgumentError("inputs[0].result: not a GatherResult");
+      }
+      if (gathered.has_calibration()) o.calibration = gathered.calibration();
     }
   }
   o.out_dir = env.scratch_dir;

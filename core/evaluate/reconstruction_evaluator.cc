@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
+#include "core/evaluate/calibration_truth.h"
 #include "core/image/exr.h"
 #include "core/scene/fingerprint.h"
+#include "core/scene/sequence.h"
 #include "core/synth/ground_truth.h"
 
 namespace mvbrdf::evaluate {
@@ -47,6 +50,24 @@ absl::Status CheckErrorAtlasPath(const std::filesystem::path& file) {
   return absl::OkStatus();
 }
 
+// The run's scene file: `scene` when given, else result.json's (relative to
+// the run directory), else the scene.json of the truth's bundle; nullopt
+// when none exists.
+std::optional<std::filesystem::path> SceneOfRun(const std::filesystem::path& run_dir, const v1::RunReport& run,
+                                                const std::filesystem::path& truth_file,
+                                                const std::filesystem::path& scene) {
+  std::error_code ec;
+  if (!scene.empty()) return scene;
+  if (!run.scene().empty() && run.bundle_sha256().empty()) {
+    // operator/ keeps an absolute path as it is.
+    const std::filesystem::path p = run_dir / run.scene();
+    if (std::filesystem::is_regular_file(p, ec)) return p;
+  }
+  const std::filesystem::path beside = truth_file.parent_path().parent_path() / "scene.json";
+  if (std::filesystem::is_regular_file(beside, ec)) return beside;
+  return std::nullopt;
+}
+
 double RelativeError(double value, double truth) {
   return std::abs(value - truth) / std::max(std::abs(truth), 1e-12);
 }
@@ -55,7 +76,8 @@ double RelativeError(double value, double truth) {
 
 absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
                                                             const std::filesystem::path& truth_path,
-                                                            const std::filesystem::path& error_atlas) {
+                                                            const std::filesystem::path& error_atlas,
+                                                            const std::filesystem::path& scene) {
   if (!error_atlas.empty()) MVBRDF_RETURN_IF_ERROR(CheckErrorAtlasPath(error_atlas));
   std::filesystem::path truth_file = truth_path / "truth.json";
   if (!std::filesystem::exists(truth_file)) truth_file = truth_path / "ground_truth" / "truth.json";
@@ -75,6 +97,16 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   report.set_chosen_configuration(run.chosen_configuration());
   report.set_true_configuration(truth.message().active_configuration());
   report.set_configuration_correct(run.chosen_configuration() == truth.message().active_configuration());
+  // Issue #14: cameras and lights as used against the truth (needs the scene).
+  if (const std::optional<std::filesystem::path> scene_file = SceneOfRun(run_dir, run, truth_file, scene);
+      scene_file.has_value()) {
+    scene::LoadOptions load;
+    load.check_all_frames = false;
+    load.probe_videos = false;
+    if (absl::StatusOr<scene::Sequence> sequence = scene::LoadSequence(*scene_file, load); sequence.ok()) {
+      AddCalibrationTruth(run, truth, *sequence, &report);
+    }
+  }
   if (run.clusters_size() == 0) return report;  // light table only
 
   MVBRDF_ASSIGN_OR_RETURN(const cv::Mat triangle_id, ReadImage(run_dir / "atlas" / "triangle_id.exr", CV_32SC1, 0));

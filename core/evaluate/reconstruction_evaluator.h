@@ -20,9 +20,14 @@ constexpr float kMinObservationsForKd = 10.0f;
 // `error_atlas` (optional, .png or .exr): the per-texel kd error, |kd - kd_true|
 // per channel, where the texel was seen (a PNG shows it times 10), and beside
 // it NAME_truth_kd.EXT with the true kd of the same texels.
+// Issue #14: cameras and lights as used against the truth
+// (core/evaluate/calibration_truth.h) from the run's scene: `scene` when
+// given, else result.json's, else the truth bundle's scene.json (no rows when
+// none is found).
 absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
                                                             const std::filesystem::path& truth,
-                                                            const std::filesystem::path& error_atlas = {});
+                                                            const std::filesystem::path& error_atlas = {},
+                                                            const std::filesystem::path& scene = {});
 
 }  // namespace mvbrdf::evaluate
 

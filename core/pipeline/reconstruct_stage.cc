@@ -20,6 +20,7 @@
 #include "core/fit/light_sweep.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
+#include "core/pipeline/calibration_stage.h"
 #include "core/pipeline/frame_stream.h"
 #include "core/pipeline/gather_stage.h"
 #include "core/pipeline/light_table.h"
@@ -327,24 +328,46 @@ absl::Status CheckCancelled(const ReconstructOptions& options) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
+absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_sequence, gl::EglContext& context,
                                                 const ReconstructOptions& options) {
   const auto start = Clock::now();
-  MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, NewRunReport(sequence, options, context.Describe()));
-  MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(sequence, options.request));
+  MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, NewRunReport(scene_sequence, options, context.Describe()));
+  MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(scene_sequence, options.request));
   const std::filesystem::path& out = options.out_dir;
-  const int num_cameras = static_cast<int>(sequence.cameras.size());
+  const int num_cameras = static_cast<int>(scene_sequence.cameras.size());
   samples::AssembleOptions assemble = options.assemble;
-  assemble.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
+  assemble.inverse_square_falloff = scene_sequence.scene.lighting().inverse_square_falloff();
 
   // The atlas (kept UVs are still rasterised into the layout).
   auto t0 = Clock::now();
   MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas,
-                          atlas::BuildAtlas(sequence.topology, sequence.rest_positions, options.atlas));
+                          atlas::BuildAtlas(scene_sequence.topology, scene_sequence.rest_positions, options.atlas));
   SetAtlasFigures(atlas, Since(t0), report.mutable_atlas());
-  MVBRDF_RETURN_IF_ERROR(scene::WriteAtlasMesh(out / "atlas", atlas.topology, sequence));
+  MVBRDF_RETURN_IF_ERROR(scene::WriteAtlasMesh(out / "atlas", atlas.topology, scene_sequence));
   MVBRDF_RETURN_IF_ERROR(image::WriteExr(out / "atlas" / "triangle_id.exr", atlas.triangle_id));
   AddStage(&report, "atlas", Since(t0), options);
+
+  // Camera refinement (issue #14): every stage from pass 1 on, and Table
+  // 7.1, sees the cameras as used (refined or the scene's). Run here, or by
+  // the service's gather task (options.calibration; its stage row comes with
+  // the light table when there is one).
+  std::optional<scene::Sequence> calibrated;
+  {
+    t0 = Clock::now();
+    v1::CalibrationReport cameras;
+    if (options.calibration.has_value()) {
+      cameras = *options.calibration;
+    } else {
+      MVBRDF_ASSIGN_OR_RETURN(cameras, RefineCamerasStage(scene_sequence, context, plan, options));
+    }
+    MVBRDF_ASSIGN_OR_RETURN(calibrated, CalibratedSequence(scene_sequence, cameras));
+    const double seconds = options.calibration.has_value() ? cameras.cameras_seconds() : Since(t0);
+    *report.mutable_calibration() = std::move(cameras);
+    if (plan.Has(Stage::kRefineCameras) && !options.light_table.has_value()) {
+      AddStage(&report, "refine_cameras", seconds, options);
+    }
+  }
+  const scene::Sequence& sequence = calibrated.has_value() ? *calibrated : scene_sequence;
   const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
   const bool reflectance = plan.Has(Stage::kTexelPass);
 

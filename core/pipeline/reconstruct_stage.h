@@ -106,6 +106,10 @@ struct ReconstructOptions {
   // and stages go into the report; no triangle Samples are gathered and no
   // sweep runs. The plan is still made from `request` (it says the sweep ran).
   std::optional<v1::RunReport> light_table;
+  // The camera refinement when it ran elsewhere (the service's gather task,
+  // GatherResult.calibration): applied to the sequence instead of running
+  // calibrate::RefineCameras again (core/pipeline/calibration_stage.h).
+  std::optional<v1::CalibrationReport> calibration;
   // Pass 1's texel statistics when they were gathered already with the same
   // options (the service's gather task on this worker); consumed. Without
   // them pass 1 gathers them itself.

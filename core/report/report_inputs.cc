@@ -11,6 +11,7 @@
 #include "core/evaluate/reconstruction_evaluator.h"
 #include "core/image/exr.h"
 #include "core/pipeline/reconstruction_renderer.h"
+#include "core/calibrate/refine_cameras.h"
 #include "core/pipeline/run_scene.h"
 #include "core/scene/sequence.h"
 #include "core/scene/video_source.h"
@@ -45,7 +46,9 @@ absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, co
   load.check_all_frames = false;
   load.probe_videos = false;
   MVBRDF_ASSIGN_OR_RETURN(const fs::path scene_file, pipeline::SceneOfRun(run_dir, run, options.scene));
-  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(scene_file, load));
+  MVBRDF_ASSIGN_OR_RETURN(scene::Sequence sequence, scene::LoadSequence(scene_file, load));
+  // Rendered with the cameras as the run used them (issue #14: refined).
+  MVBRDF_RETURN_IF_ERROR(calibrate::ApplyCameraRefinement(run.calibration(), &sequence));
   MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *options.gl));
   const int frame = sequence.num_frames / 2;
   // The input frame is lit by its own lights where scene.frame_lighting has
@@ -173,7 +176,7 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
   }
   if (!truth.empty()) {
     const fs::path error_png = options.scratch_dir / "kd_error.png";
-    MVBRDF_ASSIGN_OR_RETURN(in.evaluation, evaluate::EvaluateReconstruction(run_dir, truth, error_png));
+    MVBRDF_ASSIGN_OR_RETURN(in.evaluation, evaluate::EvaluateReconstruction(run_dir, truth, error_png, options.scene));
     if (fs::exists(error_png)) {  // runs with atlases
       MVBRDF_ASSIGN_OR_RETURN(std::string png, ReadFileToString(error_png));
       in.atlases.push_back({"|kd - kd true| ×10", std::move(png)});

@@ -321,8 +321,15 @@ absl::Status WorkersService::ReportReactor::CacheGatheredSamples(const std::stri
   MVBRDF_ASSIGN_OR_RETURN(v1::SubmitJobRequest request, RequestOf(job));
   const store::SampleKey key = TriangleSampleKey(job.scene_hash, request);
   absl::Status put = service_->samples_.Put(key, samples_->bytes, now_ms, samples_->sha256);  // verified above
+  if (!put.ok()) {
+    return FailOnStorage(absl::StrCat("samples: ", samples_->bytes.size(), " bytes of triangle Samples"), put, now_ms);
+  }
+  // The cameras the Samples were resampled with (issue #14), for a gather
+  // answered from the cache.
+  put = service_->samples_.Put(CalibrationKey(job.scene_hash, request), gathered.calibration().SerializeAsString(),
+                               now_ms);
   if (put.ok()) return put;
-  return FailOnStorage(absl::StrCat("samples: ", samples_->bytes.size(), " bytes of triangle Samples"), put, now_ms);
+  return FailOnStorage("result.calibration: the camera refinement", put, now_ms);
 }
 
 absl::Status WorkersService::ReportReactor::FailOnStorage(absl::string_view what, const absl::Status& error,
@@ -721,7 +728,15 @@ absl::StatusOr<bool> WorkersService::AnswerGatherFromCache(const store::Task& ta
     (void)samples_.Erase(key);
     return false;
   }
+  // The camera refinement they were resampled with (issue #14): without it
+  // the later tasks would not know the cameras, so it is a miss.
   v1::GatherResult result;
+  {
+    absl::StatusOr<std::optional<std::string>> calibration = samples_.Get(CalibrationKey(job.scene_hash, request), now_ms);
+    if (!calibration.ok() || !calibration->has_value() || !result.mutable_calibration()->ParseFromString(**calibration)) {
+      return false;
+    }
+  }
   result.set_samples_sha256(store::Sha256Hex(**bytes));
   result.set_samples(decoded->size());
   result.set_encoded_bytes((*bytes)->size());

@@ -204,6 +204,8 @@ class WorkersServiceTest : public ::testing::Test {
     gathered.set_samples_sha256(claimed_sha256);
     gathered.set_samples(3);
     gathered.set_encoded_bytes(encoded.size());
+    gathered.mutable_calibration()->set_cameras_mode("on");
+    gathered.mutable_calibration()->set_cameras_decision("refined for the test");
     v1::TaskUpdate result = Update(worker, task);
     result.set_result(gathered.SerializeAsString());
     updates.push_back(result);
@@ -721,6 +723,8 @@ TEST_F(WorkersServiceTest, GatheredSamplesAreCachedAndAnswerTheNextJobOnTheSameB
   EXPECT_EQ(second.samples_sha256(), sha256);
   EXPECT_EQ(second.samples(), 100u);
   EXPECT_EQ(second.encoded_bytes(), encoded.size());
+  // The cameras the Samples were resampled with come back with them (issue #14).
+  EXPECT_EQ(second.calibration().cameras_decision(), "refined for the test");
   auto gather2_row = jobs_->GetTask(gather2);
   ASSERT_TRUE(gather2_row.ok());
   EXPECT_EQ(gather2_row->state, store::TaskState::kDone);
@@ -756,6 +760,21 @@ TEST_F(WorkersServiceTest, CorruptCacheEntryIsAMissAndTheWorkerResamples) {
   auto gone = samples_->Get(key, now_ms_);
   ASSERT_TRUE(gone.ok()) << gone.status();
   EXPECT_FALSE(gone->has_value());  // dropped
+}
+
+// Issue #14: Samples without the camera refinement they were resampled with
+// are a miss (the later tasks would not know the cameras): the worker
+// resamples.
+TEST_F(WorkersServiceTest, CachedSamplesWithoutTheirCalibrationAreAMiss) {
+  Start();
+  const std::string worker = Register("w");
+  ASSERT_TRUE(samples_->Put(TriangleSampleKey(std::string(64, 'a'), SampleRequest()), EncodedSamples(10), now_ms_).ok());
+  const auto [job, gather, sweep] = AddGatherJob();
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+  ASSERT_TRUE(leased.has_task());
+  EXPECT_EQ(leased.task().id(), gather);
+  EXPECT_FALSE(jobs_->GetTask(gather)->samples_from_cache);
 }
 
 // Intact bytes (the checksum holds) of an outdated encoding: a sample set
