@@ -41,7 +41,8 @@ scene::Light LightBefore(const v1::LightRefinementRow& row, const scene::Light& 
     out.position = glm::vec3(row.position_before(0), row.position_before(1), row.position_before(2));
   } else if (row.direction_before_size() == 3) {
     out.directional = true;
-    out.direction = glm::normalize(glm::vec3(row.direction_before(0), row.direction_before(1), row.direction_before(2)));
+    out.direction =
+        glm::normalize(glm::vec3(row.direction_before(0), row.direction_before(1), row.direction_before(2)));
   }
   if (row.intensity_before_size() == 3) {
     out.intensity = glm::vec3(row.intensity_before(0), row.intensity_before(1), row.intensity_before(2));

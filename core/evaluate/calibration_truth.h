@@ -22,9 +22,8 @@
 #ifndef MVBRDF_CORE_EVALUATE_CALIBRATION_TRUTH_H_
 #define MVBRDF_CORE_EVALUATE_CALIBRATION_TRUTH_H_
 
-#include <vector>
-
 #include <glm/glm.hpp>
+#include <vector>
 
 #include "core/scene/sequence.h"
 #include "core/synth/ground_truth.h"

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <map>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -110,6 +111,19 @@ constexpr char kPlan[] =
 constexpr char kRelit[] =
     "The reconstruction rendered from the first camera under one point light moving around the model on the "
     "camera's side.";
+constexpr char kCalibration[] =
+    "Calibration (issue #14): each camera's pose (optionally focal length and k1) refined from the video before the "
+    "Samples are gathered, and the chosen configuration's lights refined after the sweep; changes against the "
+    "scene's values with the solver's 1-sigma.";
+constexpr char kCentreChange[] = "In the scene's world units.";
+constexpr char kReprojectionChange[] =
+    "Mean image displacement (pixels) of the visible surface points between the scene's camera and the refined one.";
+constexpr char kResidual[] = "Root mean squared photometric residual (linear) at the scene's calibration → refined.";
+constexpr char kReprojectionError[] =
+    "Mean image distance (pixels) between the true camera's and this camera's projections of the mesh's frame-0 "
+    "vertices that the true camera sees.";
+constexpr char kLightIntensity[] =
+    "Light intensities are only known up to one common scale (a brighter light and a darker kd look the same).";
 }  // namespace term
 
 std::string Figure(const ReportImage& image, int width = 0) {
@@ -150,6 +164,89 @@ std::string TradeoffSection(const v1::TradeoffReport& tradeoff) {
 
 // Every cluster with its texels and flags; one that is not a material
 // ("tiny", "no_samples": its texels joined the nearest cluster) is marked.
+// "a → b" of two figures.
+std::string BeforeAfter(double before, double after, const char* format = "%.4g") {
+  return F(before, format) + " → " + F(after, format);
+}
+
+std::string Vec3(const google::protobuf::RepeatedField<double>& v, const char* format = "%.4g") {
+  return v.size() == 3 ? "(" + Rgb(v, format) + ")" : "—";
+}
+
+// Issue #14: what was refined (cameras before pass 1, lights after the
+// sweep), by how much, with the solver's 1-sigma, or why not; against the
+// truth when the evaluation has it. Every text from the run is escaped.
+std::string CalibrationSection(const v1::RunReport& run, const std::optional<v1::EvaluationReport>& evaluation) {
+  const v1::CalibrationReport& c = run.calibration();
+  std::string out = "<section id=\"calibration\"><h2>" + Abbr("Calibration", term::kCalibration) + "</h2>";
+  const std::string mode = c.cameras_mode().empty() ? "" : " (--refine-cameras " + Escape(c.cameras_mode()) + ")";
+  if (c.cameras_refined()) {
+    out += "<p id=\"calibration-cameras\">Cameras refined" + mode + " on " + absl::StrCat(c.frames_used()) +
+           " frames in " + F(c.cameras_seconds(), "%.1f") + " s: " + Escape(c.cameras_decision()) + "</p>";
+  } else {
+    out += "<p id=\"calibration-cameras\">Cameras not refined" + mode + ": " + Escape(c.cameras_decision()) + "</p>";
+  }
+  bool measured = false;
+  for (const v1::CameraRefinementRow& r : c.cameras()) measured = measured || r.observations() > 0;
+  if (measured) {
+    std::vector<std::vector<std::string>> rows;
+    for (const v1::CameraRefinementRow& r : c.cameras()) {
+      rows.push_back({r.name(), F(r.rotation_change_deg(), "%.4f") + " ± " + F(r.rotation_sigma_deg(), "%.2g"),
+                      F(r.centre_change(), "%.4g") + " ± " + F(r.centre_sigma(), "%.2g"),
+                      F(100.0 * r.focal_change(), "%.3f"), F(r.k1_change(), "%.4f"),
+                      F(r.reprojection_change_px(), "%.3f"), BeforeAfter(r.residual_before(), r.residual_after()),
+                      absl::StrCat(r.observations())});
+    }
+    out += Table({"camera", "rotation change (°)", "centre change", "focal change (%)", "k1 change",
+                  "reprojection change (px)", "residual", "observations"},
+                 rows, "", {"", "", term::kCentreChange, "", "", term::kReprojectionChange, term::kResidual});
+    if (!c.cameras_refined()) out += "<p>(measured, not used)</p>";
+  }
+  if (!c.lights_mode().empty() || !c.lights_decision().empty() || c.lights_size() > 0) {
+    const std::string lmode = c.lights_mode().empty() ? "" : " (--refine-lights " + Escape(c.lights_mode()) + ")";
+    out += std::string("<p id=\"calibration-lights\">Lights ") + (c.lights_refined() ? "refined" : "not refined") +
+           lmode + (c.lights_refined() ? " in " + F(c.lights_seconds(), "%.1f") + " s: " : ": ") +
+           Escape(c.lights_decision()) + "</p>";
+    std::vector<std::vector<std::string>> rows;
+    for (const v1::LightRefinementRow& r : c.lights()) {
+      const bool point = r.position_before_size() == 3;
+      rows.push_back({r.name(),
+                      point ? F(r.position_change(), "%.4g") + " ± " + F(r.position_sigma(), "%.2g") : "—",
+                      point ? "—" : F(r.direction_change_deg(), "%.3f") + " ± " + F(r.direction_sigma_deg(), "%.2g"),
+                      Vec3(r.intensity_before()) + " → " + Vec3(r.intensity_after()),
+                      "± " + F(100.0 * r.intensity_rel_sigma(), "%.2g") + " %"});
+    }
+    if (!rows.empty()) {
+      out += Table({"light", "position change", "direction change (°)", "intensity (RGB)", "intensity 1-sigma"}, rows,
+                   "", {"", term::kCentreChange, "", term::kLightIntensity});
+    }
+  }
+  if (evaluation.has_value() && evaluation->cameras_size() > 0) {
+    std::vector<std::vector<std::string>> rows;
+    for (const v1::CameraTruthRow& r : evaluation->cameras()) {
+      rows.push_back({r.name(), BeforeAfter(r.rotation_error_deg_before(), r.rotation_error_deg_after(), "%.4f"),
+                      BeforeAfter(r.centre_error_before(), r.centre_error_after()),
+                      BeforeAfter(r.reprojection_error_px_before(), r.reprojection_error_px_after(), "%.3f")});
+    }
+    out += "<p>Against the truth (the scene's calibration → the cameras as used):</p>";
+    out += Table({"camera", "rotation error (°)", "centre error", "reprojection error (px)"}, rows, "",
+                 {"", "", "", term::kReprojectionError});
+  }
+  if (evaluation.has_value() && evaluation->lights_size() > 0) {
+    std::vector<std::vector<std::string>> rows;
+    for (const v1::LightTruthRow& r : evaluation->lights()) {
+      rows.push_back({r.name(), BeforeAfter(r.position_error_before(), r.position_error_after()),
+                      BeforeAfter(r.direction_error_deg_before(), r.direction_error_deg_after(), "%.3f"),
+                      BeforeAfter(r.intensity_rel_error_before(), r.intensity_rel_error_after(), "%.3f")});
+    }
+    out += "<p>Lights against the truth (the scene's → as used; intensities after the one common scale, which the "
+           "data cannot tell from kd's):</p>";
+    out += Table({"light", "position error", "direction error (°)", "intensity rel. error"}, rows, "",
+                 {"", "", "", term::kLightIntensity});
+  }
+  return out + "</section>";
+}
+
 std::string ClustersTable(const v1::RunReport& run) {
   if (run.clusters_size() == 0) return "";
   std::vector<std::vector<std::string>> rows;
@@ -207,6 +304,8 @@ std::string BuildReportHtml(const ReportInputs& in) {
         rows, "", {term::kCluster, "", term::kKdRmse, term::kKs, "", "", term::kKe});
     h += "</section>";
   }
+
+  if (run.has_calibration()) h += CalibrationSection(run, in.evaluation);
 
   if (in.tradeoff.has_value() && in.tradeoff->points_size() > 0) h += TradeoffSection(*in.tradeoff);
 

@@ -168,6 +168,73 @@ TEST(ReportPageTest, TermsHaveEscapedTooltips) {
   EXPECT_NE(html.find("tiny (too few texels, &lt; 0.5 % of the seen ones"), std::string::npos);
 }
 
+// Issue #14: the Calibration section says what was refined, by how much and
+// with what uncertainty, and against the truth; or why nothing was refined.
+TEST(ReportPageTest, CalibrationSectionShowsTheRefinementOrWhyNot) {
+  ReportInputs in = SampleInputs();
+  EXPECT_EQ(BuildReportHtml(in).find("id=\"calibration\""), std::string::npos);  // no calibration: no section
+  v1::CalibrationReport* c = in.run.mutable_calibration();
+  c->set_cameras_mode("auto");
+  c->set_cameras_refined(false);
+  c->set_cameras_decision("cross-camera residual 1.02 x the noise < 1.5");
+  std::string html = BuildReportHtml(in);
+  ASSERT_NE(html.find("id=\"calibration\""), std::string::npos);
+  EXPECT_NE(html.find("Cameras not refined (--refine-cameras auto): cross-camera residual 1.02 x the noise &lt; 1.5"),
+            std::string::npos);
+
+  c->set_cameras_refined(true);
+  c->set_cameras_decision("residual 3.1 x the noise");
+  c->set_frames_used(8);
+  c->set_cameras_seconds(4.25);
+  v1::CameraRefinementRow* row = c->add_cameras();
+  row->set_name("cam<0>");
+  row->set_rotation_change_deg(0.2987);
+  row->set_rotation_sigma_deg(0.004);
+  row->set_centre_change(0.0049);
+  row->set_centre_sigma(0.0003);
+  row->set_focal_change(0.001);
+  row->set_reprojection_change_px(1.062);
+  row->set_residual_before(0.031);
+  row->set_residual_after(0.012);
+  row->set_observations(120000);
+  c->set_lights_mode("auto");
+  c->set_lights_refined(true);
+  c->set_lights_decision("after the sweep");
+  v1::LightRefinementRow* light = c->add_lights();
+  light->set_name("NE");
+  for (double v : {1.0, 2.0, 3.0}) light->add_position_before(v);
+  light->set_position_change(0.012);
+  light->set_position_sigma(0.002);
+  for (double v : {1.0, 1.0, 1.0}) light->add_intensity_before(v);
+  for (double v : {1.1, 1.0, 0.9}) light->add_intensity_after(v);
+  light->set_intensity_rel_sigma(0.01);
+  v1::EvaluationReport evaluation;
+  v1::CameraTruthRow* truth = evaluation.add_cameras();
+  truth->set_name("cam<0>");
+  truth->set_rotation_error_deg_before(0.3);
+  truth->set_rotation_error_deg_after(0.01);
+  truth->set_reprojection_error_px_before(1.06);
+  truth->set_reprojection_error_px_after(0.04);
+  v1::LightTruthRow* light_truth = evaluation.add_lights();
+  light_truth->set_name("NE");
+  light_truth->set_intensity_rel_error_before(0.2);
+  light_truth->set_intensity_rel_error_after(0.02);
+  in.evaluation = evaluation;
+  html = BuildReportHtml(in);
+  const size_t at = html.find("id=\"calibration\"");
+  ASSERT_NE(at, std::string::npos);
+  const std::string section = html.substr(at, html.find("</section>", at) - at);
+  for (const char* text :
+       {"Cameras refined (--refine-cameras auto) on 8 frames in 4.2 s: residual 3.1 x the noise", "<td>cam&lt;0&gt;</td>",
+        "<td>0.2987 ± 0.004</td>", "<td>0.0049 ± 0.0003</td>", "<td>0.100</td>", "<td>1.062</td>",
+        "<td>0.031 → 0.012</td>", "Lights refined (--refine-lights auto) in 0.0 s: after the sweep",
+        "<td>0.012 ± 0.002</td>", "(1 / 1 / 1) → (1.1 / 1 / 0.9)", "± 1 %",
+        "<td>0.3000 → 0.0100</td>", "<td>1.060 → 0.040</td>", "<td>0.200 → 0.020</td>", "common scale"}) {
+    EXPECT_NE(section.find(text), std::string::npos) << text << "\n" << section;
+  }
+  EXPECT_EQ(section.find("not used"), std::string::npos);
+}
+
 // Issue #20: a cluster that is not a material is marked in the clusters table.
 TEST(ReportPageTest, TinyClusterIsMarked) {
   const std::string html = BuildReportHtml(SampleInputs());
