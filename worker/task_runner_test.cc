@@ -162,6 +162,14 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
   }
   EXPECT_EQ(report.chosen_configuration(), direct->chosen_configuration());
   EXPECT_EQ(report.configuration_margin(), direct->configuration_margin());
+  // Issue #14: the gather's camera refinement, handed on through choose, is
+  // the one-process run's (its time aside).
+  v1::CalibrationReport service_calibration = report.calibration(), direct_calibration = direct->calibration();
+  EXPECT_FALSE(service_calibration.cameras_mode().empty());
+  service_calibration.clear_cameras_seconds();
+  direct_calibration.clear_cameras_seconds();
+  EXPECT_EQ(service_calibration.DebugString(), direct_calibration.DebugString());
+  EXPECT_EQ(gather_result.calibration().cameras_mode(), direct_calibration.cameras_mode());
   EXPECT_EQ(report.plan().DebugString(), direct->plan().DebugString());
   // The same stages: pass 1 reported once (by the gather, which gathered the
   // texel statistics too), the sweep, the fits, pass 2, the atlases.
@@ -195,6 +203,60 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
     EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << atlas;
     EXPECT_EQ(cv::norm(a, c, cv::NORM_INF), 0.0) << atlas;
   }
+}
+
+// Issue #14: the reflectance task resamples with the cameras of its gather's
+// GatherResult.calibration (here cam0 moved 2 cm), not the scene's: its
+// result.json says so and Table 7.1 shows it.
+TEST_F(TaskRunnerTest, ReflectanceUsesTheGathersCameras) {
+  v1::SubmitJobRequest request = Request();
+  request.set_configuration("NE,NW,SE,SW");
+  request.mutable_options()->set_refine_cameras(v1::REFINEMENT_ON);
+  v1::CalibrationReport calibration;
+  calibration.set_cameras_mode("on");
+  calibration.set_cameras_refined(true);
+  calibration.set_cameras_decision("cam0 moved for the test");
+  calibration.set_cameras_seconds(0.25);
+  for (const v1::Camera& c : sequence_->scene.cameras()) {
+    v1::CameraRefinementRow* row = calibration.add_cameras();
+    row->set_name(c.name());
+    *row->mutable_camera() = c;
+  }
+  auto* translation = calibration.mutable_cameras(0)->mutable_camera()->mutable_cam_from_world()->mutable_translation();
+  translation->Set(0, translation->Get(0) + 0.02);
+  const auto run = [&](const v1::CalibrationReport& given, const std::string& scratch) {
+    v1::GatherResult gathered;
+    *gathered.mutable_calibration() = given;
+    v1::Task reflectance;
+    reflectance.set_kind("reflectance");
+    reflectance.set_key("NE,NW,SE,SW");
+    *reflectance.mutable_request() = request;
+    v1::TaskInput* in = reflectance.add_inputs();
+    in->set_kind("gather");
+    gathered.SerializeToString(in->mutable_result());
+    auto out = RunTask(reflectance, *sequence_, Environment(scratch));
+    EXPECT_TRUE(out.ok()) << out.status();
+    v1::RunReport report;
+    if (out.ok()) {
+      EXPECT_TRUE(report.ParseFromString(out->result));
+    }
+    return report;
+  };
+  v1::CalibrationReport scene_cameras = calibration;
+  scene_cameras.set_cameras_refined(false);
+  const v1::RunReport kept = run(scene_cameras, "kept");
+  const v1::RunReport moved = run(calibration, "moved");
+  EXPECT_FALSE(kept.calibration().cameras_refined());
+  EXPECT_TRUE(moved.calibration().cameras_refined());
+  EXPECT_EQ(moved.calibration().cameras_decision(), "cam0 moved for the test");
+  bool staged = false;
+  for (const v1::StageRow& s : moved.stages()) staged = staged || (s.name() == "refine_cameras" && s.seconds() == 0.25);
+  EXPECT_TRUE(staged);
+  ASSERT_EQ(moved.cameras_size(), kept.cameras_size());
+  ASSERT_GT(moved.cameras_size(), 1);
+  // cam0 no longer sees what the others see where they see it.
+  EXPECT_GT(moved.cameras(0).mse_brdf(), 1.5 * kept.cameras(0).mse_brdf())
+      << moved.cameras(0).mse_brdf() << " vs " << kept.cameras(0).mse_brdf();
 }
 
 TEST_F(TaskRunnerTest, LightTableOnlyEndsWithChoose) {
