@@ -16,7 +16,10 @@ int RunEvaluate(const std::vector<std::string>& args) {
   FlagParser flags("evaluate",
                    "Compares a reconstruction (the output directory of 'mvbrdf run') with the synthetic\n"
                    "generator's ground truth and prints JSON: configuration_correct, kd_rmse (texels seen at\n"
-                   "least 10 times), per cluster ks and ke relative errors, cluster_accuracy.");
+                   "least 10 times), per cluster ks and ke relative errors, cluster_accuracy; per camera the\n"
+                   "rotation, centre and reprojection error of the scene's calibration (before) and of the cameras\n"
+                   "as used (after, refined), per light its position, direction and intensity error (intensities\n"
+                   "after one common scale: the data cannot tell it from kd's).");
   flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
   flags.AddString("--truth DIR", &truth, "the synthetic bundle (or its ground_truth/ directory)");
   flags.AddString("--error-atlas FILE", &error_atlas, "also write the per-texel kd error (.png, x10, or .exr)");

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <system_error>
@@ -38,6 +39,21 @@ namespace {
 namespace fs = std::filesystem;
 
 void PrintReport(const v1::RunReport& report, const std::string& out) {
+  // Issue #14: the camera refinement before pass 1 (docs/glossary.md "calibration").
+  if (report.has_calibration()) {
+    const v1::CalibrationReport& c = report.calibration();
+    std::printf("\ncameras: %s (--refine-cameras %s): %s\n", c.cameras_refined() ? "refined" : "not refined",
+                c.cameras_mode().c_str(), scene::ShownName(c.cameras_decision()).c_str());
+    if (c.cameras_refined()) {
+      double rotation = 0.0, reprojection = 0.0;
+      for (const v1::CameraRefinementRow& r : c.cameras()) {
+        rotation = std::max(rotation, r.rotation_change_deg());
+        reprojection = std::max(reprojection, r.reprojection_change_px());
+      }
+      std::printf("  %d cameras, largest rotation change %.4f deg, reprojection change %.3f px\n", c.cameras_size(),
+                  rotation, reprojection);
+    }
+  }
   if (report.light_configurations_size() > 0) {
     std::printf("\n%-32s %9s %11s %11s %8s\n", "configuration", "triangles", "E_a", "E_d", "seconds");
     for (const auto& r : report.light_configurations()) {
