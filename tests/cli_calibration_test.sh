@@ -22,10 +22,13 @@ scene="$work/rot/scene.json"
 small=(--atlas 128 --no-powell)
 
 check "run (service): refine_cameras runs before gather_samples" 0 "refine_cameras" -- \
-  "$bin" run "$scene" --out "$work/service" "${small[@]}"
+  "$bin" run "$scene" --out "$work/service" "${small[@]}" --data "$work/data"
+check "run (service) again: the gather is answered from the Sample cache" 0 "stage gather finished .*samples_from_cache=1" -- \
+  "$bin" run "$scene" --out "$work/cached" "${small[@]}" --data "$work/data"
 check "run --direct" 0 "refine_cameras" -- "$bin" run "$scene" --out "$work/direct" "${small[@]}" --direct
-check "run --direct --refine-cameras off" 0 "wrote" -- \
-  "$bin" run "$scene" --out "$work/off" "${small[@]}" --direct --refine-cameras off
+# Another Sample cache key: the Samples of other cameras are not reused.
+check "run (service) --refine-cameras off resamples (its own cache key)" 0 "stage gather finished .* samples=" -- \
+  "$bin" run "$scene" --out "$work/off" "${small[@]}" --data "$work/data" --refine-cameras off
 
 # calibration DIR: "MODE REFINED ROWS" of result.json's calibration, and the
 # stage order (refine_cameras before gather_samples).
@@ -54,6 +57,9 @@ expect "service: result.json has a calibration row per camera, refine_cameras be
   test "$(calibration "$work/service" | cut -d' ' -f1,3,4)" = "auto 8 ordered"
 expect "direct: the same" test "$(calibration "$work/direct" | cut -d' ' -f1,3,4)" = "auto 8 ordered"
 expect "service and direct chose the same cameras" test "$(cameras "$work/service")" = "$(cameras "$work/direct")"
+# decision DIR: the calibration without its time.
+decision() { python3 -c 'import json,sys; c=json.load(open(sys.argv[1]))["calibration"]; c.pop("camerasSeconds", None); print(json.dumps(c, sort_keys=True))' "$1/result.json"; }
+expect "a gather from the cache hands on the same calibration" test "$(decision "$work/cached")" = "$(decision "$work/service")"
 expect "--refine-cameras off: mode off, not refined, no stage" \
   test "$(calibration "$work/off")" = "off False 0 no-stage"
 skipped() { python3 -c 'import json,sys; print([s["reason"] for s in json.load(open(sys.argv[1]))["plan"]["skipped"] if s["name"] == "refine_cameras"])' "$1/result.json"; }
