@@ -6,9 +6,9 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
-#include "core/base/files.h"
 #include "core/base/status_macros.h"
 #include "core/bundle/sha256.h"
 #include "core/fit/light_sweep.h"
@@ -77,8 +77,7 @@ absl::StatusOr<TaskOutput> Gather(const v1::Task& task, const scene::Sequence& s
   const bool texels = env.gather_texel_statistics && plan.Has(pipeline::Stage::kTexelPass);
   // Camera refinement before resampling (issue #14): the Samples, and every
   // later task of the job (GatherResult.calibration), use these cameras.
-  MVBRDF_ASSIGN_OR_RETURN(v1::CalibrationReport calibration,
-                          pipeline::RefineCamerasStage(sequence, *env.gl, plan, o));
+  MVBRDF_ASSIGN_OR_RETURN(v1::CalibrationReport calibration, pipeline::RefineCamerasStage(sequence, *env.gl, plan, o));
   MVBRDF_ASSIGN_OR_RETURN(const std::optional<scene::Sequence> calibrated,
                           pipeline::CalibratedSequence(sequence, calibration));
   const scene::Sequence& used = calibrated.has_value() ? *calibrated : sequence;

@@ -31,6 +31,7 @@ absl::StatusOr<v1::CalibrationReport> RefineCamerasStage(const scene::Sequence& 
     return report;
   }
   const auto start = std::chrono::steady_clock::now();
+  if (options.progress) options.progress(StageName(Stage::kRefineCameras), 0, 1);
   MVBRDF_ASSIGN_OR_RETURN(v1::CalibrationReport report,
                           calibrate::RefineCameras(sequence, context, CameraRefinementOptionsOf(options)));
   report.set_cameras_seconds(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());

@@ -26,7 +26,7 @@ calibrate::CameraRefinementOptions CameraRefinementOptionsOf(const ReconstructOp
 
 // The cameras part of RunReport.calibration: when the plan has
 // refine_cameras, calibrate::RefineCameras (cameras_seconds measured here;
-// progress "refine_cameras" 1 of 1); when it skips it, cameras_mode "off" or
+// progress "refine_cameras" 0 and 1 of 1); when it skips it, cameras_mode "off" or
 // "auto" and the plan's reason as cameras_decision, no rows, not refined.
 absl::StatusOr<v1::CalibrationReport> RefineCamerasStage(const scene::Sequence& sequence, gl::EglContext& context,
                                                          const Plan& plan, const ReconstructOptions& options);

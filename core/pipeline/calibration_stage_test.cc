@@ -144,8 +144,7 @@ TEST_F(CalibrationStageTest, RefinedCamerasReachEveryStageAndResultJson) {
   // cameras, so the per-camera errors (Table 7.1, pass 2) and kd are better.
   std::printf("Table 7.1 mean BRDF MSE %.6g (scene's cameras) -> %.6g (true); kd RMSE %.4f -> %.4f\n",
               MeanMse(*scene_run), MeanMse(*refined_run), e_off->kd_rmse(), e_on->kd_rmse());
-  EXPECT_LT(MeanMse(*refined_run), 0.9 * MeanMse(*scene_run))
-      << MeanMse(*refined_run) << " vs " << MeanMse(*scene_run);
+  EXPECT_LT(MeanMse(*refined_run), 0.9 * MeanMse(*scene_run)) << MeanMse(*refined_run) << " vs " << MeanMse(*scene_run);
   EXPECT_LT(e_on->kd_rmse(), e_off->kd_rmse()) << e_on->kd_rmse() << " vs " << e_off->kd_rmse();
 }
 

@@ -210,8 +210,7 @@ std::string CalibrationSection(const v1::RunReport& run, const std::optional<v1:
     std::vector<std::vector<std::string>> rows;
     for (const v1::LightRefinementRow& r : c.lights()) {
       const bool point = r.position_before_size() == 3;
-      rows.push_back({r.name(),
-                      point ? F(r.position_change(), "%.4g") + " ± " + F(r.position_sigma(), "%.2g") : "—",
+      rows.push_back({r.name(), point ? F(r.position_change(), "%.4g") + " ± " + F(r.position_sigma(), "%.2g") : "—",
                       point ? "—" : F(r.direction_change_deg(), "%.3f") + " ± " + F(r.direction_sigma_deg(), "%.2g"),
                       Vec3(r.intensity_before()) + " → " + Vec3(r.intensity_after()),
                       "± " + F(100.0 * r.intensity_rel_sigma(), "%.2g") + " %"});
@@ -239,8 +238,9 @@ std::string CalibrationSection(const v1::RunReport& run, const std::optional<v1:
                       BeforeAfter(r.direction_error_deg_before(), r.direction_error_deg_after(), "%.3f"),
                       BeforeAfter(r.intensity_rel_error_before(), r.intensity_rel_error_after(), "%.3f")});
     }
-    out += "<p>Lights against the truth (the scene's → as used; intensities after the one common scale, which the "
-           "data cannot tell from kd's):</p>";
+    out +=
+        "<p>Lights against the truth (the scene's → as used; intensities after the one common scale, which the "
+        "data cannot tell from kd's):</p>";
     out += Table({"light", "position error", "direction error (°)", "intensity rel. error"}, rows, "",
                  {"", "", "", term::kLightIntensity});
   }

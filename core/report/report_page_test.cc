@@ -225,11 +225,11 @@ TEST(ReportPageTest, CalibrationSectionShowsTheRefinementOrWhyNot) {
   ASSERT_NE(at, std::string::npos);
   const std::string section = html.substr(at, html.find("</section>", at) - at);
   for (const char* text :
-       {"Cameras refined (--refine-cameras auto) on 8 frames in 4.2 s: residual 3.1 x the noise", "<td>cam&lt;0&gt;</td>",
-        "<td>0.2987 ± 0.004</td>", "<td>0.0049 ± 0.0003</td>", "<td>0.100</td>", "<td>1.062</td>",
-        "<td>0.031 → 0.012</td>", "Lights refined (--refine-lights auto) in 0.0 s: after the sweep",
-        "<td>0.012 ± 0.002</td>", "(1 / 1 / 1) → (1.1 / 1 / 0.9)", "± 1 %",
-        "<td>0.3000 → 0.0100</td>", "<td>1.060 → 0.040</td>", "<td>0.200 → 0.020</td>", "common scale"}) {
+       {"Cameras refined (--refine-cameras auto) on 8 frames in 4.2 s: residual 3.1 x the noise",
+        "<td>cam&lt;0&gt;</td>", "<td>0.2987 ± 0.004</td>", "<td>0.0049 ± 0.0003</td>", "<td>0.100</td>",
+        "<td>1.062</td>", "<td>0.031 → 0.012</td>", "Lights refined (--refine-lights auto) in 0.0 s: after the sweep",
+        "<td>0.012 ± 0.002</td>", "(1 / 1 / 1) → (1.1 / 1 / 0.9)", "± 1 %", "<td>0.3000 → 0.0100</td>",
+        "<td>1.060 → 0.040</td>", "<td>0.200 → 0.020</td>", "common scale"}) {
     EXPECT_NE(section.find(text), std::string::npos) << text << "\n" << section;
   }
   EXPECT_EQ(section.find("not used"), std::string::npos);

@@ -12,21 +12,23 @@ std::string TriangleSampleOptions(const v1::SubmitJobRequest& request) {
   // no longer "every frame", so it is always named and v1 entries are never read.
   // v3 (issue #14): the camera refinement resamples with other cameras, and
   // rejected observations change the Samples.
-  std::string text = absl::StrCat("triangle-samples/v3;atlas_size=", atlas_size, ";sweep_frame_stride=",
-                                  options.sweep_frame_stride() == 0 ? std::string("auto")
-                                                                    : absl::StrCat(options.sweep_frame_stride()));
+  std::string text = absl::StrCat(
+      "triangle-samples/v3;atlas_size=", atlas_size, ";sweep_frame_stride=",
+      options.sweep_frame_stride() == 0 ? std::string("auto") : absl::StrCat(options.sweep_frame_stride()));
   const v1::Refinement mode = options.refine_cameras();
   absl::StrAppend(&text, ";refine_cameras=",
-                  mode == v1::REFINEMENT_OFF ? "off" : mode == v1::REFINEMENT_ON ? "on" : "auto");
+                  mode == v1::REFINEMENT_OFF  ? "off"
+                  : mode == v1::REFINEMENT_ON ? "on"
+                                              : "auto");
   if (mode != v1::REFINEMENT_OFF) {
     absl::StrAppend(&text, ";refine_focal=", options.refine_focal() ? 1 : 0,
                     ";refine_distortion=", options.refine_distortion() ? 1 : 0, ";refine_frames=",
                     options.has_refine_frames() ? absl::StrCat(options.refine_frames()) : std::string("default"));
   }
-  absl::StrAppend(&text, ";edge_margin=",
-                  options.has_edge_margin_pixels() ? absl::StrCat(options.edge_margin_pixels()) : "default",
-                  ";gradient_rejection=",
-                  options.has_gradient_rejection() ? absl::StrCat(options.gradient_rejection()) : "default");
+  absl::StrAppend(
+      &text, ";edge_margin=", options.has_edge_margin_pixels() ? absl::StrCat(options.edge_margin_pixels()) : "default",
+      ";gradient_rejection=",
+      options.has_gradient_rejection() ? absl::StrCat(options.gradient_rejection()) : "default");
   // Empty and "scene.json" name the same file (BundleArea::UnpackedScene).
   if (!request.scene_path().empty() && request.scene_path() != "scene.json") {
     absl::StrAppend(&text, ";scene_path=", request.scene_path());

@@ -21,8 +21,14 @@ TEST(TriangleSampleKeyTest, OneEntryPerBundleAndAtlasSizeForEveryConfiguration) 
   EXPECT_EQ(key.configuration, "*");
   EXPECT_EQ(key.sample_level, 0);
   // atlas_size 0 means the default, 512.
-  EXPECT_EQ(TriangleSampleOptions(request), "triangle-samples/v3;atlas_size=512;sweep_frame_stride=auto;refine_cameras=auto;refine_focal=0;refine_distortion=0;refine_frames=default;edge_margin=default;gradient_rejection=default");
-  EXPECT_EQ(key.options_hash, store::Sha256Hex("triangle-samples/v3;atlas_size=512;sweep_frame_stride=auto;refine_cameras=auto;refine_focal=0;refine_distortion=0;refine_frames=default;edge_margin=default;gradient_rejection=default"));
+  EXPECT_EQ(TriangleSampleOptions(request),
+            "triangle-samples/"
+            "v3;atlas_size=512;sweep_frame_stride=auto;refine_cameras=auto;refine_focal=0;refine_distortion=0;refine_"
+            "frames=default;edge_margin=default;gradient_rejection=default");
+  EXPECT_EQ(key.options_hash,
+            store::Sha256Hex("triangle-samples/"
+                             "v3;atlas_size=512;sweep_frame_stride=auto;refine_cameras=auto;refine_focal=0;refine_"
+                             "distortion=0;refine_frames=default;edge_margin=default;gradient_rejection=default"));
 
   // Other configurations and fitting options that do not change the
   // Samples: the same entry.
@@ -35,7 +41,10 @@ TEST(TriangleSampleKeyTest, OneEntryPerBundleAndAtlasSizeForEveryConfiguration) 
 
   // Another atlas size or bundle: another entry.
   other.mutable_options()->set_atlas_size(256);
-  EXPECT_EQ(TriangleSampleKey(kBundle, other).options_hash, store::Sha256Hex("triangle-samples/v3;atlas_size=256;sweep_frame_stride=auto;refine_cameras=auto;refine_focal=0;refine_distortion=0;refine_frames=default;edge_margin=default;gradient_rejection=default"));
+  EXPECT_EQ(TriangleSampleKey(kBundle, other).options_hash,
+            store::Sha256Hex("triangle-samples/"
+                             "v3;atlas_size=256;sweep_frame_stride=auto;refine_cameras=auto;refine_focal=0;refine_"
+                             "distortion=0;refine_frames=default;edge_margin=default;gradient_rejection=default"));
   EXPECT_NE(TriangleSampleKey(std::string(64, 'c'), request).ToString(), key.ToString());
 }
 
@@ -45,12 +54,17 @@ TEST(TriangleSampleKeyTest, FrameStrideAndSceneFileChangeTheKey) {
   request.mutable_options()->set_refine_cameras(v1::REFINEMENT_OFF);
   // 1 (every frame) is not 0 (automatic: at most 64 frames).
   request.mutable_options()->set_sweep_frame_stride(1);
-  EXPECT_EQ(TriangleSampleOptions(request), "triangle-samples/v3;atlas_size=512;sweep_frame_stride=1;refine_cameras=off;edge_margin=default;gradient_rejection=default");
+  EXPECT_EQ(TriangleSampleOptions(request),
+            "triangle-samples/"
+            "v3;atlas_size=512;sweep_frame_stride=1;refine_cameras=off;edge_margin=default;gradient_rejection=default");
   request.mutable_options()->set_sweep_frame_stride(4);
-  EXPECT_EQ(TriangleSampleOptions(request), "triangle-samples/v3;atlas_size=512;sweep_frame_stride=4;refine_cameras=off;edge_margin=default;gradient_rejection=default");
+  EXPECT_EQ(TriangleSampleOptions(request),
+            "triangle-samples/"
+            "v3;atlas_size=512;sweep_frame_stride=4;refine_cameras=off;edge_margin=default;gradient_rejection=default");
   request.set_scene_path("takes/b.json");
   EXPECT_EQ(TriangleSampleOptions(request),
-            "triangle-samples/v3;atlas_size=512;sweep_frame_stride=4;refine_cameras=off;edge_margin=default;gradient_rejection=default;"
+            "triangle-samples/"
+            "v3;atlas_size=512;sweep_frame_stride=4;refine_cameras=off;edge_margin=default;gradient_rejection=default;"
             "scene_path=takes/b.json");
   EXPECT_EQ(TriangleSampleKey(kBundle, request).options_hash, store::Sha256Hex(TriangleSampleOptions(request)));
 }

@@ -732,8 +732,10 @@ absl::StatusOr<bool> WorkersService::AnswerGatherFromCache(const store::Task& ta
   // the later tasks would not know the cameras, so it is a miss.
   v1::GatherResult result;
   {
-    absl::StatusOr<std::optional<std::string>> calibration = samples_.Get(CalibrationKey(job.scene_hash, request), now_ms);
-    if (!calibration.ok() || !calibration->has_value() || !result.mutable_calibration()->ParseFromString(**calibration)) {
+    absl::StatusOr<std::optional<std::string>> calibration =
+        samples_.Get(CalibrationKey(job.scene_hash, request), now_ms);
+    if (!calibration.ok() || !calibration->has_value() ||
+        !result.mutable_calibration()->ParseFromString(**calibration)) {
       return false;
     }
   }

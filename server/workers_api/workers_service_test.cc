@@ -768,7 +768,8 @@ TEST_F(WorkersServiceTest, CorruptCacheEntryIsAMissAndTheWorkerResamples) {
 TEST_F(WorkersServiceTest, CachedSamplesWithoutTheirCalibrationAreAMiss) {
   Start();
   const std::string worker = Register("w");
-  ASSERT_TRUE(samples_->Put(TriangleSampleKey(std::string(64, 'a'), SampleRequest()), EncodedSamples(10), now_ms_).ok());
+  ASSERT_TRUE(
+      samples_->Put(TriangleSampleKey(std::string(64, 'a'), SampleRequest()), EncodedSamples(10), now_ms_).ok());
   const auto [job, gather, sweep] = AddGatherJob();
   v1::LeaseTaskResponse leased;
   ASSERT_TRUE(Lease(worker, 0, &leased).ok());
