@@ -165,6 +165,7 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
   const MeshEdges edges = BuildMeshEdges(triangles);
   // Foreground masks, the background told from the mesh at the calibration.
   std::vector<std::vector<cv::Mat>> masks(frames.size());
+  std::vector<std::vector<double>> levels(frames.size());
   for (size_t f = 0; f < frames.size(); ++f) {
     for (int c = 0; c < num_cameras; ++c) {
       const DepthMap depth = RenderDepth(sequence.cameras[static_cast<size_t>(c)], triangles, frames[f].positions);
@@ -175,6 +176,18 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
       cv::Mat grey;
       cv::transform(frames[f].rgb[static_cast<size_t>(c)], grey, cv::Matx13f(1.0f / 3, 1.0f / 3, 1.0f / 3));
       masks[f].push_back(ForegroundMask(grey, covered, kSmoothingPixels));
+      std::vector<float> inside;
+      for (int y = 0; y < depth.height; ++y) {
+        for (int x = 0; x < depth.width; ++x) {
+          if (depth.Covered(x, y)) inside.push_back(grey.at<float>(y, x));
+        }
+      }
+      double level = 0;
+      if (!inside.empty()) {
+        std::nth_element(inside.begin(), inside.begin() + static_cast<long>(inside.size() / 2), inside.end());
+        level = inside[inside.size() / 2];
+      }
+      levels[f].push_back(level);
     }
   }
 
@@ -226,8 +239,21 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
         depth.push_back(RenderDepth(cams[static_cast<size_t>(c)], triangles, frames[f].positions));
         const auto found = FindContourObservations(cams[static_cast<size_t>(c)], edges, triangles,
                                                    frames[f].positions, depth.back(),
-                                                   masks[f][static_cast<size_t>(c)]);
+                                                   masks[f][static_cast<size_t>(c)],
+                                                   frames[f].smoothed[static_cast<size_t>(c)],
+                                                   levels[f][static_cast<size_t>(c)]);
         contour[static_cast<size_t>(c)].insert(contour[static_cast<size_t>(c)].end(), found.begin(), found.end());
+        if (std::getenv("MVBRDF_CAL_DEBUG") && iteration == 0) {
+          double sx = 0, sy = 0, sr = 0;
+          for (const ContourObservation& o : found) {
+            const double r = glm::dot(o.normal, cams[static_cast<size_t>(c)].Project(o.point) - o.target);
+            sx += 2 * r * o.normal.x / found.size();
+            sy += 2 * r * o.normal.y / found.size();
+            sr += r / found.size();
+          }
+          std::fprintf(stderr, "f%zu c%d: %.2f %.2f %.2f | ", f, c, sx, sy, sr);
+          if (c == num_cameras - 1) std::fprintf(stderr, "\n");
+        }
       }
       for (SurfacePoint& sp : TexturedSurfacePoints(cams, depth, triangles, frames[f].positions,
                                                      frames[f].smoothed, 2, 0.25, kPointsPerCamera)) {
@@ -270,6 +296,19 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
       for (double r : contour_residuals) mean += r / contour_residuals.size();
       std::fprintf(stderr, "iter %d: contour %zu mean %.3f scale %.3f bias %.3f; photometric points %zu scale %.5f\n",
                    iteration, contour_residuals.size(), mean, contour_scale, edge_bias, used.size(), photometric_scale);
+    }
+    if (std::getenv("MVBRDF_CAL_DEBUG") && iteration == 0) {
+      for (int c = 0; c < num_cameras; ++c) {
+        double sx = 0, sy = 0, sr = 0;
+        const auto& v = contour[static_cast<size_t>(c)];
+        for (const ContourObservation& o : v) {
+          const double r = glm::dot(o.normal, cams[static_cast<size_t>(c)].Project(o.point) - o.target);
+          sx += 2 * r * o.normal.x / v.size();
+          sy += 2 * r * o.normal.y / v.size();
+          sr += r / v.size();
+        }
+        std::fprintf(stderr, "  cam%d: shift %.3f %.3f, dilation %.3f\n", c, sx, sy, sr);
+      }
     }
     const bool no_photo = std::getenv("MVBRDF_CAL_NO_PHOTO") != nullptr;
     const bool no_sil = std::getenv("MVBRDF_CAL_NO_SIL") != nullptr;

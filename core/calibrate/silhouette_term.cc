@@ -94,7 +94,8 @@ bool FindEdge(const cv::Mat& mask, const glm::dvec2& p, const glm::dvec2& normal
 std::vector<ContourObservation> FindContourObservations(const scene::CameraModel& camera, const MeshEdges& edges,
                                                         const std::vector<glm::uvec3>& triangles,
                                                         const scene::FramePositions& positions, const DepthMap& depth,
-                                                        const cv::Mat& mask) {
+                                                        const cv::Mat& mask, const cv::Mat& smoothed,
+                                                        double level) {
   std::vector<ContourObservation> out;
   const glm::dvec3 centre = camera.CenterInWorld();
   const auto facing = [&](uint32_t t) {
@@ -139,6 +140,12 @@ std::vector<ContourObservation> FindContourObservations(const scene::CameraModel
       if (!outer || !VisibleAt(depth, p - 0.7 * normal, z, 0.02)) continue;
       double offset = 0;
       if (!FindEdge(mask, p, normal, &offset)) continue;
+      // A step, not a fade: lit up to the edge (a smoothed step keeps 0.85
+      // of its level 1 px inside; a surface darkening towards its contour less).
+      const glm::dvec2 in = p + (offset - 2.5) * normal, rim = p + (offset - 1.0) * normal;
+      const double inside = SampleBilinear(smoothed, in.x, in.y);
+      if (!(inside > kMinInsideLevel * level)) continue;
+      if (!(SampleBilinear(smoothed, rim.x, rim.y) > kMinStep * inside)) continue;
       out.push_back({x, normal, p + offset * normal});
     }
   }

@@ -42,11 +42,21 @@ struct ContourObservation {
 };
 
 // The contour observations of one camera and frame. `mask` is the camera's
-// smoothed foreground mask (ForegroundMask).
+// smoothed foreground mask (ForegroundMask), `smoothed` its smoothed grey
+// image and `level` the median grey over the mesh: an edge whose inside
+// (2 px in) is darker than kMinInsideLevel * level is skipped, since a
+// surface in shadow (under the ceiling's lights, the contours facing down)
+// fades into the dark background and its edge lies inside the contour
+// (0.1 to 0.3 px on the synthetic studio, as a shift upwards).
+// Likewise one whose image fades towards the edge (the grey 1 px inside
+// below kMinStep of the grey 2.5 px inside).
+inline constexpr double kMinInsideLevel = 0.3;
+inline constexpr double kMinStep = 0.7;
 std::vector<ContourObservation> FindContourObservations(const scene::CameraModel& camera, const MeshEdges& edges,
                                                         const std::vector<glm::uvec3>& triangles,
                                                         const scene::FramePositions& positions, const DepthMap& depth,
-                                                        const cv::Mat& mask);
+                                                        const cv::Mat& mask, const cv::Mat& smoothed,
+                                                        double level);
 
 // Ceres residual: normal . (project(point) - target) - bias, pixels. The
 // bias (one for all cameras) is where the detected edge lies outside the
