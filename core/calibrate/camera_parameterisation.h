@@ -9,9 +9,9 @@
 #ifndef MVBRDF_CORE_CALIBRATE_CAMERA_PARAMETERISATION_H_
 #define MVBRDF_CORE_CALIBRATE_CAMERA_PARAMETERISATION_H_
 
-#include <array>
-
 #include <ceres/rotation.h>
+
+#include <array>
 #include <glm/glm.hpp>
 
 #include "core/scene/camera_model.h"

@@ -7,9 +7,8 @@
 #ifndef MVBRDF_CORE_CALIBRATE_DEPTH_MAP_H_
 #define MVBRDF_CORE_CALIBRATE_DEPTH_MAP_H_
 
-#include <vector>
-
 #include <glm/glm.hpp>
+#include <vector>
 
 #include "core/scene/camera_model.h"
 #include "core/scene/mesh.h"
@@ -18,8 +17,8 @@ namespace mvbrdf::calibrate {
 
 struct DepthMap {
   int width = 0, height = 0;
-  std::vector<float> depth;     // camera z, +inf where background
-  std::vector<int> triangle;    // index into the triangles, -1 where background
+  std::vector<float> depth;   // camera z, +inf where background
+  std::vector<int> triangle;  // index into the triangles, -1 where background
   float At(int x, int y) const { return depth[static_cast<size_t>(y) * width + x]; }
   int TriangleAt(int x, int y) const { return triangle[static_cast<size_t>(y) * width + x]; }
   bool Inside(int x, int y) const { return x >= 0 && y >= 0 && x < width && y < height; }

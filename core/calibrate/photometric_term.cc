@@ -95,9 +95,9 @@ std::vector<SurfacePoint> VisibleSurfacePoints(const std::vector<scene::CameraMo
                                                const scene::FramePositions& positions, int stride, int min_cameras) {
   std::vector<SurfacePoint> out;
   for (size_t t = 0; t < triangles.size(); t += static_cast<size_t>(stride)) {
-    const glm::dvec3 x =
-        (glm::dvec3(positions[triangles[t].x]) + glm::dvec3(positions[triangles[t].y]) +
-         glm::dvec3(positions[triangles[t].z])) / 3.0;
+    const glm::dvec3 x = (glm::dvec3(positions[triangles[t].x]) + glm::dvec3(positions[triangles[t].y]) +
+                          glm::dvec3(positions[triangles[t].z])) /
+                         3.0;
     SurfacePoint sp{x, SeenBy(cameras, depth, x)};
     if (static_cast<int>(sp.cameras.size()) >= min_cameras) out.push_back(std::move(sp));
   }
@@ -105,8 +105,8 @@ std::vector<SurfacePoint> VisibleSurfacePoints(const std::vector<scene::CameraMo
 }
 
 std::vector<double> ConsistencyRms(const std::vector<scene::CameraModel>& cameras,
-                                   const std::vector<glm::uvec3>& triangles,
-                                   const std::vector<RefinementFrame>& frames, std::vector<uint64_t>* observations) {
+                                   const std::vector<glm::uvec3>& triangles, const std::vector<RefinementFrame>& frames,
+                                   std::vector<uint64_t>* observations) {
   std::vector<double> sum(cameras.size(), 0.0);
   observations->assign(cameras.size(), 0);
   for (const RefinementFrame& frame : frames) {

@@ -7,13 +7,13 @@
 #ifndef MVBRDF_CORE_CALIBRATE_PHOTOMETRIC_TERM_H_
 #define MVBRDF_CORE_CALIBRATE_PHOTOMETRIC_TERM_H_
 
-#include <cstdint>
-#include <memory>
-#include <vector>
-
 #include <ceres/cubic_interpolation.h>
+
+#include <cstdint>
 #include <glm/glm.hpp>
+#include <memory>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "core/calibrate/camera_parameterisation.h"
 #include "core/calibrate/depth_map.h"
@@ -58,8 +58,8 @@ std::vector<SurfacePoint> TexturedSurfacePoints(const std::vector<scene::CameraM
 // point), linear, over the frames' points and channels; `observations` gets
 // the point count per camera.
 std::vector<double> ConsistencyRms(const std::vector<scene::CameraModel>& cameras,
-                                   const std::vector<glm::uvec3>& triangles,
-                                   const std::vector<RefinementFrame>& frames, std::vector<uint64_t>* observations);
+                                   const std::vector<glm::uvec3>& triangles, const std::vector<RefinementFrame>& frames,
+                                   std::vector<uint64_t>* observations);
 
 using ImageGrid = ceres::Grid2D<float, 3>;
 using ImageInterpolator = ceres::BiCubicInterpolator<ImageGrid>;

@@ -13,14 +13,12 @@
 // gives the sigmas.
 #include "core/calibrate/refine_cameras.h"
 
+#include <ceres/ceres.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <memory>
-
-#include <ceres/ceres.h>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
@@ -38,6 +36,13 @@ namespace {
 
 constexpr int kOuterIterations = 6;
 constexpr int kPointsPerCamera = 300;  // photometric points per camera and frame
+// The photometric term in the solve. Measured (8 cameras x 8 frames, mean
+// reprojection error against the true cameras, px): rot 0.032 without,
+// 0.030 with; clean 0.030 / 0.031; all knobs 0.168 / 0.242, and 3.5x the
+// time. The silhouettes alone are as good here (the synthetic actor's
+// texture is weak at 320x240, and its highlights move between views), so it
+// is off; the consistency is still measured (residual_before/after).
+constexpr bool kPhotometricTerm = false;
 // 1-sigma of the priors to the calibration, as image displacements (pixels):
 // weak for the rotation and the intrinsics; strong for the centre, which
 // the images hardly see (a lateral move is nearly a rotation: at the
@@ -46,8 +51,8 @@ constexpr int kPointsPerCamera = 300;  // photometric points per camera and fram
 // so it stays put unless the data insist.
 constexpr double kPriorPixels = 2.0;
 constexpr double kCentrePriorPixels = 0.25;
-constexpr double kCauchyScale = 2.0;       // of the whitened residuals
-constexpr double kSmoothingPixels = 1.0;   // Gaussian sigma of the image the edges are searched in
+constexpr double kCauchyScale = 2.0;      // of the whitened residuals
+constexpr double kSmoothingPixels = 1.0;  // Gaussian sigma of the image the edges are searched in
 // AUTO uses the refined cameras when some camera moves the visible surface by
 // more than this in the image (pixels; the clean synthetic studio refines to
 // below a third of it) and by more than kDecisionSigmas of its own uncertainty.
@@ -89,8 +94,7 @@ double MeanDisplacement(const scene::CameraModel& a, const scene::CameraModel& b
   return points.empty() ? 0.0 : sum / static_cast<double>(points.size());
 }
 
-absl::StatusOr<std::vector<RefinementFrame>> ReadFrames(const scene::Sequence& sequence,
-                                                        const std::vector<int>& frames,
+absl::StatusOr<std::vector<RefinementFrame>> ReadFrames(const scene::Sequence& sequence, const std::vector<int>& frames,
                                                         const CameraRefinementOptions& options) {
   std::vector<RefinementFrame> out(frames.size());
   for (size_t f = 0; f < frames.size(); ++f) {
@@ -237,28 +241,17 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
       std::vector<DepthMap> depth;
       for (int c = 0; c < num_cameras; ++c) {
         depth.push_back(RenderDepth(cams[static_cast<size_t>(c)], triangles, frames[f].positions));
-        const auto found = FindContourObservations(cams[static_cast<size_t>(c)], edges, triangles,
-                                                   frames[f].positions, depth.back(),
-                                                   masks[f][static_cast<size_t>(c)],
-                                                   frames[f].smoothed[static_cast<size_t>(c)],
-                                                   levels[f][static_cast<size_t>(c)]);
+        const auto found =
+            FindContourObservations(cams[static_cast<size_t>(c)], edges, triangles, frames[f].positions, depth.back(),
+                                    masks[f][static_cast<size_t>(c)], frames[f].smoothed[static_cast<size_t>(c)],
+                                    levels[f][static_cast<size_t>(c)]);
         contour[static_cast<size_t>(c)].insert(contour[static_cast<size_t>(c)].end(), found.begin(), found.end());
-        if (std::getenv("MVBRDF_CAL_DEBUG") && iteration == 0) {
-          double sx = 0, sy = 0, sr = 0;
-          for (const ContourObservation& o : found) {
-            const double r = glm::dot(o.normal, cams[static_cast<size_t>(c)].Project(o.point) - o.target);
-            sx += 2 * r * o.normal.x / found.size();
-            sy += 2 * r * o.normal.y / found.size();
-            sr += r / found.size();
-          }
-          std::fprintf(stderr, "f%zu c%d: %.2f %.2f %.2f | ", f, c, sx, sy, sr);
-          if (c == num_cameras - 1) std::fprintf(stderr, "\n");
+      }
+      if (kPhotometricTerm)
+        for (SurfacePoint& sp : TexturedSurfacePoints(cams, depth, triangles, frames[f].positions, frames[f].smoothed,
+                                                      2, 0.25, kPointsPerCamera)) {
+          points.emplace_back(static_cast<int>(f), std::move(sp));
         }
-      }
-      for (SurfacePoint& sp : TexturedSurfacePoints(cams, depth, triangles, frames[f].positions,
-                                                     frames[f].smoothed, 2, 0.25, kPointsPerCamera)) {
-        points.emplace_back(static_cast<int>(f), std::move(sp));
-      }
     }
     // Consensus colours at the current cameras, and the residual scales.
     colours.clear();
@@ -276,7 +269,8 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
         values.push_back(v);
       }
       for (const auto& v : values) {
-        for (int ch = 0; ch < 3; ++ch) photometric_residuals.push_back(v[static_cast<size_t>(ch)] - mean[static_cast<size_t>(ch)]);
+        for (int ch = 0; ch < 3; ++ch)
+          photometric_residuals.push_back(v[static_cast<size_t>(ch)] - mean[static_cast<size_t>(ch)]);
       }
       colour_levels.push_back((mean[0] + mean[1] + mean[2]) / 3.0);
       colours.push_back(mean);
@@ -291,32 +285,10 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
       }
     }
     const double contour_scale = MadScale(contour_residuals, 0.05);
-    if (std::getenv("MVBRDF_CAL_DEBUG")) {
-      double mean = 0;
-      for (double r : contour_residuals) mean += r / contour_residuals.size();
-      std::fprintf(stderr, "iter %d: contour %zu mean %.3f scale %.3f bias %.3f; photometric points %zu scale %.5f\n",
-                   iteration, contour_residuals.size(), mean, contour_scale, edge_bias, used.size(), photometric_scale);
-    }
-    if (std::getenv("MVBRDF_CAL_DEBUG") && iteration == 0) {
-      for (int c = 0; c < num_cameras; ++c) {
-        double sx = 0, sy = 0, sr = 0;
-        const auto& v = contour[static_cast<size_t>(c)];
-        for (const ContourObservation& o : v) {
-          const double r = glm::dot(o.normal, cams[static_cast<size_t>(c)].Project(o.point) - o.target);
-          sx += 2 * r * o.normal.x / v.size();
-          sy += 2 * r * o.normal.y / v.size();
-          sr += r / v.size();
-        }
-        std::fprintf(stderr, "  cam%d: shift %.3f %.3f, dilation %.3f\n", c, sx, sy, sr);
-      }
-    }
-    const bool no_photo = std::getenv("MVBRDF_CAL_NO_PHOTO") != nullptr;
-    const bool no_sil = std::getenv("MVBRDF_CAL_NO_SIL") != nullptr;
-    if (no_photo) {
+    if (!kPhotometricTerm) {
       used.clear();
       colours.clear();
     }
-    if (no_sil) for (auto& v : contour) v.clear();
 
     problem = std::make_unique<ceres::Problem>();
     ceres::LossFunction* loss = new ceres::CauchyLoss(kCauchyScale);
@@ -349,16 +321,16 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
       CameraOffsets& o = offsets[static_cast<size_t>(c)];
       const scene::CameraModel& camera = sequence.cameras[static_cast<size_t>(c)];
       const double f = 0.5 * (camera.fx + camera.fy);
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 3, 3>(
-                                    new PriorResidual{f / kPriorPixels}),
-                                no_loss, o.rotation.data());
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<PriorResidual, 3, 3>(
-                                    new PriorResidual{f / kCentrePriorPixels}),
-                                no_loss, o.centre.data());
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PriorResidual, 3, 3>(new PriorResidual{f / kPriorPixels}), no_loss,
+          o.rotation.data());
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PriorResidual, 3, 3>(new PriorResidual{f / kCentrePriorPixels}), no_loss,
+          o.centre.data());
       const double half_diagonal = 0.5 * std::hypot(camera.width, camera.height);
       const double r2 = std::pow(half_diagonal / f, 2);
-      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<IntrinsicsPrior, 2, 2>(
-                                    new IntrinsicsPrior{half_diagonal / kPriorPixels, half_diagonal * r2 / kPriorPixels}),
+      problem->AddResidualBlock(new ceres::AutoDiffCostFunction<IntrinsicsPrior, 2, 2>(new IntrinsicsPrior{
+                                    half_diagonal / kPriorPixels, half_diagonal * r2 / kPriorPixels}),
                                 no_loss, o.intrinsics.data());
       if (!options.focal && !options.distortion) {
         problem->SetParameterBlockConstant(o.intrinsics.data());
@@ -370,7 +342,12 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
     solver.linear_solver_type = ceres::DENSE_SCHUR;
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (auto& colour : colours) ordering->AddElementToGroup(colour.data(), 0);
-    if (problem->HasParameterBlock(&edge_bias)) ordering->AddElementToGroup(&edge_bias, 1);
+    if (problem->HasParameterBlock(&edge_bias)) {
+      ordering->AddElementToGroup(&edge_bias, 1);
+      // A focal length common to all cameras dilates every silhouette as
+      // the bias does: with the focal length free the bias is held at 0.
+      if (options.focal) problem->SetParameterBlockConstant(&edge_bias);
+    }
     for (CameraOffsets& o : offsets) {
       ordering->AddElementToGroup(o.rotation.data(), 1);
       ordering->AddElementToGroup(o.centre.data(), 1);

@@ -3,9 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <utility>
-
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 namespace mvbrdf::calibrate {
 
@@ -94,8 +93,7 @@ bool FindEdge(const cv::Mat& mask, const glm::dvec2& p, const glm::dvec2& normal
 std::vector<ContourObservation> FindContourObservations(const scene::CameraModel& camera, const MeshEdges& edges,
                                                         const std::vector<glm::uvec3>& triangles,
                                                         const scene::FramePositions& positions, const DepthMap& depth,
-                                                        const cv::Mat& mask, const cv::Mat& smoothed,
-                                                        double level) {
+                                                        const cv::Mat& mask, const cv::Mat& smoothed, double level) {
   std::vector<ContourObservation> out;
   const glm::dvec3 centre = camera.CenterInWorld();
   const auto facing = [&](uint32_t t) {

@@ -13,10 +13,9 @@
 #ifndef MVBRDF_CORE_CALIBRATE_SILHOUETTE_TERM_H_
 #define MVBRDF_CORE_CALIBRATE_SILHOUETTE_TERM_H_
 
-#include <vector>
-
 #include <glm/glm.hpp>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "core/calibrate/camera_parameterisation.h"
 #include "core/calibrate/depth_map.h"
@@ -55,8 +54,7 @@ inline constexpr double kMinStep = 0.7;
 std::vector<ContourObservation> FindContourObservations(const scene::CameraModel& camera, const MeshEdges& edges,
                                                         const std::vector<glm::uvec3>& triangles,
                                                         const scene::FramePositions& positions, const DepthMap& depth,
-                                                        const cv::Mat& mask, const cv::Mat& smoothed,
-                                                        double level);
+                                                        const cv::Mat& mask, const cv::Mat& smoothed, double level);
 
 // Ceres residual: normal . (project(point) - target) - bias, pixels. The
 // bias (one for all cameras) is where the detected edge lies outside the
@@ -72,8 +70,7 @@ struct SilhouetteResidual {
     T uv[2];
     const double x[3] = {obs.point.x, obs.point.y, obs.point.z};
     if (!ProjectWithOffsets(*base, rotation, centre, intrinsics, x, uv)) return false;
-    residual[0] =
-        (obs.normal.x * (uv[0] - obs.target.x) + obs.normal.y * (uv[1] - obs.target.y) - bias[0]) * inv_scale;
+    residual[0] = (obs.normal.x * (uv[0] - obs.target.x) + obs.normal.y * (uv[1] - obs.target.y) - bias[0]) * inv_scale;
     return true;
   }
 };
