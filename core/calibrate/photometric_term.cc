@@ -112,7 +112,7 @@ std::vector<double> ConsistencyRms(const std::vector<scene::CameraModel>& camera
   for (const RefinementFrame& frame : frames) {
     std::vector<DepthMap> depth;
     for (const auto& camera : cameras) depth.push_back(RenderDepth(camera, triangles, frame.positions));
-    for (const SurfacePoint& sp : VisibleSurfacePoints(cameras, depth, triangles, frame.positions, 1, 2)) {
+    for (const SurfacePoint& sp : VisibleSurfacePoints(cameras, depth, triangles, frame.positions, 2, 2)) {
       std::vector<glm::dvec3> colour;
       glm::dvec3 mean(0.0);
       for (int c : sp.cameras) {

@@ -55,8 +55,8 @@ std::vector<SurfacePoint> TexturedSurfacePoints(const std::vector<scene::CameraM
                                                 int per_camera);
 
 // Per camera: rms of (its colour - the mean over the cameras seeing the
-// point), linear, over the frames' points and channels; `observations` gets
-// the point count per camera.
+// point), linear, over every other triangle centroid of the frames and the
+// channels; `observations` gets the point count per camera.
 std::vector<double> ConsistencyRms(const std::vector<scene::CameraModel>& cameras,
                                    const std::vector<glm::uvec3>& triangles, const std::vector<RefinementFrame>& frames,
                                    std::vector<uint64_t>* observations);
