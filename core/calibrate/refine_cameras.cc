@@ -4,7 +4,9 @@
 //     contour with the image's intensity edge, ICP-style (the pairs are found
 //     again at each outer iteration), anchoring every camera to the mesh;
 //   - a photometric term (photometric_term.h): textured surface points seen by
-//     two or more cameras have one consensus colour (a parameter);
+//     two or more cameras have one consensus colour (a parameter); measured
+//     and left out of the solve (kPhotometricTerm), the cross-camera
+//     consistency is reported before and after;
 //   - weak priors to the calibration (kPriorPixels) for what neither sees
 //     (e.g. the centre along the view axis).
 // Residuals are whitened by their MAD scale and taken through a Cauchy loss;
