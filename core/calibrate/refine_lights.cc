@@ -14,6 +14,7 @@
 #include "ceres/manifold.h"
 #include "core/samples/assemble.h"
 #include "core/scene/camera_model.h"
+#include "core/scene/video_source.h"
 
 namespace mvbrdf::calibrate {
 namespace {
@@ -27,6 +28,7 @@ constexpr double kRadToDeg = 57.29577951308232;
 // configuration's lights (slots) that reached it when gathered.
 struct Observation {
   uint32_t slot = 0;
+  uint32_t group = 0;  // the material group (its ks, ke)
   glm::dvec3 rgb{0.0};
   glm::dvec3 x{0.0}, n{0.0};
   glm::dvec4 view{0.0};
@@ -38,6 +40,10 @@ struct Model {
   std::vector<bool> directional;           // per slot
   std::vector<glm::dvec3> intensity;       // the scene's I_k per slot
   bool falloff = false;
+  // A point light is its direction d from the subject's centre (the Samples'
+  // mean position) at the scene's distance: position = centre + radius d.
+  glm::dvec3 centre{0.0};
+  std::vector<double> radius;  // per slot (0 for directional lights)
 };
 
 // The intensity scale of light slot k from the K - 1 log-scales u (the last
@@ -77,8 +83,10 @@ struct SampleResidual {
         const T norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
         for (int i = 0; i < 3; ++i) l[i] = q[i] / norm;
       } else {
+        const T norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        const double r = m->radius[static_cast<size_t>(k)];
         T d[3];
-        for (int i = 0; i < 3; ++i) d[i] = q[i] - T(o->x[i]);
+        for (int i = 0; i < 3; ++i) d[i] = T(m->centre[i]) + T(r) * q[i] / norm - T(o->x[i]);
         const T d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         const T dist = sqrt(d2);
         for (int i = 0; i < 3; ++i) l[i] = d[i] / dist;
@@ -103,8 +111,11 @@ struct SampleResidual {
 
 struct Parameters {
   std::vector<std::array<double, 3>> kd;  // per triangle slot
-  std::array<double, 3> ks{};
-  double ke = 10.0;
+  // Per material group (triangles nearest to one of the scene's seeds by kd;
+  // one group without seeds): the Phong lobes differ by far between
+  // materials, and one shared lobe biased the lights.
+  std::vector<std::array<double, 3>> ks;
+  std::vector<double> ke;
   std::vector<double> u;                  // K - 1 log-scales (at least one value, unused when K < 2)
   std::vector<std::array<double, 3>> light;
 };
@@ -120,7 +131,7 @@ Problem Build(const std::vector<Observation>& obs, const Model& model, Parameter
   ceres::Problem& problem = *out.problem;
   for (const Observation& o : obs) {
     auto* cost = new ceres::DynamicAutoDiffCostFunction<SampleResidual, 8>(new SampleResidual{&o, &model});
-    std::vector<double*> blocks = {p->kd[o.slot].data(), p->ks.data(), &p->ke};
+    std::vector<double*> blocks = {p->kd[o.slot].data(), p->ks[o.group].data(), &p->ke[o.group]};
     cost->AddParameterBlock(3);
     cost->AddParameterBlock(3);
     cost->AddParameterBlock(1);
@@ -136,9 +147,12 @@ Problem Build(const std::vector<Observation>& obs, const Model& model, Parameter
     ceres::LossFunction* loss = robust ? new ceres::CauchyLoss(loss_scale) : nullptr;
     problem.AddResidualBlock(cost, loss, blocks);
   }
-  for (int c = 0; c < 3; ++c) problem.SetParameterLowerBound(p->ks.data(), c, 0.0);
-  problem.SetParameterLowerBound(&p->ke, 0, 1.0);
-  problem.SetParameterUpperBound(&p->ke, 0, 1000.0);
+  for (size_t g = 0; g < p->ks.size(); ++g) {
+    if (!problem.HasParameterBlock(p->ks[g].data())) continue;
+    for (int c = 0; c < 3; ++c) problem.SetParameterLowerBound(p->ks[g].data(), c, 0.0);
+    problem.SetParameterLowerBound(&p->ke[g], 0, 1.0);
+    problem.SetParameterUpperBound(&p->ke[g], 0, 1000.0);
+  }
   if (model.num_lights >= 2) {
     for (int k = 0; k < model.num_lights - 1; ++k) {
       problem.SetParameterLowerBound(p->u.data(), k, -3.0);
@@ -149,7 +163,7 @@ Problem Build(const std::vector<Observation>& obs, const Model& model, Parameter
     double* block = p->light[static_cast<size_t>(k)].data();
     if (!problem.HasParameterBlock(block)) continue;
     out.light_blocks.push_back(block);
-    if (model.directional[static_cast<size_t>(k)]) problem.SetManifold(block, new ceres::SphereManifold<3>());
+    problem.SetManifold(block, new ceres::SphereManifold<3>());
   }
   return out;
 }
@@ -323,9 +337,15 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
   Parameters p;
   p.kd.assign(chosen.size(), {0.0, 0.0, 0.0});
   p.u.assign(static_cast<size_t>(std::max(1, model.num_lights - 1)), 0.0);
+  for (const Observation& o : obs) model.centre += o.x / static_cast<double>(std::max<size_t>(1, obs.size()));
   for (int k = 0; k < model.num_lights; ++k) {
     const scene::Light& light = sequence.lights[static_cast<size_t>(light_of_slot[static_cast<size_t>(k)])];
-    const glm::dvec3 q = light.directional ? glm::normalize(glm::dvec3(light.direction)) : glm::dvec3(light.position);
+    const glm::dvec3 to = glm::dvec3(light.position) - model.centre;
+    model.radius.push_back(light.directional ? 0.0 : glm::length(to));
+    if (!light.directional && !(model.radius.back() > 0.0)) {
+      return finish(absl::StrCat("light \"", light.name, "\" lies at the subject's centre"));
+    }
+    const glm::dvec3 q = glm::normalize(light.directional ? glm::dvec3(light.direction) : to);
     p.light.push_back({q.x, q.y, q.z});
   }
   {
@@ -338,7 +358,8 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
         light.directional = model.directional[static_cast<size_t>(k)];
         const auto& q = p.light[static_cast<size_t>(k)];
         light.position = light.direction = glm::vec3(q[0], q[1], q[2]);
-        glm::dvec3 l = light.directional ? glm::dvec3(light.direction) : glm::dvec3(light.position) - o.x;
+        const glm::dvec3 qd(q[0], q[1], q[2]);
+        glm::dvec3 l = light.directional ? qd : model.centre + model.radius[static_cast<size_t>(k)] * qd - o.x;
         const double d2 = glm::dot(l, l);
         l /= std::sqrt(d2);
         const double a = model.falloff && !light.directional ? 1.0 / d2 : 1.0;
@@ -352,7 +373,32 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
     for (size_t s = 0; s < chosen.size(); ++s) {
       for (int c = 0; c < 3; ++c) p.kd[s][static_cast<size_t>(c)] = gg[s][c] > 0.0 ? rg[s][c] / gg[s][c] : 0.0;
     }
-    for (int c = 0; c < 3; ++c) p.ks[static_cast<size_t>(c)] = g2[c] > 0.0 ? 0.1 * std::sqrt(r2[c] / g2[c]) : 0.0;
+    std::array<double, 3> ks0{};
+    for (int c = 0; c < 3; ++c) ks0[static_cast<size_t>(c)] = g2[c] > 0.0 ? 0.1 * std::sqrt(r2[c] / g2[c]) : 0.0;
+    // Material groups: the nearest seed (as the clustering reads seeds).
+    std::vector<glm::dvec3> seeds;
+    for (const v1::MaterialSeed& seed : sequence.scene.material_seeds()) {
+      glm::dvec3 albedo(0.0);
+      for (int c = 0; c < 3; ++c) {
+        albedo[c] = seed.linear_rgb_size() > c ? seed.linear_rgb(c)
+                    : seed.srgb8_size() > c   ? scene::SrgbToLinear(static_cast<float>(seed.srgb8(c)) / 255.0f)
+                                              : 0.0;
+      }
+      seeds.push_back(albedo);
+    }
+    const size_t groups = std::max<size_t>(1, seeds.size());
+    p.ks.assign(groups, ks0);
+    p.ke.assign(groups, 10.0);
+    std::vector<uint32_t> group_of_slot(chosen.size(), 0);
+    for (size_t s = 0; s < chosen.size() && seeds.size() > 1; ++s) {
+      const glm::dvec3 kd(p.kd[s][0], p.kd[s][1], p.kd[s][2]);
+      for (size_t g = 1; g < seeds.size(); ++g) {
+        if (glm::distance(kd, seeds[g]) < glm::distance(kd, seeds[group_of_slot[s]])) {
+          group_of_slot[s] = static_cast<uint32_t>(g);
+        }
+      }
+    }
+    for (Observation& o : obs) o.group = group_of_slot[o.slot];
   }
 
   // A: least squares at the scene's lights, for the residuals' scale.
@@ -387,8 +433,31 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
 
   // Covariance of the lights (kd free, ks and ke held), scaled by the
   // residuals' variance.
-  b.problem->SetParameterBlockConstant(p.ks.data());
-  b.problem->SetParameterBlockConstant(&p.ke);
+  for (size_t g = 0; g < p.ks.size(); ++g) {
+    if (!b.problem->HasParameterBlock(p.ks[g].data())) continue;
+    b.problem->SetParameterBlockConstant(p.ks[g].data());
+    b.problem->SetParameterBlockConstant(&p.ke[g]);
+  }
+  // A triangle no light reaches any more at the refined lights has a kd the
+  // data do not determine (a zero Jacobian column): held, as ks and ke.
+  {
+    std::vector<uint32_t> lit(chosen.size(), 0);
+    for (const Observation& o : obs) {
+      for (int k : o.lights) {
+        const auto& q = p.light[static_cast<size_t>(k)];
+        const glm::dvec3 d = glm::normalize(glm::dvec3(q[0], q[1], q[2]));
+        const glm::dvec3 l = model.directional[static_cast<size_t>(k)]
+                                 ? d
+                                 : glm::normalize(model.centre + model.radius[static_cast<size_t>(k)] * d - o.x);
+        if (glm::dot(l, o.n) > 0.0) ++lit[o.slot];
+      }
+    }
+    for (size_t t = 0; t < chosen.size(); ++t) {
+      if (lit[t] == 0 && b.problem->HasParameterBlock(p.kd[t].data())) {
+        b.problem->SetParameterBlockConstant(p.kd[t].data());
+      }
+    }
+  }
   ceres::Covariance::Options cov_options;
   cov_options.algorithm_type = ceres::SPARSE_QR;
   cov_options.num_threads = 1;
@@ -414,12 +483,16 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
     const scene::Light& light = sequence.lights[static_cast<size_t>(light_of_slot[ks])];
     v1::LightRefinementRow* row = report->add_lights();
     row->set_name(light.name);
-    const glm::dvec3 q(p.light[ks][0], p.light[ks][1], p.light[ks][2]);
+    const glm::dvec3 d(p.light[ks][0], p.light[ks][1], p.light[ks][2]);
+    const glm::dvec3 q = light.directional ? d : model.centre + model.radius[ks] * glm::normalize(d);
     double sigma2 = std::numeric_limits<double>::infinity();
     double* blk = p.light[ks].data();
     if (identifiable && b.problem->HasParameterBlock(blk)) {
       double c[9];
-      if (covariance.GetCovarianceBlock(blk, blk, c)) sigma2 = variance * (c[0] + c[4] + c[8]);
+      if (covariance.GetCovarianceBlock(blk, blk, c)) {
+        // The direction's (radians^2); a point light moves radius times that.
+        sigma2 = variance * (c[0] + c[4] + c[8]) * (light.directional ? 1.0 : model.radius[ks] * model.radius[ks]);
+      }
     }
     double change = 0.0, sigma = std::sqrt(sigma2);
     v1::Light* used = row->mutable_light();
