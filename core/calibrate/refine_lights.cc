@@ -36,9 +36,9 @@ struct Observation {
 };
 
 struct Model {
-  int num_lights = 0;                      // K, the configuration's lights
-  std::vector<bool> directional;           // per slot
-  std::vector<glm::dvec3> intensity;       // the scene's I_k per slot
+  int num_lights = 0;                 // K, the configuration's lights
+  std::vector<bool> directional;      // per slot
+  std::vector<glm::dvec3> intensity;  // the scene's I_k per slot
   bool falloff = false;
   // A point light is its direction d from the subject's centre (the Samples'
   // mean position) at the scene's distance: position = centre + radius d.
@@ -116,7 +116,7 @@ struct Parameters {
   // materials, and one shared lobe biased the lights.
   std::vector<std::array<double, 3>> ks;
   std::vector<double> ke;
-  std::vector<double> u;                  // K - 1 log-scales (at least one value, unused when K < 2)
+  std::vector<double> u;  // K - 1 log-scales (at least one value, unused when K < 2)
   std::vector<std::array<double, 3>> light;
 };
 
@@ -170,12 +170,16 @@ Problem Build(const std::vector<Observation>& obs, const Model& model, Parameter
 
 void SetLightsConstant(const Problem& pb, const Model& model, Parameters* p, bool constant) {
   for (double* b : pb.light_blocks) {
-    if (constant) pb.problem->SetParameterBlockConstant(b);
-    else pb.problem->SetParameterBlockVariable(b);
+    if (constant)
+      pb.problem->SetParameterBlockConstant(b);
+    else
+      pb.problem->SetParameterBlockVariable(b);
   }
   if (model.num_lights >= 2 && pb.problem->HasParameterBlock(p->u.data())) {
-    if (constant) pb.problem->SetParameterBlockConstant(p->u.data());
-    else pb.problem->SetParameterBlockVariable(p->u.data());
+    if (constant)
+      pb.problem->SetParameterBlockConstant(p->u.data());
+    else
+      pb.problem->SetParameterBlockVariable(p->u.data());
   }
 }
 
@@ -238,8 +242,8 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
     const auto it = std::find(triangles.light_names.begin(), triangles.light_names.end(), name);
     const int s = sequence.FindLight(name);
     if (it == triangles.light_names.end() || s < 0) {
-      return absl::InvalidArgumentError(absl::StrCat("light refinement: configuration light \"", name,
-                                                     "\" is no light of the scene's Samples"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("light refinement: configuration light \"", name, "\" is no light of the scene's Samples"));
     }
     const int k = static_cast<int>(it - triangles.light_names.begin());
     slot_of_light[static_cast<size_t>(k)] = static_cast<int>(light_of_slot.size());
@@ -294,8 +298,8 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
   for (auto& [frame, per_slot] : geometry) {
     if (options.cancelled && options.cancelled()) return absl::CancelledError("light refinement cancelled");
     if (frame >= sequence.num_frames) {
-      return absl::InvalidArgumentError(absl::StrCat("light refinement: Sample of frame ", frame, " beyond the ",
-                                                     sequence.num_frames, " frames"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("light refinement: Sample of frame ", frame, " beyond the ", sequence.num_frames, " frames"));
     }
     absl::StatusOr<scene::FramePositions> positions = sequence.LoadFrame(frame);
     if (!positions.ok()) return positions.status();
@@ -381,8 +385,8 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
       glm::dvec3 albedo(0.0);
       for (int c = 0; c < 3; ++c) {
         albedo[c] = seed.linear_rgb_size() > c ? seed.linear_rgb(c)
-                    : seed.srgb8_size() > c   ? scene::SrgbToLinear(static_cast<float>(seed.srgb8(c)) / 255.0f)
-                                              : 0.0;
+                    : seed.srgb8_size() > c    ? scene::SrgbToLinear(static_cast<float>(seed.srgb8(c)) / 255.0f)
+                                               : 0.0;
       }
       seeds.push_back(albedo);
     }
@@ -539,15 +543,15 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
   }
 
   const double improvement = cost_before > 0.0 ? (cost_before - cost_after) / cost_before : 0.0;
-  const std::string figures =
-      absl::StrFormat("%zu triangles, %zu Samples; robust cost %.6g -> %.6g (%.2f %% lower); the most changed "
-                      "light (%s) moved %.2f sigma",
-                      chosen.size(), obs.size(), cost_before, cost_after, 100.0 * improvement, most_name,
-                      most_significant);
+  const std::string figures = absl::StrFormat(
+      "%zu triangles, %zu Samples; robust cost %.6g -> %.6g (%.2f %% lower); the most changed "
+      "light (%s) moved %.2f sigma",
+      chosen.size(), obs.size(), cost_before, cost_after, 100.0 * improvement, most_name, most_significant);
   if (!identifiable) {
-    return finish(absl::StrCat("the scene's lights are kept: the lights are not identifiable from the Samples (the "
-                               "covariance is singular or not finite); ",
-                               figures));
+    return finish(
+        absl::StrCat("the scene's lights are kept: the lights are not identifiable from the Samples (the "
+                     "covariance is singular or not finite); ",
+                     figures));
   }
   if (options.mode == v1::REFINEMENT_ON) {
     report->set_lights_refined(true);
@@ -577,7 +581,8 @@ absl::Status ApplyLightRefinement(const v1::CalibrationReport& report, scene::Se
     scene::Light& light = sequence->lights[static_cast<size_t>(k)];
     v1::Light* scene_light = sequence->scene.mutable_lights(k);
     const v1::Light& used = row.light();
-    const auto read3 = [&](const google::protobuf::RepeatedField<double>& v, const char* field) -> absl::StatusOr<glm::vec3> {
+    const auto read3 = [&](const google::protobuf::RepeatedField<double>& v,
+                           const char* field) -> absl::StatusOr<glm::vec3> {
       if (v.size() != 3 || !std::isfinite(v[0] + v[1] + v[2])) {
         return absl::InvalidArgumentError(
             absl::StrCat("calibration.lights[", row.name(), "].light.", field, ": expected 3 finite values"));

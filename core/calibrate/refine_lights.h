@@ -47,8 +47,8 @@
 
 namespace mvbrdf::calibrate {
 
-inline constexpr double kMinImprovement = 0.03;   // relative drop of the robust cost
-inline constexpr double kMinSignificance = 3.0;   // change / sigma of the most changed light
+inline constexpr double kMinImprovement = 0.03;  // relative drop of the robust cost
+inline constexpr double kMinSignificance = 3.0;  // change / sigma of the most changed light
 
 struct LightRefinementOptions {
   v1::Refinement mode = v1::REFINEMENT_AUTO;  // OFF: RefineLights is not called

@@ -340,6 +340,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
       ReconstructOptions o = options;
       o.refined_lights_applied = true;
       o.texel_statistics = nullptr;  // gathered with the scene's lights
+      o.light_table = LightTableOf(*options.light_table);  // its pass 1: "gather_light_samples"
       return RunReconstruction(*refined, context, o);
     }
   }

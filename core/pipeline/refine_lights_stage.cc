@@ -26,8 +26,8 @@ absl::Status RefineLightsStage(const scene::Sequence& sequence, const samples::S
   o.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   o.cancelled = options.cancelled;
   v1::CalibrationReport calibration;
-  MVBRDF_RETURN_IF_ERROR(calibrate::RefineLights(sequence, triangles, {config->lights().begin(), config->lights().end()},
-                                                 o, &calibration));
+  MVBRDF_RETURN_IF_ERROR(calibrate::RefineLights(sequence, triangles,
+                                                 {config->lights().begin(), config->lights().end()}, o, &calibration));
   calibrate::CopyLightRefinement(calibration, report->mutable_calibration());
   if (options.progress) options.progress("refine_lights", 1, 1);
   v1::StageRow* row = report->add_stages();
