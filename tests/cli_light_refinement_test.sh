@@ -80,6 +80,13 @@ print("     kd RMSE %.4f (off) -> %.4f; worst ks rel. error %.3f -> %.3f" % (b["
       file=sys.stderr)
 sys.exit(not (a["configurationCorrect"] and a["kdRmse"] <= 0.8 * b["kdRmse"] and ks(a) < ks(b)))' \
   "$work/e_auto.json" "$work/e_off.json"
+expect "evaluate's lights[] against the truth say the same" python3 -c '
+import json, sys
+rows = json.load(open(sys.argv[1]))["lights"]
+mean = lambda k: sum(r[k] for r in rows) / len(rows)
+sys.exit(not (len(rows) == 4 and mean("positionErrorAfter") <= 0.75 * mean("positionErrorBefore") and
+              mean("intensityRelErrorAfter") <= 0.5 * mean("intensityRelErrorBefore") and
+              all(r["positionSigma"] > 0 for r in rows)))' "$work/e_auto.json"
 expect "the true lights: auto keeps them" python3 -c '
 import json, sys
 cal = json.load(open(sys.argv[1]))["calibration"]

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <vector>
+
+#include <glm/glm.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/proto_json.h"
@@ -51,6 +54,69 @@ double RelativeError(double value, double truth) {
   return std::abs(value - truth) / std::max(std::abs(truth), 1e-12);
 }
 
+// Issue #14 item 2: the run's lights (RunReport.calibration.lights: the
+// scene's before, the ones used after) against the rendered ones. Intensity
+// errors are relative, mean over channels, after the common scale of the
+// configuration (geometric mean of the ratios) is removed: the refinement
+// keeps the overall intensity, whose gauge kd carries.
+void AddLightTruthRows(const v1::RunReport& run, const v1::GroundTruth& truth, v1::EvaluationReport* report) {
+  const v1::CalibrationReport& cal = run.calibration();
+  struct Pair {
+    const v1::LightRefinementRow* row;
+    const v1::Light* truth;
+  };
+  std::vector<Pair> pairs;
+  for (const v1::LightRefinementRow& row : cal.lights()) {
+    for (const v1::Light& t : truth.lights()) {
+      if (t.name() == row.name()) pairs.push_back({&row, &t});
+    }
+  }
+  if (pairs.empty()) return;
+  const auto vec = [](const google::protobuf::RepeatedField<double>& v) {
+    return v.size() == 3 ? glm::dvec3(v[0], v[1], v[2]) : glm::dvec3(1.0);
+  };
+  const auto after_intensity = [&](const Pair& p) {
+    return vec(cal.lights_refined() ? p.row->intensity_after() : p.row->intensity_before());
+  };
+  const auto ratios = [&](bool after, std::vector<glm::dvec3>* out) {
+    glm::dvec3 log_sum(0.0);
+    for (const Pair& p : pairs) {
+      const glm::dvec3 r = (after ? after_intensity(p) : vec(p.row->intensity_before())) / vec(p.truth->intensity());
+      out->push_back(r);
+      log_sum += glm::log(r);
+    }
+    return glm::exp(log_sum / static_cast<double>(pairs.size()));
+  };
+  std::vector<glm::dvec3> before_r, after_r;
+  const glm::dvec3 before_g = ratios(false, &before_r), after_g = ratios(true, &after_r);
+  const auto rel = [](const glm::dvec3& r, const glm::dvec3& g) {
+    const glm::dvec3 e = glm::abs(r / g - 1.0);
+    return (e.x + e.y + e.z) / 3.0;
+  };
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    const v1::LightRefinementRow& row = *pairs[i].row;
+    const v1::Light& t = *pairs[i].truth;
+    v1::LightTruthRow* out = report->add_lights();
+    out->set_name(row.name());
+    if (t.direction_size() == 3) {
+      const glm::dvec3 d = glm::normalize(vec(t.direction()));
+      const auto angle = [&](const google::protobuf::RepeatedField<double>& v) {
+        return std::acos(std::clamp(glm::dot(d, glm::normalize(vec(v))), -1.0, 1.0)) * 57.29577951308232;
+      };
+      out->set_direction_error_deg_before(angle(row.direction_before()));
+      out->set_direction_error_deg_after(angle(cal.lights_refined() ? row.direction_after() : row.direction_before()));
+    } else {
+      const glm::dvec3 q = vec(t.position());
+      out->set_position_error_before(glm::distance(q, vec(row.position_before())));
+      out->set_position_error_after(
+          glm::distance(q, vec(cal.lights_refined() ? row.position_after() : row.position_before())));
+      out->set_position_sigma(row.position_sigma());
+    }
+    out->set_intensity_rel_error_before(rel(before_r[i], before_g));
+    out->set_intensity_rel_error_after(rel(after_r[i], after_g));
+  }
+}
+
 }  // namespace
 
 absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
@@ -75,6 +141,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   report.set_chosen_configuration(run.chosen_configuration());
   report.set_true_configuration(truth.message().active_configuration());
   report.set_configuration_correct(run.chosen_configuration() == truth.message().active_configuration());
+  AddLightTruthRows(run, truth.message(), &report);
   if (run.clusters_size() == 0) return report;  // light table only
 
   MVBRDF_ASSIGN_OR_RETURN(const cv::Mat triangle_id, ReadImage(run_dir / "atlas" / "triangle_id.exr", CV_32SC1, 0));
