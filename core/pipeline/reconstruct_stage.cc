@@ -439,6 +439,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     if (report.calibration().lights_refined()) {
       ReconstructOptions o = options;  // the rest with the refined lights
       o.light_table = LightTableOf(report);
+      g = Gathered();  // pass 1 again with them: free this one first
       return RunReconstruction(sequence, context, o);
     }
   }
