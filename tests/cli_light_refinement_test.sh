@@ -9,7 +9,8 @@
 # - --refine-lights off gives the unrefined result;
 # - the scene's own (true) lights: auto keeps them;
 # - the service path (`run` without --direct: the choose task refines) gives
-#   the same lights and Table 7.1 as --direct.
+#   the same lights and Table 7.1 as --direct;
+# - the world x1000 gives the same decision and changes x1000 (unit-free).
 # Usage: cli_light_refinement_test.sh MVBRDF_BINARY WORK_DIR
 set -u
 bin=$1
@@ -93,6 +94,33 @@ cal = json.load(open(sys.argv[1]))["calibration"]
 print("     " + cal["lightsDecision"], file=sys.stderr)
 sys.exit(not (not cal.get("lightsRefined", False) and "kept" in cal["lightsDecision"] and len(cal["lights"]) == 4))' \
   "$work/r_clean/result.json"
+
+# Unit-free: the world x1000 (mesh, camera centres, lights) gives the same decision, changes x1000, scales.
+cp -r "$work/pert" "$work/pert_world"
+python3 - "$work/pert_world" <<'EOF_PY'
+import glob, json, os, sys
+root = sys.argv[1]
+scene = json.load(open(os.path.join(root, "scene.json")))
+for cam in scene["cameras"]:
+    cam["camFromWorld"]["translation"] = [1000.0 * v for v in cam["camFromWorld"]["translation"]]
+for light in scene["lights"]:
+    light["position"] = [1000.0 * v for v in light["position"]]
+json.dump(scene, open(os.path.join(root, "scene.json"), "w"), indent=1)
+for path in glob.glob(os.path.join(root, "meshes", "*.obj")):
+    lines = [("v %.9g %.9g %.9g\n" % tuple(1000.0 * float(v) for v in l.split()[1:4])) if l.startswith("v ") else l
+             for l in open(path)]
+    open(path, "w").writelines(lines)
+EOF_PY
+check "the world x1000: run (auto)" 0 "wrote" -- "$bin" run --direct "$work/pert_world/scene.json" "${opts[@]}" \
+  --out "$work/r_world"
+expect "same decision, position changes and sigmas x1000, same intensity scales (1e-2)" python3 -c '
+import json, sys
+a = json.load(open(sys.argv[1]))["calibration"]; b = json.load(open(sys.argv[2]))["calibration"]
+close = lambda x, y: abs(x - y) <= 1e-2 * max(abs(x), abs(y), 1e-12)
+ok = a["lightsRefined"] == b.get("lightsRefined", False) and all(
+    close(1000 * x["positionChange"], y["positionChange"]) and close(1000 * x["positionSigma"], y["positionSigma"])
+    and close(x["intensityAfter"][0], y["intensityAfter"][0]) for x, y in zip(a["lights"], b["lights"]))
+sys.exit(not ok)' "$work/r_auto/result.json" "$work/r_world/result.json"
 
 check "the service path (run without --direct)" 0 "wrote" -- "$bin" run "$work/pert/scene.json" "${opts[@]}" \
   --out "$work/r_service"
