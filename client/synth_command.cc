@@ -59,6 +59,12 @@ int RunSynth(const std::vector<std::string>& args) {
                   "render geometry displaced by this amplitude that the scene's mesh does not model");
   flags.AddDouble("--exposure GAIN", &o.exposure, "gain before 8-bit clipping; > 1 clips highlights");
   flags.AddDouble("--distortion K1", &o.distortion_k1, "radial distortion k1 of every camera");
+  flags.AddDouble("--light-position-error DISTANCE", &o.light_position_error,
+                  "each point light written to scene.json moved this far in a random direction (truth: as rendered)");
+  flags.AddDouble("--light-direction-error DEGREES", &o.light_direction_error_deg,
+                  "each directional light written to scene.json turned by this angle about a random axis");
+  flags.AddDouble("--light-intensity-error FRACTION", &o.light_intensity_error,
+                  "each light's intensity written to scene.json scaled by 1 + or - this (random sign)");
   flags.AddInt("--actor-segments N", &o.actor_segments, "actor tessellation (24: ~8k triangles, 48: ~35k)");
   flags.AddInt("--shadow-map-size N", &o.shadow_map_size, "shadow map resolution per cube face");
   flags.AddString("--data DIR", &data_dir, "directory holding spot/ and samba/ (env MVBRDF_DATA_DIR)");

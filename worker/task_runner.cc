@@ -18,6 +18,7 @@
 #include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/plan.h"
 #include "core/pipeline/reconstruct_stage.h"
+#include "core/pipeline/refine_lights_stage.h"
 #include "core/report/report_inputs.h"
 #include "core/samples/assemble.h"
 #include "worker/job_options.h"
@@ -188,6 +189,21 @@ absl::StatusOr<TaskOutput> Choose(const v1::Task& task, const scene::Sequence& s
   stage->set_name("light_sweep");
   stage->set_peak_rss_bytes(PeakRssBytes());
   stage->set_seconds(first_start > 0 && last_end >= first_start ? (last_end - first_start) / 1000.0 : sum);
+  if (plan.Has(pipeline::Stage::kRefineLights)) {
+    // On the gather task's triangle Samples, as a one-process run refines them.
+    if (!env.samples) return absl::FailedPreconditionError("choose: this worker cannot fetch Samples");
+    for (const v1::TaskInput& input : task.inputs()) {
+      v1::GatherResult gathered;
+      if (input.kind() != "gather" || !gathered.ParseFromString(input.result())) continue;
+      MVBRDF_ASSIGN_OR_RETURN(const std::shared_ptr<const samples::SampleSet> set, env.samples(gathered));
+      // With the cameras as the gather refined them, as a one-process run.
+      MVBRDF_ASSIGN_OR_RETURN(const std::optional<scene::Sequence> calibrated,
+                              pipeline::CalibratedSequence(sequence, gathered.calibration()));
+      MVBRDF_RETURN_IF_ERROR(
+          pipeline::RefineLightsStage(calibrated.has_value() ? *calibrated : sequence, *set, o, &report));
+      break;
+    }
+  }
   TaskOutput out;
   out.metrics["configurations"] = report.light_configurations_size();
   out.metrics["configuration_margin"] = report.configuration_margin();

@@ -130,7 +130,14 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
     row->set_key(c.name());
     row->set_result(swept->result);
   }
-  auto chosen = RunTask(choose, *sequence_, Environment("choose"));
+  // The choose task refines the chosen configuration's lights on the gather
+  // task's Samples (the plan's refine_lights stage).
+  TaskEnvironment choose_env = Environment("choose");
+  choose_env.samples = [&](const v1::GatherResult& g) -> absl::StatusOr<std::shared_ptr<const samples::SampleSet>> {
+    EXPECT_EQ(g.samples_sha256(), gather_result.samples_sha256());
+    return shared;
+  };
+  auto chosen = RunTask(choose, *sequence_, choose_env);
   ASSERT_TRUE(chosen.ok()) << chosen.status();
   EXPECT_TRUE(chosen->artifacts.empty());  // the job goes on to reflectance
 

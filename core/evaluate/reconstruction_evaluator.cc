@@ -4,6 +4,9 @@
 #include <cmath>
 #include <map>
 #include <optional>
+#include <vector>
+
+#include <glm/glm.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/proto_json.h"

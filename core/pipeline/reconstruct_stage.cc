@@ -16,6 +16,7 @@
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/base/version.h"
+#include "core/calibrate/refine_lights.h"
 #include "core/cluster/kmeans.h"
 #include "core/fit/light_sweep.h"
 #include "core/image/exr.h"
@@ -24,6 +25,7 @@
 #include "core/pipeline/frame_stream.h"
 #include "core/pipeline/gather_stage.h"
 #include "core/pipeline/light_table.h"
+#include "core/pipeline/refine_lights_stage.h"
 #include "core/pipeline/run_scene.h"
 #include "core/pipeline/texel_reservoir.h"
 #include "core/resample/atlas_ops.h"
@@ -330,6 +332,19 @@ absl::Status CheckCancelled(const ReconstructOptions& options) {
 
 absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_sequence, gl::EglContext& context,
                                                 const ReconstructOptions& options) {
+  if (options.light_table.has_value() && !options.refined_lights_applied) {
+    // Lights refined after the sweep (refine_lights_stage.h): everything
+    // after it uses them, pass 1's texel statistics included.
+    MVBRDF_ASSIGN_OR_RETURN(std::optional<scene::Sequence> refined,
+                            SequenceWithRefinedLights(scene_sequence, *options.light_table));
+    if (refined.has_value()) {
+      ReconstructOptions o = options;
+      o.refined_lights_applied = true;
+      o.texel_statistics = nullptr;  // gathered with the scene's lights
+      o.light_table = LightTableOf(*options.light_table);  // its pass 1: "gather_light_samples"
+      return RunReconstruction(*refined, context, o);
+    }
+  }
   const auto start = Clock::now();
   MVBRDF_ASSIGN_OR_RETURN(v1::RunReport report, NewRunReport(scene_sequence, options, context.Describe()));
   MVBRDF_ASSIGN_OR_RETURN(const Plan plan, MakePlan(scene_sequence, options.request));
@@ -373,7 +388,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
 
   // Pass 1: triangle Samples, texel means and kept texel Samples.
   t0 = Clock::now();
-  const bool gather_triangles = plan.Has(Stage::kLightSweep) && !options.light_table.has_value();
+  const bool gather_triangles =
+      (plan.Has(Stage::kLightSweep) || plan.Has(Stage::kRefineLights)) && !options.light_table.has_value();
   const bool gather_texels = reflectance && options.texel_statistics == nullptr;
   Gathered g;
   if (gather_triangles || gather_texels) {
@@ -405,6 +421,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     for (const v1::StageRow& stage : options.light_table->stages()) *report.add_stages() = stage;
     report.set_configuration_margin(options.light_table->configuration_margin());
     report.set_configuration_warning(options.light_table->configuration_warning());
+    calibrate::CopyLightRefinement(options.light_table->calibration(), report.mutable_calibration());
     chosen = options.light_table->chosen_configuration();
   } else if (plan.Has(Stage::kLightSweep)) {
     // What the plan sweeps: the request's candidates, else the scene's.
@@ -440,6 +457,16 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     }
   }
   report.set_chosen_configuration(chosen);
+  if (plan.Has(Stage::kRefineLights) && !options.light_table.has_value()) {
+    MVBRDF_RETURN_IF_ERROR(RefineLightsStage(sequence, g.triangle_samples, options, &report));
+    if (report.calibration().lights_refined()) {
+      ReconstructOptions o = options;  // the rest with the refined lights
+      o.light_table = LightTableOf(report);
+      o.calibration = report.calibration();  // the cameras as refined here, not refined again
+      g = Gathered();  // pass 1 again with them: free this one first
+      return RunReconstruction(sequence, context, o);
+    }
+  }
   // Frames with their own lights are modelled with exactly those, the others
   // with the configuration (samples::LightSelection).
   const samples::LightSelection selection(mask, samples::OwnLightingFrames(sequence));

@@ -114,6 +114,9 @@ struct ReconstructOptions {
   // options (the service's gather task on this worker); consumed. Without
   // them pass 1 gathers them itself.
   std::shared_ptr<TexelStatistics> texel_statistics;
+  // Set by RunReconstruction when it continues with the lights of
+  // light_table->calibration() already in its sequence (refine_lights_stage.h).
+  bool refined_lights_applied = false;
   std::filesystem::path out_dir;
   // Recorded in result.json (issue #20): every option as asked and resolved
   // (RunReport.options), and where its scene is. A service run names the

@@ -64,6 +64,26 @@ scene::CameraModel PerturbCamera(const scene::CameraModel& camera, double deg, d
   return out;
 }
 
+// The light as written to the scene: moved by `distance` in a random
+// direction (point) or turned by `deg` about a random axis (directional),
+// its intensity scaled by 1 + or - `fraction`.
+scene::Light PerturbLight(const scene::Light& light, double distance, double deg, double fraction, std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  const glm::dvec3 random_unit = glm::normalize(glm::dvec3(n(rng), n(rng), n(rng)));
+  const bool brighter = std::uniform_int_distribution<int>(0, 1)(rng) == 1;
+  scene::Light out = light;
+  if (light.directional) {
+    const glm::dvec3 d = glm::normalize(glm::dvec3(light.direction));
+    // An axis perpendicular to the direction, so the turn is `deg`.
+    const glm::dvec3 axis = glm::normalize(random_unit - glm::dot(random_unit, d) * d);
+    out.direction = glm::vec3(glm::dmat3(glm::rotate(glm::dmat4(1.0), deg * 3.14159265358979 / 180.0, axis)) * d);
+  } else {
+    out.position = glm::vec3(glm::dvec3(light.position) + distance * random_unit);
+  }
+  out.intensity = light.intensity * static_cast<float>(brighter ? 1.0 + fraction : 1.0 - fraction);
+  return out;
+}
+
 // Smooth displacement along the normals: geometry the mesh does not model.
 scene::FramePositions DisplaceVertices(const scene::MeshTopology& topology, const scene::FramePositions& rest,
                                        const scene::FramePositions& posed, double amplitude, uint32_t seed) {
@@ -123,6 +143,9 @@ absl::Status SynthOptions::Check() const {
   MVBRDF_RETURN_IF_ERROR(CheckRange("--vertex-noise", vertex_noise, 0, 1));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--exposure", exposure, 0.01, 100));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--distortion", distortion_k1, -1, 1));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--light-position-error", light_position_error, 0, 1000));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--light-direction-error", light_direction_error_deg, 0, 90));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--light-intensity-error", light_intensity_error, 0, 0.9));
   if (camera_model == scene::Projection::kOrthographic && distortion_k1 != 0.0) {
     return absl::InvalidArgumentError("--distortion: an orthographic camera has no distortion (--camera-model)");
   }
@@ -301,7 +324,15 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     cam->mutable_video()->set_encoding(v1::SRGB);
     cam->mutable_video()->set_bit_depth(8);
   }
-  for (const scene::Light& l : studio.lights) {
+  // The lights as written (perturbed; truth.lights are the rendered ones).
+  std::mt19937 light_rng(options.seed ^ 0x9e3779b9u);
+  const bool perturb_lights = options.light_position_error > 0.0 || options.light_direction_error_deg > 0.0 ||
+                              options.light_intensity_error > 0.0;
+  for (const scene::Light& rendered : studio.lights) {
+    const scene::Light l = perturb_lights ? PerturbLight(rendered, options.light_position_error,
+                                                         options.light_direction_error_deg,
+                                                         options.light_intensity_error, light_rng)
+                                          : rendered;
     v1::Light* light = scene.add_lights();
     light->set_name(l.name);
     if (l.directional) {
@@ -394,6 +425,8 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   p->set_vertex_noise(options.vertex_noise);
   p->set_lossy_video(options.lossy_video);
   p->set_exposure(options.exposure);
+  p->set_light_position_error(options.light_position_error);
+  p->set_light_intensity_error(options.light_intensity_error);
   truth.set_shadow_map_size(static_cast<uint32_t>(options.shadow_map_size));
   {
     // The scene as `mvbrdf run` will read it (the mesh as parsed back from

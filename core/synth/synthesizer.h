@@ -69,6 +69,15 @@ struct SynthOptions {
   bool lossy_video = false;
   double exposure = 1.0;
   double distortion_k1 = 0.0;
+  // Issue #14: the lights written to scene.json differ from the rendered
+  // ones (truth.lights): each point light moved by this distance in a random
+  // direction, each directional light turned by light_direction_error_deg
+  // about a random axis, each intensity scaled by 1 + or - this fraction
+  // (random sign, all channels alike). Their own random stream (of `seed`):
+  // the images are those of the unperturbed scene.
+  double light_position_error = 0.0;  // world units
+  double light_direction_error_deg = 0.0;
+  double light_intensity_error = 0.0;  // relative, < 1
   // Pinhole or orthographic cameras (StudioOptions::projection); an
   // orthographic camera has no distortion.
   scene::Projection camera_model = scene::Projection::kPinhole;
