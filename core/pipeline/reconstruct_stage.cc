@@ -382,6 +382,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence,
     for (const v1::StageRow& stage : options.light_table->stages()) *report.add_stages() = stage;
     report.set_configuration_margin(options.light_table->configuration_margin());
     report.set_configuration_warning(options.light_table->configuration_warning());
+    report.set_configuration_criterion(options.light_table->configuration_criterion());
+    report.set_configuration_margin_e_d(options.light_table->configuration_margin_e_d());
+    report.set_configuration_rule(options.light_table->configuration_rule());
     chosen = options.light_table->chosen_configuration();
   } else if (plan.Has(Stage::kLightSweep)) {
     // What the plan sweeps: the request's candidates, else the scene's.
