@@ -289,6 +289,9 @@ absl::Status CheckMetricsFinite(const v1::RunReport& report) {
   for (const v1::LightConfigurationRow& r : report.light_configurations()) {
     if (!std::isfinite(r.e_a())) return bad(absl::StrCat("light configuration \"", r.name(), "\": E_a"), r.e_a());
     if (!std::isfinite(r.e_d())) return bad(absl::StrCat("light configuration \"", r.name(), "\": E_d"), r.e_d());
+    if (!std::isfinite(r.e_held_out())) {
+      return bad(absl::StrCat("light configuration \"", r.name(), "\": the held-out error"), r.e_held_out());
+    }
   }
   for (const v1::SolverRow& r : report.solvers()) {
     const std::string row = absl::StrCat("cluster \"", r.cluster(), "\" (", r.solver(), "): ");
