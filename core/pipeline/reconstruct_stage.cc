@@ -259,6 +259,8 @@ absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, cons
   report.set_mvbrdf_version(std::string(MvbrdfVersion()));
   report.set_git_commit(std::string(GitCommit()));
   *report.mutable_options() = options.run_options;
+  // The rule ChooseConfiguration applies (the worker records the same).
+  report.mutable_options()->mutable_fitting()->set_sweep_criterion(options.sweep_criterion);
   report.set_frames(static_cast<uint32_t>(sequence.num_frames));
   report.set_gl_renderer(gl_renderer);
   report.set_configuration_rule("lowest E_d; E_a breaks ties");
