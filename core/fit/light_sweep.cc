@@ -262,11 +262,16 @@ double HeldOutError(const samples::SampleSet& set, const samples::LightSelection
         if (t < first || t >= last) continue;
         glm::dvec3 s(0.0);
         for (size_t q = begin; q < e.terms_end; ++q) {
+          // h^ke below e^-50 (2e-22) adds nothing a double can hold beside G.
           const glm::dvec3 w(weight[q]);
           if (same) {
-            s += w * std::exp(ke.x * log_h[q]);
+            const double x = ke.x * log_h[q];
+            if (x > -50.0) s += w * std::exp(x);
           } else {
-            for (int c = 0; c < 3; ++c) s[c] += w[c] * std::exp(ke[c] * log_h[q]);
+            for (int c = 0; c < 3; ++c) {
+              const double x = ke[c] * log_h[q];
+              if (x > -50.0) s[c] += w[c] * std::exp(x);
+            }
           }
         }
         SpecularSums& o = specular[static_cast<size_t>(t) * F + in.fold[e.sample]];
