@@ -55,15 +55,17 @@ void PrintReport(const v1::RunReport& report, const std::string& out) {
     }
   }
   if (report.light_configurations_size() > 0) {
-    std::printf("\n%-32s %9s %11s %11s %8s\n", "configuration", "triangles", "E_a", "E_d", "seconds");
+    std::printf("\n%-32s %9s %11s %11s %11s %8s\n", "configuration", "triangles", "E_a", "E_d", "held-out", "seconds");
     for (const auto& r : report.light_configurations()) {
-      std::printf("%-32s %9u %11.6f %11.6f %8.2f%s\n", r.name().c_str(), r.lit_triangles(), r.e_a(), r.e_d(),
-                  r.seconds(), r.name() == report.chosen_configuration() ? "  <- chosen" : "");
+      std::printf("%-32s %9u %11.6f %11.6f %11.6f %8.2f%s\n", r.name().c_str(), r.lit_triangles(), r.e_a(), r.e_d(),
+                  r.e_held_out(), r.seconds(), r.name() == report.chosen_configuration() ? "  <- chosen" : "");
     }
   }
   std::printf("\nconfiguration: %s", report.chosen_configuration().c_str());
   if (report.light_configurations_size() > 1) {
-    std::printf(" (the next best E_d is %.1f %% higher)", 100.0 * report.configuration_margin());
+    std::printf(" (the next best %s is %.1f %% higher)",
+                report.configuration_criterion() == "held-out" ? "held-out error" : "E_d",
+                100.0 * report.configuration_margin());
   }
   std::printf("\n");
   if (!report.configuration_warning().empty()) std::printf("warning: %s\n", report.configuration_warning().c_str());

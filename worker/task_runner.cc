@@ -133,6 +133,7 @@ absl::StatusOr<TaskOutput> Sweep(const v1::Task& task, const scene::Sequence& se
   row.SerializeToString(&out.result);
   out.metrics["E_a"] = row.e_a();
   out.metrics["E_d"] = row.e_d();
+  out.metrics["held_out"] = row.e_held_out();
   out.samples_from_cache = gathered.from_cache();
   return out;
 }

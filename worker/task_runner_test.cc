@@ -165,6 +165,7 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
     EXPECT_EQ(report.light_configurations(i).name(), direct->light_configurations(i).name());
     EXPECT_EQ(report.light_configurations(i).e_a(), direct->light_configurations(i).e_a());
     EXPECT_EQ(report.light_configurations(i).e_d(), direct->light_configurations(i).e_d());
+    EXPECT_EQ(report.light_configurations(i).e_held_out(), direct->light_configurations(i).e_held_out());
     EXPECT_EQ(report.light_configurations(i).lit_triangles(), direct->light_configurations(i).lit_triangles());
   }
   EXPECT_EQ(report.chosen_configuration(), direct->chosen_configuration());
@@ -177,6 +178,9 @@ TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
   direct_calibration.clear_cameras_seconds();
   EXPECT_EQ(service_calibration.DebugString(), direct_calibration.DebugString());
   EXPECT_EQ(gather_result.calibration().cameras_mode(), direct_calibration.cameras_mode());
+  EXPECT_EQ(report.configuration_margin_e_d(), direct->configuration_margin_e_d());
+  EXPECT_EQ(report.configuration_criterion(), direct->configuration_criterion());
+  EXPECT_EQ(report.configuration_warning(), direct->configuration_warning());
   EXPECT_EQ(report.plan().DebugString(), direct->plan().DebugString());
   // The same stages: pass 1 reported once (by the gather, which gathered the
   // texel statistics too), the sweep, the fits, pass 2, the atlases.
@@ -294,6 +298,49 @@ TEST_F(TaskRunnerTest, LightTableOnlyEndsWithChoose) {
   ASSERT_EQ(chosen->artifacts.size(), 1u);
   EXPECT_EQ(chosen->artifacts[0].first, "result.json");
   EXPECT_TRUE(fs::exists(chosen->artifacts[0].second));
+}
+
+// Issue #14: the choose task applies --sweep-criterion: the lowest held-out
+// error by default (A), the lowest E_d with e-d (B); the margins of both.
+TEST_F(TaskRunnerTest, ChooseAppliesTheSweepCriterion) {
+  v1::LightConfigurationRow a, b;
+  a.set_name("A");
+  a.set_e_d(2.0);
+  a.set_e_a(1.0);
+  a.set_e_held_out(1.0);
+  b.set_name("B");
+  b.set_e_d(1.0);
+  b.set_e_a(3.0);
+  b.set_e_held_out(1.5);
+  for (const v1::SweepCriterion criterion : {v1::SWEEP_CRITERION_HELD_OUT, v1::SWEEP_CRITERION_E_D}) {
+    v1::SubmitJobRequest request = Request();
+    request.add_outputs(v1::OUTPUT_LIGHT_TABLE);
+    request.mutable_options()->set_sweep_criterion(criterion);
+    v1::Task choose;
+    choose.set_kind("choose");
+    *choose.mutable_request() = request;
+    for (const auto* row : {&a, &b}) {
+      v1::TaskInput* in = choose.add_inputs();
+      in->set_kind("sweep");
+      row->SerializeToString(in->mutable_result());
+    }
+    auto chosen = RunTask(choose, *sequence_, Environment("choose-criterion"));
+    ASSERT_TRUE(chosen.ok()) << chosen.status();
+    v1::RunReport report;
+    ASSERT_TRUE(report.ParseFromString(chosen->result));
+    EXPECT_DOUBLE_EQ(report.configuration_margin_e_d(), 1.0);
+    if (criterion == v1::SWEEP_CRITERION_HELD_OUT) {
+      EXPECT_EQ(report.chosen_configuration(), "A");
+      EXPECT_EQ(report.configuration_criterion(), "held-out");
+      EXPECT_DOUBLE_EQ(report.configuration_margin(), 0.5);
+      EXPECT_EQ(report.configuration_warning(), "");
+    } else {
+      EXPECT_EQ(report.chosen_configuration(), "B");
+      EXPECT_EQ(report.configuration_criterion(), "e-d");
+      EXPECT_DOUBLE_EQ(report.configuration_margin(), 1.0);
+      EXPECT_NE(report.configuration_warning().find("E_a prefers A"), std::string::npos);
+    }
+  }
 }
 
 TEST_F(TaskRunnerTest, BadTasksAreRejectedNamingTheField) {

@@ -119,7 +119,8 @@ TEST(LightSweepTest, FramesWithTheirOwnLightsCountUnderEveryConfiguration) {
 }
 
 TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
-  const samples::SampleSet set = MakeSweepSamples();
+  samples::SampleSet set = MakeSweepSamples();
+  for (size_t i = 0; i < set.size(); ++i) set.frame[i] = static_cast<uint16_t>(i % 6);  // held-out errors too
   absl::StatusOr<SweepResult> one =
       SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions(), 1);
   absl::StatusOr<SweepResult> two =
@@ -133,6 +134,7 @@ TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
     EXPECT_EQ(a.lit_triangles, b.lit_triangles);
     EXPECT_EQ(a.e_a, b.e_a);
     EXPECT_EQ(a.e_d, b.e_d);
+    EXPECT_EQ(a.e_held_out, b.e_held_out);
     for (int c = 0; c < 3; ++c) {
       EXPECT_EQ(a.fit.params[c].kd, b.fit.params[c].kd);
       EXPECT_EQ(a.fit.params[c].ks, b.fit.params[c].ks);
@@ -145,7 +147,8 @@ TEST(LightSweepTest, TwoThreadsGiveIdenticalRows) {
 // working inside it gives the rows of a sweep over all of them — also with a
 // subsampled fit, where E_a is summed over every Sample in chunks.
 TEST(LightSweepTest, OneConfigurationPerCallWithInnerThreadsGivesTheSameRows) {
-  const samples::SampleSet set = MakeSweepSamples();
+  samples::SampleSet set = MakeSweepSamples();
+  for (size_t i = 0; i < set.size(); ++i) set.frame[i] = static_cast<uint16_t>(i % 6);
   for (size_t fit_samples : {size_t{0}, size_t{500}}) {
     absl::StatusOr<SweepResult> all = SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(),
                                                           DiffuseOptions(), 1, fit_samples);
@@ -157,6 +160,8 @@ TEST(LightSweepTest, OneConfigurationPerCallWithInnerThreadsGivesTheSameRows) {
         ASSERT_TRUE(one.ok());
         EXPECT_EQ(one->rows[0].e_a, all->rows[i].e_a) << i << " threads " << threads;
         EXPECT_EQ(one->rows[0].e_d, all->rows[i].e_d) << i << " threads " << threads;
+        EXPECT_EQ(one->rows[0].e_held_out, all->rows[i].e_held_out) << i << " threads " << threads;
+        EXPECT_GT(one->rows[0].e_held_out, 0.0);
         EXPECT_EQ(one->rows[0].lit_triangles, all->rows[i].lit_triangles);
       }
     }
@@ -214,6 +219,103 @@ TEST(LightSweepTest, TiesKeepTheFirstConfiguration) {
       SweepConfigurations(set, kTriangles, same, PhongFitOptions(), DiffuseOptions(), 2);
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->best, 0);
+}
+
+// Issue #14, the held-out error. The generating configuration's is the
+// noise level: sigma^2 (channel mean) times about 1 + 1/n for a kd fitted
+// on n other Samples, where E_d is sigma^2 (1 - 1/n); the wrong ones' are
+// far above it.
+TEST(LightSweepTest, HeldOutErrorIsTheNoiseLevelForTheGeneratingConfiguration) {
+  samples::SampleSet set = MakeSweepSamples();
+  for (size_t i = 0; i < set.size(); ++i) set.frame[i] = static_cast<uint16_t>(i / kTriangles % 10);
+  absl::StatusOr<SweepResult> result =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions());
+  ASSERT_TRUE(result.ok()) << result.status();
+  EXPECT_EQ(result->best, 1);
+  // sigma = 0.02 x the mean reflectance per channel.
+  glm::dvec3 mean(0.0);
+  for (size_t i = 0; i < set.size(); ++i) mean += glm::dvec3(set.reflectance[i]);
+  mean /= static_cast<double>(set.size());
+  const double noise = (0.02 * 0.02) * (mean.x * mean.x + mean.y * mean.y + mean.z * mean.z) / 3.0;
+  const SweepRow& b = result->rows[1];
+  std::printf("MEASURED held-out: noise %.4g, B E_d %.4g held-out %.4g; A %.4g, C %.4g\n", noise, b.e_d, b.e_held_out,
+              result->rows[0].e_held_out, result->rows[2].e_held_out);
+  EXPECT_GT(b.e_held_out, b.e_d);
+  // 100 Samples per triangle, 50 per fold; the median of a chi-square mean sits a little below its mean.
+  EXPECT_NEAR(b.e_held_out, noise, 0.25 * noise);
+  const double margin = std::min(result->rows[0].e_held_out, result->rows[2].e_held_out) / b.e_held_out - 1.0;
+  EXPECT_GT(margin, 1.0);
+}
+
+// Held out by frame blocks; one frame: by cameras; one frame and one camera:
+// nothing held out (0), and the rule is E_d's.
+TEST(LightSweepTest, HeldOutErrorNeedsTwoFramesOrCameras) {
+  samples::SampleSet set = MakeSweepSamples();  // frame 0, camera 0
+  absl::StatusOr<SweepResult> none =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions());
+  ASSERT_TRUE(none.ok());
+  for (const SweepRow& row : none->rows) EXPECT_EQ(row.e_held_out, 0.0) << row.name;
+  EXPECT_EQ(none->best, 1);
+  for (size_t i = 0; i < set.size(); ++i) set.camera[i] = static_cast<uint8_t>(i / kTriangles % 4);
+  absl::StatusOr<SweepResult> cameras =
+      SweepConfigurations(set, kTriangles, kConfigurations, PhongFitOptions(), DiffuseOptions());
+  ASSERT_TRUE(cameras.ok());
+  for (const SweepRow& row : cameras->rows) EXPECT_GT(row.e_held_out, 0.0) << row.name;
+  EXPECT_EQ(cameras->best, 1);
+  // The E_d of a row does not change with the folds.
+  for (size_t r = 0; r < none->rows.size(); ++r) EXPECT_EQ(none->rows[r].e_d, cameras->rows[r].e_d);
+}
+
+// A fifth of the triangles, the brightest, also see light L5 that the
+// generating configuration B lacks (like Samples on a shadow boundary the
+// shadow atlas gets wrong): their errors under B are large, and E_d (a mean
+// over triangles) picks B + L5, which models them but mispredicts every other
+// triangle. The held-out error (a median) picks B, with a wide margin; the
+// criterion decides SweepResult::best.
+TEST(LightSweepTest, HeldOutErrorIsNotDecidedByAFewTriangles) {
+  const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.4, 0.2}, {30, 30, 30});
+  std::vector<glm::vec3> kd_of_element;
+  for (uint32_t t = 0; t < kTriangles; ++t) {
+    kd_of_element.push_back(t % 5 == 0 ? glm::vec3(0.9f) : glm::vec3(0.2f + 0.004f * t, 0.25f, 0.2f));
+  }
+  GeneratorOptions generator;
+  generator.num_samples = 8000;
+  generator.num_lights = 6;
+  generator.true_mask = samples::LightMask::FromBits(0b011100);
+  generator.num_elements = kTriangles;
+  generator.noise = 0.01;
+  samples::SampleSet set = MakeSamples(truth, generator, kd_of_element);
+  for (size_t i = 0; i < set.size(); ++i) {
+    set.frame[i] = static_cast<uint16_t>(i / kTriangles % 8);
+    const uint32_t t = set.element[i];
+    if (t % 5 == 0) set.reflectance[i] += kd_of_element[t] * set.light_intensity[5] * set.GOf(i, 5);
+  }
+  const std::vector<LightConfiguration> configurations = {{"B", {"L2", "L3", "L4"}},
+                                                          {"B+L5", {"L2", "L3", "L4", "L5"}}};
+  absl::StatusOr<SweepResult> held_out =
+      SweepConfigurations(set, kTriangles, configurations, PhongFitOptions(), DiffuseOptions());
+  absl::StatusOr<SweepResult> e_d = SweepConfigurations(set, kTriangles, configurations, PhongFitOptions(),
+                                                        DiffuseOptions(), 1, 0, {}, SweepCriterion::kErrorD);
+  ASSERT_TRUE(held_out.ok() && e_d.ok());
+  for (const SweepRow& row : held_out->rows) {
+    std::printf("MEASURED contaminated %s: E_a %.4g E_d %.4g held-out %.4g\n", row.name.c_str(), row.e_a, row.e_d,
+                row.e_held_out);
+  }
+  EXPECT_EQ(e_d->best, 1);
+  EXPECT_EQ(held_out->best, 0);
+  EXPECT_GT(held_out->rows[1].e_held_out, 1.5 * held_out->rows[0].e_held_out);
+}
+
+TEST(LightSweepTest, PreferConfigurationByCriterion) {
+  const ConfigurationErrors a{1.0, 2.0, 3.0}, b{2.0, 1.0, 4.0};
+  EXPECT_TRUE(PreferConfiguration(SweepCriterion::kHeldOut, a, b));
+  EXPECT_FALSE(PreferConfiguration(SweepCriterion::kHeldOut, b, a));
+  EXPECT_TRUE(PreferConfiguration(SweepCriterion::kErrorD, b, a));
+  EXPECT_FALSE(PreferConfiguration(SweepCriterion::kErrorD, a, b));
+  // Equal held-out errors: E_d, then E_a decide.
+  EXPECT_TRUE(PreferConfiguration(SweepCriterion::kHeldOut, {1.0, 1.0, 3.0}, {1.0, 2.0, 3.0}));
+  EXPECT_TRUE(PreferConfiguration(SweepCriterion::kHeldOut, {1.0, 2.0, 3.0}, {2.0, 2.0, 3.0}));
+  EXPECT_FALSE(PreferConfiguration(SweepCriterion::kHeldOut, {1.0, 2.0, 3.0}, {1.0, 2.0, 3.0}));
 }
 
 TEST(LightSweepTest, UnknownLightIsAnError) {

@@ -13,10 +13,16 @@ namespace mvbrdf::pipeline {
 
 void SweepRowToProto(const fit::SweepRow& row, v1::LightConfigurationRow* out);
 
-// Sets chosen_configuration, configuration_margin (how much higher the next
-// best E_d is) and configuration_warning (when E_a prefers another row) from
-// report->light_configurations(), in their order. FAILED_PRECONDITION when
-// there are no rows.
+// Sets chosen_configuration by the rule of report->options().fitting()
+// .sweep_criterion (fit::PreferConfiguration) among
+// report->light_configurations(), in their order; configuration_criterion
+// ("held-out" or "e-d") and configuration_rule; configuration_margin (how
+// much higher the runner-up's error is by that criterion),
+// configuration_margin_e_d (the same by E_d, for E_d's own pick, as before
+// issue #14) and configuration_warning (held-out: the margin is below
+// fit::kAmbiguousHeldOutMargin; E_d: E_a prefers another row). Rows without
+// held-out errors (all 0: one frame, one camera) are chosen by E_d, with a
+// warning. FAILED_PRECONDITION when there are no rows.
 absl::Status ChooseConfiguration(v1::RunReport* report);
 
 }  // namespace mvbrdf::pipeline

@@ -262,6 +262,8 @@ absl::StatusOr<v1::RunReport> NewRunReport(const scene::Sequence& sequence, cons
   report.set_mvbrdf_version(std::string(MvbrdfVersion()));
   report.set_git_commit(std::string(GitCommit()));
   *report.mutable_options() = options.run_options;
+  // The rule ChooseConfiguration applies (the worker records the same).
+  report.mutable_options()->mutable_fitting()->set_sweep_criterion(options.sweep_criterion);
   report.set_frames(static_cast<uint32_t>(sequence.num_frames));
   report.set_gl_renderer(gl_renderer);
   report.set_configuration_rule("lowest E_d; E_a breaks ties");
@@ -292,6 +294,9 @@ absl::Status CheckMetricsFinite(const v1::RunReport& report) {
   for (const v1::LightConfigurationRow& r : report.light_configurations()) {
     if (!std::isfinite(r.e_a())) return bad(absl::StrCat("light configuration \"", r.name(), "\": E_a"), r.e_a());
     if (!std::isfinite(r.e_d())) return bad(absl::StrCat("light configuration \"", r.name(), "\": E_d"), r.e_d());
+    if (!std::isfinite(r.e_held_out())) {
+      return bad(absl::StrCat("light configuration \"", r.name(), "\": the held-out error"), r.e_held_out());
+    }
   }
   for (const v1::SolverRow& r : report.solvers()) {
     const std::string row = absl::StrCat("cluster \"", r.cluster(), "\" (", r.solver(), "): ");
@@ -422,6 +427,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     report.set_configuration_margin(options.light_table->configuration_margin());
     report.set_configuration_warning(options.light_table->configuration_warning());
     calibrate::CopyLightRefinement(options.light_table->calibration(), report.mutable_calibration());
+    report.set_configuration_criterion(options.light_table->configuration_criterion());
+    report.set_configuration_margin_e_d(options.light_table->configuration_margin_e_d());
+    report.set_configuration_rule(options.light_table->configuration_rule());
     chosen = options.light_table->chosen_configuration();
   } else if (plan.Has(Stage::kLightSweep)) {
     // What the plan sweeps: the request's candidates, else the scene's.

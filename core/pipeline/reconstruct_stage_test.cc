@@ -72,9 +72,11 @@ TEST_F(ReconstructStageTest, RecoversTheGroundTruth) {
   ASSERT_EQ(report->light_configurations_size(), 8);
   for (const auto& row : report->light_configurations()) {
     EXPECT_TRUE(std::isfinite(row.e_a()) && std::isfinite(row.e_d())) << row.name();
+    EXPECT_GT(row.e_held_out(), 0.0) << row.name();
     EXPECT_GT(row.seconds(), 0.0);
   }
   EXPECT_EQ(report->chosen_configuration(), "NE,NW,SE,SW");
+  EXPECT_EQ(report->configuration_criterion(), "held-out");
   // Table 7.1: the correction atlases lower every camera's error.
   ASSERT_EQ(report->cameras_size(), 8);
   for (const auto& row : report->cameras()) {

@@ -52,6 +52,9 @@ v1::RunReport LightTableOf(const v1::RunReport& report) {
   table.set_chosen_configuration(report.chosen_configuration());
   table.set_configuration_margin(report.configuration_margin());
   table.set_configuration_warning(report.configuration_warning());
+  table.set_configuration_criterion(report.configuration_criterion());
+  table.set_configuration_margin_e_d(report.configuration_margin_e_d());
+  table.set_configuration_rule(report.configuration_rule());
   *table.mutable_calibration() = report.calibration();
   for (const v1::StageRow& stage : report.stages()) {
     if (stage.name() == "atlas") continue;

@@ -65,10 +65,15 @@ constexpr char kEa[] =
     "averaged over R, G, B (linear units). Lower is better.";
 constexpr char kEd[] =
     "E_d (thesis Eq. 6.8): mean over triangles of each triangle's mean squared error when it has its own kd, averaged "
-    "over R, G, B (linear units). The configuration with the lowest E_d is chosen (ties by E_a).";
+    "over R, G, B (linear units). With --sweep-criterion e-d the configuration with the lowest E_d is chosen (ties "
+    "by E_a).";
+constexpr char kHeldOut[] =
+    "Held-out error (issue #14): each triangle's kd and one specular lobe fitted on one block of frames, the mean "
+    "squared error measured on the other block (and the other way round); the median over triangles, averaged over "
+    "R, G, B (linear units). The configuration with the lowest held-out error is chosen (the default criterion).";
 constexpr char kTable61[] =
-    "Table 6.1 of the thesis: every candidate light configuration with its lit triangles, E_a and E_d; the lowest "
-    "E_d is chosen.";
+    "Table 6.1 of the thesis: every candidate light configuration with its lit triangles, E_a and E_d, and the "
+    "held-out error; the configuration is chosen by the run's criterion (see the rule).";
 constexpr char kTable62[] =
     "Table 6.2 of the thesis: one Phong BRDF per cluster, fitted by Levenberg-Marquardt and by Powell's method.";
 constexpr char kTable71[] =
@@ -78,8 +83,8 @@ constexpr char kConfiguration[] =
     "Light configuration: a named set of the scene's lights assumed on together (scene lightConfigurations).";
 constexpr char kLitTriangles[] = "Triangles lit by at least one light of the configuration in the Samples used.";
 constexpr char kMargin[] =
-    "Configuration margin: how much higher the second-best E_d is than the chosen one's, relative; small (< 1 %) "
-    "means the choice is uncertain.";
+    "Configuration margin: how much higher the second-best error (by the run's criterion: held-out error or E_d) is "
+    "than the chosen one's, relative; small means the choice is uncertain.";
 constexpr char kKd[] = "kd: diffuse albedo per colour channel, linear, in the scene's intensity units.";
 constexpr char kKs[] = "ks: specular coefficient per colour channel (extended Phong, mirror lobe).";
 constexpr char kKe[] =
@@ -275,7 +280,8 @@ std::string BuildReportHtml(const ReportInputs& in) {
   h +=
       "<p>" + Abbr("Light configuration", term::kConfiguration) + ": <b>" + Escape(run.chosen_configuration()) + "</b>";
   if (run.light_configurations_size() > 1) {
-    h += " (the next best " + Abbr("E_d", term::kEd) + " is " +
+    const bool held_out = run.configuration_criterion() == "held-out";
+    h += " (the next best " + (held_out ? Abbr("held-out error", term::kHeldOut) : Abbr("E_d", term::kEd)) + " is " +
          Abbr(F(100.0 * run.configuration_margin(), "%.1f") + " % higher", term::kMargin) + ")";
   }
   h += ". Rule: " + Escape(run.configuration_rule()) + ".</p>";
@@ -332,15 +338,16 @@ std::string BuildReportHtml(const ReportInputs& in) {
     std::string rows_html = "<table><thead><tr><th title=\"" + Escape(term::kConfiguration) +
                             "\">configuration</th><th title=\"" + Escape(term::kLitTriangles) +
                             "\">lit triangles</th><th title=\"" + Escape(term::kEa) + "\">E_a</th><th title=\"" +
-                            Escape(term::kEd) + "\">E_d</th><th>seconds</th></tr></thead><tbody>";
+                            Escape(term::kEd) + "\">E_d</th><th title=\"" + Escape(term::kHeldOut) +
+                            "\">held-out</th><th>seconds</th></tr></thead><tbody>";
     std::vector<std::string> names;
     BarSeries e_d{"E_d", {}, "#109618"};
     for (const v1::LightConfigurationRow& r : run.light_configurations()) {
       const bool chosen = r.name() == run.chosen_configuration();
       rows_html += std::string(chosen ? "<tr class=\"chosen\">" : "<tr>") + "<td>" + Escape(r.name()) +
                    (chosen ? " ◀" : "") + "</td><td>" + absl::StrCat(r.lit_triangles()) + "</td><td>" +
-                   F(r.e_a(), "%.6f") + "</td><td>" + F(r.e_d(), "%.6f") + "</td><td>" + F(r.seconds(), "%.2f") +
-                   "</td></tr>";
+                   F(r.e_a(), "%.6f") + "</td><td>" + F(r.e_d(), "%.6f") + "</td><td>" + F(r.e_held_out(), "%.6f") +
+                   "</td><td>" + F(r.seconds(), "%.2f") + "</td></tr>";
       names.push_back(r.name());
       e_d.values.push_back(r.e_d());
     }

@@ -79,6 +79,7 @@ ReportInputs SampleInputs() {
     row->set_name(name);
     row->set_e_a(0.003);
     row->set_e_d(std::string(name) == "C" ? 0.005 : 0.0005);
+    row->set_e_held_out(std::string(name) == "C" ? 0.004321 : 0.000123);
     row->set_seconds(0.5);
   }
   for (const char* name : {"atlas", "gather_samples", "light_sweep"}) {
@@ -138,6 +139,9 @@ TEST(ReportPageTest, HasEverySectionAndEscapesText) {
   EXPECT_NE(html.find("E_a prefers &lt;C&gt;"), std::string::npos);
   EXPECT_NE(html.find("the mesh has UVs"), std::string::npos);
   EXPECT_NE(html.find("class=\"chosen\""), std::string::npos);
+  // Table 6.1's held-out column (issue #14).
+  EXPECT_NE(html.find("<td>0.004321</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>0.000123</td>"), std::string::npos);
   EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org"));  // nothing fetched from the network
   EXPECT_EQ(html.find("src=\"http"), std::string::npos);
 }
@@ -151,7 +155,8 @@ TEST(ReportPageTest, TermsHaveEscapedTooltips) {
        {"<th title=\"E_a (thesis Eq. 6.7)", "<th title=\"E_d (thesis Eq. 6.8)", "<abbr title=\"Table 6.1 of the thesis",
         "<abbr title=\"Table 6.2 of the thesis", "<abbr title=\"Table 7.1 of the thesis",
         "<th title=\"kd: diffuse albedo", "<th title=\"ks: specular", "<th title=\"ke: specular exponent",
-        "<th title=\"Samples: ", "<th title=\"Flags: why", "<abbr title=\"Configuration margin", "docs/glossary.md"}) {
+        "<th title=\"Samples: ", "<th title=\"Flags: why", "<abbr title=\"Configuration margin", "docs/glossary.md",
+        "<th title=\"Held-out error (issue #14)"}) {
     EXPECT_NE(html.find(term), std::string::npos) << term;
   }
   // Every title attribute holds escaped text only: "< 0.5 %" in the flags'
