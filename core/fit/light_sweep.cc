@@ -113,6 +113,8 @@ absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_tri
   const DiffuseSolution diffuse =
       SolveDiffuse(set, selection, row->fit.params, num_triangles, diffuse_options, threads);
   row->e_d = diffuse.mean_element_mse;
+  row->triangle_kd_scale = diffuse.robust_scale;
+  row->triangle_kd_outliers = diffuse.outlier_fraction;
   row->lit_triangles = CountLitTriangles(set, selection, num_triangles);
   row->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return absl::OkStatus();
