@@ -13,6 +13,10 @@ std::string TriangleSampleOptions(const v1::SubmitJobRequest& request) {
   std::string text = absl::StrCat("triangle-samples/v2;atlas_size=", atlas_size, ";sweep_frame_stride=",
                                   options.sweep_frame_stride() == 0 ? std::string("auto")
                                                                     : absl::StrCat(options.sweep_frame_stride()));
+  // Issue #14: the resampler's reliability criteria change the Samples
+  // (named only when set, so that earlier entries stay valid).
+  if (options.edge_margin_pixels() > 0.0) absl::StrAppend(&text, ";edge_margin=", options.edge_margin_pixels());
+  if (options.gradient_rejection() > 0.0) absl::StrAppend(&text, ";gradient_rejection=", options.gradient_rejection());
   // Empty and "scene.json" name the same file (BundleArea::UnpackedScene).
   if (!request.scene_path().empty() && request.scene_path() != "scene.json") {
     absl::StrAppend(&text, ";scene_path=", request.scene_path());
