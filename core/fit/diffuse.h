@@ -73,6 +73,7 @@ class DiffuseAccumulator {
   // diffuse information; zero when empty.
   DiffuseSolution Solve(const DiffuseOptions& options, const std::vector<glm::vec3>& fallback = {}) const;
   size_t num_elements() const { return count_.size(); }
+  uint32_t count(uint32_t element) const { return count_[element]; }
   // The data's scale per channel (DiffuseOptions): g2 = mean G^2 of an
   // observation, albedo = sqrt(sum S_rr / sum S_gg); 1 where undefined.
   struct DataScale {
