@@ -47,8 +47,10 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
                   "kd; off: least squares");
   flags.AddString("--edge-margin PIXELS", &job->edge_margin,
                   "observations this close to a silhouette or depth discontinuity are rejected (0: none)");
-  flags.AddString("--gradient-rejection X", &job->gradient_rejection,
-                  "observations on steep image gradients are rejected (0: none)");
+  flags.AddString(
+      "--gradient-rejection X", &job->gradient_rejection,
+      "observations on steep image gradients are rejected: |grad I| x 1 pixel / the local mean of I above X "
+      "(unit-free; 0: none)");
   flags.AddString("--sweep-criterion NAME", &job->sweep_criterion,
                   "held-out (kd fitted on some frames, error measured on the others) or e-d (the thesis's E_d)");
   flags.AddString("--cluster-smoothness X", &job->cluster_smoothness,

@@ -139,6 +139,8 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
     o.refine_frames = static_cast<int>(f.refine_frames());
   }
   if (f.has_robust()) o.robust = f.robust();
+  // The service's sweep tasks fit with o.fit and o.diffuse directly.
+  o.fit.robust = o.diffuse.robust = pipeline::RobustFitOf(o.robust);
   if (f.has_edge_margin_pixels()) {
     MVBRDF_RETURN_IF_ERROR(CheckFiniteNonNegative("options.edge_margin_pixels", f.edge_margin_pixels(),
                                                   "a finite number >= 0 (pixels)"));
@@ -149,6 +151,8 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
         CheckFiniteNonNegative("options.gradient_rejection", f.gradient_rejection(), "a finite number >= 0"));
     o.gradient_rejection = f.gradient_rejection();
   }
+  o.resampler.edge_margin_pixels = o.edge_margin_pixels;
+  o.resampler.gradient_rejection = o.gradient_rejection;
   if (!v1::SweepCriterion_IsValid(f.sweep_criterion())) {
     return absl::InvalidArgumentError("options.sweep_criterion: expected HELD_OUT or E_D");
   }

@@ -357,7 +357,9 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
     }
     solver.linear_solver_ordering = ordering;
     solver.max_num_iterations = 15;
-    solver.num_threads = std::max(1, options.threads);
+    // One thread: the same cameras on every path and worker (the service's
+    // gather and --direct agreed only to 1e-15 with options.threads).
+    solver.num_threads = 1;
     solver.logging_type = ceres::SILENT;
     std::vector<CameraOffsets> before = offsets;
     ceres::Solver::Summary summary;
@@ -380,7 +382,7 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
   ceres::Covariance::Options covariance_options;
   covariance_options.algorithm_type = ceres::DENSE_SVD;
   covariance_options.null_space_rank = -1;
-  covariance_options.num_threads = std::max(1, options.threads);
+  covariance_options.num_threads = 1;
   ceres::Covariance covariance(covariance_options);
   std::vector<std::pair<const double*, const double*>> blocks;
   for (CameraOffsets& o : offsets) {

@@ -31,6 +31,10 @@ void Require(bool condition, const char* message) {
   }
 }
 
+// Elements with fewer observations say little about the residual scale (one
+// observation fits exactly).
+constexpr double kMinScaleObservations = 3.0;
+
 }  // namespace
 
 DiffuseAccumulator::DiffuseAccumulator(size_t num_elements)
@@ -116,64 +120,150 @@ DiffuseSolution DiffuseAccumulator::Solve(const DiffuseOptions& options, const s
   return solution;
 }
 
+void DiffuseAccumulator::Rescore(DiffuseSolution* solution) const {
+  Require(solution->kd.size() == count_.size(), "DiffuseAccumulator::Rescore: element counts differ");
+  double mse_sum = 0.0;
+  solution->elements_with_samples = 0;
+  for (size_t e = 0; e < count_.size(); ++e) {
+    solution->samples[e] = count_[e];
+    if (count_[e] == 0) continue;
+    double sse = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const double kd = solution->kd[e][c];
+      sse += std::max(0.0, s_rr_[e][c] - 2.0 * kd * s_rg_[e][c] + kd * kd * s_gg_[e][c]);
+    }
+    const double mse = sse / (3.0 * count_[e]);
+    solution->mse[e] = static_cast<float>(mse);
+    mse_sum += mse;
+    ++solution->elements_with_samples;
+  }
+  solution->mean_element_mse = solution->elements_with_samples > 0 ? mse_sum / solution->elements_with_samples : 0.0;
+}
+
 DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::LightSelection& mask,
                              const PhongRgb& specular, size_t num_elements, const DiffuseOptions& options,
                              int threads) {
   const size_t num_lights = static_cast<size_t>(set.num_lights());
   std::vector<uint8_t> in_mask(num_lights, 0);
   for (size_t k = 0; k < num_lights; ++k) in_mask[k] = mask.config.Test(k) ? 1 : 0;
-  DiffuseAccumulator accumulator(num_elements);
   const bool same_exponent = specular[0].ke == specular[1].ke && specular[0].ke == specular[2].ke;
   const glm::dvec3 ks(specular[0].ks, specular[1].ks, specular[2].ks);
-  // Thread t takes a contiguous block of elements (no shared cache lines in
-  // the accumulator), each element's Samples in their order: the sums, and so
-  // the solution, are those of one thread bit for bit.
-  const uint32_t parts = static_cast<uint32_t>(std::clamp(threads, 1, 64));
-  const size_t block = (num_elements + parts - 1) / parts;
-  const auto work = [&](uint32_t part, uint32_t) {
-    const size_t first = static_cast<size_t>(part) * block, last = std::min(num_elements, first + block);
-    for (size_t i = 0; i < set.size(); ++i) {
-      const uint32_t element = set.element[i];
-      if (element < first || element >= last) continue;  // not part of this solve / thread
-      const glm::vec3& r = set.reflectance[i];
-      if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z)) continue;
-      glm::dvec3 illumination(0.0), spec(0.0);
-      bool finite = true;
-      const bool own = mask.Own(set.frame[i]);  // every term counts
-      for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
-        const int k = set.light[j];
-        if (!own && !in_mask[static_cast<size_t>(k)]) continue;
-        if (!std::isfinite(set.g[j]) || !std::isfinite(set.h[j])) {
-          finite = false;
-          break;
-        }
-        const double g = internal::ClampedCosine(set.g[j]);
-        if (g == 0.0) continue;
-        const double h = internal::ClampedHighlight(g, set.h[j]);
-        const glm::dvec3 intensity(set.light_intensity[k]);
-        illumination += intensity * g;
-        if (h > 0.0) {
-          // Fall-off is folded into g but not into h (SampleSet::falloff).
-          const double a = set.TermFalloff(j);
-          if (same_exponent) {
-            spec += a * intensity * internal::SpecularPower(h, specular[0].ke);
-          } else {
-            for (int c = 0; c < 3; ++c) spec[c] += a * intensity[c] * internal::SpecularPower(h, specular[c].ke);
-          }
+  // Sample i's r - s and G; false where it is not finite.
+  const auto observation = [&](size_t i, glm::vec3* residual, glm::vec3* illumination_out) {
+    const glm::vec3& r = set.reflectance[i];
+    if (!std::isfinite(r.x) || !std::isfinite(r.y) || !std::isfinite(r.z)) return false;
+    glm::dvec3 illumination(0.0), spec(0.0);
+    const bool own = mask.Own(set.frame[i]);  // every term counts
+    for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+      const int k = set.light[j];
+      if (!own && !in_mask[static_cast<size_t>(k)]) continue;
+      if (!std::isfinite(set.g[j]) || !std::isfinite(set.h[j])) return false;
+      const double g = internal::ClampedCosine(set.g[j]);
+      if (g == 0.0) continue;
+      const double h = internal::ClampedHighlight(g, set.h[j]);
+      const glm::dvec3 intensity(set.light_intensity[k]);
+      illumination += intensity * g;
+      if (h > 0.0) {
+        // Fall-off is folded into g but not into h (SampleSet::falloff).
+        const double a = set.TermFalloff(j);
+        if (same_exponent) {
+          spec += a * intensity * internal::SpecularPower(h, specular[0].ke);
+        } else {
+          for (int c = 0; c < 3; ++c) spec[c] += a * intensity[c] * internal::SpecularPower(h, specular[c].ke);
         }
       }
-      if (!finite) continue;
-      accumulator.Add(element, glm::vec3(glm::dvec3(r) - ks * spec), glm::vec3(illumination));
+    }
+    *residual = glm::vec3(glm::dvec3(r) - ks * spec);
+    *illumination_out = glm::vec3(illumination);
+    return true;
+  };
+  // Thread t takes a contiguous block of elements (no shared cache lines in
+  // the accumulator), each element's Samples in their order: the sums, and so
+  // the solution, are those of one thread bit for bit. `weight` (robust
+  // passes): per sample and channel the IRLS weight, folded in as sqrt(w).
+  const uint32_t parts = static_cast<uint32_t>(std::clamp(threads, 1, 64));
+  const size_t block = (num_elements + parts - 1) / parts;
+  const auto accumulate = [&](const std::vector<glm::vec3>* weight) {
+    DiffuseAccumulator accumulator(num_elements);
+    const auto work = [&](uint32_t part) {
+      const size_t first = static_cast<size_t>(part) * block, last = std::min(num_elements, first + block);
+      for (size_t i = 0; i < set.size(); ++i) {
+        const uint32_t element = set.element[i];
+        if (element < first || element >= last) continue;  // not part of this solve / thread
+        glm::vec3 d, g;
+        if (!observation(i, &d, &g)) continue;
+        if (weight != nullptr) {
+          const glm::vec3 root = glm::sqrt((*weight)[i]);
+          d *= root;
+          g *= root;
+        }
+        accumulator.Add(element, d, g);
+      }
+    };
+    if (parts == 1) {
+      work(0);
+    } else {
+      std::vector<std::thread> pool;
+      for (uint32_t t = 0; t < parts; ++t) pool.emplace_back(work, t);
+      for (std::thread& t : pool) t.join();
+    }
+    return accumulator;
+  };
+  const DiffuseAccumulator plain = accumulate(nullptr);
+  DiffuseSolution solution = plain.Solve(options);
+  if (!options.robust.enabled()) return solution;
+
+  // Residuals of the least-squares kd; sigma per channel over all of them.
+  std::vector<glm::vec3> residual(set.size(), glm::vec3(0.0f));
+  std::vector<uint8_t> valid(set.size(), 0);
+  const auto residuals = [&](const DiffuseSolution& at) {
+    for (size_t i = 0; i < set.size(); ++i) {
+      glm::vec3 d, g;
+      const uint32_t element = set.element[i];
+      valid[i] = element < num_elements && observation(i, &d, &g) ? 1 : 0;
+      if (valid[i]) residual[i] = d - at.kd[element] * g;
     }
   };
-  if (parts == 1) {
-    work(0, 1);
-  } else {
-    std::vector<std::thread> pool;
-    for (uint32_t t = 0; t < parts; ++t) pool.emplace_back(work, t, parts);
-    for (std::thread& t : pool) t.join();
+  residuals(solution);
+  glm::dvec3 sigma(0.0);
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double> values;
+    values.reserve(set.size());
+    for (size_t i = 0; i < set.size(); ++i) {
+      // Elements with n >= 3 observations; a least-squares residual is
+      // sqrt((n - 1) / n) of the noise's on average (one parameter fitted).
+      const double n = valid[i] ? solution.samples[set.element[i]] : 0.0;
+      if (n >= kMinScaleObservations) values.push_back(residual[i][c] * std::sqrt(n / (n - 1.0)));
+    }
+    sigma[c] = MadScale(&values);
   }
-  return accumulator.Solve(options);
+  solution.robust_scale = sigma;
+  if (!(sigma.x > 0.0 && sigma.y > 0.0 && sigma.z > 0.0)) return solution;  // an exact fit
+  std::vector<glm::vec3> weight(set.size(), glm::vec3(1.0f));
+  for (int it = 0; it < options.robust.iterations; ++it) {
+    for (size_t i = 0; i < set.size(); ++i) {
+      if (!valid[i]) continue;
+      for (int c = 0; c < 3; ++c) weight[i][c] = static_cast<float>(options.robust.Weight(residual[i][c] / sigma[c]));
+    }
+    DiffuseSolution next = accumulate(&weight).Solve(options);
+    next.robust_scale = solution.robust_scale;
+    next.outlier_fraction = solution.outlier_fraction;
+    solution = std::move(next);
+    residuals(solution);
+  }
+  // Outliers: observations beyond 3 sigma of the final kd (any channel counts once per channel).
+  size_t outliers = 0, observations = 0;
+  for (size_t i = 0; i < set.size(); ++i) {
+    if (!valid[i]) continue;
+    for (int c = 0; c < 3; ++c) {
+      ++observations;
+      outliers += std::fabs(residual[i][c]) > 3.0 * sigma[c] ? 1 : 0;
+    }
+  }
+  solution.outlier_fraction =
+      observations > 0 ? static_cast<double>(outliers) / static_cast<double>(observations) : 0.0;
+  plain.Rescore(&solution);
+  return solution;
 }
 
 }  // namespace mvbrdf::fit

@@ -39,6 +39,12 @@ struct DiffuseOptions {
   // mislabelled (shadow-boundary) light, with tiny S_gg, is held near the
   // cluster's kd instead of running to kd_max.
   double prior_weight = 0.0;
+  // Robust loss (issue #14, SolveDiffuse): sigma per channel from the
+  // residuals of the least-squares kd of every element (one scale for all
+  // elements: a triangle or texel has too few Samples for its own), then
+  // IRLS. The errors (mse, E_d) stay plain mean squared errors of the final
+  // kd, so they compare with least-squares ones.
+  RobustOptions robust;
 };
 
 struct DiffuseSolution {
@@ -49,6 +55,10 @@ struct DiffuseSolution {
   // Thesis E_d (Eq. 6.8): mean over elements with samples of their mse.
   double mean_element_mse = 0.0;
   uint32_t elements_with_samples = 0;
+  // Robust solves: sigma per channel (units of the reflectance) and the
+  // fraction of observations beyond 3 sigma (of all channels).
+  glm::dvec3 robust_scale{0.0};
+  double outlier_fraction = 0.0;
 };
 
 // Accumulates per element: S_gg, S_rg, S_rr per channel, and the count.
@@ -63,12 +73,27 @@ class DiffuseAccumulator {
   // diffuse information; zero when empty.
   DiffuseSolution Solve(const DiffuseOptions& options, const std::vector<glm::vec3>& fallback = {}) const;
   size_t num_elements() const { return count_.size(); }
+  uint32_t count(uint32_t element) const { return count_[element]; }
   // The data's scale per channel (DiffuseOptions): g2 = mean G^2 of an
   // observation, albedo = sqrt(sum S_rr / sum S_gg); 1 where undefined.
   struct DataScale {
     glm::dvec3 g2{1.0}, albedo{1.0};
   };
   DataScale ScaleOf() const;
+  // The plain sums' errors (mse, E_d) of `kd` (e.g. a robust solve's) in
+  // place of those of `solution`'s own kd.
+  void Rescore(DiffuseSolution* solution) const;
+  // Element e's estimate so far, per channel (S_rg + lambda prior) /
+  // (S_gg + lambda); `prior` where there is nothing yet (issue #14: the
+  // reference of a streamed robust pass).
+  glm::dvec3 Running(uint32_t element, const glm::vec3& prior, const glm::dvec3& lambda) const {
+    glm::dvec3 out;
+    for (int c = 0; c < 3; ++c) {
+      const double den = s_gg_[element][c] + lambda[c];
+      out[c] = den > 0.0 ? (s_rg_[element][c] + lambda[c] * prior[c]) / den : prior[c];
+    }
+    return out;
+  }
 
  private:
   std::vector<glm::dvec3> s_gg_, s_rg_, s_rr_;

@@ -409,6 +409,8 @@ absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_tri
       SolveDiffuse(set, selection, row->fit.params, num_triangles, diffuse_options, threads);
   row->e_d = diffuse.mean_element_mse;
   row->e_held_out = HeldOutError(set, selection, held_out, num_triangles, fit_options, diffuse_options, threads);
+  row->triangle_kd_scale = diffuse.robust_scale;
+  row->triangle_kd_outliers = diffuse.outlier_fraction;
   row->lit_triangles = CountLitTriangles(set, selection, num_triangles);
   row->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return absl::OkStatus();

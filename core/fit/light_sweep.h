@@ -69,6 +69,10 @@ struct SweepRow {
   double e_d = 0.0;            // Eq. 6.8
   double e_held_out = 0.0;     // the held-out error (above); 0 without two frames or cameras
   PhongFitResult fit;          // the average BRDF
+  // Robust fits (issue #14): the per-triangle kd's residual scale (per
+  // channel) and outlier fraction (DiffuseSolution); 0 for least squares.
+  glm::dvec3 triangle_kd_scale{0.0};
+  double triangle_kd_outliers = 0.0;
   double seconds = 0.0;
 };
 

@@ -12,12 +12,13 @@ void EvaluatePhongResiduals(const PhongChannelData& data, size_t begin, size_t e
     double s, d;
     SpecularSums(data, i, ke, &s, &d);
     const double g = data.diffuse[i];
-    residuals[i - begin] = data.r[i] - (a * g + b * s);
+    const double w = data.sqrt_weight.empty() ? 1.0 : data.sqrt_weight[i];
+    residuals[i - begin] = w * (data.r[i] - (a * g + b * s));
     if (jacobian != nullptr) {
       double* row = jacobian + 3 * (i - begin);
-      row[0] = -g;
-      row[1] = -s;
-      row[2] = -b * d * ke;
+      row[0] = -w * g;
+      row[1] = -w * s;
+      row[2] = -w * b * d * ke;
     }
   }
 }

@@ -60,6 +60,9 @@ struct PhongChannelData {
   std::vector<double> weight;   // w per light slot
   std::vector<double> r;        // r_i
   std::vector<double> diffuse;  // G_i
+  // Optional (robust fits, IRLS): sqrt(w_i), multiplying rho_i and its
+  // Jacobian row, so that C(x) = 1/2 sum_i w_i rho_i^2. Empty: w_i = 1.
+  std::vector<double> sqrt_weight;
   size_t size() const { return r.size(); }
 };
 

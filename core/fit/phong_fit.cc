@@ -145,7 +145,7 @@ class PowellPhongCost {
     double sum = 0.0;
     for (size_t i = 0; i < data_.size(); ++i) {
       const double rho = data_.r[i] - x[0] * data_.diffuse[i] - x[1] * specular_[i];
-      sum += rho * rho;
+      sum += data_.sqrt_weight.empty() ? rho * rho : data_.sqrt_weight[i] * data_.sqrt_weight[i] * rho * rho;
     }
     return 0.5 * sum;
   }
@@ -277,6 +277,37 @@ void InitialSpecular(const PhongChannelData& data, bool kd_free, const double* l
   }
 }
 
+// IRLS after the least-squares solve at x: sigma from the residuals at x
+// (1.4826 MAD, normalised units), then `robust.iterations` solves from the
+// previous one with the loss's weights at the current residuals. The weights
+// are cleared afterwards, so the costs reported are plain sums of squares.
+template <typename Solve>
+void RobustRefit(const RobustOptions& robust, const Solve& solve, double* x, double r_scale, PhongChannelData* data,
+                 ChannelFitSummary* summary) {
+  const size_t n = data->size();
+  std::vector<double> rho(n), scratch;
+  internal::EvaluatePhongResiduals(*data, 0, n, x, rho.data(), nullptr);
+  scratch = rho;
+  const double sigma = MadScale(&scratch);
+  summary->robust_scale = sigma * r_scale;
+  if (!(sigma > 0.0) || !std::isfinite(sigma)) return;  // an exact fit: nothing to down-weight
+  data->sqrt_weight.resize(n);
+  int iterations = summary->iterations;
+  for (int it = 0; it < robust.iterations; ++it) {
+    for (size_t i = 0; i < n; ++i) data->sqrt_weight[i] = std::sqrt(robust.Weight(rho[i] / sigma));
+    solve();
+    iterations += summary->iterations;
+    data->sqrt_weight.clear();
+    internal::EvaluatePhongResiduals(*data, 0, n, x, rho.data(), nullptr);
+    data->sqrt_weight.resize(n);
+  }
+  data->sqrt_weight.clear();
+  summary->iterations = iterations;
+  size_t outliers = 0;
+  for (double v : rho) outliers += std::fabs(v) > 3.0 * sigma ? 1 : 0;
+  summary->outlier_fraction = static_cast<double>(outliers) / static_cast<double>(std::max<size_t>(n, 1));
+}
+
 ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int c, const PhongFitOptions& options) {
   ChannelOutcome out;
   const size_t n = prep.used.size();
@@ -360,12 +391,16 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   const double x0[3] = {x[0], x[1], x[2]};
 
   out.summary.initial_cost = PhongCost(data, x) * r_scale * r_scale;
-  if (n > 0 && (kd_free || specular_free)) {
+  const auto solve = [&]() {
     if (options.solver == Solver::kPowell) {
       SolvePowell(data, free, lower, upper, options, x, &out.summary);
     } else {
       SolveLevenbergMarquardt(data, free, lower, upper, options, x, &out.summary);
     }
+  };
+  if (n > 0 && (kd_free || specular_free)) {
+    solve();
+    if (options.robust.enabled()) RobustRefit(options.robust, solve, x, r_scale, &data, &out.summary);
   }
   bool finite = true;
   for (int j = 0; j < 3; ++j) finite = finite && std::isfinite(x[j]);
@@ -396,6 +431,61 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
 }
 
 }  // namespace
+
+const char* RobustLossName(RobustLoss loss) {
+  switch (loss) {
+    case RobustLoss::kNone:
+      return "least-squares";
+    case RobustLoss::kHuber:
+      return "huber";
+    case RobustLoss::kCauchy:
+      return "cauchy";
+  }
+  return "unknown";
+}
+
+double RobustOptions::Tuning() const {
+  if (tuning > 0.0) return tuning;
+  return loss == RobustLoss::kCauchy ? 2.385 : 1.345;
+}
+
+double RobustOptions::Weight(double standardised) const {
+  const double u = std::fabs(standardised) / Tuning();
+  switch (loss) {
+    case RobustLoss::kNone:
+      return 1.0;
+    case RobustLoss::kHuber:
+      return u <= 1.0 ? 1.0 : 1.0 / u;
+    case RobustLoss::kCauchy:
+      return 1.0 / (1.0 + u * u);
+  }
+  return 1.0;
+}
+
+absl::Status RobustOptions::Check() const {
+  if (!std::isfinite(tuning) || tuning < 0.0) {
+    return absl::InvalidArgumentError(absl::StrCat("robust.tuning: must be >= 0, got ", tuning));
+  }
+  if (iterations < 0 || iterations > 100) {
+    return absl::InvalidArgumentError(absl::StrCat("robust.iterations: must be in [0, 100], got ", iterations));
+  }
+  return absl::OkStatus();
+}
+
+double MadScale(std::vector<double>* x) {
+  if (x->empty()) return 0.0;
+  const auto median = [](std::vector<double>* v) {
+    const size_t mid = v->size() / 2;
+    std::nth_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(mid), v->end());
+    double m = (*v)[mid];
+    if (v->size() % 2 == 0)
+      m = 0.5 * (m + *std::max_element(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(mid)));
+    return m;
+  };
+  const double m = median(x);
+  for (double& v : *x) v = std::fabs(v - m);
+  return 1.4826 * median(x);
+}
 
 const char* SolverName(Solver solver) {
   switch (solver) {
@@ -433,7 +523,7 @@ absl::Status PhongFitOptions::Check() const {
   if (min_highlight_samples < 0) {
     return absl::InvalidArgumentError(absl::StrCat("min_highlight_samples: must be >= 0, got ", min_highlight_samples));
   }
-  return absl::OkStatus();
+  return robust.Check();
 }
 
 absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<uint32_t>& indices,

@@ -35,6 +35,31 @@ using PhongRgb = std::array<PhongChannel, 3>;
 enum class Solver { kLevenbergMarquardt, kPowell };
 const char* SolverName(Solver solver);
 
+// Robust loss of the fits (issue #14): the residual scale sigma is estimated
+// from the data (1.4826 x the median absolute deviation of the residuals of a
+// first least-squares pass, so it is in the data's own units and nothing
+// assumes a scale), then the fit is repeated by iteratively reweighted least
+// squares with the weights of the loss at u = residual / (c sigma):
+//   Huber:  w = min(1, 1 / |u|)          (c = 1.345: 95 % efficiency)
+//   Cauchy: w = 1 / (1 + u^2)            (c = 2.385: 95 % efficiency)
+enum class RobustLoss { kNone, kHuber, kCauchy };
+const char* RobustLossName(RobustLoss loss);
+
+// How the loss is applied; shared by FitPhong and the diffuse solves.
+struct RobustOptions {
+  RobustLoss loss = RobustLoss::kNone;  // kNone: least squares
+  double tuning = 0.0;                  // c in units of sigma; 0: the loss's 95 % efficiency constant
+  int iterations = 3;                   // reweightings after the least-squares pass
+  bool enabled() const { return loss != RobustLoss::kNone; }
+  double Tuning() const;
+  // The IRLS weight of a residual of `residual / sigma` standard deviations.
+  double Weight(double standardised) const;
+  absl::Status Check() const;
+};
+
+// sigma = 1.4826 median |x - median x| (0 for no values); `x` is reordered.
+double MadScale(std::vector<double>* x);
+
 struct PhongFitOptions {
   Solver solver = Solver::kLevenbergMarquardt;
   int max_iterations = 100;
@@ -60,6 +85,8 @@ struct PhongFitOptions {
   // have a highlight cosine above `highlight_cosine`.
   int min_highlight_samples = 10;
   double highlight_cosine = 0.5;
+  // Robust loss (issue #14); least squares by default.
+  RobustOptions robust;
 
   absl::Status Check() const;
 };
@@ -71,9 +98,9 @@ enum FitFlag : uint32_t {
   kKsKeNotIdentifiable = 1u << 0,  // no (or too few) samples in a highlight
   kKdNotIdentifiable = 1u << 1,    // no sample with diffuse illumination
   kNoSamples = 1u << 2,
-  kNonFiniteInput = 1u << 3,       // some samples were NaN/inf and were skipped
+  kNonFiniteInput = 1u << 3,  // some samples were NaN/inf and were skipped
   kDidNotConverge = 1u << 4,
-  kAtBound = 1u << 5,              // a parameter ended on its bound
+  kAtBound = 1u << 5,  // a parameter ended on its bound
 };
 
 struct ChannelFitSummary {
@@ -81,6 +108,10 @@ struct ChannelFitSummary {
   double final_cost = 0.0;
   int iterations = 0;
   uint32_t flags = kFitOk;
+  // Robust fits: the residual scale sigma (units of the reflectance) and the
+  // fraction of Samples whose final residual is beyond 3 sigma.
+  double robust_scale = 0.0;
+  double outlier_fraction = 0.0;
 };
 
 struct PhongFitResult {

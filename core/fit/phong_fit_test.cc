@@ -468,6 +468,77 @@ TEST(FitPhongTest, NoiseUpToTenPercent) {
   }
 }
 
+// Issue #14: 10 % of the Samples replaced by outliers (misregistered pixels:
+// the reflectance of another surface, 0 to 4 x the mean reflectance) over 1 %
+// Gaussian noise. Least squares is pulled off the truth; the robust fits, with
+// a scale estimated from the data, recover it; the scale is that of the noise.
+TEST(FitPhongTest, RobustLossRecoversTheTruthDespiteOutliers) {
+  const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {40, 40, 40});
+  GeneratorOptions generator;
+  generator.num_samples = 20000;
+  generator.noise = 0.01;
+  SampleSet set = MakeSamples(truth, generator);
+  glm::dvec3 mean(0.0);
+  for (const glm::vec3& r : set.reflectance) mean += glm::dvec3(r);
+  mean /= static_cast<double>(set.size());
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  for (size_t i = 0; i < set.size(); ++i) {
+    if (u01(rng) >= 0.1) continue;
+    const double f = 4.0 * u01(rng);
+    set.reflectance[i] = glm::vec3(mean * f);
+  }
+  const PhongFitResult ls = Fit(set, kAllFour, PhongFitOptions());
+  const Errors e_ls = WorstErrors(ls.params, truth);
+  Report("10 % outliers, least squares", e_ls);
+  EXPECT_GT(e_ls.kd, 0.05);  // least squares is not robust
+  for (RobustLoss loss : {RobustLoss::kHuber, RobustLoss::kCauchy}) {
+    PhongFitOptions options;
+    options.robust.loss = loss;
+    const PhongFitResult robust = Fit(set, kAllFour, options);
+    const Errors e = WorstErrors(robust.params, truth);
+    Report(std::string("10 % outliers, ") + RobustLossName(loss), e);
+    EXPECT_LT(e.kd, 0.5 * e_ls.kd) << RobustLossName(loss);
+    for (int c = 0; c < 3; ++c) {
+      // sigma of the inliers' noise is 0.01 x the mean; MAD of the biased
+      // least-squares residuals with 10 % outliers reads up to a few times more.
+      EXPECT_GT(robust.channels[c].robust_scale, 0.5 * 0.01 * mean[c]) << c;
+      EXPECT_LT(robust.channels[c].robust_scale, 6.0 * 0.01 * mean[c]) << c;
+      EXPECT_GT(robust.channels[c].outlier_fraction, 0.05) << c;
+      EXPECT_LT(robust.channels[c].outlier_fraction, 0.15) << c;
+    }
+    if (loss == RobustLoss::kCauchy) {
+      EXPECT_LT(e.kd, kNoisyKdTolerance);
+      EXPECT_LT(e.ks, kNoisyKsTolerance);
+      EXPECT_LT(e.ke, kNoisyKeTolerance);
+    }
+    // Unit-free: lights x 1000 give kd, ks / 1000, the same ke.
+    SampleSet scaled = set;
+    for (glm::vec3& intensity : scaled.light_intensity) intensity *= 1000.0f;
+    const PhongFitResult s = Fit(scaled, kAllFour, options);
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(s.params[c].kd * 1000.0, robust.params[c].kd, 1e-4 * robust.params[c].kd) << c;
+      EXPECT_NEAR(s.params[c].ke, robust.params[c].ke, 1e-3 * robust.params[c].ke) << c;
+    }
+  }
+}
+
+TEST(RobustOptionsTest, WeightsAndMadScale) {
+  RobustOptions huber{RobustLoss::kHuber, 1.0, 3};
+  EXPECT_EQ(huber.Weight(0.5), 1.0);
+  EXPECT_DOUBLE_EQ(huber.Weight(-4.0), 0.25);
+  RobustOptions cauchy{RobustLoss::kCauchy, 2.0, 3};
+  EXPECT_DOUBLE_EQ(cauchy.Weight(2.0), 0.5);
+  EXPECT_EQ(RobustOptions().Weight(100.0), 1.0);
+  std::vector<double> x = {1.0, 2.0, 3.0, 4.0, 100.0};  // median 3, |x - 3| median 1
+  EXPECT_DOUBLE_EQ(MadScale(&x), 1.4826);
+  std::vector<double> even = {1.0, 2.0, 4.0, 5.0};  // median 3, deviations 1 1 2 2 -> 1.5
+  EXPECT_DOUBLE_EQ(MadScale(&even), 1.4826 * 1.5);
+  PhongFitOptions bad;
+  bad.robust.tuning = -1.0;
+  EXPECT_FALSE(bad.Check().ok());
+}
+
 TEST(FitPhongTest, LevenbergMarquardtAndPowellAgree) {
   for (double ke : {3.0, 40.0, 1000.0}) {
     const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {ke, ke, ke});

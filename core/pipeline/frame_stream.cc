@@ -52,6 +52,8 @@ absl::Status FrameStream::SetFrame(int t) {
 
 absl::StatusOr<cv::Mat> FrameStream::Resample(int camera) {
   MVBRDF_ASSIGN_OR_RETURN(last_frame_, videos_[static_cast<size_t>(camera)]->ReadFrame(frame_));
+  // Unreliable pixels marked (issue #14): texel and pixel Samples skip them.
+  MVBRDF_RETURN_IF_ERROR(resampler_->MarkUnreliable(camera, &last_frame_));
   return resampler_->ResampleCamera(camera, last_frame_);
 }
 

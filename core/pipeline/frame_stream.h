@@ -34,7 +34,9 @@ class FrameStream {
   // samples::ApplyLightMask): every Sample assembled from it knows them.
   absl::Status SetFrame(int t);
 
-  // Reads camera `camera`'s video frame (kept as last_frame()) and resamples it.
+  // Reads camera `camera`'s video frame (kept as last_frame(), with the
+  // resampler's unreliable pixels marked: Resampler::MarkUnreliable) and
+  // resamples it.
   absl::StatusOr<cv::Mat> Resample(int camera);
   absl::StatusOr<resample::CameraSurface> Surface(int camera) { return resampler_->Surface(camera); }
   // Texel observations refused as masked or saturated so far (Resampler::Refused).

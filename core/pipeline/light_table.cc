@@ -13,6 +13,24 @@ void SweepRowToProto(const fit::SweepRow& row, v1::LightConfigurationRow* out) {
   out->set_e_d(row.e_d);
   out->set_e_held_out(row.e_held_out);
   out->set_seconds(row.seconds);
+  out->clear_robust_scales();
+  if (row.fit.channels[0].robust_scale > 0.0 || row.triangle_kd_scale != glm::dvec3(0.0)) {
+    v1::RobustScale* brdf = out->add_robust_scales();
+    brdf->set_stage("light_sweep");
+    brdf->set_name(row.name + "/average_brdf");
+    double scale = 0.0, outliers = 0.0;
+    for (const fit::ChannelFitSummary& c : row.fit.channels) {
+      scale += c.robust_scale / 3.0;
+      outliers += c.outlier_fraction / 3.0;
+    }
+    brdf->set_scale(scale);
+    brdf->set_outlier_fraction(outliers);
+    v1::RobustScale* kd = out->add_robust_scales();
+    kd->set_stage("light_sweep");
+    kd->set_name(row.name + "/triangle_kd");
+    kd->set_scale((row.triangle_kd_scale.x + row.triangle_kd_scale.y + row.triangle_kd_scale.z) / 3.0);
+    kd->set_outlier_fraction(row.triangle_kd_outliers);
+  }
 }
 
 namespace {

@@ -159,6 +159,11 @@ int SweepFrameStride(const ReconstructOptions& options, int num_frames);
 // CANCELLED when options.cancelled says so.
 absl::Status CheckCancelled(const ReconstructOptions& options);
 
+// The fits' robust loss for ReconstructOptions::robust (issue #14): the
+// sweep's, the cluster fits' and the per-texel kd's (Cauchy, chosen by
+// measurement: reconstruct_stage.cc); least squares when false.
+fit::RobustOptions RobustFitOf(bool robust);
+
 absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
                                                 const ReconstructOptions& options);
 

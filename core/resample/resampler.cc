@@ -1,12 +1,11 @@
 #include "core/resample/resampler.h"
 
-#include "core/render/camera_projection.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <glm/gtc/type_ptr.hpp>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -14,6 +13,7 @@
 #include "core/gl/gl_api.h"
 #include "core/gl/gl_objects.h"
 #include "core/gl/shader_program.h"
+#include "core/render/camera_projection.h"
 #include "core/render/shadow_maps.h"
 #include "core/scene/video_source.h"
 
@@ -608,8 +608,13 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   for (int y = 0; y < out.rows; ++y) {
     cv::Vec4f* row = out.ptr<cv::Vec4f>(y);
     for (int x = 0; x < out.cols; ++x) {
+      if (row[x][3] > 0.5f) ++state.refused.kept;
       if (!(row[x][3] < 0.0f)) continue;
       if (row[x][3] == scene::kSaturatedPixel) ++state.refused.saturated;
+      else if (row[x][3] == kEdgePixel)
+        ++state.refused.edge;
+      else if (row[x][3] == kGradientPixel)
+        ++state.refused.gradient;
       else ++state.refused.masked;
       row[x] = cv::Vec4f(0.0f, 0.0f, 0.0f, 0.0f);
     }
@@ -620,6 +625,113 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   for (GLuint unit = 0; unit < 4; ++unit) glBindTextureUnit(unit, 0);
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ResampleCamera"));
   return out;
+}
+
+absl::Status Resampler::MarkUnreliable(int camera, cv::Mat* frame) {
+  Impl& r = *impl_;
+  if (r.options.edge_margin_pixels <= 0.0 && r.options.gradient_rejection <= 0.0) return absl::OkStatus();
+  MVBRDF_RETURN_IF_ERROR(r.CheckReady("Resampler::MarkUnreliable"));
+  if (camera < 0 || camera >= static_cast<int>(r.cameras.size())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("camera: index ", camera, " out of range, ", r.cameras.size(), " cameras"));
+  }
+  CameraState& state = r.cameras[static_cast<size_t>(camera)];
+  const scene::CameraModel& m = state.model;
+  if (frame->type() != CV_32FC3 || frame->cols != m.width || frame->rows != m.height) {
+    return absl::InvalidArgumentError(absl::StrCat("frame of cameras[", camera, "]: expected CV_32FC3 ", m.width, "x",
+                                                   m.height, ", got type ", frame->type()));
+  }
+  const auto mark = [&](int y, int x, float value) {
+    cv::Vec3f& p = frame->at<cv::Vec3f>(y, x);
+    if (p[0] < 0.0f) return;  // already marked (masked, saturated, edge)
+    p = cv::Vec3f(value, value, value);
+  };
+  if (r.options.edge_margin_pixels > 0.0) {
+    MVBRDF_RETURN_IF_ERROR(r.EnsureDepthMap(state));
+    const DepthMapLayout& layout = state.layout;
+    cv::Mat inverse_depth(layout.height, layout.width, CV_32FC1);
+    glNamedFramebufferReadBuffer(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT0);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, state.depth_framebuffer.id());
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+    glReadPixels(0, 0, layout.width, layout.height, GL_RED, GL_FLOAT, inverse_depth.data);
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+    MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::MarkUnreliable"));
+    // Edge sources (0): pixels without surface, and depth discontinuities:
+    // where inverse depth, affine in the image over a plane (pinhole), is
+    // not locally affine: |d(x - 1) - 2 d(x) + d(x + 1)| > t d(x) along a row
+    // or a column (the three pixels and their neighbours are sources).
+    cv::Mat not_edge(layout.height, layout.width, CV_8UC1, cv::Scalar(255));
+    const auto d_at = [&](int x, int y) { return inverse_depth.at<float>(y, x); };
+    for (int y = 0; y < layout.height; ++y) {
+      for (int x = 0; x < layout.width; ++x) {
+        const float d = d_at(x, y);
+        if (!(d > 0.0f)) {
+          not_edge.at<uint8_t>(y, x) = 0;
+          continue;
+        }
+        for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{0, 1}}) {
+          const int x0 = x - dx, y0 = y - dy, x1 = x + dx, y1 = y + dy;
+          if (x0 < 0 || y0 < 0 || x1 >= layout.width || y1 >= layout.height) continue;
+          const float a = d_at(x0, y0), b = d_at(x1, y1);
+          if (!(a > 0.0f) || !(b > 0.0f)) continue;  // a silhouette: the background pixel is a source
+          if (std::fabs(a - 2.0 * d + b) > kDepthDiscontinuity * d) {
+            not_edge.at<uint8_t>(y0, x0) = 0;
+            not_edge.at<uint8_t>(y, x) = 0;
+            not_edge.at<uint8_t>(y1, x1) = 0;
+          }
+        }
+      }
+    }
+    cv::Mat distance;
+    cv::distanceTransform(not_edge, distance, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    const float margin = static_cast<float>(r.options.edge_margin_pixels);
+    for (int y = 0; y < m.height; ++y) {
+      for (int x = 0; x < m.width; ++x) {
+        // The depth-map pixel of this image pixel (as samples::ForEachPixelSample).
+        double px = x - m.cx + layout.cx, py = y - m.cy + layout.cy;
+        if (m.has_distortion()) {
+          const glm::dvec2 u = m.Undistort({(x - m.cx) / m.fx, (y - m.cy) / m.fy});
+          px = m.fx * u.x + layout.cx;
+          py = m.fy * u.y + layout.cy;
+        }
+        const int mx = static_cast<int>(std::lround(px)), my = static_cast<int>(std::lround(py));
+        if (mx < 0 || my < 0 || mx >= layout.width || my >= layout.height) continue;
+        if (!(inverse_depth.at<float>(my, mx) > 0.0f)) continue;  // background: not a Sample anyway
+        if (distance.at<float>(my, mx) <= margin) mark(y, x, kEdgePixel);
+      }
+    }
+  }
+  if (r.options.gradient_rejection > 0.0) {
+    cv::Mat luminance(m.height, m.width, CV_32FC1);
+    for (int y = 0; y < m.height; ++y) {
+      for (int x = 0; x < m.width; ++x) {
+        const cv::Vec3f& p = frame->at<cv::Vec3f>(y, x);
+        luminance.at<float>(y, x) = p[0] < 0.0f ? -1.0f : (p[0] + p[1] + p[2]) / 3.0f;
+      }
+    }
+    const double limit = r.options.gradient_rejection;
+    for (int y = 1; y + 1 < m.height; ++y) {
+      for (int x = 1; x + 1 < m.width; ++x) {
+        double sum = 0.0;
+        bool valid = true;
+        for (int dy = -1; dy <= 1 && valid; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const float v = luminance.at<float>(y + dy, x + dx);
+            if (v < 0.0f) valid = false;
+            sum += v;
+          }
+        }
+        if (!valid) continue;  // next to a marked pixel: the marks decide
+        const double mean = sum / 9.0;
+        const double gx = 0.5 * (luminance.at<float>(y, x + 1) - luminance.at<float>(y, x - 1));
+        const double gy = 0.5 * (luminance.at<float>(y + 1, x) - luminance.at<float>(y - 1, x));
+        const double g = std::sqrt(gx * gx + gy * gy);
+        if (g > limit * mean) mark(y, x, kGradientPixel);
+      }
+    }
+  }
+  return absl::OkStatus();
 }
 
 Resampler::RefusedObservations Resampler::Refused(int camera) const {

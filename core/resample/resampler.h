@@ -63,7 +63,24 @@ struct ResamplerOptions {
   // side of a directional light's orthographic map). In [1, 8192]; GPU memory
   // is 24 * size^2 bytes per point light (24 MB at 1024).
   int shadow_map_size = 1024;
+  // Sample reliability (issue #14, MarkUnreliable): camera pixels within this
+  // many pixels of a silhouette or a depth discontinuity of the camera's
+  // depth map are marked kEdgePixel; 0: none. >= 0.
+  double edge_margin_pixels = 0.0;
+  // Pixels where the image's relative gradient |grad Y| * 1 px / mean Y (Y =
+  // mean of the channels, central differences, 3x3 mean; unit-free) exceeds
+  // this are marked kGradientPixel; 0: none. >= 0.
+  double gradient_rejection = 0.0;
 };
+
+// Marks of unreliable pixels (negative, like scene::kMaskedPixel): a texel
+// whose footprint touches one is refused, a pixel Sample is never built.
+inline constexpr float kEdgePixel = -3.0f;
+inline constexpr float kGradientPixel = -4.0f;
+// A depth discontinuity of the depth map: inverse depth d (affine in the
+// image over a plane) whose second difference along a row or column exceeds
+// this fraction of d (MarkUnreliable).
+inline constexpr double kDepthDiscontinuity = 0.02;
 
 // One frame's surface in atlas space.
 struct GeometryAtlas {
@@ -107,12 +124,24 @@ class Resampler {
   // touches one; such texels are counted in Refused(camera).
   absl::StatusOr<cv::Mat> ResampleCamera(int camera, const cv::Mat& frame);
 
+  // Issue #14 (sample reliability): marks, in `frame` (camera `camera`'s
+  // CV_32FC3 image of the current frame), the pixels near the camera's
+  // silhouettes and depth discontinuities (kEdgePixel, options'
+  // edge_margin_pixels) and on steep gradients (kGradientPixel,
+  // gradient_rejection), keeping existing marks. Call before
+  // ResampleCamera with the same frame, so texel and pixel Samples alike
+  // skip them. No-op when both options are 0.
+  absl::Status MarkUnreliable(int camera, cv::Mat* frame);
+
   // Texel observations of `camera` refused so far (over every ResampleCamera
   // call) because their footprint touched a masked or a saturated pixel
   // (otherwise they were valid).
   struct RefusedObservations {
     uint64_t masked = 0;
     uint64_t saturated = 0;
+    uint64_t edge = 0;      // footprint touched a kEdgePixel (MarkUnreliable)
+    uint64_t gradient = 0;  // footprint touched a kGradientPixel
+    uint64_t kept = 0;      // valid texels returned
   };
   RefusedObservations Refused(int camera) const;
 

@@ -462,6 +462,74 @@ TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {
   EXPECT_LT(in_band, hidden / 5);  // the band is a thin ring
 }
 
+// Issue #14: MarkUnreliable. With an edge margin, the plane's texels seen
+// within the margin of the floating square's silhouette (a depth
+// discontinuity) are refused and counted; those well away stay valid. With a
+// gradient limit, pixels on a step of the image are marked, flat ones not.
+TEST_F(ResamplerTest, UnreliablePixelsNearEdgesAndOnSteepGradientsAreRefused) {
+  const QuadScene scene = MakeQuadScene({GroundQuad(0.02, 0.66), SquareQuad(0.3, 1.0, 0.70, 0.98)}, 512);
+  const scene::CameraModel camera = LookAtCamera({0.5, -0.4, 3.0}, {0.0, 0.0, 0.0}, 640, 480, 450.0);
+  const glm::dvec3 center = camera.CenterInWorld();
+  constexpr double kMargin = 3.0;
+  ResamplerOptions options;
+  options.edge_margin_pixels = kMargin;
+  auto resampler = Make(scene, {camera}, {}, options);
+  ASSERT_NE(resampler, nullptr);
+  cv::Mat frame(camera.height, camera.width, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5));
+  ASSERT_TRUE(resampler->MarkUnreliable(0, &frame).ok());
+  int marked = 0;
+  for (int y = 0; y < frame.rows; ++y) {
+    for (int x = 0; x < frame.cols; ++x) marked += frame.at<cv::Vec3f>(y, x)[0] == kEdgePixel ? 1 : 0;
+  }
+  EXPECT_GT(marked, 100);
+  auto rgba = resampler->ResampleCamera(0, frame);
+  ASSERT_TRUE(rgba.ok()) << rgba.status();
+  int near_valid = 0, near = 0, far_invalid = 0, far = 0;
+  for (int y = 0; y < 512; ++y) {
+    for (int x = 0; x < 512; ++x) {
+      const auto point = scene.TexelPoint(x, y);
+      if (!point.has_value() || point->first != 0) continue;  // the plane only
+      const std::optional<glm::dvec3> cross = CrossPlaneZ(point->second, center, 1.0);
+      const double inside = InsideSquare(*cross, glm::dvec2(0.0), 0.3);
+      if (inside > 0.0) continue;  // hidden
+      const double distance_px = std::abs(inside) * camera.fx / camera.CamFromWorld(*cross).z;
+      if (distance_px < kMargin - 1.0) {
+        ++near;
+        near_valid += Valid(*rgba, x, y) ? 1 : 0;
+      } else if (distance_px > kMargin + 3.0 && std::abs(point->second.x) < 0.8 && std::abs(point->second.y) < 0.8) {
+        ++far;  // (away from the plane's own silhouette too)
+        far_invalid += Valid(*rgba, x, y) ? 0 : 1;
+      }
+    }
+  }
+  EXPECT_GT(near, 500);
+  EXPECT_EQ(near_valid, 0);
+  EXPECT_GT(far, 20000);
+  EXPECT_EQ(far_invalid, 0);
+  EXPECT_GT(resampler->Refused(0).edge, static_cast<uint64_t>(near));
+  EXPECT_EQ(resampler->Refused(0).gradient, 0u);
+  EXPECT_GT(resampler->Refused(0).kept, static_cast<uint64_t>(far));
+
+  // A step of the image (0.2 | 0.6) at column 320: relative gradient 0.2 /
+  // ~0.4 = 0.5 next to it, 0 elsewhere.
+  ResamplerOptions gradient;
+  gradient.gradient_rejection = 0.25;
+  auto second = Make(scene, {camera}, {}, gradient);
+  ASSERT_NE(second, nullptr);
+  cv::Mat step(camera.height, camera.width, CV_32FC3, cv::Scalar(0.2, 0.2, 0.2));
+  step.colRange(320, camera.width).setTo(cv::Scalar(0.6, 0.6, 0.6));
+  ASSERT_TRUE(second->MarkUnreliable(0, &step).ok());
+  for (int x = 300; x < 340; ++x) {
+    const bool on_step = x == 319 || x == 320;
+    EXPECT_EQ(step.at<cv::Vec3f>(240, x)[0] == kGradientPixel, on_step) << x;
+  }
+  // Units do not matter: the same image x 1000.
+  cv::Mat scaled(camera.height, camera.width, CV_32FC3, cv::Scalar(200, 200, 200));
+  scaled.colRange(320, camera.width).setTo(cv::Scalar(600, 600, 600));
+  ASSERT_TRUE(second->MarkUnreliable(0, &scaled).ok());
+  EXPECT_EQ(cv::countNonZero(scaled.reshape(1) < 0.0f), cv::countNonZero(step.reshape(1) < 0.0f));
+}
+
 TEST_F(ResamplerTest, GeometryAtlasFollowsThePose) {
   Quad tilted = SquareQuad(0.3, 0.5, 0.70, 0.98);
   tilted.edge_t = {0.0, 0.4, 0.35};  // not axis-aligned
