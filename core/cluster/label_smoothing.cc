@@ -2,11 +2,85 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 
 namespace mvbrdf::cluster {
+
+namespace {
+
+// Maximum flow (Dinic) on a graph of n nodes with a source and a sink, for
+// the binary expansion moves below.
+class MaxFlow {
+ public:
+  MaxFlow(size_t n, size_t arcs_hint) : head_(n + 2, -1), level_(n + 2), next_arc_(n + 2), s_(n), t_(n + 1) {
+    to_.reserve(2 * arcs_hint), cap_.reserve(2 * arcs_hint), next_.reserve(2 * arcs_hint);
+  }
+  size_t source() const { return s_; }
+  size_t sink() const { return t_; }
+  void AddArc(size_t from, size_t to, double cap) {
+    Add(from, to, cap);
+    Add(to, from, 0.0);
+  }
+  void Run(double epsilon) {
+    epsilon_ = epsilon;
+    while (Levels()) {
+      for (size_t v = 0; v < head_.size(); ++v) next_arc_[v] = head_[v];
+      while (Push(s_, std::numeric_limits<double>::infinity()) > epsilon_) {
+      }
+    }
+  }
+  // After Run: whether node v is on the source side of the minimum cut.
+  bool SourceSide(size_t v) const { return level_[v] >= 0; }
+
+ private:
+  void Add(size_t from, size_t to, double cap) {
+    to_.push_back(static_cast<uint32_t>(to));
+    cap_.push_back(cap);
+    next_.push_back(head_[from]);
+    head_[from] = static_cast<int64_t>(to_.size() - 1);
+  }
+  bool Levels() {
+    std::fill(level_.begin(), level_.end(), -1);
+    std::vector<size_t> queue = {s_};
+    level_[s_] = 0;
+    for (size_t q = 0; q < queue.size(); ++q) {
+      const size_t v = queue[q];
+      for (int64_t a = head_[v]; a >= 0; a = next_[static_cast<size_t>(a)]) {
+        const size_t w = to_[static_cast<size_t>(a)];
+        if (level_[w] < 0 && cap_[static_cast<size_t>(a)] > epsilon_) level_[w] = level_[v] + 1, queue.push_back(w);
+      }
+    }
+    return level_[t_] >= 0;
+  }
+  double Push(size_t v, double flow) {
+    if (v == t_) return flow;
+    for (int64_t& a = next_arc_[v]; a >= 0; a = next_[static_cast<size_t>(a)]) {
+      const size_t arc = static_cast<size_t>(a), w = to_[arc];
+      if (cap_[arc] <= epsilon_ || level_[w] != level_[v] + 1) continue;
+      const double pushed = Push(w, std::min(flow, cap_[arc]));
+      if (pushed > epsilon_) {
+        cap_[arc] -= pushed;
+        cap_[arc ^ 1] += pushed;
+        return pushed;
+      }
+    }
+    return 0.0;
+  }
+
+  std::vector<int64_t> head_;
+  std::vector<uint32_t> to_;
+  std::vector<double> cap_;
+  std::vector<int64_t> next_;
+  std::vector<int> level_;
+  std::vector<int64_t> next_arc_;
+  size_t s_, t_;
+  double epsilon_ = 0.0;
+};
+
+}  // namespace
 
 absl::StatusOr<LabelSmoothingResult> SmoothLabels(const KMeansInput& input, const std::vector<glm::vec3>& centres,
                                                   const std::vector<uint32_t>& labels,
@@ -82,31 +156,85 @@ absl::StatusOr<LabelSmoothingResult> SmoothLabels(const KMeansInput& input, cons
     return ok.empty() || std::find(ok.begin(), ok.end(), k) != ok.end();
   };
   std::vector<uint32_t>& l = result.labels;
-  std::vector<uint32_t> candidates;
+  // Labels to expand: those the clustering gave some point (an empty
+  // cluster's centre is nobody's nearest, and stays empty).
+  std::vector<uint32_t> present;
+  for (uint32_t k : labels) {
+    if (std::find(present.begin(), present.end(), k) == present.end()) present.push_back(k);
+  }
+  std::sort(present.begin(), present.end());
+  auto energy = [&]() {
+    double e = 0.0;
+    for (size_t i = 0; i < n; ++i) e += raw_cost(i, l[i]);
+    for (const auto& [a, b] : edges) e += l[a] != l[b] ? lambda : 0.0;
+    return e;
+  };
+  double current = energy();
+  // Alpha-expansion (Boykov, Veksler and Zabih 2001): for each label alpha,
+  // the best move that lets any point switch to alpha is a minimum cut; a
+  // cycle over the labels that lowers the energy by no more than a
+  // millionth ends the solve.
+  const double epsilon = 1e-12 * std::max(current, 1e-300);
   for (result.iterations = 0; result.iterations < options.max_iterations;) {
     ++result.iterations;
-    uint64_t changed = 0;
-    for (size_t i = 0; i < n; ++i) {
-      candidates.assign(1, l[i]);
-      for (uint32_t j = offsets[i]; j < offsets[i + 1]; ++j) {
-        const uint32_t k = l[neighbours[j]];
-        if (std::find(candidates.begin(), candidates.end(), k) == candidates.end() && allowed(i, k)) {
-          candidates.push_back(k);
+    const double cycle_start = current;
+    for (uint32_t alpha : present) {
+      MaxFlow flow(n, n + edges.size());
+      // Per point the coefficient of x (1: switch to alpha) in its unary terms.
+      std::vector<double> unary(n, 0.0);
+      std::vector<uint8_t> fixed(n, 0);
+      for (size_t i = 0; i < n; ++i) {
+        if (l[i] == alpha) {
+          fixed[i] = 1;
+        } else if (!allowed(i, alpha)) {
+          fixed[i] = 1;
+        } else {
+          unary[i] = raw_cost(i, alpha) - raw_cost(i, l[i]);
         }
       }
-      if (candidates.size() == 1) continue;
-      uint32_t best = l[i];
-      double best_e = 0.0;
-      for (size_t c = 0; c < candidates.size(); ++c) {
-        const uint32_t k = candidates[c];
-        uint32_t unlike = 0;
-        for (uint32_t j = offsets[i]; j < offsets[i + 1]; ++j) unlike += l[neighbours[j]] != k ? 1u : 0u;
-        const double e = raw_cost(i, k) + lambda * unlike;
-        if (c == 0 || e < best_e) best = k, best_e = e;
+      for (const auto& [a, b] : edges) {
+        // Pairwise V(x_a, x_b): A = V(0,0), B = V(0,1), C = V(1,0), D = V(1,1) = 0
+        // = A + (C - A) x_a + (D - C) x_b + (B + C - A - D)(1 - x_a) x_b.
+        // A fixed point is x = 0 when it keeps a label other than alpha and
+        // counts as alpha when it has it (its x is irrelevant).
+        const bool fa = fixed[a], fb = fixed[b];
+        const uint32_t la = l[a], lb = l[b];
+        if (fa && fb) continue;
+        if (fa || fb) {
+          // One free point f next to a fixed point holding label m: cost
+          // lambda [l_f != m] when f keeps, lambda [alpha != m] when it switches.
+          const uint32_t f = fa ? b : a;
+          const uint32_t m = fa ? la : lb;
+          unary[f] += (alpha != m ? lambda : 0.0) - (l[f] != m ? lambda : 0.0);
+          continue;
+        }
+        const double A = la != lb ? lambda : 0.0, B = la != alpha ? lambda : 0.0, C = alpha != lb ? lambda : 0.0;
+        unary[a] += C - A;
+        unary[b] += -C;
+        const double w = B + C - A;  // >= 0: Potts is a metric
+        if (w > 0.0) flow.AddArc(a, b, w);
       }
-      if (best != l[i]) l[i] = best, ++changed;
+      for (size_t i = 0; i < n; ++i) {
+        if (fixed[i]) continue;
+        if (unary[i] > 0.0) {
+          flow.AddArc(flow.source(), i, unary[i]);  // paid when i switches (sink side)
+        } else if (unary[i] < 0.0) {
+          flow.AddArc(i, flow.sink(), -unary[i]);  // paid when i keeps (source side)
+        }
+      }
+      flow.Run(epsilon);
+      std::vector<uint32_t> before = l;
+      for (size_t i = 0; i < n; ++i) {
+        if (!fixed[i] && !flow.SourceSide(i)) l[i] = alpha;
+      }
+      const double after = energy();
+      if (after < current) {
+        current = after;
+      } else {
+        l = std::move(before);  // rounding: never a worse labelling
+      }
     }
-    if (changed == 0) break;
+    if (!(current < cycle_start * (1.0 - 1e-6))) break;
   }
   for (size_t i = 0; i < n; ++i) result.relabelled += l[i] != labels[i] ? 1u : 0u;
   return result;

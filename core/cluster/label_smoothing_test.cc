@@ -63,11 +63,12 @@ TEST(SmoothLabelsTest, RecoversTheRegionsFromNoisyLabels) {
   auto r = SmoothLabels(g.input, g.centres, g.nearest, g.edges, options);
   ASSERT_TRUE(r.ok()) << r.status();
   const double after = Accuracy(r->labels, g.truth);
-  // ICM from the noisy start: >= 0.98 right, errors down eightfold (measured
-  // 0.891 -> 0.989).
-  EXPECT_GE(after, 0.98) << "before " << before;
-  EXPECT_LE(1.0 - after, (1.0 - before) / 8.0) << "before " << before;
-  EXPECT_GT(r->iterations, 1);
+  // Errors down more than twelvefold (measured 0.891 -> 0.9944 in 2 cycles;
+  // iterated conditional modes, stuck on every 2-point-wide wrong patch,
+  // gave 0.989).
+  EXPECT_GE(after, 0.99) << "before " << before;
+  EXPECT_LE(1.0 - after, (1.0 - before) / 12.0) << "before " << before;
+  EXPECT_GE(r->iterations, 1);
   EXPECT_LT(r->iterations, options.max_iterations);  // converged
   size_t differ = 0;
   for (size_t i = 0; i < g.nearest.size(); ++i) differ += r->labels[i] != g.nearest[i] ? 1 : 0;
