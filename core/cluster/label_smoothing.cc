@@ -140,7 +140,10 @@ absl::StatusOr<LabelSmoothingResult> SmoothLabels(const KMeansInput& input, cons
     }
   }
   if (!(result.data_scale > 0.0) || !std::isfinite(result.data_scale)) return result;  // every point on its centre
-  const double lambda = options.smoothness * result.data_scale;                        // in raw cost units
+  const double lambda = options.smoothness * result.data_scale;
+  const double cap =
+      options.data_cost_cap > 0.0 ? options.data_cost_cap * result.data_scale : std::numeric_limits<double>::infinity();
+  auto cost = [&](size_t i, uint32_t k) { return std::min(raw_cost(i, k), cap); };  // in raw cost units
 
   // Neighbours (CSR).
   std::vector<uint32_t> offsets(n + 1, 0), neighbours(2 * edges.size());
@@ -165,7 +168,7 @@ absl::StatusOr<LabelSmoothingResult> SmoothLabels(const KMeansInput& input, cons
   std::sort(present.begin(), present.end());
   auto energy = [&]() {
     double e = 0.0;
-    for (size_t i = 0; i < n; ++i) e += raw_cost(i, l[i]);
+    for (size_t i = 0; i < n; ++i) e += cost(i, l[i]);
     for (const auto& [a, b] : edges) e += l[a] != l[b] ? lambda : 0.0;
     return e;
   };
@@ -189,7 +192,7 @@ absl::StatusOr<LabelSmoothingResult> SmoothLabels(const KMeansInput& input, cons
         } else if (!allowed(i, alpha)) {
           fixed[i] = 1;
         } else {
-          unary[i] = raw_cost(i, alpha) - raw_cost(i, l[i]);
+          unary[i] = cost(i, alpha) - cost(i, l[i]);
         }
       }
       for (const auto& [a, b] : edges) {
