@@ -140,10 +140,8 @@ absl::StatusOr<LabelSmoothingResult> SmoothLabels(const KMeansInput& input, cons
     }
   }
   if (!(result.data_scale > 0.0) || !std::isfinite(result.data_scale)) return result;  // every point on its centre
-  const double lambda = options.smoothness * result.data_scale;
-  const double cap =
-      options.data_cost_cap > 0.0 ? options.data_cost_cap * result.data_scale : std::numeric_limits<double>::infinity();
-  auto cost = [&](size_t i, uint32_t k) { return std::min(raw_cost(i, k), cap); };  // in raw cost units
+  const double lambda = options.smoothness * result.data_scale;  // in raw cost units
+  const auto& cost = raw_cost;
 
   // Neighbours (CSR).
   std::vector<uint32_t> offsets(n + 1, 0), neighbours(2 * edges.size());

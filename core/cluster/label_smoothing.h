@@ -4,7 +4,7 @@
 //
 // Energy: sum over points of D_i(l_i) + smoothness x (number of neighbour
 // pairs with different labels), with the data cost
-//   D_i(k) = min((w_i / mean w) |x_i - c_k|^2 / s, data_cost_cap),
+//   D_i(k) = (w_i / mean w) |x_i - c_k|^2 / s,
 // s the median over the points of the same at their own (initial) label: the
 // data cost of a typical point is 1 whatever the units of x and w, so
 // `smoothness` is unit-free (the price of one unlike neighbour in typical
@@ -32,11 +32,6 @@ namespace mvbrdf::cluster {
 struct LabelSmoothingOptions {
   double smoothness = 0.0;  // >= 0; 0: labels returned unchanged
   int max_iterations = 20;  // expansion cycles
-  // Data costs are capped at this many typical point costs (0: no cap), so
-  // that a point whose estimate is far from every centre (misregistered,
-  // badly lit) follows its neighbours instead of holding out by its
-  // squared distance.
-  double data_cost_cap = 0.0;
 };
 
 struct LabelSmoothingResult {

@@ -11,12 +11,12 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/atlas/texel_graph.h"
 #include "core/base/files.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/base/version.h"
-#include "core/atlas/texel_graph.h"
 #include "core/cluster/kmeans.h"
 #include "core/cluster/label_smoothing.h"
 #include "core/fit/light_sweep.h"
