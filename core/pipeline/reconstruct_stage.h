@@ -98,8 +98,12 @@ struct ReconstructOptions {
   // Observations on steep image gradients are rejected; 0: none.
   double gradient_rejection = 0.0;
   v1::SweepCriterion sweep_criterion = v1::SWEEP_CRITERION_HELD_OUT;
-  // Spatial coherence of the clusters over the surface; 0: off.
-  double cluster_smoothness = 0.0;
+  // Spatial coherence of the clusters over the surface (cluster::SmoothLabels:
+  // the price of one unlike neighbour in typical data costs); 0: off.
+  // Measured against the truth (cluster accuracy, 0 -> 16): samba 8 x 175
+  // 0.963 -> 0.978 (worst ke error 0.24 -> 0.14), actor 8 x 30 clean 0.990 ->
+  // 0.995, cameras 0.3 deg / 5 mm off 0.934 -> 0.947; 4 gave less on each.
+  double cluster_smoothness = 16.0;
   int threads = 2;
   // The light sweep's outcome when it ran elsewhere (the service's `choose`
   // task): its light_configurations, chosen_configuration, margin, warning
