@@ -11,6 +11,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "core/atlas/texel_graph.h"
 #include "core/base/files.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
@@ -18,6 +19,7 @@
 #include "core/base/version.h"
 #include "core/calibrate/refine_lights.h"
 #include "core/cluster/kmeans.h"
+#include "core/cluster/label_smoothing.h"
 #include "core/fit/light_sweep.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
@@ -594,6 +596,25 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   std::vector<bool> tiny;
   MVBRDF_ASSIGN_OR_RETURN(cluster::KMeansResult clusters, cluster::KMeansOfMaterials(km_input, km_options, &tiny));
   const size_t num_clusters = clusters.centres.size();
+  // Spatial coherence over the surface (issue #14 item 5; cluster::SmoothLabels).
+  report.mutable_clustering()->set_smoothness(options.cluster_smoothness);
+  if (options.cluster_smoothness > 0.0) {
+    std::vector<int32_t> point_of(num_texels, -1);
+    for (size_t i = 0; i < seen_texels.size(); ++i) point_of[seen_texels[i]] = static_cast<int32_t>(i);
+    std::vector<std::pair<uint32_t, uint32_t>> edges;
+    for (const auto& [a, b] : atlas::BuildTexelEdges(atlas).edges) {
+      if (point_of[a] >= 0 && point_of[b] >= 0) edges.emplace_back(point_of[a], point_of[b]);
+    }
+    cluster::LabelSmoothingOptions smoothing;
+    smoothing.smoothness = options.cluster_smoothness;
+    MVBRDF_ASSIGN_OR_RETURN(cluster::LabelSmoothingResult smoothed,
+                            cluster::SmoothLabels(km_input, clusters.centres, clusters.assignment, edges, smoothing));
+    clusters.assignment = std::move(smoothed.labels);
+    std::fill(clusters.sizes.begin(), clusters.sizes.end(), 0);
+    for (uint32_t k : clusters.assignment) ++clusters.sizes[k];
+    report.mutable_clustering()->set_texels_relabelled(smoothed.relabelled);
+    report.mutable_clustering()->set_iterations(static_cast<uint32_t>(smoothed.iterations));
+  }
   {
     std::vector<std::string> names;
     for (size_t k = 0; k < num_clusters; ++k) {
