@@ -703,6 +703,9 @@ std::vector<BadInputCase> Cases() {
          in.request.clear_configuration();
          in.request.add_configurations(kConfiguration);
          in.request.add_configurations("C");
+         // The thesis's rule picks the configuration with the light inside
+         // the head (the held-out criterion picks C, which lights everything).
+         in.request.mutable_options()->set_sweep_criterion(v1::SWEEP_CRITERION_E_D);
        },
        Expect::kJobFails,
        C::OK,

@@ -19,7 +19,9 @@ SMOOTH=16
 
 check "synth" 0 "wrote" -- "$bin" synth --width 160 --height 120 --frames 8 --camera-rotation-error 0.6 \
   --camera-translation-error 0.01 --out "$work/s"
-run_opts=(--config "NE,NW,SE,SW" --no-powell --atlas 128)
+# The cameras stay misregistered (no camera refinement): that is what makes
+# the labels leak here.
+run_opts=(--config "NE,NW,SE,SW" --no-powell --atlas 128 --refine-cameras off)
 check "run, smoothness 0" 0 "wrote" -- "$bin" run --direct "$work/s/scene.json" "${run_opts[@]}" \
   --cluster-smoothness 0 --out "$work/r0"
 check "run, smoothness $SMOOTH" 0 "wrote" -- "$bin" run --direct "$work/s/scene.json" "${run_opts[@]}" \

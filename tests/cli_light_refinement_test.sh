@@ -36,11 +36,11 @@ sys.exit(not (same and all(abs(m - 0.3) < 1e-4 for m in moved) and all(abs(abs(s
   "$work/clean/scene.json" "$work/pert/scene.json" "$work/pert/ground_truth/truth.json"
 
 opts=(--atlas 128 --no-powell)
-check "perturbed lights: run (auto)" 0 "wrote" -- "$bin" run --direct "$work/pert/scene.json" "${opts[@]}" \
-  --out "$work/r_auto"
+check "perturbed lights: run --refine-lights on" 0 "wrote" -- "$bin" run --direct "$work/pert/scene.json" \
+  "${opts[@]}" --refine-lights on --out "$work/r_auto"
 check "perturbed lights: --refine-lights off" 0 "wrote" -- "$bin" run --direct "$work/pert/scene.json" \
   "${opts[@]}" --refine-lights off --out "$work/r_off"
-check "clean lights: run (auto)" 0 "wrote" -- "$bin" run --direct "$work/clean/scene.json" "${opts[@]}" \
+check "clean lights: run (default auto)" 0 "wrote" -- "$bin" run --direct "$work/clean/scene.json" "${opts[@]}" \
   --out "$work/r_clean"
 
 # Position error, and intensity error after the common scale is removed (the
@@ -56,7 +56,7 @@ def rel(key):
     return sum(abs(x / g - 1) for x in r) / len(r)
 pos = lambda key: sum(math.dist(row[key], truth[row["name"]]["position"]) for row in rows) / len(rows)
 '
-expect "auto refined the perturbed lights and says why" python3 -c "$light_errors"'
+expect "on: refined the perturbed lights and says why" python3 -c "$light_errors"'
 print("     " + cal["lightsDecision"], file=sys.stderr)
 sys.exit(not (cal["lightsRefined"] and cal["lightsMode"] == "auto" and len(rows) == 4 and cal["lightsSeconds"] > 0
               and all(r["positionSigma"] > 0 and r["intensityRelSigma"] > 0 for r in rows)))' \
@@ -88,11 +88,13 @@ mean = lambda k: sum(r[k] for r in rows) / len(rows)
 sys.exit(not (len(rows) == 4 and mean("positionErrorAfter") <= 0.75 * mean("positionErrorBefore") and
               mean("intensityRelErrorAfter") <= 0.5 * mean("intensityRelErrorBefore") and
               all(r["positionSigma"] > 0 for r in rows)))' "$work/e_auto.json"
-expect "the true lights: auto keeps them" python3 -c '
+expect "auto (the default): the plan skips it, saying why, and the scene's lights are used" python3 -c '
 import json, sys
-cal = json.load(open(sys.argv[1]))["calibration"]
-print("     " + cal["lightsDecision"], file=sys.stderr)
-sys.exit(not (not cal.get("lightsRefined", False) and "kept" in cal["lightsDecision"] and len(cal["lights"]) == 4))' \
+r = json.load(open(sys.argv[1]))
+cal = r.get("calibration", {})
+skipped = {x["name"]: x["reason"] for x in r["plan"].get("skipped", [])}
+sys.exit(not ("refine_lights" in skipped and "--refine-lights on" in skipped["refine_lights"]
+              and not cal.get("lightsRefined", False)))' \
   "$work/r_clean/result.json"
 
 # Unit-free: the world x1000 (mesh, camera centres, lights) gives the same decision, changes x1000, scales.
@@ -111,7 +113,7 @@ for path in glob.glob(os.path.join(root, "meshes", "*.obj")):
              for l in open(path)]
     open(path, "w").writelines(lines)
 EOF_PY
-check "the world x1000: run (auto)" 0 "wrote" -- "$bin" run --direct "$work/pert_world/scene.json" "${opts[@]}" \
+check "the world x1000: run --refine-lights on" 0 "wrote" -- "$bin" run --direct "$work/pert_world/scene.json" "${opts[@]}" --refine-lights on \
   --out "$work/r_world"
 expect "same decision, position changes and sigmas x1000, same intensity scales (1e-2)" python3 -c '
 import json, sys
@@ -122,7 +124,7 @@ ok = a["lightsRefined"] == b.get("lightsRefined", False) and all(
     and close(x["intensityAfter"][0], y["intensityAfter"][0]) for x, y in zip(a["lights"], b["lights"]))
 sys.exit(not ok)' "$work/r_auto/result.json" "$work/r_world/result.json"
 
-check "the service path (run without --direct)" 0 "wrote" -- "$bin" run "$work/pert/scene.json" "${opts[@]}" \
+check "the service path (run without --direct)" 0 "wrote" -- "$bin" run "$work/pert/scene.json" "${opts[@]}" --refine-lights on \
   --out "$work/r_service"
 expect "gives the same lights and per-camera errors" python3 -c '
 import json, sys

@@ -172,8 +172,10 @@ TEST(PlanTest, RefinementStagesFollowTheModesAndTheScene) {
   auto plan = MakePlan(s, {});
   ASSERT_TRUE(plan.ok()) << plan.status();
   EXPECT_TRUE(plan->Has(Stage::kRefineCameras));
-  EXPECT_TRUE(plan->Has(Stage::kRefineLights));
+  EXPECT_FALSE(plan->Has(Stage::kRefineLights));  // auto: only when asked (plan.cc says why)
   RunRequest request;
+  request.refine_lights = v1::REFINEMENT_ON;
+  EXPECT_TRUE(MakePlan(s, request)->Has(Stage::kRefineLights));
   request.refine_cameras = v1::REFINEMENT_OFF;
   request.refine_lights = v1::REFINEMENT_OFF;
   plan = MakePlan(s, request);
@@ -184,7 +186,7 @@ TEST(PlanTest, RefinementStagesFollowTheModesAndTheScene) {
   request.configuration = "config3";
   plan = MakePlan(s, request);
   ASSERT_TRUE(plan.ok());
-  EXPECT_FALSE(plan->Has(Stage::kRefineLights));  // auto: no sweep chose it
+  EXPECT_FALSE(plan->Has(Stage::kRefineLights));  // auto
   request.refine_lights = v1::REFINEMENT_ON;
   plan = MakePlan(s, request);
   ASSERT_TRUE(plan.ok());

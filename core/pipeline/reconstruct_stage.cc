@@ -609,11 +609,31 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     smoothing.smoothness = options.cluster_smoothness;
     MVBRDF_ASSIGN_OR_RETURN(cluster::LabelSmoothingResult smoothed,
                             cluster::SmoothLabels(km_input, clusters.centres, clusters.assignment, edges, smoothing));
-    clusters.assignment = std::move(smoothed.labels);
-    std::fill(clusters.sizes.begin(), clusters.sizes.end(), 0);
-    for (uint32_t k : clusters.assignment) ++clusters.sizes[k];
-    report.mutable_clustering()->set_texels_relabelled(smoothed.relabelled);
-    report.mutable_clustering()->set_iterations(static_cast<uint32_t>(smoothed.iterations));
+    // The smoothing must not take from a cluster every texel that holds a
+    // kept Sample (on a tiny atlas it can): its fit would have no data. Then
+    // the k-means labels stay, with a warning.
+    const TexelReservoir& kept = *g.texels->reservoir;
+    std::vector<size_t> with_before(num_clusters, 0), with_after(num_clusters, 0);
+    for (size_t i = 0; i < seen_texels.size(); ++i) {
+      if (kept.KeptOf(seen_texels[i]) == 0) continue;
+      ++with_before[clusters.assignment[i]];
+      ++with_after[smoothed.labels[i]];
+    }
+    size_t emptied = num_clusters;
+    for (size_t k = 0; k < num_clusters && emptied == num_clusters; ++k) {
+      if (with_before[k] > 0 && with_after[k] == 0) emptied = k;
+    }
+    if (emptied < num_clusters) {
+      report.add_warnings(absl::StrCat("cluster smoothing undone: it left cluster \"",
+                                       scene::ShownName(clusters.names[emptied]),
+                                       "\" no texel with Samples to fit its BRDF (the k-means labels are used)"));
+    } else {
+      clusters.assignment = std::move(smoothed.labels);
+      std::fill(clusters.sizes.begin(), clusters.sizes.end(), 0);
+      for (uint32_t k : clusters.assignment) ++clusters.sizes[k];
+      report.mutable_clustering()->set_texels_relabelled(smoothed.relabelled);
+      report.mutable_clustering()->set_iterations(static_cast<uint32_t>(smoothed.iterations));
+    }
   }
   {
     std::vector<std::string> names;
