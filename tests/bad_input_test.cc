@@ -706,6 +706,9 @@ std::vector<BadInputCase> Cases() {
          // The thesis's rule picks the configuration with the light inside
          // the head (the held-out criterion picks C, which lights everything).
          in.request.mutable_options()->set_sweep_criterion(v1::SWEEP_CRITERION_E_D);
+         // Unsmoothed labels: the smoothing hands the unlit skin texels to
+         // their lit neighbours' clusters, and this case is about the check.
+         in.request.mutable_options()->set_cluster_smoothness(0.0);
        },
        Expect::kJobFails,
        C::OK,

@@ -58,7 +58,7 @@ pos = lambda key: sum(math.dist(row[key], truth[row["name"]]["position"]) for ro
 '
 expect "on: refined the perturbed lights and says why" python3 -c "$light_errors"'
 print("     " + cal["lightsDecision"], file=sys.stderr)
-sys.exit(not (cal["lightsRefined"] and cal["lightsMode"] == "auto" and len(rows) == 4 and cal["lightsSeconds"] > 0
+sys.exit(not (cal["lightsRefined"] and cal["lightsMode"] == "on" and len(rows) == 4 and cal["lightsSeconds"] > 0
               and all(r["positionSigma"] > 0 and r["intensityRelSigma"] > 0 for r in rows)))' \
   "$work/pert" "$work/r_auto"
 expect "positions closer to the truth by 1/0.75, intensities by 2x" python3 -c "$light_errors"'
