@@ -111,6 +111,9 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     }
   }
   if (run.clusters_size() == 0) return report;  // light table only
+  const double exposure = truth.message().perturbations().exposure();
+  const float gain = exposure > 0.0 ? static_cast<float>(exposure) : 1.0f;
+  report.set_truth_gain(gain);
 
   MVBRDF_ASSIGN_OR_RETURN(const cv::Mat triangle_id, ReadImage(run_dir / "atlas" / "triangle_id.exr", CV_32SC1, 0));
   const int size = triangle_id.rows;
@@ -144,7 +147,8 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
                                                        " triangles (not the same mesh)"));
       }
       const glm::vec2 uv((x + 0.5f) / size, 1.0f - (y + 0.5f) / size);
-      const render::PhongParams t = truth.At(static_cast<uint32_t>(tri), {p[0], p[1], p[2]}, uv);
+      render::PhongParams t = truth.At(static_cast<uint32_t>(tri), {p[0], p[1], p[2]}, uv);
+      t.kd *= gain;
       const cv::Vec3f& k = kd.at<cv::Vec3f>(y, x);
       double sq = 0.0;
       for (int c = 0; c < 3; ++c) sq += (k[c] - t.kd[c]) * (k[c] - t.kd[c]);
@@ -213,10 +217,10 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     double ks_err = 0.0, ke_err = 0.0;
     for (int c = 0; c < 3; ++c) {
       cmp->add_ks(row.ks(c));
-      cmp->add_ks_true(m.ks(c));
+      cmp->add_ks_true(gain * m.ks(c));
       cmp->add_ke(row.ke(c));
       cmp->add_ke_true(m.ke(c));
-      ks_err += RelativeError(row.ks(c), m.ks(c)) / 3.0;
+      ks_err += RelativeError(row.ks(c), gain * m.ks(c)) / 3.0;
       ke_err += RelativeError(row.ke(c), m.ke(c)) / 3.0;
     }
     cmp->set_ks_rel_error(ks_err);
