@@ -91,8 +91,7 @@ class ChannelProblem {
   Evaluation Evaluate(double ke, double fixed_ks = -1.0) {
     std::fill(sums_.begin(), sums_.end(), Sums{});
     for (size_t i = 0; i < p_.r.size(); ++i) {
-      double s = 0.0;
-      for (uint64_t j = p_.begin[i]; j < p_.begin[i + 1]; ++j) s += p_.w[j][c_] * std::exp(ke * p_.log_h[j]);
+      const double s = Specular(i, ke);
       const double g = p_.g[i][c_];
       const double r = p_.r[i][c_];
       Sums& t = sums_[p_.texel[i]];
@@ -138,11 +137,7 @@ class ChannelProblem {
   // squared error and the number of Samples it is over in `count`.
   double HeldOutError(double ks, double ke, size_t* count) {
     std::vector<double> s(p_.r.size());
-    for (size_t i = 0; i < p_.r.size(); ++i) {
-      double v = 0.0;
-      for (uint64_t j = p_.begin[i]; j < p_.begin[i + 1]; ++j) v += p_.w[j][c_] * std::exp(ke * p_.log_h[j]);
-      s[i] = v;
-    }
+    for (size_t i = 0; i < p_.r.size(); ++i) s[i] = Specular(i, ke);
     double sse = 0.0;
     *count = 0;
     std::vector<double> a(p_.num_texels), c(p_.num_texels);
@@ -167,6 +162,12 @@ class ChannelProblem {
   }
 
  private:
+  // S_i(ke) of channel c.
+  double Specular(size_t i, double ke) const {
+    double s = 0.0;
+    for (uint64_t j = p_.begin[i]; j < p_.begin[i + 1]; ++j) s += p_.w[j][c_] * std::exp(ke * p_.log_h[j]);
+    return s;
+  }
   struct Sums {
     double a = 0.0, b = 0.0, c = 0.0, ss = 0.0, sr = 0.0, rr = 0.0;
   };

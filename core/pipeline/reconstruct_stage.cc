@@ -770,7 +770,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     // Measured on the actor sequence (8 cameras x 30 frames, 320x240): clean,
     // cloth ks error 0.156 -> 0.031, ke 0.030 -> 0.007, hair ke 0.042 ->
     // 0.004, kd RMSE 0.0123 -> 0.0122; all perturbation knobs at once, worst
-    // ks 0.379 -> 0.398, worst ke 0.496 -> 0.438; ~0.9 s for three clusters.
+    // ks 0.379 -> 0.398, worst ke 0.496 -> 0.438; 0.9 s for three clusters
+    // (clean, before the held-out check was added).
     fit::TexelKdFitOptions lobe_options;
     lobe_options.ke_min = lm.ke_min;
     lobe_options.ke_max = lm.ke_max;
