@@ -62,4 +62,8 @@ expect "--edge-margin 1: kd changed (misregistered cameras)" \
   python3 -c "import sys; sys.exit(not $(kd edge) != $(kd on))"
 expect "--gradient-rejection 1: observations rejected on steep gradients, kd changed" \
   python3 -c "import sys; sys.exit(not ($(rel gradient rejectedGradient) > 0 and $(kd gradient) != $(kd on)))"
+expect "evaluate: truthGain is the synthesizer's exposure (1.5): truth kd and ks in the images' units" \
+  python3 -c "import json,sys; sys.exit(not abs(json.load(open('$work/on.eval.json'))['truthGain'] - 1.5) < 1e-6)"
+expect "result.json: clusters say whether their lobe was refitted with kd per texel (lobePerTexelKd, some true)" \
+  python3 -c "import json,sys; c = json.load(open('$work/on/result.json'))['clusters']; sys.exit(not (c and any(x.get('lobePerTexelKd') for x in c)))"
 summary

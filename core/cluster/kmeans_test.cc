@@ -16,7 +16,6 @@ namespace {
 
 constexpr double kMinCorrect = 0.99;     // required share of correctly assigned points
 constexpr float kCentreTolerance = 0.01f;  // linear units; noise 0.02 over >= 500 points
-constexpr double kMaxMilliseconds = 100.0;
 
 glm::vec3 Linear8(int r, int g, int b) {
   return {scene::SrgbToLinear(r / 255.0f), scene::SrgbToLinear(g / 255.0f), scene::SrgbToLinear(b / 255.0f)};
@@ -381,8 +380,10 @@ TEST(KMeans, Deterministic) {
   for (size_t c = 0; c < a->centres.size(); ++c) EXPECT_EQ(a->centres[c], b->centres[c]);
 }
 
-TEST(KMeans, Performance) {
-  // A 512 x 512 atlas worth of texels, three seeded clusters.
+TEST(KMeans, AtlasSizedInputConvergesQuickly) {
+  // A 512 x 512 atlas worth of texels, three seeded clusters: converges in a few
+  // iterations and automatic k finds the three. The time is printed only (a
+  // timed unit test fails on a loaded machine; speed lives in scripts/bench-*).
   Blobs blobs = MakeBlobs({1.1f * kCloth, 0.9f * kSkin, 1.2f * kHair}, 262144 / 3 + 1, 0.03f, 6);
   blobs.input.points.resize(262144);
   KMeansOptions options;
@@ -392,7 +393,7 @@ TEST(KMeans, Performance) {
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   ASSERT_TRUE(result.ok());
   std::printf("k-means: 262144 points x 3 seeded clusters: %.1f ms, %d iterations\n", ms, result->iterations);
-  EXPECT_LT(ms, kMaxMilliseconds);
+  EXPECT_LE(result->iterations, 10);
 
   const auto start_auto = std::chrono::steady_clock::now();
   auto automatic = KMeans(blobs.input, KMeansOptions{});
