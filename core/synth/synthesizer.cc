@@ -427,6 +427,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   p->set_exposure(options.exposure);
   p->set_light_position_error(options.light_position_error);
   p->set_light_intensity_error(options.light_intensity_error);
+  p->set_light_direction_error_deg(options.light_direction_error_deg);
   truth.set_shadow_map_size(static_cast<uint32_t>(options.shadow_map_size));
   {
     // The scene as `mvbrdf run` will read it (the mesh as parsed back from

@@ -1,9 +1,9 @@
 #include "core/synth/synthesizer.h"
 
-#include <set>
-
 #include <gtest/gtest.h>
+
 #include <opencv2/core.hpp>
+#include <set>
 
 #include "core/base/files.h"
 #include "core/base/proto_json.h"
@@ -109,8 +109,8 @@ TEST_F(SynthesizerTest, VideoFramesMatchARenderOfTheTruth) {
       ASSERT_TRUE(positions.ok());
       render::Pose pose;
       pose.positions = scene::ToRenderVertices(sequence->topology, *positions);
-      pose.normals = scene::ToRenderVertices(sequence->topology,
-                                             scene::ComputeFileVertexNormals(sequence->topology, *positions));
+      pose.normals =
+          scene::ToRenderVertices(sequence->topology, scene::ComputeFileVertexNormals(sequence->topology, *positions));
       auto image = (*renderer)->Render(pose, true_camera);
       ASSERT_TRUE(image.ok()) << image.status();
       std::mt19937 rng(1);
@@ -309,6 +309,34 @@ TEST_F(SynthesizerTest, CalibrationErrorChangesOnlyTheScenesCameras) {
   EXPECT_NEAR(result->truth.perturbations().camera_rotation_error_deg(), 1.0, 0.0);
 }
 
+// Issue #14: --light-direction-error turns each directional light of the
+// scene by that angle from the rendered one (the truth's), and is recorded.
+TEST_F(SynthesizerTest, LightDirectionErrorTurnsEachDirectionalLightOfTheScene) {
+  SynthOptions o = SmallOptions("light_direction");
+  o.preset = Preset::kSphere;
+  o.num_cameras = 1;
+  o.num_frames = 1;
+  o.dome = 6;
+  o.light_direction_error_deg = 5.0;
+  auto result = Synthesize(o, *context_);
+  ASSERT_TRUE(result.ok()) << result.status();
+  auto sequence = scene::LoadSequence(result->scene_file);
+  ASSERT_TRUE(sequence.ok()) << sequence.status();
+  auto truth = GroundTruth::Load(o.out_dir / "ground_truth" / "truth.json");
+  ASSERT_TRUE(truth.ok()) << truth.status();
+  EXPECT_DOUBLE_EQ(truth->message().perturbations().light_direction_error_deg(), 5.0);
+  const std::vector<scene::Light> rendered = truth->ActiveLights();
+  ASSERT_EQ(rendered.size(), 6u);
+  ASSERT_EQ(sequence->lights.size(), 6u);
+  for (size_t k = 0; k < 6; ++k) {
+    ASSERT_EQ(sequence->lights[k].name, rendered[k].name);
+    const double cosine = glm::dot(glm::normalize(glm::dvec3(sequence->lights[k].direction)),
+                                   glm::normalize(glm::dvec3(rendered[k].direction)));
+    EXPECT_NEAR(std::acos(std::min(1.0, cosine)) * 180.0 / 3.14159265358979, 5.0, 1e-3) << rendered[k].name;
+    EXPECT_EQ(sequence->lights[k].intensity, rendered[k].intensity);  // no intensity error asked
+  }
+}
+
 TEST_F(SynthesizerTest, BadOptionsNameTheFlag) {
   SynthOptions o = SmallOptions("bad");
   o.configuration = "NE,XX";
@@ -392,7 +420,8 @@ double ClippedFraction(const std::filesystem::path& bundle) {
   // code by default) negative, every channel.
   const cv::Mat channels = f->reshape(1);
   const int lit = cv::countNonZero(channels > 0.0f) + cv::countNonZero(channels < 0.0f);
-  return (cv::countNonZero(channels >= 0.999f) + cv::countNonZero(channels < 0.0f)) / static_cast<double>(std::max(lit, 1));
+  return (cv::countNonZero(channels >= 0.999f) + cv::countNonZero(channels < 0.0f)) /
+         static_cast<double>(std::max(lit, 1));
 }
 
 TEST_F(SynthesizerTest, PerturbationsChangeTheImagesAndAreRecorded) {
