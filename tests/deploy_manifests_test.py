@@ -255,7 +255,8 @@ closure = {p.split(":")[0] for p in closure}
 ldd = subprocess.run(["ldd", binary], capture_output=True, text=True, check=True).stdout
 # The image ships the Release binary (the build stage runs a Release build). The sanitizer build's binary links
 # libasan and, with its own link flags, more OpenCV modules directly; its libraries say nothing about the image,
-# so the two library checks below run against Release binaries only (scripts/test runs this test in both builds).
+# so the two library checks below run against Release binaries only (scripts/test runs this test in Release only,
+# label e2e; run by hand in the sanitizer build it skips them).
 sanitized = re.search(r"^\s*lib(a|ub|t)san\.so", ldd, re.M) is not None
 if sanitized:
     print("note: a sanitizer build's binary: the ldd checks against the Dockerfile run in the Release build only")
