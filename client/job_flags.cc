@@ -40,11 +40,11 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
                 "camera refinement also refines each camera's radial distortion k1");
   flags.AddString("--refine-frames N", &job->refine_frames, "frames the camera refinement uses (default: 8)");
   flags.AddString("--refine-lights MODE", &job->refine_lights,
-                  "auto (refine the chosen configuration's light positions and intensities when a sweep chose "
-                  "it), on or off");
+                  "on (refine the chosen configuration's light positions and intensities after the sweep), off, "
+                  "or auto (for now the same as off: the plan says why)");
   flags.AddString("--robust MODE", &job->robust,
-                  "on: robust loss with a scale estimated from the data in the sweep, cluster fits and per-texel "
-                  "kd; off: least squares");
+                  "on: robust loss with a scale estimated from the data in the sweep and per-texel kd (the "
+                  "cluster fits are least squares either way); off: least squares");
   flags.AddString("--edge-margin PIXELS", &job->edge_margin,
                   "observations this close to a silhouette or depth discontinuity are rejected (0: none)");
   flags.AddString(

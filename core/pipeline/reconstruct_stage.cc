@@ -340,10 +340,6 @@ absl::Status CheckCancelled(const ReconstructOptions& options) {
 
 namespace {
 
-// Whether the cluster fits use the robust loss with ReconstructOptions::robust
-// (measured: not; RunReconstruction).
-constexpr bool kRobustClusterFits = false;
-
 // Observations of a texel before the texel pass's robust weights apply.
 constexpr uint32_t kMinRunningObservations = 3;
 
@@ -353,7 +349,7 @@ constexpr uint32_t kMinRunningObservations = 3;
 glm::dvec3 TexelResidualScale(const samples::SampleSet& cluster_set, const samples::LightSelection& selection,
                               const fit::PhongRgb& brdf, const fit::DiffuseOptions& diffuse, v1::RunReport* report,
                               const std::string& cluster, const fit::PhongFitResult& fit) {
-  if (fit.channels[0].robust_scale > 0.0) {  // a robust cluster fit (kRobustClusterFits)
+  if (fit.channels[0].robust_scale > 0.0) {  // a robust fit (the cluster fits are least squares today)
     v1::RobustScale* row = report->add_robust_scales();
     row->set_stage("cluster_fit");
     row->set_name(cluster);
@@ -749,8 +745,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     // Samples for outliers of a scale set by the many diffuse ones and
     // underestimates ks (4-frame misregistered sequence at 320x240: worst ks
     // error 0.68 -> 0.77, kd RMSE 0.084 -> 0.101; 30 frames, cameras 0.3 deg
-    // off: 0.75 -> 0.81). kRobustClusterFits turns it on.
-    if (!kRobustClusterFits) lm.robust = fit::RobustOptions();
+    // off: 0.75 -> 0.81). So ReconstructOptions::robust does not reach them.
+    lm.robust = fit::RobustOptions();
     MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, selection, lm));
     // No data is no result: the fit's initial guess is not written as one.
     // (A seed that no texel resembles has an empty cluster: flagged, not fatal.)

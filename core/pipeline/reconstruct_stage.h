@@ -89,8 +89,9 @@ struct ReconstructOptions {
   // The chosen configuration's lights refined after the sweep: auto when a
   // sweep chose the configuration.
   v1::Refinement refine_lights = v1::REFINEMENT_AUTO;
-  // Robust loss (scale estimated from the data) in the sweep, the cluster fits
-  // and per-texel kd; false: least squares.
+  // Robust loss (scale estimated from the data) in the sweep and per-texel
+  // kd; false: least squares. The cluster fits are least squares either way
+  // (measured: reconstruct_stage.cc).
   bool robust = true;
   // Observations this close (pixels) to a silhouette or depth discontinuity
   // are rejected; 0: none.
@@ -166,8 +167,8 @@ int SweepFrameStride(const ReconstructOptions& options, int num_frames);
 absl::Status CheckCancelled(const ReconstructOptions& options);
 
 // The fits' robust loss for ReconstructOptions::robust (issue #14): the
-// sweep's, the cluster fits' and the per-texel kd's (Cauchy, chosen by
-// measurement: reconstruct_stage.cc); least squares when false.
+// sweep's and the per-texel kd's (Cauchy, chosen by measurement:
+// reconstruct_stage.cc); least squares when false.
 fit::RobustOptions RobustFitOf(bool robust);
 
 absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& sequence, gl::EglContext& context,
