@@ -343,24 +343,11 @@ namespace {
 // Observations of a texel before the texel pass's robust weights apply.
 constexpr uint32_t kMinRunningObservations = 3;
 
-// The cluster fit's robust scale as a RobustScale row (when robust), and the residual
-// scale of per-texel kd over the cluster's kept Samples (elements renumbered
-// to the texels present): 1.4826 MAD of r - s - kd_texel G per channel.
+// The residual scale of per-texel kd over the cluster's kept Samples
+// (elements renumbered to the texels present): 1.4826 MAD of
+// r - s - kd_texel G per channel.
 glm::dvec3 TexelResidualScale(const samples::SampleSet& cluster_set, const samples::LightSelection& selection,
-                              const fit::PhongRgb& brdf, const fit::DiffuseOptions& diffuse, v1::RunReport* report,
-                              const std::string& cluster, const fit::PhongFitResult& fit) {
-  if (fit.channels[0].robust_scale > 0.0) {  // a robust fit (the cluster fits are least squares today)
-    v1::RobustScale* row = report->add_robust_scales();
-    row->set_stage("cluster_fit");
-    row->set_name(cluster);
-    double scale = 0.0, outliers = 0.0;
-    for (const fit::ChannelFitSummary& c : fit.channels) {
-      scale += c.robust_scale / 3.0;
-      outliers += c.outlier_fraction / 3.0;
-    }
-    row->set_scale(scale);
-    row->set_outlier_fraction(outliers);
-  }
+                              const fit::PhongRgb& brdf, const fit::DiffuseOptions& diffuse) {
   samples::SampleSet set = cluster_set;
   std::unordered_map<uint32_t, uint32_t> local;
   for (uint32_t& e : set.element) e = local.emplace(e, static_cast<uint32_t>(local.size())).first->second;
@@ -780,8 +767,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       for (const fit::TexelKdChannel& c : lobe.channels) lobe_per_texel_kd |= c.refined;
     }
     if (options.diffuse.robust.enabled()) {
-      texel_sigma[k] =
-          TexelResidualScale(set, selection, cluster_brdf[k], options.diffuse, &report, clusters.names[k], lm_result);
+      texel_sigma[k] = TexelResidualScale(set, selection, cluster_brdf[k], options.diffuse);
     }
     if (plan.Has(Stage::kSolverComparison)) {
       fit::PhongFitOptions powell = options.fit;

@@ -1,9 +1,9 @@
 #include "core/synth/synthesizer.h"
 
-#include <gtest/gtest.h>
-
-#include <opencv2/core.hpp>
 #include <set>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "core/base/files.h"
 #include "core/base/proto_json.h"
@@ -109,8 +109,8 @@ TEST_F(SynthesizerTest, VideoFramesMatchARenderOfTheTruth) {
       ASSERT_TRUE(positions.ok());
       render::Pose pose;
       pose.positions = scene::ToRenderVertices(sequence->topology, *positions);
-      pose.normals =
-          scene::ToRenderVertices(sequence->topology, scene::ComputeFileVertexNormals(sequence->topology, *positions));
+      pose.normals = scene::ToRenderVertices(sequence->topology,
+                                             scene::ComputeFileVertexNormals(sequence->topology, *positions));
       auto image = (*renderer)->Render(pose, true_camera);
       ASSERT_TRUE(image.ok()) << image.status();
       std::mt19937 rng(1);
@@ -420,8 +420,7 @@ double ClippedFraction(const std::filesystem::path& bundle) {
   // code by default) negative, every channel.
   const cv::Mat channels = f->reshape(1);
   const int lit = cv::countNonZero(channels > 0.0f) + cv::countNonZero(channels < 0.0f);
-  return (cv::countNonZero(channels >= 0.999f) + cv::countNonZero(channels < 0.0f)) /
-         static_cast<double>(std::max(lit, 1));
+  return (cv::countNonZero(channels >= 0.999f) + cv::countNonZero(channels < 0.0f)) / static_cast<double>(std::max(lit, 1));
 }
 
 TEST_F(SynthesizerTest, PerturbationsChangeTheImagesAndAreRecorded) {
