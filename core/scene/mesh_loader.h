@@ -70,6 +70,9 @@ MeshOrientation ComputeMeshOrientation(const MeshTopology& topology, const Frame
 // Sets the importer's time limit (seconds + seconds_per_mib * file MiB;
 // default 5 + 1). For the fuzzer, which meets hangs often; any thread.
 void SetImportTimeLimitForTesting(double seconds, double seconds_per_mib);
+// Called in the importer child before the import, with the attempt (0, then 1
+// when the first child was found blocked); nullptr: none. Tests only.
+void SetImportChildHookForTesting(void (*hook)(int attempt));
 
 // Writes a mesh as Wavefront OBJ (v, optional vt, f lines), file vertices as
 // `v` lines in order, so that LoadMesh reads back the same topology.

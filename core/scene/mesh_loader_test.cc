@@ -2,12 +2,15 @@
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <set>
 #include <string>
+#include <thread>
 
 #include "absl/strings/str_cat.h"
 #include "core/scene/scene_test_util.h"
@@ -406,10 +409,51 @@ TEST(MeshLoaderTest, GivesUpOnAnImporterHang) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   SetImportTimeLimitForTesting(5.0, 1.0);
   EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << status;
-  EXPECT_NE(status.message().find("hang.ply: cannot read mesh: the importer (assimp) did not finish within 1 s"),
+  EXPECT_NE(status.message().find(
+                "hang.ply: cannot read mesh: the importer (assimp) did not finish within 1 s (it was running)"),
             std::string::npos)
       << status;
   EXPECT_LT(seconds, 20.0);
+}
+
+// A child that blocks (as one copied with a lock held by another thread
+// would) is forked once more when the process has threads, and the second
+// child's import is the result; one that blocks every time fails naming it.
+// The looping importer above is running, not blocked, and is not retried.
+void BlockFirstAttempt(int attempt) {
+  if (attempt == 0) ::pause();
+}
+void BlockEveryAttempt(int) { ::pause(); }
+
+TEST(MeshLoaderTest, ABlockedImporterIsForkedOnceMore) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "under ASan a multi-threaded process imports in-process (mesh_loader.cc, ForkedImportIsSafe); "
+                  "this case runs in Release (ctest mesh_loader_blocked_importer)";
+#endif
+  TempDir dir;
+  const std::filesystem::path obj = dir / "cube.obj";
+  WriteText(obj, CubeObj());
+  std::atomic<bool> done{false};
+  std::thread other([&] {  // the retry is for multi-threaded processes
+    while (!done) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  });
+  SetImportTimeLimitForTesting(1.0, 1.0);
+  SetImportChildHookForTesting(&BlockFirstAttempt);
+  const auto start = std::chrono::steady_clock::now();
+  const auto mesh = LoadMesh(obj, "scene.mesh.path");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  SetImportChildHookForTesting(&BlockEveryAttempt);
+  const absl::Status blocked = LoadMesh(obj, "scene.mesh.path").status();
+  SetImportChildHookForTesting(nullptr);
+  SetImportTimeLimitForTesting(5.0, 1.0);
+  done = true;
+  other.join();
+  ASSERT_TRUE(mesh.ok()) << mesh.status();
+  EXPECT_EQ(mesh->topology.triangles.size(), 12u);
+  EXPECT_GE(seconds, 1.0) << "the first child's time runs out first";
+  EXPECT_EQ(blocked.code(), absl::StatusCode::kInvalidArgument) << blocked;
+  EXPECT_NE(blocked.message().find("did not finish within 1 s (it was blocked, not running), twice"), std::string::npos)
+      << blocked;
 }
 
 // A PLY header declaring far more elements than its body holds made assimp
