@@ -38,6 +38,10 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
   flags.AddBool("--refine-focal", &job->refine_focal, "camera refinement also refines each camera's focal length");
   flags.AddBool("--refine-distortion", &job->refine_distortion,
                 "camera refinement also refines each camera's radial distortion k1");
+  flags.AddBool("--refine-photometric", &job->refine_photometric,
+                "camera refinement also fits the colour of textured surface points seen by several cameras "
+                "(photometric consistency; default: the mesh's silhouettes only, as good on the synthetic actor "
+                "at a third of the time)");
   flags.AddString("--refine-frames N", &job->refine_frames, "frames the camera refinement uses (default: 8)");
   flags.AddString("--refine-lights MODE", &job->refine_lights,
                   "on (refine the chosen configuration's light positions and intensities after the sweep), off, "
@@ -88,6 +92,7 @@ absl::Status SetRobustnessOptions(const JobFlags& job, v1::FittingOptions* o) {
   o->set_refine_lights(*lights);
   if (job.refine_focal) o->set_refine_focal(true);
   if (job.refine_distortion) o->set_refine_distortion(true);
+  if (job.refine_photometric) o->set_refine_photometric(true);
   if (!job.refine_frames.empty()) {
     uint32_t frames = 0;
     if (!absl::SimpleAtoi(job.refine_frames, &frames) || frames < 1 || frames > 10000) {

@@ -33,6 +33,7 @@ struct JobFlags {
   std::string refine_cameras = "auto";  // auto|on|off
   bool refine_focal = false;
   bool refine_distortion = false;
+  bool refine_photometric = false;
   std::string refine_frames;
   std::string refine_lights = "auto";   // auto|on|off
   std::string robust = "on";            // on|off

@@ -132,6 +132,7 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
   }
   if (f.has_refine_focal()) o.refine_focal = f.refine_focal();
   if (f.has_refine_distortion()) o.refine_distortion = f.refine_distortion();
+  if (f.has_refine_photometric()) o.refine_photometric = f.refine_photometric();
   if (f.has_refine_frames()) {
     if (f.refine_frames() < 1 || f.refine_frames() > 10000) {
       return OutOfRange("options.refine_frames", f.refine_frames(), 1, 10000);
@@ -187,6 +188,7 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
   fit.set_refine_cameras(o.refine_cameras);
   fit.set_refine_focal(o.refine_focal);
   fit.set_refine_distortion(o.refine_distortion);
+  fit.set_refine_photometric(o.refine_photometric);
   fit.set_refine_frames(static_cast<uint32_t>(o.refine_frames));
   fit.set_refine_lights(o.refine_lights);
   fit.set_robust(o.robust);

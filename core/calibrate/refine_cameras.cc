@@ -4,9 +4,9 @@
 //     contour with the image's intensity edge, ICP-style (the pairs are found
 //     again at each outer iteration), anchoring every camera to the mesh;
 //   - a photometric term (photometric_term.h): textured surface points seen by
-//     two or more cameras have one consensus colour (a parameter); measured
-//     and left out of the solve (kPhotometricTerm), the cross-camera
-//     consistency is reported before and after;
+//     two or more cameras have one consensus colour (a parameter); in the
+//     solve only with options.photometric (off by default, measured below);
+//     the cross-camera consistency is reported before and after either way;
 //   - weak priors to the calibration (kPriorPixels) for what neither sees
 //     (e.g. the centre along the view axis).
 // Residuals are whitened by their MAD scale and taken through a Cauchy loss;
@@ -38,13 +38,13 @@ namespace {
 
 constexpr int kOuterIterations = 6;
 constexpr int kPointsPerCamera = 300;  // photometric points per camera and frame
-// The photometric term in the solve. Measured (8 cameras x 8 frames, mean
-// reprojection error against the true cameras, px): rot 0.032 without,
-// 0.030 with; clean 0.030 / 0.031; all knobs 0.168 / 0.242, and 3.5x the
-// time. The silhouettes alone are as good here (the synthetic actor's
-// texture is weak at 320x240, and its highlights move between views), so it
-// is off; the consistency is still measured (residual_before/after).
-constexpr bool kPhotometricTerm = false;
+// The photometric term in the solve (options.photometric, --refine-photometric).
+// Measured (8 cameras x 8 frames, mean reprojection error against the true
+// cameras, px): rot 0.032 without, 0.030 with; clean 0.030 / 0.031; all knobs
+// 0.168 / 0.242, and 3.5x the time. The silhouettes alone are as good there
+// (the synthetic actor's texture is weak at 320x240, and its highlights move
+// between views), so it is off by default; the consistency is still measured
+// (residual_before/after).
 // 1-sigma of the priors to the calibration, as image displacements (pixels):
 // weak for the rotation and the intrinsics; strong for the centre, which
 // the images hardly see (a lateral move is nearly a rotation: at the
@@ -249,7 +249,7 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
                                     levels[f][static_cast<size_t>(c)]);
         contour[static_cast<size_t>(c)].insert(contour[static_cast<size_t>(c)].end(), found.begin(), found.end());
       }
-      if (kPhotometricTerm)
+      if (options.photometric)
         for (SurfacePoint& sp : TexturedSurfacePoints(cams, depth, triangles, frames[f].positions, frames[f].smoothed,
                                                       2, 0.25, kPointsPerCamera)) {
           points.emplace_back(static_cast<int>(f), std::move(sp));
@@ -287,7 +287,7 @@ absl::StatusOr<v1::CalibrationReport> RefineCameras(const scene::Sequence& seque
       }
     }
     const double contour_scale = MadScale(contour_residuals, 0.05);
-    if (!kPhotometricTerm) {
+    if (!options.photometric) {
       used.clear();
       colours.clear();
     }

@@ -26,6 +26,10 @@ struct CameraRefinementOptions {
   v1::Refinement mode = v1::REFINEMENT_AUTO;  // OFF: RefineCameras is not called
   bool focal = false;                         // also fx (= fy scaled alike)
   bool distortion = false;                    // also k1
+  // The photometric term in the solve (refine_cameras.cc says what was
+  // measured with and without it); false: silhouettes and priors only. The
+  // cross-camera consistency is reported either way.
+  bool photometric = false;
   int frames = 8;                             // frames used, spread over the sequence
   int threads = 2;
   // Asked between frames; true stops with CANCELLED. May be empty.

@@ -183,6 +183,38 @@ TEST(RefineCamerasTest, FocalAndDistortionRefinementRecoverTheIntrinsics) {
   }
 }
 
+// --refine-photometric: the consensus colours of textured points join the
+// silhouettes in the solve. The cameras it gives are more consistent across
+// views (what the term minimises), differ from the silhouettes' alone and
+// still reach the truth. Measured here (2 frames): mean reprojection error
+// against the truth 0.052 px with it, 0.031 px without (from 2.08); mean
+// photometric rms after 0.0078 with, 0.0085 without.
+TEST(RefineCamerasTest, PhotometricTermChangesTheSolveAndReachesTheTruth) {
+  const Synthesised s = Synth("photometric", 0.4, 0.005, 0.0, 7, 320, 240);
+  ASSERT_EQ(s.truth.cameras_size(), 6);
+  CameraRefinementOptions options;
+  options.frames = 2;
+  options.mode = v1::REFINEMENT_ON;
+  const Outcome silhouettes = Refine(s.sequence, s.truth, options);
+  options.photometric = true;
+  const Outcome both = Refine(s.sequence, s.truth, options);
+  ASSERT_EQ(both.report.cameras_size(), 6);
+  ASSERT_EQ(silhouettes.report.cameras_size(), 6);
+  EXPECT_LT(both.MeanAfter(), both.MeanBefore() / 10) << "mean reprojection error against the truth, px";
+  double moved = 0;
+  for (int c = 0; c < 6; ++c) {
+    moved = std::max(moved, std::fabs(both.after[static_cast<size_t>(c)].reprojection_px -
+                                      silhouettes.after[static_cast<size_t>(c)].reprojection_px));
+  }
+  EXPECT_GT(moved, 1e-4) << "the photometric term changes no camera";
+  double rms_silhouettes = 0, rms_both = 0;
+  for (int c = 0; c < 6; ++c) {
+    rms_silhouettes += silhouettes.report.cameras(c).residual_after() / 6;
+    rms_both += both.report.cameras(c).residual_after() / 6;
+  }
+  EXPECT_LT(rms_both, rms_silhouettes) << "cross-camera photometric rms after refinement";
+}
+
 }  // namespace
 }  // namespace mvbrdf::calibrate
 

@@ -11,6 +11,7 @@ calibrate::CameraRefinementOptions CameraRefinementOptionsOf(const ReconstructOp
   o.mode = options.refine_cameras;
   o.focal = options.refine_focal;
   o.distortion = options.refine_distortion;
+  o.photometric = options.refine_photometric;
   o.frames = options.refine_frames;
   o.threads = options.threads;
   o.cancelled = options.cancelled;

@@ -85,6 +85,7 @@ struct ReconstructOptions {
   v1::Refinement refine_cameras = v1::REFINEMENT_AUTO;
   bool refine_focal = false;
   bool refine_distortion = false;
+  bool refine_photometric = false;  // the photometric term in the camera solve (CameraRefinementOptions)
   int refine_frames = 8;
   // The chosen configuration's lights refined after the sweep: auto when a
   // sweep chose the configuration.

@@ -24,6 +24,8 @@ std::string TriangleSampleOptions(const v1::SubmitJobRequest& request) {
     absl::StrAppend(&text, ";refine_focal=", options.refine_focal() ? 1 : 0,
                     ";refine_distortion=", options.refine_distortion() ? 1 : 0, ";refine_frames=",
                     options.has_refine_frames() ? absl::StrCat(options.refine_frames()) : std::string("default"));
+    // Only when set, so that the keys of earlier entries stay what they were.
+    if (options.refine_photometric()) absl::StrAppend(&text, ";refine_photometric=1");
   }
   absl::StrAppend(
       &text, ";edge_margin=", options.has_edge_margin_pixels() ? absl::StrCat(options.edge_margin_pixels()) : "default",

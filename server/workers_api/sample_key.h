@@ -36,7 +36,7 @@ inline constexpr unsigned kDefaultAtlasSize = 512;
 // 512 for 0; S: "auto" for 0, which means at most pipeline::kMaxSweepFrames
 // frames; M: auto, on or off), unless M is off
 // ";refine_focal=0|1;refine_distortion=0|1;refine_frames=F" (F: "default"
-// when unset), then ";edge_margin=E;gradient_rejection=G" (each "default"
+// when unset; then ";refine_photometric=1" when set), then ";edge_margin=E;gradient_rejection=G" (each "default"
 // when unset), then ";scene_path=P" when P is neither empty nor "scene.json".
 std::string TriangleSampleOptions(const v1::SubmitJobRequest& request);
 

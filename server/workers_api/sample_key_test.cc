@@ -83,6 +83,7 @@ TEST(TriangleSampleKeyTest, RefinementAndRejectionChangeTheKey) {
   EXPECT_TRUE(differs([](v1::FittingOptions* o) { o->set_refine_cameras(v1::REFINEMENT_ON); }));
   EXPECT_TRUE(differs([](v1::FittingOptions* o) { o->set_refine_focal(true); }));
   EXPECT_TRUE(differs([](v1::FittingOptions* o) { o->set_refine_distortion(true); }));
+  EXPECT_TRUE(differs([](v1::FittingOptions* o) { o->set_refine_photometric(true); }));
   EXPECT_TRUE(differs([](v1::FittingOptions* o) { o->set_refine_frames(4); }));
   EXPECT_TRUE(differs([](v1::FittingOptions* o) { o->set_edge_margin_pixels(2.0); }));
   EXPECT_TRUE(differs([](v1::FittingOptions* o) { o->set_gradient_rejection(0.5); }));
