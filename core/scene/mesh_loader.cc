@@ -32,7 +32,6 @@
 #include <vector>
 
 #include "absl/strings/ascii.h"
-#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -355,21 +354,24 @@ absl::Status CheckPlyCounts(const std::filesystem::path& file, const std::string
   return absl::OkStatus();
 }
 
-// Threads of this process (from /proc/self/stat; 0 when unknown).
-[[maybe_unused]] int ThreadCount() {
-  std::ifstream stat("/proc/self/stat");
+// Field `index` (1-based, as proc(5) numbers them) of /proc/WHO/stat; empty
+// when unreadable. Fields count from after the command, which may hold spaces
+// but ends at the last ')'.
+std::string ProcStatField(const std::string& who, int index) {
+  std::ifstream stat("/proc/" + who + "/stat");
   std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-  // Field 20 (num_threads) counts from after the command, which may hold
-  // spaces but ends at the last ')'.
   const size_t close = text.rfind(')');
-  if (close == std::string::npos) return 0;
+  if (close == std::string::npos || close + 2 > text.size()) return "";
   std::istringstream fields(text.substr(close + 2));
   std::string field;
-  for (int i = 3; i <= 20 && fields >> field; ++i) {
-    if (i == 20) return std::atoi(field.c_str());
+  for (int i = 3; i <= index && fields >> field; ++i) {
+    if (i == index) return field;
   }
-  return 0;
+  return "";
 }
+
+// Threads of this process (field 20, num_threads; 0 when unknown).
+[[maybe_unused]] int ThreadCount() { return std::atoi(ProcStatField("self", 20).c_str()); }
 
 // Whether a forked child may allocate. glibc's malloc is fork-safe, but
 // AddressSanitizer's allocator (GCC 12's libasan) is not: a child forked while
@@ -391,20 +393,20 @@ bool ForkedImportIsSafe() {
 #endif
 }
 
-// The state letter of /proc/PID/stat ('?' when unreadable).
+// The state letter of a process (field 3: R running, S or D blocked; '?'
+// when unreadable).
 char ProcessState(pid_t pid) {
-  std::ifstream stat(absl::StrCat("/proc/", pid, "/stat"));
-  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-  const size_t close = text.rfind(')');
-  return close != std::string::npos && close + 2 < text.size() ? text[close + 2] : '?';
+  const std::string state = ProcStatField(std::to_string(pid), 3);
+  return state.empty() ? '?' : state[0];
 }
 
-constexpr char kBlockedMarker[] = " (it was blocked, not running)";
 void (*import_child_hook)(int) = nullptr;
 
 // The import in a forked child (attempt 0 or 1: the testing hook's argument).
+// `*blocked`: the child's time ran out while it was blocked, not running.
 absl::StatusOr<ImportedCorners> ForkedImport(const std::filesystem::path& file, absl::string_view field,
-                                             const std::string& prefix, int attempt) {
+                                             const std::string& prefix, int attempt, bool* blocked) {
+  *blocked = false;
   std::error_code ec;
   const double file_size = static_cast<double>(std::filesystem::file_size(file, ec));
   int fds[2];
@@ -487,10 +489,10 @@ absl::StatusOr<ImportedCorners> ForkedImport(const std::filesystem::path& file, 
     waited = ::waitpid(pid, &wstatus, 0);
   } while (waited < 0 && errno == EINTR);
   if (timed_out) {
-    const bool blocked = state == 'S' || state == 'D';
-    return absl::InvalidArgumentError(
-        absl::StrFormat("%s: cannot read mesh: the importer (assimp) did not finish within %.0f s%s%s", prefix,
-                        limit_seconds, blocked ? kBlockedMarker : " (it was running)", attempt > 0 ? ", twice" : ""));
+    *blocked = state == 'S' || state == 'D';
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "%s: cannot read mesh: the importer (assimp) did not finish within %.0f s (it was %s)%s", prefix,
+        limit_seconds, *blocked ? "blocked, not running" : "running", attempt > 0 ? ", twice" : ""));
   }
   if (waited == pid && WIFSIGNALED(wstatus)) {
     return absl::InvalidArgumentError(absl::StrCat(prefix, ": cannot read mesh: the importer (assimp) crashed on it (",
@@ -522,10 +524,9 @@ absl::StatusOr<ImportedCorners> ImportCorners(const std::filesystem::path& file,
   // (Seen: in one CI run a service worker's import of a small synthetic OBJ
   // "did not finish within 5 s"; whether that child was blocked was not
   // recorded then. The message now says which.)
-  absl::StatusOr<ImportedCorners> result = ForkedImport(file, field, prefix, 0);
-  if (!result.ok() && absl::StrContains(result.status().message(), kBlockedMarker) && ThreadCount() > 1) {
-    result = ForkedImport(file, field, prefix, 1);
-  }
+  bool blocked = false;
+  absl::StatusOr<ImportedCorners> result = ForkedImport(file, field, prefix, 0, &blocked);
+  if (blocked && ThreadCount() > 1) result = ForkedImport(file, field, prefix, 1, &blocked);
   return result;
 }
 
