@@ -491,8 +491,8 @@ absl::StatusOr<ImportedCorners> ForkedImport(const std::filesystem::path& file, 
   if (timed_out) {
     *blocked = state == 'S' || state == 'D';
     return absl::InvalidArgumentError(absl::StrFormat(
-        "%s: cannot read mesh: the importer (assimp) did not finish within %.0f s (it was %s)%s", prefix,
-        limit_seconds, *blocked ? "blocked, not running" : "running", attempt > 0 ? ", twice" : ""));
+        "%s: cannot read mesh: the importer (assimp) did not finish within %.0f s (it was %s)%s", prefix, limit_seconds,
+        *blocked ? "blocked, not running" : "running", attempt > 0 ? ", twice" : ""));
   }
   if (waited == pid && WIFSIGNALED(wstatus)) {
     return absl::InvalidArgumentError(absl::StrCat(prefix, ": cannot read mesh: the importer (assimp) crashed on it (",
