@@ -159,7 +159,7 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
   if (job.cluster_samples < 10) {
     return absl::InvalidArgumentError(absl::StrCat("--cluster-samples: must be >= 10, got ", job.cluster_samples));
   }
-  // The request's bound (worker/job_options.cc) with the flag's name: above it
+  // The request's bound (core/pipeline/job_options.cc) with the flag's name: above it
   // the error named options.max_iterations and exited 3.
   if (job.max_iterations < 1 || job.max_iterations > 100000) {
     return absl::InvalidArgumentError(

@@ -26,12 +26,12 @@
 #include "core/base/proto_json.h"
 #include "core/bundle/bundle.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/job_options.h"
 #include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/reconstruct_stage.h"
 #include "core/pipeline/run_scene.h"
 #include "core/scene/names.h"
 #include "core/scene/sequence.h"
-#include "worker/job_options.h"
 
 namespace mvbrdf::client {
 namespace {
@@ -130,7 +130,7 @@ class TempDir {
 
 int RunDirect(const scene::Sequence& sequence, const v1::SubmitJobRequest& request, gl::EglPlatform platform,
               int threads, const std::string& out, const std::vector<std::string>& command_line) {
-  absl::StatusOr<pipeline::ReconstructOptions> o = worker::ReconstructOptionsFor(request, threads);
+  absl::StatusOr<pipeline::ReconstructOptions> o = pipeline::ReconstructOptionsFor(request, threads);
   if (!o.ok()) return ReportFailure(o.status(), "mvbrdf run");
   o->out_dir = out;
   for (const std::string& arg : command_line) o->run_options.add_command_line(arg);
@@ -346,7 +346,7 @@ int RunRun(const std::vector<std::string>& args) {
       return ReportFailure(s);
     }
   }
-  auto options = worker::ReconstructOptionsFor(request, threads);
+  auto options = pipeline::ReconstructOptionsFor(request, threads);
   if (!options.ok()) return ReportFailure(options.status());
   auto plan = pipeline::MakePlan(*sequence, options->request);
   if (!plan.ok()) return ReportFailure(plan.status());

@@ -15,9 +15,9 @@
 #include "core/base/files.h"
 #include "core/bundle/bundle.h"
 #include "core/bundle/sha256.h"
+#include "core/pipeline/job_options.h"
 #include "core/pipeline/reconstruct_stage.h"
 #include "core/synth/synthesizer.h"
-#include "worker/job_options.h"
 
 namespace mvbrdf {
 namespace {
@@ -186,7 +186,7 @@ TEST_F(ServiceIntegrationTest, SubmitWatchFetchEqualsADirectLibraryRun) {
   // The same job run directly by the library.
   auto sequence = scene::LoadSequence(dir_ / "bundle" / "scene.json");
   ASSERT_TRUE(sequence.ok()) << sequence.status();
-  auto options = worker::ReconstructOptionsFor(Request(), 1);
+  auto options = pipeline::ReconstructOptionsFor(Request(), 1);
   ASSERT_TRUE(options.ok());
   options->out_dir = dir_ / "direct";
   auto context = gl::EglContext::Create(gl::EglPlatform::kSurfaceless);

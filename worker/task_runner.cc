@@ -14,6 +14,7 @@
 #include "core/fit/light_sweep.h"
 #include "core/pipeline/calibration_stage.h"
 #include "core/pipeline/gather_stage.h"
+#include "core/pipeline/job_options.h"
 #include "core/pipeline/light_table.h"
 #include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/plan.h"
@@ -21,7 +22,6 @@
 #include "core/pipeline/refine_lights_stage.h"
 #include "core/report/report_inputs.h"
 #include "core/samples/assemble.h"
-#include "worker/job_options.h"
 #include "worker/worker_fault.h"
 
 namespace mvbrdf::worker {
@@ -33,7 +33,7 @@ using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 absl::StatusOr<pipeline::ReconstructOptions> OptionsOf(const v1::Task& task, const TaskEnvironment& env) {
-  MVBRDF_ASSIGN_OR_RETURN(pipeline::ReconstructOptions o, ReconstructOptionsFor(task.request(), env.threads));
+  MVBRDF_ASSIGN_OR_RETURN(pipeline::ReconstructOptions o, pipeline::ReconstructOptionsFor(task.request(), env.threads));
   o.progress = env.progress;
   o.cancelled = env.cancelled;
   // result.json names the scene inside the bundle, never the worker's cache.

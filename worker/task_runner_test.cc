@@ -6,15 +6,13 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <cmath>
-#include <functional>
 #include <opencv2/core.hpp>
 #include <vector>
 
 #include "core/image/exr.h"
+#include "core/pipeline/job_options.h"
 #include "core/pipeline/reconstruct_stage.h"
 #include "core/synth/synthesizer.h"
-#include "worker/job_options.h"
 
 namespace mvbrdf::worker {
 namespace {
@@ -78,7 +76,7 @@ cv::Mat ReadAtlas(const fs::path& file) {
 
 TEST_F(TaskRunnerTest, TaskChainEqualsOneProcessRun) {
   // The direct library run.
-  auto options = ReconstructOptionsFor(Request(), 2);
+  auto options = pipeline::ReconstructOptionsFor(Request(), 2);
   ASSERT_TRUE(options.ok()) << options.status();
   options->out_dir = dir_ / "direct";
   auto direct = pipeline::RunReconstruction(*sequence_, *context_, *options);
@@ -378,54 +376,6 @@ TEST_F(TaskRunnerTest, BadTasksAreRejectedNamingTheField) {
   r = RunTask(task, *sequence_, Environment("bad"));
   EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(r.status().message().find("key"), std::string::npos);
-
-  v1::SubmitJobRequest request;
-  request.mutable_options()->set_atlas_size(5);
-  EXPECT_NE(ReconstructOptionsFor(request, 2).status().message().find("options.atlas_size"), std::string::npos);
-  request = v1::SubmitJobRequest();
-  request.add_outputs(static_cast<v1::Output>(42));
-  EXPECT_NE(ReconstructOptionsFor(request, 2).status().message().find("outputs[0]"), std::string::npos);
-}
-
-// Every request field ReconstructOptionsFor checks: out of range is
-// INVALID_ARGUMENT naming the field and the value given (never a wrapped int).
-TEST(JobOptionsTest, OutOfRangeOptionsNameTheField) {
-  struct Case {
-    std::function<void(v1::SubmitJobRequest*)> set;
-    const char* expected;
-  };
-  const std::vector<Case> cases = {
-      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_atlas_size(8); },
-       "options.atlas_size: must be in [16, 16384], got 8"},
-      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_atlas_size(100000); },
-       "options.atlas_size: must be in [16, 16384], got 100000"},
-      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_max_iterations(4294967295u); },
-       "options.max_iterations: must be in [1, 100000], got 4294967295"},
-      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_sweep_frame_stride(4294967295u); },
-       "options.sweep_frame_stride: must be in [1, 2147483647], got 4294967295"},
-      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_grow_iterations(3000000000u); },
-       "options.grow_iterations: must be in [0, 16384], got 3000000000"},
-      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_max_cluster_samples(3); },
-       "options.max_cluster_samples: must be >= 10, got 3"},
-      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_kd_prior_strength(-1.0); },
-       "options.kd_prior_strength: must be finite and >= 0, got -1"},
-      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_kd_prior_strength(std::nan("")); },
-       "options.kd_prior_strength: must be finite and >= 0, got nan"},
-      {[](v1::SubmitJobRequest* r) { r->add_outputs(static_cast<v1::Output>(99)); }, "outputs[0]: unknown output 99"},
-  };
-  for (const Case& c : cases) {
-    v1::SubmitJobRequest request;
-    c.set(&request);
-    const auto options = ReconstructOptionsFor(request, 1);
-    EXPECT_EQ(options.status().code(), absl::StatusCode::kInvalidArgument) << c.expected;
-    EXPECT_NE(options.status().message().find(c.expected), std::string::npos)
-        << "expected \"" << c.expected << "\" in: " << options.status();
-  }
-  v1::SubmitJobRequest largest;
-  largest.mutable_options()->set_max_iterations(100000);
-  largest.mutable_options()->set_grow_iterations(16384);
-  largest.mutable_options()->set_sweep_frame_stride(2147483647u);
-  EXPECT_TRUE(ReconstructOptionsFor(largest, 1).ok()) << ReconstructOptionsFor(largest, 1).status();
 }
 
 TEST_F(TaskRunnerTest, CancelledGatherStops) {

@@ -79,7 +79,7 @@ struct ReconstructOptions {
   // The sweep's average BRDF is fitted on at most this many triangle
   // Samples (E_a and E_d still use all of them); 0 = all.
   size_t sweep_fit_samples = 100000;
-  // Issue #14 (robustness), from v1::FittingOptions (worker/job_options.cc).
+  // Issue #14 (robustness), from v1::FittingOptions (core/pipeline/job_options.cc).
   // Camera refinement before pass 1 (core/calibrate): auto runs it when
   // cross-camera consistency says the calibration is off.
   v1::Refinement refine_cameras = v1::REFINEMENT_AUTO;

@@ -3,8 +3,8 @@
 #include <set>
 
 #include "absl/strings/str_cat.h"
+#include "core/pipeline/job_options.h"
 #include "core/scene/names.h"
-#include "worker/job_options.h"
 
 namespace mvbrdf::clients_api {
 namespace {
@@ -27,7 +27,7 @@ std::string KnownConfigurations(const v1::Scene& scene) {
 
 absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene::Sequence& sequence) {
   // Outputs and options as every worker will read them (one function for both).
-  absl::StatusOr<pipeline::ReconstructOptions> options = worker::ReconstructOptionsFor(request, 1);
+  absl::StatusOr<pipeline::ReconstructOptions> options = pipeline::ReconstructOptionsFor(request, 1);
   if (!options.ok()) return options.status();
   const pipeline::RunRequest& run = options->request;  // configuration and candidates as the request has them
 

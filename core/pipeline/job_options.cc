@@ -1,4 +1,4 @@
-#include "worker/job_options.h"
+#include "core/pipeline/job_options.h"
 
 #include <cmath>
 #include <cstdint>
@@ -6,7 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 
-namespace mvbrdf::worker {
+namespace mvbrdf::pipeline {
 namespace {
 
 // INVALID_ARGUMENT "FIELD: must be EXPECTED, got VALUE" unless value is finite and >= 0.
@@ -29,9 +29,9 @@ absl::Status OutOfRange(const char* field, uint64_t got, uint64_t lo, uint64_t h
 
 }  // namespace
 
-absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequest& request, int threads) {
-  pipeline::ReconstructOptions o;
-  pipeline::RunRequest& run = o.request;
+absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequest& request, int threads) {
+  ReconstructOptions o;
+  RunRequest& run = o.request;
   if (request.outputs_size() > 0) {
     run.light_table = run.brdf_atlases = run.correction = run.camera_errors = false;
     for (int i = 0; i < request.outputs_size(); ++i) {
@@ -141,7 +141,7 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
   }
   if (f.has_robust()) o.robust = f.robust();
   // The service's sweep tasks fit with o.fit and o.diffuse directly.
-  o.fit.robust = o.diffuse.robust = pipeline::RobustFitOf(o.robust);
+  o.fit.robust = o.diffuse.robust = RobustFitOf(o.robust);
   if (f.has_edge_margin_pixels()) {
     MVBRDF_RETURN_IF_ERROR(CheckFiniteNonNegative("options.edge_margin_pixels", f.edge_margin_pixels(),
                                                   "a finite number >= 0 (pixels)"));
@@ -199,4 +199,4 @@ absl::StatusOr<pipeline::ReconstructOptions> ReconstructOptionsFor(const v1::Sub
   return o;
 }
 
-}  // namespace mvbrdf::worker
+}  // namespace mvbrdf::pipeline
