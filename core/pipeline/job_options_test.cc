@@ -67,6 +67,8 @@ TEST(JobOptionsTest, TheRequestReachesTheOptions) {
   v1::SubmitJobRequest request;
   request.add_outputs(v1::OUTPUT_LIGHT_TABLE);
   request.set_configuration("NE,NW");
+  request.add_configurations("NE,NW");
+  request.add_configurations("C");
   request.mutable_options()->set_atlas_size(256);
   const auto options = ReconstructOptionsFor(request, 3);
   ASSERT_TRUE(options.ok()) << options.status();
@@ -75,6 +77,7 @@ TEST(JobOptionsTest, TheRequestReachesTheOptions) {
   EXPECT_FALSE(options->request.correction);
   EXPECT_FALSE(options->request.camera_errors);
   EXPECT_EQ(options->request.configuration, "NE,NW");
+  EXPECT_EQ(options->request.candidates, (std::vector<std::string>{"NE,NW", "C"}));
   EXPECT_EQ(options->atlas.size, 256);
   EXPECT_EQ(options->threads, 3);
 }
