@@ -10,15 +10,6 @@
 namespace mvbrdf::pipeline {
 namespace {
 
-TEST(JobOptionsTest, AnUnknownOutputOrAnOptionOutOfRangeNamesTheField) {
-  v1::SubmitJobRequest request;
-  request.mutable_options()->set_atlas_size(5);
-  EXPECT_NE(ReconstructOptionsFor(request, 2).status().message().find("options.atlas_size"), std::string::npos);
-  request = v1::SubmitJobRequest();
-  request.add_outputs(static_cast<v1::Output>(42));
-  EXPECT_NE(ReconstructOptionsFor(request, 2).status().message().find("outputs[0]"), std::string::npos);
-}
-
 // Every request field ReconstructOptionsFor checks: out of range is
 // INVALID_ARGUMENT naming the field and the value given (never a wrapped int).
 TEST(JobOptionsTest, OutOfRangeOptionsNameTheField) {
