@@ -59,6 +59,9 @@ int RunSynth(const std::vector<std::string>& args) {
                   "render geometry displaced by this amplitude that the scene's mesh does not model");
   flags.AddDouble("--exposure GAIN", &o.exposure, "gain before 8-bit clipping; > 1 clips highlights");
   flags.AddDouble("--distortion K1", &o.distortion_k1, "radial distortion k1 of every camera");
+  flags.AddInt("--pixel-samples N", &o.pixel_samples,
+               "N x N samples per pixel averaged in linear light, as a sensor integrates its pixel (1: one at the "
+               "centre, aliased edges; up to 8)");
   flags.AddDouble("--light-position-error DISTANCE", &o.light_position_error,
                   "each point light written to scene.json moved this far in a random direction (truth: as rendered)");
   flags.AddDouble("--light-direction-error DEGREES", &o.light_direction_error_deg,

@@ -7,6 +7,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -84,6 +85,31 @@ scene::Light PerturbLight(const scene::Light& light, double distance, double deg
   return out;
 }
 
+// One camera image as a sensor records it: `samples` x `samples` renders
+// per pixel (the camera scaled so that each pixel's block of samples covers
+// it), distorted at that resolution and averaged in linear light, so that a
+// pixel the silhouette crosses holds the mean of what it sees.
+absl::StatusOr<cv::Mat> RenderPixelAreas(render::PhongRenderer& renderer, const render::Pose& pose,
+                                         const scene::CameraModel& camera, int samples) {
+  if (samples <= 1) {
+    MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer.Render(pose, camera));
+    return ApplyDistortion(image.radiance, camera);
+  }
+  scene::CameraModel fine = camera;
+  fine.width *= samples;
+  fine.height *= samples;
+  fine.fx *= samples;
+  fine.fy *= samples;
+  fine.pixel_size /= samples;
+  // Pixel centres: camera pixel x covers fine pixels [s x, s x + s).
+  fine.cx = (camera.cx + 0.5) * samples - 0.5;
+  fine.cy = (camera.cy + 0.5) * samples - 0.5;
+  MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer.Render(pose, fine));
+  cv::Mat out;
+  cv::resize(ApplyDistortion(image.radiance, fine), out, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_AREA);
+  return out;
+}
+
 // Smooth displacement along the normals: geometry the mesh does not model.
 scene::FramePositions DisplaceVertices(const scene::MeshTopology& topology, const scene::FramePositions& rest,
                                        const scene::FramePositions& posed, double amplitude, uint32_t seed) {
@@ -143,6 +169,11 @@ absl::Status SynthOptions::Check() const {
   MVBRDF_RETURN_IF_ERROR(CheckRange("--vertex-noise", vertex_noise, 0, 1));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--exposure", exposure, 0.01, 100));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--distortion", distortion_k1, -1, 1));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--pixel-samples", pixel_samples, 1, 8));
+  if (std::max(width, height) * pixel_samples > 16384) {
+    return absl::InvalidArgumentError(absl::StrCat("--pixel-samples: ", pixel_samples, " x the image's ",
+                                                   std::max(width, height), " pixels exceeds 16384"));
+  }
   MVBRDF_RETURN_IF_ERROR(CheckRange("--light-position-error", light_position_error, 0, 1000));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--light-direction-error", light_direction_error_deg, 0, 90));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--light-intensity-error", light_intensity_error, 0, 0.9));
@@ -303,9 +334,9 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     pose.normals = scene::ToRenderVertices(subject.topology, normals);
     if (olat) MVBRDF_RETURN_IF_ERROR(renderer->SetLights(frame_lights(t)));
     for (size_t c = 0; c < studio.cameras.size(); ++c) {
-      MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer->Render(pose, studio.cameras[c]));
-      const cv::Mat distorted = ApplyDistortion(image.radiance, studio.cameras[c]);
-      MVBRDF_RETURN_IF_ERROR(sinks[c]->Write(EncodeSrgb8(distorted, encode, rng)));
+      MVBRDF_ASSIGN_OR_RETURN(const cv::Mat image,
+                              RenderPixelAreas(*renderer, pose, studio.cameras[c], options.pixel_samples));
+      MVBRDF_RETURN_IF_ERROR(sinks[c]->Write(EncodeSrgb8(image, encode, rng)));
     }
   }
   for (auto& sink : sinks) MVBRDF_RETURN_IF_ERROR(sink->Close());
@@ -428,6 +459,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   p->set_light_position_error(options.light_position_error);
   p->set_light_intensity_error(options.light_intensity_error);
   p->set_light_direction_error_deg(options.light_direction_error_deg);
+  p->set_pixel_samples(static_cast<uint32_t>(options.pixel_samples));
   truth.set_shadow_map_size(static_cast<uint32_t>(options.shadow_map_size));
   {
     // The scene as `mvbrdf run` will read it (the mesh as parsed back from

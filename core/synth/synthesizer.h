@@ -69,6 +69,10 @@ struct SynthOptions {
   bool lossy_video = false;
   double exposure = 1.0;
   double distortion_k1 = 0.0;
+  // Samples per pixel along each axis (ground_truth.proto: pixel_samples):
+  // 1 renders one sample at each pixel centre, N averages N x N in linear
+  // light, as a camera's pixel integrates over its area.
+  int pixel_samples = 1;
   // Issue #14: the lights written to scene.json differ from the rendered
   // ones (truth.lights): each point light moved by this distance in a random
   // direction, each directional light turned by light_direction_error_deg
