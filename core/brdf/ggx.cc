@@ -1,0 +1,62 @@
+#include "core/brdf/ggx.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace mvbrdf::brdf {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// (1 - v.h)^5, v.h clamped to [0, 1].
+double SchlickWeight(const Geometry& geometry) {
+  const double m = 1.0 - std::clamp(geometry.v_dot_h, 0.0, 1.0);
+  const double m2 = m * m;
+  return m2 * m2 * m;
+}
+
+}  // namespace
+
+const std::array<Parameter, Ggx::kNumParameters>& Ggx::Parameters() {
+  static const std::array<Parameter, kNumParameters> parameters = {{{"f0", 0.0, 1.0}, {"roughness", 0.02, 1.0}}};
+  return parameters;
+}
+
+double Ggx::Specular(const double* p, const Geometry& geometry, double* jacobian) {
+  if (jacobian != nullptr) jacobian[0] = jacobian[1] = 0.0;
+  const double nl = geometry.n_dot_l, nv = geometry.n_dot_v;
+  if (!(nl > 0.0) || !(nv > 0.0)) return 0.0;
+  const double nl1 = std::min(nl, 1.0), nv1 = std::min(nv, 1.0);
+  const double c = std::clamp(geometry.n_dot_h, 0.0, 1.0);
+  const double f0 = p[0], roughness = p[1];
+  const double a = roughness * roughness, a2 = a * a;
+  // D and dD/da.
+  const double q = c * c * (a2 - 1.0) + 1.0;
+  const double d = a2 / (kPi * q * q);
+  const double dd_da = 2.0 * a * (q - 2.0 * a2 * c * c) / (kPi * q * q * q);
+  // V and dV/da.
+  const double root_v = std::sqrt(nv1 * nv1 * (1.0 - a2) + a2), root_l = std::sqrt(nl1 * nl1 * (1.0 - a2) + a2);
+  const double s = nl1 * root_v + nv1 * root_l;
+  const double v = 0.5 / s;
+  const double ds_da = nl1 * a * (1.0 - nv1 * nv1) / root_v + nv1 * a * (1.0 - nl1 * nl1) / root_l;
+  const double dv_da = -0.5 * ds_da / (s * s);
+  // F.
+  const double w = SchlickWeight(geometry);
+  const double f = f0 + (1.0 - f0) * w;
+  if (jacobian != nullptr) {
+    jacobian[0] = nl * (1.0 - w) * d * v;
+    jacobian[1] = nl * f * (dd_da * v + d * dv_da) * 2.0 * roughness;
+  }
+  return nl * f * d * v;
+}
+
+double Ggx::DiffuseWeight(const double* p, const Geometry& geometry, double* jacobian) {
+  const double w = SchlickWeight(geometry);
+  if (jacobian != nullptr) {
+    jacobian[0] = -(1.0 - w);
+    jacobian[1] = 0.0;
+  }
+  return 1.0 - (p[0] + (1.0 - p[0]) * w);
+}
+
+}  // namespace mvbrdf::brdf
