@@ -1,6 +1,7 @@
 #include "core/brdf/blinn_phong.h"
 
 #include <cmath>
+#include <limits>
 
 namespace mvbrdf::brdf {
 namespace {
@@ -21,7 +22,10 @@ double Normalisation(double ke, double* derivative) {
 }  // namespace
 
 const std::array<Parameter, BlinnPhong::kNumParameters>& BlinnPhong::Parameters() {
-  static const std::array<Parameter, kNumParameters> parameters = {{{"ks", 0.0, 1.0}, {"ke", 0.1, 4e4}}};
+  // ks in the data's intensity units, like kd (<= 1 conserves energy only
+  // where those are the lights' own); ke up to 4x the mirror lobe's 1e4.
+  static const std::array<Parameter, kNumParameters> parameters = {
+      {{"ks", 0.0, std::numeric_limits<double>::infinity()}, {"ke", 1.0, 4e4}}};
   return parameters;
 }
 

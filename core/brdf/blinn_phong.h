@@ -8,7 +8,7 @@
 // Reciprocal, and with ks <= 1 it reflects at most what arrives (N makes the
 // lobe integrate to 1 seen along the normal; brdf_test.cc integrates it). A half-vector
 // exponent is about 4x a mirror lobe's for the same lobe (shared/NOTES.md).
-// Parameters: ks (specular albedo, <= 1 conserves energy), ke.
+// Parameters: ks (in kd's units; <= 1 conserves energy in the lights' own), ke.
 #ifndef MVBRDF_CORE_BRDF_BLINN_PHONG_H_
 #define MVBRDF_CORE_BRDF_BLINN_PHONG_H_
 

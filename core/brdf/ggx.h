@@ -17,6 +17,9 @@
 // Parameters: f0 in [0, 1] and the perceptual roughness in [0.02, 1] (glTF's
 // roughnessFactor; better conditioned than a: the lobe's width is about
 // linear in it). Reciprocal; with F0 <= 1 it reflects at most what arrives.
+// F0 is a reflectance: it has a meaning only where kd and the images are in
+// the lights' own units; data in other units need a scale beside it (a fit's
+// concern, issue #15 item 3), since results must not depend on units.
 #ifndef MVBRDF_CORE_BRDF_GGX_H_
 #define MVBRDF_CORE_BRDF_GGX_H_
 

@@ -1,12 +1,16 @@
 #include "core/brdf/phong.h"
 
 #include <cmath>
+#include <limits>
 
 namespace mvbrdf::brdf {
 
 const std::array<Parameter, Phong::kNumParameters>& Phong::Parameters() {
-  // The fitter's bounds (core/fit/phong_fit.h: PhongFitOptions).
-  static const std::array<Parameter, kNumParameters> parameters = {{{"ks", 0.0, 1e6}, {"ke", 0.1, 1e4}}};
+  // ks has no upper bound of its own: it is in the data's intensity units
+  // (a fit bounds it relative to them, as core/fit/phong_fit.h's ks_max);
+  // ke as the fitter's ke_min, ke_max.
+  static const std::array<Parameter, kNumParameters> parameters = {
+      {{"ks", 0.0, std::numeric_limits<double>::infinity()}, {"ke", 1.0, 1e4}}};
   return parameters;
 }
 
