@@ -20,7 +20,7 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
   const size_t num_lights = sequence.lights.size();
   const int num_cameras = static_cast<int>(sequence.cameras.size());
   Gathered g;
-  g.triangle_samples = samples::MakeSampleSet(sequence.lights);
+  g.triangle_samples = samples::MakeSampleSet(sequence.lights, options.half_vector_geometry);
   if (texels) {
     g.texels = std::make_shared<TexelStatistics>();
     g.texels->texel_sum.assign(num_texels, glm::dvec3(0.0));
@@ -39,7 +39,8 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
     const size_t max_terms = samples::MaxLightsOn(samples::FrameLightMasks(sequence), num_lights);
     g.texels->reservoir = std::make_unique<TexelReservoir>(num_texels, static_cast<int>(num_lights),
                                                            options.reservoir_uniform, options.reservoir_highlight,
-                                                           assemble.inverse_square_falloff, max_terms);
+                                                           assemble.inverse_square_falloff, max_terms,
+                                                           options.half_vector_geometry);
   }
   TexelStatistics* st = g.texels.get();
   const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);

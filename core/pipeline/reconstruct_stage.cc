@@ -441,7 +441,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   if (gather_triangles || gather_texels) {
     MVBRDF_ASSIGN_OR_RETURN(g, GatherPass(sequence, context, atlas, options, gather_triangles, gather_texels));
   } else {
-    g.triangle_samples = samples::MakeSampleSet(sequence.lights);
+    g.triangle_samples = samples::MakeSampleSet(sequence.lights, options.half_vector_geometry);
   }
   if (reflectance && !gather_texels) {
     g.texels = options.texel_statistics;  // gathered by an earlier task
@@ -719,7 +719,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       row->add_flags(tiny[k] ? "tiny" : "no_samples");
       continue;
     }
-    samples::SampleSet set = samples::MakeSampleSet(sequence.lights);
+    samples::SampleSet set = samples::MakeSampleSet(sequence.lights, options.half_vector_geometry);
     // Spread the cap over the cluster's kept Samples, not its texels (most
     // texels keep fewer Samples than they have slots).
     const TexelReservoir& reservoir = *g.texels->reservoir;

@@ -50,6 +50,11 @@ struct ReconstructOptions {
   atlas::AtlasOptions atlas;
   resample::ResamplerOptions resampler;
   samples::AssembleOptions assemble;
+  // Gather the half-vector geometry into every Sample (triangle Samples and
+  // the kept texel Samples; SampleSet::half_vector), which the models other
+  // than the thesis's Phong read (issue #15). Off on the Phong path: its
+  // Samples are what they were.
+  bool half_vector_geometry = false;
   // Triangle averaging for light estimation (thesis §5.1.3).
   float min_valid_fraction = 0.75f;
   fit::PhongFitOptions fit;

@@ -1,6 +1,8 @@
 #include "core/pipeline/texel_reservoir.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 namespace mvbrdf::pipeline {
@@ -21,15 +23,18 @@ uint32_t Hash(uint32_t a, uint32_t b) {
 }  // namespace
 
 TexelReservoir::TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots, bool falloff,
-                               size_t max_terms)
+                               size_t max_terms, bool half_vector)
     : num_lights_(num_lights),
       max_terms_(max_terms > 0 ? std::min(max_terms, static_cast<size_t>(num_lights))
                                : static_cast<size_t>(num_lights)),
       falloff_(falloff),
+      half_vector_(half_vector),
       uniform_(uniform_slots),
       highlight_(highlight_slots),
       slots_per_texel_(uniform_slots + highlight_slots),
-      row_floats_(3 + (falloff ? 3 : 2) * max_terms_),
+      row_floats_(3 + (falloff ? 3 : 2) * max_terms_ + (half_vector ? 1 + 2 * max_terms_ : 0)),
+      falloff_at_(3 + 2 * max_terms_),
+      half_vector_at_(3 + (falloff ? 3 : 2) * max_terms_),
       seen_(num_texels, 0),
       slots_(num_texels * static_cast<size_t>(uniform_slots + highlight_slots)),
       rows_(slots_.size() * row_floats_, 0.0f),
@@ -49,7 +54,17 @@ void TexelReservoir::Store(size_t slot, int frame, int camera, float hmax, const
   std::memcpy(row + 3, terms.g, sizeof(float) * count);
   std::memcpy(row + 3 + max_terms_, terms.h, sizeof(float) * count);
   if (falloff_) {
-    for (size_t j = 0; j < count; ++j) row[3 + 2 * max_terms_ + j] = terms.falloff != nullptr ? terms.falloff[j] : 1.0f;
+    for (size_t j = 0; j < count; ++j) row[falloff_at_ + j] = terms.falloff != nullptr ? terms.falloff[j] : 1.0f;
+  }
+  if (half_vector_) {
+    float* hv = row + half_vector_at_;
+    hv[0] = terms.n_dot_v;
+    if (count > 0 && (terms.n_dot_h == nullptr || terms.v_dot_h == nullptr)) {
+      std::fprintf(stderr, "TexelReservoir: an observation without half-vector geometry in a reservoir that keeps it\n");
+      std::abort();
+    }
+    std::memcpy(hv + 1, terms.n_dot_h, sizeof(float) * count);
+    std::memcpy(hv + 1 + max_terms_, terms.v_dot_h, sizeof(float) * count);
   }
 }
 
@@ -106,9 +121,14 @@ void TexelReservoir::Collect(const std::vector<uint32_t>& texels, size_t max_sam
       const Slot& slot = slots_[index];
       if (slot.hmax < 0.0f) continue;
       const float* row = Row(index);
+      samples::HalfVectorTerms geometry;
+      if (half_vector_) {
+        const float* hv = row + half_vector_at_;
+        geometry = {hv[0], hv + 1, hv + 1 + max_terms_};
+      }
       out->AddTerms(texel, slot.frame, slot.camera, {row[0], row[1], row[2]}, slot.count,
                     lights_.data() + index * max_terms_, row + 3, row + 3 + max_terms_,
-                    falloff_ ? row + 3 + 2 * max_terms_ : nullptr);
+                    falloff_ ? row + falloff_at_ : nullptr, geometry);
     }
   }
 }

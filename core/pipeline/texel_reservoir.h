@@ -27,18 +27,22 @@ class TexelReservoir {
   // `falloff`: also keep the per-light fall-off a_k of each sample (scenes
   // with inverse-square fall-off; SampleSet::falloff).
   // `max_terms`: the most terms an observation has (0: num_lights).
+  // `half_vector`: also keep the half-vector geometry (n.v, and n.h, v.h per
+  // term; SampleSet::half_vector), for the models other than Phong.
   TexelReservoir(size_t num_texels, int num_lights, int uniform_slots, int highlight_slots, bool falloff = false,
-                 size_t max_terms = 0);
+                 size_t max_terms = 0, bool half_vector = false);
 
   // One observation of `texel`: its terms (at most max_terms; a is ignored
   // without fall-off).
   void Offer(uint32_t texel, int frame, int camera, const glm::vec3& rgb, const samples::LightTerms& terms);
-  // The same from dense rows (g, h and a hold num_lights values).
+  // The same from dense rows (g, h and a hold num_lights values; a reservoir
+  // without half-vector geometry).
   void Offer(uint32_t texel, int frame, int camera, const glm::vec3& rgb, const float* g, const float* h,
              const float* a = nullptr);
 
   // The kept Samples of the given texels (element = texel index), appended
-  // to `out` (whose lights must match), at most `max_samples` (texels taken
+  // to `out` (whose lights must match, and which stores the half-vector
+  // geometry only if this reservoir keeps it), at most `max_samples` (texels taken
   // in the given order, all slots of a texel together).
   void Collect(const std::vector<uint32_t>& texels, size_t max_samples, samples::SampleSet* out) const;
 
@@ -60,11 +64,14 @@ class TexelReservoir {
   int num_lights_;
   size_t max_terms_;
   bool falloff_;
+  bool half_vector_;
   int uniform_, highlight_, slots_per_texel_;
   size_t row_floats_;
   std::vector<uint32_t> seen_;  // observations offered per texel
   std::vector<Slot> slots_;
-  std::vector<float> rows_;       // per slot: rgb, g[M], h[M] (, a[M])
+  // Per slot: rgb, g[M], h[M], (a[M]), (n.v, n.h[M], v.h[M]).
+  size_t falloff_at_, half_vector_at_;
+  std::vector<float> rows_;
   std::vector<uint16_t> lights_;  // per slot: light[M]
 };
 

@@ -120,5 +120,50 @@ TEST(TexelReservoirTest, OneTermOfManyLights) {
   EXPECT_TRUE(beyond_sixteen);
 }
 
+// Issue #15 item 2: a reservoir that keeps the half-vector geometry hands it
+// back with each kept observation (with fall-off on, so every part of a row
+// is in use).
+TEST(TexelReservoirTest, KeepsTheHalfVectorGeometry) {
+  TexelReservoir reservoir(3, 2, 1, 1, /*falloff=*/true, 0, /*half_vector=*/true);
+  for (uint32_t texel = 0; texel < 3; ++texel) {
+    for (int i = 0; i < 5; ++i) {
+      const uint16_t light[2] = {0, 1};
+      const float f = static_cast<float>(10 * texel + i);
+      const float g[2] = {0.5f, 0.25f}, h[2] = {0.01f * f, 0.02f * f}, a[2] = {0.5f, 2.0f};
+      const float nh[2] = {0.001f * f, 0.002f * f}, vh[2] = {0.003f * f, 0.004f * f};
+      samples::LightTerms terms;
+      terms.count = 2;
+      terms.light = light;
+      terms.g = g;
+      terms.h = h;
+      terms.falloff = a;
+      terms.n_dot_v = 0.005f * f;
+      terms.n_dot_h = nh;
+      terms.v_dot_h = vh;
+      reservoir.Offer(texel, i, 0, glm::vec3(f), terms);
+    }
+  }
+  samples::SampleSet set = TwoLights();
+  set.half_vector = true;
+  reservoir.Collect({0, 1, 2}, 100, &set);
+  ASSERT_EQ(set.size(), 6u);
+  ASSERT_EQ(set.n_dot_v.size(), 6u);
+  ASSERT_EQ(set.n_dot_h.size(), 12u);
+  for (size_t i = 0; i < set.size(); ++i) {
+    const float f = set.reflectance[i].x;  // the observation's number, as offered
+    EXPECT_FLOAT_EQ(set.n_dot_v[i], 0.005f * f);
+    const size_t j = set.TermsBegin(i);
+    EXPECT_FLOAT_EQ(set.h[j + 1], 0.02f * f);
+    EXPECT_FLOAT_EQ(set.falloff[j + 1], 2.0f);
+    EXPECT_FLOAT_EQ(set.n_dot_h[j], 0.001f * f);
+    EXPECT_FLOAT_EQ(set.n_dot_h[j + 1], 0.002f * f);
+    EXPECT_FLOAT_EQ(set.v_dot_h[j], 0.003f * f);
+    EXPECT_FLOAT_EQ(set.v_dot_h[j + 1], 0.004f * f);
+  }
+  // The same reservoir without the geometry is smaller by 1 + 2 floats per term and slot.
+  TexelReservoir plain(3, 2, 1, 1, true, 0, false);
+  EXPECT_EQ(reservoir.MemoryBytes() - plain.MemoryBytes(), 3u * 2u * (1 + 2 * 2) * sizeof(float));
+}
+
 }  // namespace
 }  // namespace mvbrdf::pipeline

@@ -32,6 +32,14 @@ LightCosines ComputeLightCosines(const scene::Light& light, const glm::vec3& poi
   const glm::vec3 r = 2.0f * l_dot_n * unit_normal - l;
   cosines.g = l_dot_n;
   cosines.h = std::max(0.0f, glm::dot(r, v));
+  cosines.n_dot_v = glm::dot(unit_normal, v);
+  const glm::vec3 sum = l + v;
+  const float length = glm::length(sum);
+  if (length > 0.0f) {
+    const glm::vec3 half = sum / length;
+    cosines.n_dot_h = std::max(0.0f, glm::dot(unit_normal, half));
+    cosines.v_dot_h = std::max(0.0f, glm::dot(v, half));
+  }
   return cosines;
 }
 

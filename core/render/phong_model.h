@@ -32,6 +32,12 @@ struct LightCosines {
   float g = 0.0f;  // max(0, l.n)
   float h = 0.0f;  // max(0, R(l).v), 0 where g = 0
   float attenuation = 1.0f;  // 1/d^2 with fall-off on, else 1
+  // The half-vector geometry of the other models (core/brdf/geometry.h), set
+  // where g > 0: n.v, and with h = normalize(l + v) max(0, n.h) and
+  // max(0, v.h) (0 when l + v = 0).
+  float n_dot_v = 0.0f;
+  float n_dot_h = 0.0f;
+  float v_dot_h = 0.0f;
 };
 
 LightCosines ComputeLightCosines(const scene::Light& light, const glm::vec3& point, const glm::vec3& unit_normal,

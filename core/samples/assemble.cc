@@ -95,9 +95,10 @@ void ApplyLightMask(const LightMask& on, size_t num_lights, cv::Mat* shadows) {
   }
 }
 
-SampleSet MakeSampleSet(const std::vector<scene::Light>& lights) {
+SampleSet MakeSampleSet(const std::vector<scene::Light>& lights, bool half_vector) {
   Check(lights.size() <= static_cast<size_t>(kMaxLights), "MakeSampleSet: more than kMaxLights lights");
   SampleSet set;
+  set.half_vector = half_vector;
   for (const scene::Light& light : lights) {
     set.light_names.push_back(light.name);
     set.light_intensity.push_back(light.intensity);
@@ -167,7 +168,7 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
     }
     const LightTerms terms = buffers->Fill(lights, c, n, view, visible_bits.data(), options.inverse_square_falloff);
     out->AddTerms(static_cast<uint32_t>(t), frame, camera_index, means[t].rgb, terms.count, terms.light, terms.g,
-                  terms.h, terms.any_falloff || !out->falloff.empty() ? terms.falloff : nullptr);
+                  terms.h, terms.any_falloff || !out->falloff.empty() ? terms.falloff : nullptr, terms.HalfVector());
   }
 }
 

@@ -44,7 +44,9 @@ void SetShadowBit(cv::Mat* shadows, int row, int column, size_t k);
 
 // The terms of one Sample as the assemblers hand them to visitors: `count`
 // lights (ascending) with their g, h and fall-off a (SampleSet's terms;
-// g > 0 for each; a = 1 without fall-off).
+// g > 0 for each; a = 1 without fall-off), and the half-vector geometry:
+// n.v of the Sample, n.h and v.h per term (SampleSet::n_dot_v, n_dot_h,
+// v_dot_h).
 struct LightTerms {
   size_t count = 0;
   const uint16_t* light = nullptr;
@@ -52,6 +54,11 @@ struct LightTerms {
   const float* h = nullptr;
   const float* falloff = nullptr;
   bool any_falloff = false;  // some a != 1
+  float n_dot_v = 0.0f;
+  const float* n_dot_h = nullptr;
+  const float* v_dot_h = nullptr;
+  // The half-vector geometry as SampleSet::AddTerms takes it.
+  HalfVectorTerms HalfVector() const { return {n_dot_v, n_dot_h, v_dot_h}; }
 };
 
 // Per frame t of `sequence`, the lights that are on (bit k =
@@ -75,8 +82,10 @@ LightMask AllLights(size_t num_lights);
 // off lights nothing. A no-op when `on` covers every light of the atlas.
 void ApplyLightMask(const LightMask& on, size_t num_lights, cv::Mat* shadows);
 
-// An empty set for `lights` (names and intensities filled in).
-SampleSet MakeSampleSet(const std::vector<scene::Light>& lights);
+// An empty set for `lights` (names and intensities filled in); with
+// `half_vector` it stores the half-vector geometry of every Sample appended
+// (SampleSet::half_vector; the models other than the thesis's Phong).
+SampleSet MakeSampleSet(const std::vector<scene::Light>& lights, bool half_vector = false);
 
 // Appends one sample per valid triangle of `means` (AverageTriangles of camera
 // `camera`'s resampled atlas in frame `frame`). `file_positions` is the posed

@@ -20,12 +20,13 @@ void Check(bool condition, const char* message);
 // The terms of one surface point, as SampleSet stores them: for every light
 // k visible in the shadow atlas texel `bits` (ShadowChannels(lights.size())
 // values; bit k % 16 of bits[k / 16]) that faces the point (g > 0):
-// g = a max(0, l.n), h = max(0, R(l).v), a = fall-off. Returns the count;
+// g = a max(0, l.n), h = max(0, R(l).v), a = fall-off, n.h and v.h (the
+// half vector's, render::LightCosines). Returns the count;
 // `any_falloff` is set when some kept a != 1.
 inline size_t LightTermsAt(const std::vector<scene::Light>& lights, const glm::vec3& point,
                            const glm::vec3& unit_normal, const glm::vec4& view_origin, const uint16_t* bits,
                            bool inverse_square_falloff, uint16_t* light, float* g, float* h, float* falloff,
-                           bool* any_falloff) {
+                           float* n_dot_h, float* v_dot_h, bool* any_falloff) {
   size_t count = 0;
   const size_t num = lights.size();
   const size_t channels = static_cast<size_t>(ShadowChannels(num));
@@ -41,6 +42,8 @@ inline size_t LightTermsAt(const std::vector<scene::Light>& lights, const glm::v
       g[count] = gk;
       h[count] = cos.h;
       falloff[count] = cos.attenuation;
+      n_dot_h[count] = cos.n_dot_h;
+      v_dot_h[count] = cos.v_dot_h;
       *any_falloff |= cos.attenuation != 1.0f;
       ++count;
     }
@@ -51,16 +54,19 @@ inline size_t LightTermsAt(const std::vector<scene::Light>& lights, const glm::v
 // Buffers for one point's terms (at most kMaxLights).
 struct TermBuffers {
   uint16_t light[kMaxLights];
-  float g[kMaxLights], h[kMaxLights], falloff[kMaxLights];
+  float g[kMaxLights], h[kMaxLights], falloff[kMaxLights], n_dot_h[kMaxLights], v_dot_h[kMaxLights];
   LightTerms Fill(const std::vector<scene::Light>& lights, const glm::vec3& point, const glm::vec3& unit_normal,
                   const glm::vec4& view_origin, const uint16_t* bits, bool inverse_square_falloff) {
     LightTerms t;
     t.count = LightTermsAt(lights, point, unit_normal, view_origin, bits, inverse_square_falloff, light, g, h,
-                           falloff, &t.any_falloff);
+                           falloff, n_dot_h, v_dot_h, &t.any_falloff);
     t.light = light;
     t.g = g;
     t.h = h;
     t.falloff = falloff;
+    t.n_dot_v = glm::dot(unit_normal, scene::ViewDirection(view_origin, point));
+    t.n_dot_h = n_dot_h;
+    t.v_dot_h = v_dot_h;
     return t;
   }
 };

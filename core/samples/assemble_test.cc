@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/brdf/geometry.h"
 #include "core/render/phong_model.h"
 
 namespace mvbrdf::samples {
@@ -168,6 +169,47 @@ TEST(AppendTriangleSamples, CosinesVisibilityAndSkips) {
   // Illumination of triangle 0 by {A, B}: I_A g_A + I_B g_B.
   const glm::vec3 e = set.Illumination(0, *set.MaskOf({"A", "B"}));
   EXPECT_FLOAT_EQ(e.g, 0.9f * set.GOf(0, 0) + set.GOf(0, 1));
+}
+
+// Issue #15 item 2: a half-vector set stores n.v per Sample and n.h, v.h per
+// term, as core/brdf/geometry.h defines them from the directions; n.l is
+// g / a and h stays R(l).v. Point and directional lights, with fall-off.
+TEST(AppendTriangleSamples, HalfVectorGeometryMatchesTheDirections) {
+  const Fixture f = MakeFixture();
+  SampleSet set = MakeSampleSet(f.lights, /*half_vector=*/true);
+  AssembleOptions options;
+  options.inverse_square_falloff = true;
+  AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, options, &set);
+  ASSERT_EQ(set.size(), 2u);
+  ASSERT_EQ(set.n_dot_v.size(), 2u);
+  ASSERT_EQ(set.n_dot_h.size(), set.num_terms());
+  ASSERT_EQ(set.v_dot_h.size(), set.num_terms());
+  const glm::dvec3 n(0, 0, 1), eye(0.5, 0.5, 3.0);
+  size_t checked = 0;
+  for (size_t i = 0; i < set.size(); ++i) {
+    const glm::dvec3 c(Centre(f, static_cast<int>(set.element[i])));
+    const glm::dvec3 v = glm::normalize(eye - c);
+    for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+      const scene::Light& light = f.lights[set.light[j]];
+      const glm::dvec3 l = light.directional ? glm::normalize(glm::dvec3(light.direction))
+                                             : glm::normalize(glm::dvec3(light.position) - c);
+      const brdf::Geometry geometry = brdf::GeometryOf(n, l, v);
+      EXPECT_NEAR(set.n_dot_v[i], geometry.n_dot_v, 1e-6);
+      EXPECT_NEAR(set.g[j] / set.TermFalloff(j), geometry.n_dot_l, 1e-6);
+      EXPECT_NEAR(set.h[j], std::max(0.0, geometry.r_dot_v), 1e-6);
+      EXPECT_NEAR(set.n_dot_h[j], geometry.n_dot_h, 1e-6);
+      EXPECT_NEAR(set.v_dot_h[j], geometry.v_dot_h, 1e-6);
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 4u);  // triangle 0: A, B, C; triangle 1: A
+  // The same Samples without the geometry: identical otherwise.
+  SampleSet plain = MakeSampleSet(f.lights);
+  AppendTriangleSamples(f.means, f.atlas, f.positions, f.shadows, f.camera, 0, 0, f.lights, options, &plain);
+  EXPECT_TRUE(plain.n_dot_v.empty() && plain.n_dot_h.empty() && plain.v_dot_h.empty());
+  EXPECT_EQ(plain.g, set.g);
+  EXPECT_EQ(plain.h, set.h);
+  EXPECT_EQ(plain.falloff, set.falloff);
 }
 
 TEST(AppendTriangleSamples, VisibleFractionThreshold) {

@@ -22,13 +22,14 @@ void Check(bool condition, const char* message) {
 }
 
 // ---------------------------------------------------------------------------
-// Encoding, version 2. All integers and floats little-endian.
+// Encoding, version 3. All integers and floats little-endian.
 //
 //   offset  size            field
 //   0       4               magic "MVSS"
-//   4       4   u32         version (2)
+//   4       4   u32         version (3; 2 is read too: no bit 2)
 //   8       4   u32         flags: bit 0 = compact (halves), bit 1 = falloff
-//                           array present; other bits must be 0
+//                           array present, bit 2 = half-vector geometry
+//                           present (version 3); other bits must be 0
 //   12      4   u32         L = number of lights (0..kMaxLights)
 //   16      8   u64         N = number of samples
 //   24      8   u64         T = number of terms (sum of the counts)
@@ -39,15 +40,17 @@ void Check(bool condition, const char* message) {
 //                           reflectance 3 x (f16 | f32), count u16 (terms of
 //                           the sample, <= L), light u16 (< L, ascending
 //                           within a sample), g (f16 | f32), h (f16 | f32),
-//                           [falloff (f16 | f32)]
+//                           [falloff (f16 | f32)],
+//                           [n.v (N), n.h (T), v.h (T) (f16 | f32)]
 //   The buffer ends exactly after the last array; trailing bytes are an error.
 // Version 1 (dense N x L rows, L <= 16) is refused: DATA_LOSS.
 // ---------------------------------------------------------------------------
 constexpr char kMagic[4] = {'M', 'V', 'S', 'S'};
-constexpr uint32_t kVersion = 2;
+constexpr uint32_t kVersion = 3;
 constexpr uint32_t kFlagCompact = 1u;
 constexpr uint32_t kFlagFalloff = 2u;
-constexpr uint32_t kKnownFlags = kFlagCompact | kFlagFalloff;
+constexpr uint32_t kFlagHalfVector = 4u;  // version 3
+constexpr uint32_t kKnownFlags = kFlagCompact | kFlagFalloff | kFlagHalfVector;
 constexpr uint32_t kMaxNameBytes = 4096;
 constexpr size_t kHeaderBytes = 32;
 
@@ -221,6 +224,7 @@ void SampleSet::Add(uint32_t element_id, int frame_index, int camera_index, cons
                     const float* h_row, const float* falloff_row) {
   const int num = num_lights();
   Check(num == 0 || (g_row != nullptr && h_row != nullptr), "SampleSet::Add: null g or h row");
+  Check(!half_vector, "SampleSet::Add: dense rows carry no half-vector geometry (use AddTerms)");
   uint16_t lights[kMaxLights];
   float gs[kMaxLights], hs[kMaxLights], as[kMaxLights];
   Check(num <= kMaxLights, "SampleSet::Add: more than kMaxLights lights");
@@ -238,7 +242,7 @@ void SampleSet::Add(uint32_t element_id, int frame_index, int camera_index, cons
 
 void SampleSet::AddTerms(uint32_t element_id, int frame_index, int camera_index, const glm::vec3& rgb, size_t count,
                          const uint16_t* lights, const float* g_terms, const float* h_terms,
-                         const float* falloff_terms) {
+                         const float* falloff_terms, const HalfVectorTerms& geometry) {
   Check(frame_index >= 0 && frame_index <= std::numeric_limits<uint16_t>::max(),
         "SampleSet::Add: frame index out of the uint16 range");
   Check(camera_index >= 0 && camera_index <= std::numeric_limits<uint8_t>::max(),
@@ -247,10 +251,16 @@ void SampleSet::AddTerms(uint32_t element_id, int frame_index, int camera_index,
   Check(offset.size() == size() + 1 && offset.back() == light.size(), "SampleSet::Add: offset does not match");
   Check(count == 0 || (lights != nullptr && g_terms != nullptr && h_terms != nullptr),
         "SampleSet::AddTerms: null terms");
+  Check(!half_vector || count == 0 || (geometry.n_dot_h != nullptr && geometry.v_dot_h != nullptr),
+        "SampleSet::AddTerms: a half_vector set needs the terms' n.h and v.h");
+  Check(half_vector ? n_dot_v.size() == size() && n_dot_h.size() == light.size() && v_dot_h.size() == light.size()
+                    : n_dot_v.empty() && n_dot_h.empty() && v_dot_h.empty(),
+        "SampleSet::AddTerms: half-vector arrays do not match the half_vector flag");
   element.push_back(element_id);
   frame.push_back(static_cast<uint16_t>(frame_index));
   camera.push_back(static_cast<uint8_t>(camera_index));
   reflectance.push_back(rgb);
+  if (half_vector) n_dot_v.push_back(geometry.n_dot_v);
   // The first sample with fall-off: the terms before it had a_k = 1.
   const bool with_falloff = falloff_terms != nullptr || !falloff.empty();
   if (falloff_terms != nullptr && falloff.empty()) falloff.assign(light.size(), 1.0f);
@@ -264,6 +274,10 @@ void SampleSet::AddTerms(uint32_t element_id, int frame_index, int camera_index,
     g.push_back(g_terms[j]);
     h.push_back(h_terms[j]);
     if (with_falloff) falloff.push_back(falloff_terms != nullptr ? falloff_terms[j] : 1.0f);
+    if (half_vector) {
+      n_dot_h.push_back(geometry.n_dot_h[j]);
+      v_dot_h.push_back(geometry.v_dot_h[j]);
+    }
   }
   offset.push_back(light.size());
 }
@@ -325,6 +339,7 @@ size_t SampleSet::MemoryBytes() const {
   bytes += g.capacity() * sizeof(float);
   bytes += h.capacity() * sizeof(float);
   bytes += falloff.capacity() * sizeof(float);
+  bytes += (n_dot_v.capacity() + n_dot_h.capacity() + v_dot_h.capacity()) * sizeof(float);
   return bytes;
 }
 
@@ -337,8 +352,11 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
   const bool has_falloff = !set.falloff.empty();
   Check(set.frame.size() == n && set.camera.size() == n && set.reflectance.size() == n && set.offset.size() == n + 1 &&
             set.offset.front() == 0 && set.offset.back() == terms && set.g.size() == terms && set.h.size() == terms &&
-            (!has_falloff || set.falloff.size() == terms),
+            (!has_falloff || set.falloff.size() == terms) &&
+            (set.half_vector ? set.n_dot_v.size() == n && set.n_dot_h.size() == terms && set.v_dot_h.size() == terms
+                             : set.n_dot_v.empty() && set.n_dot_h.empty() && set.v_dot_h.empty()),
         "EncodeSampleSet: arrays of inconsistent sizes");
+  const bool hv = set.half_vector;
   const size_t real = compact ? 2 : 4;
   std::string out;
   size_t names = 0;
@@ -346,12 +364,12 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
     Check(name.size() <= kMaxNameBytes, "EncodeSampleSet: light name longer than 4096 bytes");
     names += 4 + name.size() + 12;
   }
-  const size_t arrays = has_falloff ? 3 : 2;
-  out.reserve(kHeaderBytes + names + n * (4 + 2 + 1 + 3 * real + 2) + terms * (2 + arrays * real));
+  const size_t arrays = (has_falloff ? 3 : 2) + (hv ? 2 : 0);
+  out.reserve(kHeaderBytes + names + n * (4 + 2 + 1 + (hv ? 4 : 3) * real + 2) + terms * (2 + arrays * real));
   Writer w(&out);
   w.Bytes(kMagic, 4);
   w.U32(kVersion);
-  w.U32((compact ? kFlagCompact : 0u) | (has_falloff ? kFlagFalloff : 0u));
+  w.U32((compact ? kFlagCompact : 0u) | (has_falloff ? kFlagFalloff : 0u) | (hv ? kFlagHalfVector : 0u));
   w.U32(static_cast<uint32_t>(num));
   w.U64(n);
   w.U64(terms);
@@ -375,6 +393,9 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
   for (float v : set.g) w.Real(v, compact);
   for (float v : set.h) w.Real(v, compact);
   for (float v : set.falloff) w.Real(v, compact);
+  for (float v : set.n_dot_v) w.Real(v, compact);
+  for (float v : set.n_dot_h) w.Real(v, compact);
+  for (float v : set.v_dot_h) w.Real(v, compact);
   return out;
 }
 
@@ -390,19 +411,21 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   if (version == 1) {
     return absl::DataLossError(
         "sample set encoding: version 1 (dense rows of at most 16 lights) is no longer read; this build reads version "
-        "2 (recompute the Samples)");
+        "2 and 3 (recompute the Samples)");
   }
-  if (version != kVersion) {
-    return absl::DataLossError(
-        absl::StrCat("sample set encoding: unknown version ", version, " (this build reads version ", kVersion, ")"));
+  if (version != 2 && version != kVersion) {
+    return absl::DataLossError(absl::StrCat("sample set encoding: unknown version ", version,
+                                            " (this build reads versions 2 and ", kVersion, ")"));
   }
   if (!r.Has(kHeaderBytes - 8)) return Truncated("header", r.position(), kHeaderBytes - 8, r.remaining());
   const uint32_t flags = r.U32();
-  if (flags & ~kKnownFlags) {
-    return absl::DataLossError(absl::StrCat("sample set encoding: unknown flags 0x", absl::Hex(flags)));
+  if (flags & ~(version == 2 ? kKnownFlags & ~kFlagHalfVector : kKnownFlags)) {
+    return absl::DataLossError(
+        absl::StrCat("sample set encoding: unknown flags 0x", absl::Hex(flags), " for version ", version));
   }
   const bool compact = (flags & kFlagCompact) != 0;
   const bool has_falloff = (flags & kFlagFalloff) != 0;
+  const bool hv = (flags & kFlagHalfVector) != 0;
   const uint32_t num_lights = r.U32();
   if (num_lights > static_cast<uint32_t>(kMaxLights)) {
     return absl::DataLossError(
@@ -431,8 +454,8 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   // The arrays must fill the rest of the buffer exactly. Check the counts
   // against the remaining bytes before allocating anything from them.
   const size_t real = compact ? 2 : 4;
-  const size_t per_sample = 4 + 2 + 1 + 3 * real + 2;
-  const size_t per_term = 2 + (has_falloff ? 3 : 2) * real;
+  const size_t per_sample = 4 + 2 + 1 + (hv ? 4 : 3) * real + 2;
+  const size_t per_term = 2 + ((has_falloff ? 3 : 2) + (hv ? 2 : 0)) * real;
   const size_t left = r.remaining();
   if (num_samples > left / per_sample || num_terms > left / per_term ||
       num_samples * per_sample > left - num_terms * per_term) {
@@ -463,6 +486,12 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   set.g.resize(terms);
   set.h.resize(terms);
   if (has_falloff) set.falloff.resize(terms);
+  set.half_vector = hv;
+  if (hv) {
+    set.n_dot_v.resize(n);
+    set.n_dot_h.resize(terms);
+    set.v_dot_h.resize(terms);
+  }
   for (size_t i = 0; i < n; ++i) set.element[i] = r.U32();
   for (size_t i = 0; i < n; ++i) set.frame[i] = r.U16();
   for (size_t i = 0; i < n; ++i) set.camera[i] = r.U8();
@@ -497,6 +526,9 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   for (float& v : set.g) v = r.Real(compact);
   for (float& v : set.h) v = r.Real(compact);
   for (float& v : set.falloff) v = r.Real(compact);
+  for (float& v : set.n_dot_v) v = r.Real(compact);
+  for (float& v : set.n_dot_h) v = r.Real(compact);
+  for (float& v : set.v_dot_h) v = r.Real(compact);
   return set;
 }
 

@@ -17,6 +17,13 @@
 // light; it is empty when fall-off is off (every a_k = 1, the thesis model),
 // and a fitter multiplies the specular term by Falloff(i, k).
 //
+// Half-vector geometry (issue #15 item 2): the models of core/brdf other
+// than the thesis's Phong read n.l, n.v, n.h and v.h (core/brdf/geometry.h).
+// A set made with `half_vector` stores n.v per sample and n.h, v.h per term
+// (h = normalize(l + v)); n.l of term j is g[j] / TermFalloff(j) (g holds
+// the visibility, 0 or 1, times a_k l.n). Without it (the Phong path, the
+// default) those arrays are empty and the set is what it was before.
+//
 // Stored as a structure of arrays so that fitters stream over contiguous
 // values, and compactly (CSR): a sample holds only its terms, the lights that
 // reach it (g != 0: visible, facing, on in its frame), so memory scales with
@@ -120,6 +127,14 @@ struct LightSelection {
   std::vector<uint8_t> own;
 };
 
+// The half-vector geometry of one Sample as AddTerms takes it: n.v, and
+// n.h, v.h per term (null: none given).
+struct HalfVectorTerms {
+  float n_dot_v = 0.0f;
+  const float* n_dot_h = nullptr;
+  const float* v_dot_h = nullptr;
+};
+
 struct SampleSet {
   // The candidate lights, in the scene's order.
   std::vector<std::string> light_names;
@@ -138,6 +153,13 @@ struct SampleSet {
   std::vector<float> h;
   // Per term: a_k (see above), or empty: no fall-off (all 1).
   std::vector<float> falloff;
+  // Whether the set stores the half-vector geometry (see above): then
+  // n_dot_v has size() values and n_dot_h, v_dot_h num_terms() values; else
+  // all three are empty.
+  bool half_vector = false;
+  std::vector<float> n_dot_v;  // per sample
+  std::vector<float> n_dot_h;  // per term
+  std::vector<float> v_dot_h;  // per term
 
   int num_lights() const { return static_cast<int>(light_names.size()); }
   size_t size() const { return element.size(); }
@@ -153,10 +175,12 @@ struct SampleSet {
   void Add(uint32_t element_id, int frame_index, int camera_index, const glm::vec3& rgb, const float* g_row,
            const float* h_row, const float* falloff_row = nullptr);
   // Appends one sample from `count` terms (lights ascending, < num_lights()),
-  // dropping g = 0 terms as Add does.
+  // dropping g = 0 terms as Add does. A half_vector set requires `geometry`
+  // (n_dot_h and v_dot_h for the `count` terms); another ignores it. Add's
+  // dense rows carry none, so Add requires a set without half_vector.
   void AddTerms(uint32_t element_id, int frame_index, int camera_index, const glm::vec3& rgb, size_t count,
                 const uint16_t* lights, const float* g_terms, const float* h_terms,
-                const float* falloff_terms = nullptr);
+                const float* falloff_terms = nullptr, const HalfVectorTerms& geometry = {});
   // a_k of term j (1 without fall-off).
   float TermFalloff(size_t j) const { return falloff.empty() ? 1.0f : falloff[j]; }
   // g of light k in sample i (0 when k does not reach it); a search over the
@@ -173,9 +197,11 @@ struct SampleSet {
 };
 
 // Versioned binary encoding (little-endian): a header with magic "MVSS",
-// version (2: the compact terms), counts and light names/intensities, then the
-// arrays; reflectance, g, h (and falloff when present) as 16-bit halves when
-// `compact`, else 32-bit floats (layout in sample_set.cc). Version 1 (dense
+// version (3: version 2's compact terms and, flagged, the half-vector
+// geometry), counts and light names/intensities, then the arrays;
+// reflectance, g, h (and falloff, n.v, n.h, v.h when present) as 16-bit halves
+// when `compact`, else 32-bit floats (layout in sample_set.cc). Version 2
+// (the same without half-vector geometry) is still read. Version 1 (dense
 // rows of at most 16 lights) is refused with DATA_LOSS: a cache holding one
 // treats it as a miss and recomputes (server/workers_api). The encoding
 // is the cache and wire format (issue #5), so it fails loudly on anything

@@ -418,13 +418,13 @@ TEST(SampleSetEncoding, ForeignAndCorruptBuffers) {
   ExpectDataLoss(std::string(64, '\0'), "bad magic");
 
   std::string version = good;
-  version[4] = 3;
-  ExpectDataLoss(version, "unknown version 3");
+  version[4] = 4;
+  ExpectDataLoss(version, "unknown version 4");
   version[4] = 1;
   ExpectDataLoss(version, "version 1");
 
   std::string flags = good;
-  flags[8] |= 0x04;
+  flags[8] |= 0x08;
   ExpectDataLoss(flags, "unknown flags");
 
   std::string lights = good;
@@ -461,6 +461,100 @@ TEST(SampleSetEncoding, FalloffFlagWithoutValuesFails) {
   auto decoded = DecodeSampleSet(EncodeSampleSet(set, false));
   ASSERT_TRUE(decoded.ok()) << decoded.status();
   EXPECT_EQ(decoded->falloff, set.falloff);
+}
+
+// A set with the half-vector geometry (issue #15 item 2): n.v per sample,
+// n.h and v.h per term, made from random unit vectors n, l, v as the
+// assemblers make them.
+SampleSet MakeHalfVectorSet(int num_lights, int num_samples, uint32_t seed) {
+  SampleSet set;
+  set.half_vector = true;
+  for (int k = 0; k < num_lights; ++k) {
+    set.light_names.push_back("light " + std::to_string(k));
+    set.light_intensity.emplace_back(1.0f);
+  }
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::vector<uint16_t> light;
+  std::vector<float> g, h, nh, vh;
+  for (int i = 0; i < num_samples; ++i) {
+    light.clear();
+    g.clear();
+    h.clear();
+    nh.clear();
+    vh.clear();
+    for (int k = 0; k < num_lights; ++k) {
+      if (unit(rng) < 0.3f) continue;
+      light.push_back(static_cast<uint16_t>(k));
+      g.push_back(unit(rng));
+      h.push_back(unit(rng));
+      nh.push_back(unit(rng));
+      vh.push_back(unit(rng));
+    }
+    set.AddTerms(static_cast<uint32_t>(i), i % 50, i % 3, glm::vec3(unit(rng)), light.size(), light.data(), g.data(),
+                 h.data(), nullptr, {unit(rng), nh.data(), vh.data()});
+  }
+  return set;
+}
+
+TEST(SampleSetEncoding, HalfVectorGeometryRoundTrips) {
+  const SampleSet set = MakeHalfVectorSet(5, 400, 3);
+  ASSERT_EQ(set.n_dot_v.size(), set.size());
+  ASSERT_EQ(set.n_dot_h.size(), set.num_terms());
+  ASSERT_EQ(set.v_dot_h.size(), set.num_terms());
+  auto full = DecodeSampleSet(EncodeSampleSet(set, false));
+  ASSERT_TRUE(full.ok()) << full.status();
+  EXPECT_TRUE(full->half_vector);
+  ExpectSameLayout(set, *full);
+  EXPECT_EQ(full->n_dot_v, set.n_dot_v);
+  EXPECT_EQ(full->n_dot_h, set.n_dot_h);
+  EXPECT_EQ(full->v_dot_h, set.v_dot_h);
+  EXPECT_EQ(full->g, set.g);
+  EXPECT_EQ(full->h, set.h);
+  const std::string bytes = EncodeSampleSet(set, true);
+  auto compact = DecodeSampleSet(bytes);
+  ASSERT_TRUE(compact.ok()) << compact.status();
+  for (size_t i = 0; i < set.size(); ++i) ExpectNearHalf(set.n_dot_v[i], compact->n_dot_v[i]);
+  for (size_t j = 0; j < set.num_terms(); ++j) {
+    ExpectNearHalf(set.n_dot_h[j], compact->n_dot_h[j]);
+    ExpectNearHalf(set.v_dot_h[j], compact->v_dot_h[j]);
+  }
+  EXPECT_EQ(EncodeSampleSet(*compact, true), bytes);
+  // Sizes: per sample one more real (n.v), per term two more (n.h, v.h).
+  size_t names = 0;
+  for (const std::string& n : set.light_names) names += 16 + n.size();
+  EXPECT_EQ(bytes.size(), 32 + names + set.size() * (9 + 2 * 4) + set.num_terms() * (2 + 2 * 4));
+  // Without the geometry the set is today's: no arrays, no flag.
+  const SampleSet plain = MakeSet(5, 10, 3);
+  EXPECT_FALSE(plain.half_vector);
+  EXPECT_TRUE(plain.n_dot_v.empty() && plain.n_dot_h.empty() && plain.v_dot_h.empty());
+  EXPECT_EQ(EncodeSampleSet(plain, true)[8] & 0x04, 0);
+  // An empty half-vector set keeps its flag.
+  SampleSet empty;
+  empty.half_vector = true;
+  auto decoded_empty = DecodeSampleSet(EncodeSampleSet(empty, true));
+  ASSERT_TRUE(decoded_empty.ok()) << decoded_empty.status();
+  EXPECT_TRUE(decoded_empty->half_vector);
+}
+
+// Version 2 (before the half-vector geometry) is still read: cache entries
+// written by an earlier build stay hits. The flag of version 3 in a version 2
+// header is an error.
+TEST(SampleSetEncoding, VersionTwoIsStillRead) {
+  const SampleSet set = MakeSet(4, 50, 11);
+  std::string v2 = EncodeSampleSet(set, true);
+  ASSERT_EQ(v2[4], 3);
+  v2[4] = 2;
+  auto decoded = DecodeSampleSet(v2);
+  ASSERT_TRUE(decoded.ok()) << decoded.status();
+  EXPECT_FALSE(decoded->half_vector);
+  ExpectSameLayout(set, *decoded);
+  v2[8] |= 0x04;
+  ExpectDataLoss(v2, "unknown flags 0x5 for version 2");
+  // A version 3 buffer whose flag says half-vector but whose arrays lack it.
+  std::string missing = EncodeSampleSet(set, true);
+  missing[8] |= 0x04;
+  ExpectDataLoss(missing, "samples x");
 }
 
 TEST(SampleSetEncoding, ByteFlippedCountFails) {

@@ -19,15 +19,17 @@ def half(x):
     return struct.pack('<e', x)
 
 
-def sample_set(lights, samples, compact, falloff):
+def sample_set(lights, samples, compact, falloff, half_vector=False, version=3):
     """lights: [(name, (r, g, b))]; samples: [(element, frame, camera, rgb, g[], h[], a[])] as dense rows.
 
-    Version 2: a sample's terms are the lights with g != 0 (counts, then per
-    term light u16, g, h and a).
+    Version 3 (2 without half_vector reads alike): a sample's terms are the
+    lights with g != 0 (counts, then per term light u16, g, h and a); with
+    half_vector (flag 4) n.v per sample, n.h and v.h per term follow, made up
+    from the rows (n.v = 0.75, n.h = (1 + h) / 2, v.h = (1 + g) / 2).
     """
-    flags = (1 if compact else 0) | (2 if falloff else 0)
+    flags = (1 if compact else 0) | (2 if falloff else 0) | (4 if half_vector else 0)
     terms = [[k for k, g in enumerate(s[4]) if g != 0.0] for s in samples]
-    out = b'MVSS' + struct.pack('<IIIQQ', 2, flags, len(lights), len(samples), sum(len(t) for t in terms))
+    out = b'MVSS' + struct.pack('<IIIQQ', version, flags, len(lights), len(samples), sum(len(t) for t in terms))
     for name, rgb in lights:
         raw = name.encode()
         out += struct.pack('<I', len(raw)) + raw + struct.pack('<3f', *rgb)
@@ -40,6 +42,10 @@ def sample_set(lights, samples, compact, falloff):
     out += b''.join(struct.pack('<H', k) for t in terms for k in t)
     for column in (4, 5) + ((6,) if falloff else ()):
         out += b''.join(real(s[column][k]) for s, t in zip(samples, terms) for k in t)
+    if half_vector:
+        out += b''.join(real(0.75) for s in samples)
+        out += b''.join(real((1 + s[5][k]) / 2) for s, t in zip(samples, terms) for k in t)
+        out += b''.join(real((1 + s[4][k]) / 2) for s, t in zip(samples, terms) for k in t)
     return out
 
 
@@ -76,6 +82,9 @@ def main():
         'float32': sample_set(two, rows, False, False),
         'falloff_compact': sample_set(two, rows, True, True),
         'falloff_float32': sample_set(two, rows, False, True),
+        'version2_compact': sample_set(two, rows, True, False, version=2),
+        'half_vector_compact': sample_set(two, rows, True, False, half_vector=True),
+        'half_vector_falloff_float32': sample_set(two, rows, False, True, half_vector=True),
         # 40 lights (three shadow channels), one on per sample (OLAT).
         'olat_40': sample_set([('L%d' % k, (1.0, 1.0, 1.0)) for k in range(40)],
                               [(i, i, 0, (0.5, 0.5, 0.5), tuple(0.5 if k == (7 * i) % 40 else 0.0 for k in range(40)),
