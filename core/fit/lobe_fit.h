@@ -1,0 +1,94 @@
+// Fitting any BRDF model of core/brdf to one cluster's Samples (issue #15
+// item 3), one colour channel at a time: kd and the model's two parameters.
+//
+//   r_i  ~  sum_{k in mask} I_kc ( kd W(p; G_ik) g_ik + a_k S(p; G_ik) )
+//
+// with G_ik the geometry of sample i and light k (core/brdf/geometry.h: n.l =
+// g_ik / a_k, n.v, n.h, v.h from the Samples' half-vector geometry, R(l).v =
+// h_ik), S the model's specular radiance per unit intensity (brdf::Phong,
+// BlinnPhong, Ggx ::Specular), W its diffuse weight (1, or GGX's 1 - F), g_ik
+// and a_k as in SampleSet (visibility and fall-off folded into g).
+//
+// Units: kd, and the lobe scale ks of Phong and Blinn-Phong, are solved in
+// units of the data's albedo scale A = rms(r) / rms(G) (as FitPhong), so that
+// scaling every I_k by s scales them by exactly 1/s. GGX's F0 is a
+// reflectance (the glTF meaning): it is fitted in the scene's own units, i.e.
+// where the lights' intensities and the images are in one unit (the
+// generator's bundles, a capture with measured lights). In other units F0
+// scales with them up to its bound 1 (flagged at_bound): a scene-level
+// radiometric scale is what would remove that (noted in issue #15).
+//
+// The solve: a grid over the model's shape parameter (ke or roughness; F0
+// too for GGX) with kd and ks by linear least squares starts Ceres'
+// Levenberg-Marquardt with the models' analytic Jacobians (ke as ln ke).
+#ifndef MVBRDF_CORE_FIT_LOBE_FIT_H_
+#define MVBRDF_CORE_FIT_LOBE_FIT_H_
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "core/fit/phong_fit.h"
+#include "core/samples/sample_set.h"
+
+namespace mvbrdf::fit {
+
+enum class BrdfModel { kPhong, kBlinnPhong, kGgx };
+// "phong", "blinn-phong", "ggx" (the --brdf values).
+const char* BrdfModelName(BrdfModel model);
+absl::StatusOr<BrdfModel> ParseBrdfModel(absl::string_view name);
+// Whether the model reads the half-vector geometry (SampleSet::half_vector).
+bool NeedsHalfVector(BrdfModel model);
+// The names of the model's two parameters ("ks", "ke"; "f0", "roughness").
+std::array<const char*, 2> ParameterNames(BrdfModel model);
+
+struct LobeChannel {
+  double kd = 0.0;
+  std::array<double, 2> p = {0.0, 1.0};  // the model's parameters, in ParameterNames' order
+};
+
+struct LobeFitOptions {
+  int max_iterations = 100;
+  double function_tolerance = 1e-12;
+  // In units of the albedo scale A (see above).
+  double kd_max = 10.0;
+  double ks_max = 10.0;
+  // ke, Phong and Blinn-Phong (a half-vector exponent is ~4x a mirror one).
+  double ke_min = 1.0;
+  double ke_max = 1e4;
+  // ks and the shape are reported not identifiable (kKsKeNotIdentifiable)
+  // when fewer than this many samples have a lobe cosine (R(l).v, or n.h)
+  // above `highlight_cosine`.
+  int min_highlight_samples = 10;
+  double highlight_cosine = 0.9;
+  absl::Status Check() const;
+};
+
+struct LobeFitResult {
+  BrdfModel model = BrdfModel::kPhong;
+  std::array<LobeChannel, 3> params;
+  std::array<ChannelFitSummary, 3> channels;  // costs in the data's units: 0.5 sum r^2
+  size_t samples_used = 0;
+  double seconds = 0.0;
+  double mse = 0.0;  // over samples and channels
+  uint32_t flags() const { return channels[0].flags | channels[1].flags | channels[2].flags; }
+};
+
+// Fits `model` to the samples `indices` of `set` (all when empty) for the
+// lights of `lights`. FAILED_PRECONDITION when the model needs the half-vector
+// geometry and the set has none; samples with non-finite values are skipped
+// (flagged kNonFiniteInput). Never returns non-finite parameters.
+absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet& set,
+                                      const std::vector<uint32_t>& indices, const samples::LightSelection& lights,
+                                      const LobeFitOptions& options);
+
+// The model's value for sample i, channel c (the fit's f_i).
+double EvaluateLobe(BrdfModel model, const samples::SampleSet& set, size_t i, const samples::LightSelection& lights,
+                    const LobeChannel& p, int c);
+
+}  // namespace mvbrdf::fit
+
+#endif  // MVBRDF_CORE_FIT_LOBE_FIT_H_

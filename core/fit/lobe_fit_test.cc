@@ -1,0 +1,215 @@
+#include "core/fit/lobe_fit.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/brdf/blinn_phong.h"
+#include "core/brdf/geometry.h"
+#include "core/brdf/ggx.h"
+#include "core/brdf/phong.h"
+
+namespace mvbrdf::fit {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Truth {
+  BrdfModel model;
+  std::array<LobeChannel, 3> params;
+};
+
+glm::dvec3 Direction(double theta, double phi) {
+  return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+}
+
+// Samples of a surface point (n = +z) seen from random views under 4 of 6
+// lights, half of them placed near the mirror direction of the view so that
+// every model's lobe is observed; rendered with `truth` (core/brdf's models,
+// the fit's own equation) and relative noise `noise`.
+samples::SampleSet Render(const Truth& truth, int num_samples, double noise, uint32_t seed,
+                          double intensity_scale = 1.0) {
+  samples::SampleSet set;
+  set.half_vector = true;
+  for (int k = 0; k < 6; ++k) {
+    set.light_names.push_back("L" + std::to_string(k));
+    set.light_intensity.push_back(glm::vec3(1.0f + 0.2f * k, 1.1f, 0.9f + 0.1f * k) *
+                                  static_cast<float>(intensity_scale));
+  }
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const glm::dvec3 n(0, 0, 1);
+  for (int i = 0; i < num_samples; ++i) {
+    const glm::dvec3 v = Direction(std::acos(1.0 - 0.7 * unit(rng)), 2 * kPi * unit(rng));
+    const glm::dvec3 mirror = 2.0 * v.z * n - v;
+    std::vector<uint16_t> light;
+    std::vector<float> g, h, nh, vh;
+    glm::dvec3 rgb(0.0);
+    for (int k = 0; k < 6; ++k) {
+      if (unit(rng) < 0.33) continue;
+      glm::dvec3 l;
+      if (k % 2 == 0) {  // near the mirror direction: within ~25 degrees
+        l = glm::normalize(mirror + 0.45 * glm::dvec3(gauss(rng), gauss(rng), gauss(rng)));
+      } else {
+        l = Direction(std::acos(1.0 - 0.9 * unit(rng)), 2 * kPi * unit(rng));
+      }
+      const brdf::Geometry geometry = brdf::GeometryOf(n, l, v);
+      if (!(geometry.n_dot_l > 0.01)) continue;
+      brdf::Geometry clamped = geometry;
+      clamped.r_dot_v = std::max(0.0, geometry.r_dot_v);
+      light.push_back(static_cast<uint16_t>(k));
+      g.push_back(static_cast<float>(geometry.n_dot_l));
+      h.push_back(static_cast<float>(clamped.r_dot_v));
+      nh.push_back(static_cast<float>(geometry.n_dot_h));
+      vh.push_back(static_cast<float>(geometry.v_dot_h));
+    }
+    samples::HalfVectorTerms hv{static_cast<float>(v.z), nh.data(), vh.data()};
+    set.AddTerms(static_cast<uint32_t>(i), 0, 0, glm::vec3(0.0f), light.size(), light.data(), g.data(), h.data(),
+                 nullptr, hv);
+    for (int c = 0; c < 3; ++c) {
+      const double f = EvaluateLobe(truth.model, set, set.size() - 1, samples::LightMask::FirstN(6),
+                                    truth.params[c], c);
+      rgb[c] = f * (1.0 + noise * gauss(rng));
+    }
+    set.reflectance.back() = glm::vec3(rgb);
+  }
+  return set;
+}
+
+// Parameters within `tolerance` relative; kd also within `kd_absolute`.
+void ExpectRecovers(const Truth& truth, const LobeFitResult& fit, double tolerance, double kd_absolute = 0.0) {
+  for (int c = 0; c < 3; ++c) {
+    SCOPED_TRACE(std::string(BrdfModelName(truth.model)) + " channel " + std::to_string(c));
+    EXPECT_NEAR(fit.params[c].kd, truth.params[c].kd, std::max(kd_absolute, tolerance * truth.params[c].kd));
+    EXPECT_NEAR(fit.params[c].p[0], truth.params[c].p[0], tolerance * truth.params[c].p[0]);
+    EXPECT_NEAR(fit.params[c].p[1], truth.params[c].p[1], tolerance * truth.params[c].p[1]);
+  }
+}
+
+std::vector<Truth> Truths() {
+  return {
+      {BrdfModel::kPhong, {{{0.5, {0.3, 20.0}}, {0.3, {0.3, 25.0}}, {0.2, {0.2, 15.0}}}}},
+      {BrdfModel::kBlinnPhong, {{{0.5, {0.4, 80.0}}, {0.3, {0.4, 100.0}}, {0.2, {0.3, 60.0}}}}},
+      // A dielectric (F0 0.04) and a coloured metal (glTF: F0 the base colour,
+      // no diffuse).
+      {BrdfModel::kGgx, {{{0.25, {0.04, 0.3}}, {0.2, {0.04, 0.3}}, {0.15, {0.04, 0.3}}}}},
+      {BrdfModel::kGgx, {{{0.0, {0.9, 0.15}}, {0.0, {0.7, 0.15}}, {0.0, {0.4, 0.15}}}}},
+  };
+}
+
+TEST(LobeFitTest, EachModelRecoversItsOwnParametersExactly) {
+  for (const Truth& truth : Truths()) {
+    const samples::SampleSet set = Render(truth, 3000, 0.0, 1);
+    auto fit = FitLobe(truth.model, set, {}, samples::LightMask::FirstN(6), LobeFitOptions{});
+    ASSERT_TRUE(fit.ok()) << fit.status();
+    EXPECT_EQ(fit->samples_used, 3000u);
+    EXPECT_EQ(fit->flags() & ~kAtBound, 0u) << BrdfModelName(truth.model);
+    ExpectRecovers(truth, *fit, 1e-4, 1e-6);
+    EXPECT_LT(fit->mse, 1e-12);
+  }
+}
+
+// The acceptance for GGX truth: roughness and F0 within 5 %, kd
+// within 0.01 (its kd RMSE bound); here with 2 % multiplicative noise on
+// every observation. (A kd of 0.02 under F0 = 0.9 is seen as (1 - F) kd =
+// 0.002 beside a lobe 40x brighter: it came out 0 to 0.024, within 0.01 but
+// not 5 %; glTF's metals have none.)
+TEST(LobeFitTest, NoisyObservationsWithinFivePercent) {
+  for (const Truth& truth : Truths()) {
+    const samples::SampleSet set = Render(truth, 3000, 0.02, 2);
+    auto fit = FitLobe(truth.model, set, {}, samples::LightMask::FirstN(6), LobeFitOptions{});
+    ASSERT_TRUE(fit.ok()) << fit.status();
+    ExpectRecovers(truth, *fit, 0.05, 0.01);
+  }
+}
+
+// Phong and Blinn-Phong do not depend on the lights' intensity units: every
+// I_k x 8 gives kd and ks / 8 and the same exponent.
+TEST(LobeFitTest, LinearModelsDoNotDependOnIntensityUnits) {
+  for (const Truth& truth : Truths()) {
+    if (truth.model == BrdfModel::kGgx) continue;
+    const samples::SampleSet set = Render(truth, 1500, 0.01, 3);
+    samples::SampleSet scaled = set;
+    for (glm::vec3& i : scaled.light_intensity) i *= 8.0f;
+    auto a = FitLobe(truth.model, set, {}, samples::LightMask::FirstN(6), LobeFitOptions{});
+    auto b = FitLobe(truth.model, scaled, {}, samples::LightMask::FirstN(6), LobeFitOptions{});
+    ASSERT_TRUE(a.ok() && b.ok());
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_NEAR(b->params[c].kd * 8.0, a->params[c].kd, 1e-6 * a->params[c].kd);
+      EXPECT_NEAR(b->params[c].p[0] * 8.0, a->params[c].p[0], 1e-6 * a->params[c].p[0]);
+      EXPECT_NEAR(b->params[c].p[1], a->params[c].p[1], 1e-6 * a->params[c].p[1]);
+    }
+  }
+}
+
+// On the thesis's model the generic fit and FitPhong (the fit of the thesis's
+// tables) agree.
+TEST(LobeFitTest, PhongAgreesWithFitPhong) {
+  const Truth truth = Truths()[0];
+  const samples::SampleSet set = Render(truth, 2000, 0.02, 4);
+  auto lobe = FitLobe(BrdfModel::kPhong, set, {}, samples::LightMask::FirstN(6), LobeFitOptions{});
+  auto phong = FitPhong(set, {}, samples::LightMask::FirstN(6), PhongFitOptions{});
+  ASSERT_TRUE(lobe.ok() && phong.ok());
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(lobe->params[c].kd, phong->params[c].kd, 1e-4 * phong->params[c].kd);
+    EXPECT_NEAR(lobe->params[c].p[0], phong->params[c].ks, 1e-4 * phong->params[c].ks);
+    EXPECT_NEAR(lobe->params[c].p[1], phong->params[c].ke, 1e-4 * phong->params[c].ke);
+  }
+}
+
+// A model is not always the truth: fitting Blinn-Phong and Phong to GGX
+// data leaves a larger error than GGX's own fit (the model table
+// in miniature), and every fit stays finite.
+TEST(LobeFitTest, TheTrueModelFitsBest) {
+  const Truth truth = Truths()[2];
+  const samples::SampleSet set = Render(truth, 3000, 0.0, 5);
+  double mse[3];
+  int m = 0;
+  for (BrdfModel model : {BrdfModel::kPhong, BrdfModel::kBlinnPhong, BrdfModel::kGgx}) {
+    auto fit = FitLobe(model, set, {}, samples::LightMask::FirstN(6), LobeFitOptions{});
+    ASSERT_TRUE(fit.ok()) << fit.status();
+    for (const LobeChannel& c : fit->params) {
+      EXPECT_TRUE(std::isfinite(c.kd) && std::isfinite(c.p[0]) && std::isfinite(c.p[1]));
+    }
+    mse[m++] = fit->mse;
+    std::printf("%-12s fitted to GGX truth: mse %.3g\n", BrdfModelName(model), fit->mse);
+  }
+  EXPECT_LT(mse[2], 1e-12);
+  EXPECT_GT(mse[0], 1e3 * mse[2] + 1e-10);
+  EXPECT_GT(mse[1], 1e3 * mse[2] + 1e-10);
+}
+
+TEST(LobeFitTest, HalfVectorModelsNeedTheGeometry) {
+  samples::SampleSet set;
+  set.light_names = {"A"};
+  set.light_intensity = {glm::vec3(1.0f)};
+  const float g = 0.5f, h = 0.9f;
+  const uint16_t light = 0;
+  set.AddTerms(0, 0, 0, glm::vec3(0.3f), 1, &light, &g, &h);
+  auto blinn = FitLobe(BrdfModel::kBlinnPhong, set, {}, samples::LightMask::FirstN(1), LobeFitOptions{});
+  ASSERT_FALSE(blinn.ok());
+  EXPECT_EQ(blinn.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(blinn.status().message().find("half-vector"), absl::string_view::npos) << blinn.status();
+  auto phong = FitLobe(BrdfModel::kPhong, set, {}, samples::LightMask::FirstN(1), LobeFitOptions{});
+  ASSERT_TRUE(phong.ok()) << phong.status();
+  EXPECT_NE(phong->flags() & kKsKeNotIdentifiable, 0u);  // one sample: no lobe to fit
+}
+
+TEST(LobeFitTest, ModelNames) {
+  for (BrdfModel m : {BrdfModel::kPhong, BrdfModel::kBlinnPhong, BrdfModel::kGgx}) {
+    auto parsed = ParseBrdfModel(BrdfModelName(m));
+    ASSERT_TRUE(parsed.ok());
+    EXPECT_EQ(*parsed, m);
+  }
+  auto bad = ParseBrdfModel("cook");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("phong, blinn-phong, ggx"), absl::string_view::npos);
+  EXPECT_EQ(std::string(ParameterNames(BrdfModel::kGgx)[1]), "roughness");
+}
+
+}  // namespace
+}  // namespace mvbrdf::fit
