@@ -1,7 +1,9 @@
 // Main pass of core/render/phong_renderer.cc: the extended Phong model of
-// core/render/phong_model.h per fragment, with shadow-map visibility per light.
-// The structs and bindings mirror the Gpu* structs in phong_renderer.cc.
+// core/render/phong_model.h per fragment (or, by u_brdf_model, another model
+// of core/brdf: shaders/brdf_models.glsl), with shadow-map visibility per
+// light. The structs and bindings mirror the Gpu* structs in phong_renderer.cc.
 
+#include "brdf_models.glsl"
 #include "phong_model.glsl"
 #include "solid_texture.glsl"
 
@@ -27,8 +29,8 @@ layout(std140, binding = 0) uniform LightBlock {
 struct GpuMaterial {
   vec4 base_amplitude;       // solid-texture base rgb, amplitude
   vec4 offset_frequency;     // solid-texture offset xyz, frequency
-  vec4 ks_kd_from_texture;   // ks rgb; w > 0.5: kd from u_kd_texture
-  vec4 ke;                   // rgb
+  vec4 ks_kd_from_texture;   // ks rgb (the model's first parameter); w > 0.5: kd from u_kd_texture
+  vec4 ke;                   // rgb (the model's second parameter)
 };
 
 layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial u_materials[]; };
@@ -40,6 +42,9 @@ layout(std430, binding = 2) readonly buffer TriangleMaterialBlock { uint u_trian
 layout(location = 1) uniform vec4 u_camera_center;
 layout(location = 2) uniform int u_atlas_mode;      // 0: procedural materials, 1: kd/ks/ke atlases
 layout(location = 3) uniform int u_inverse_square_falloff;
+// brdf::Model: 0 the thesis's Phong (ks, ke), 1 Blinn-Phong (ks, ke), 2 GGX
+// (f0, roughness); "ks" and "ke" below hold the model's two parameters.
+layout(location = 5) uniform int u_brdf_model;
 
 layout(binding = 0) uniform sampler2D u_kd_texture;
 layout(binding = 1) uniform sampler2D u_atlas_kd;
@@ -54,6 +59,27 @@ in vec3 v_rest_position;
 in vec2 v_uv;
 
 layout(location = 0) out vec4 out_radiance;  // rgb radiance, a = 1 (coverage)
+
+// kd W g + S per unit intensity of a half-vector model (core/fit/lobe_fit.h's
+// equation; the caller multiplies by I, the fall-off and V).
+vec3 HalfVectorModelTerm(vec3 kd, vec3 p0, vec3 p1, vec3 l, vec3 n, vec3 v) {
+  BrdfGeometry g;
+  g.n_dot_l = dot(n, l);
+  g.n_dot_v = dot(n, v);
+  vec3 sum = l + v;
+  float length_sum = length(sum);
+  vec3 h = length_sum > 0.0 ? sum / length_sum : n;
+  g.n_dot_h = length_sum > 0.0 ? max(0.0, dot(n, h)) : 0.0;
+  g.v_dot_h = length_sum > 0.0 ? max(0.0, dot(v, h)) : 0.0;
+  g.r_dot_v = max(0.0, dot(2.0 * g.n_dot_l * n - l, v));
+  vec3 term;
+  for (int c = 0; c < 3; ++c) {
+    float specular = u_brdf_model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], g);
+    float weight = u_brdf_model == 2 ? GgxDiffuseWeight(p0[c], g) : 1.0;
+    term[c] = kd[c] * weight * g.n_dot_l + specular;
+  }
+  return term;
+}
 
 // Slope-scaled bias, world units: a nearest shadow texel of world size
 // `texel_world` covers surface depths up to about half a texel diagonal times
@@ -125,7 +151,8 @@ void main() {
     bool visible = point ? PointLightVisible(light, distance_to_light, l, geometric_normal)
                          : DirectionalLightVisible(light, l, geometric_normal);
     if (!visible) continue;
-    f += light.intensity.rgb * attenuation * PhongTerm(kd, ks, ke, cosines);
+    vec3 term = u_brdf_model == 0 ? PhongTerm(kd, ks, ke, cosines) : HalfVectorModelTerm(kd, ks, ke, l, n, v);
+    f += light.intensity.rgb * attenuation * term;
   }
   out_radiance = vec4(f, 1.0);
 }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/brdf/blinn_phong.h"
+#include "core/brdf/model.h"
 #include "core/brdf/geometry.h"
 #include "core/brdf/ggx.h"
 #include "core/brdf/phong.h"
@@ -211,6 +212,18 @@ TEST(BrdfEnergyTest, NormalisedModelsReflectAtMostWhatArrives) {
   // a white surface would.
   const double phong[] = {1.0, 40.0};
   EXPECT_LT(Albedo<Phong>(phong, 0.0), 0.5);
+}
+
+TEST(BrdfModelTest, Names) {
+  for (Model m : {Model::kPhong, Model::kBlinnPhong, Model::kGgx}) {
+    auto parsed = ParseModel(ModelName(m));
+    ASSERT_TRUE(parsed.ok());
+    EXPECT_EQ(*parsed, m);
+  }
+  auto bad = ParseModel("cook");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("phong, blinn-phong, ggx"), absl::string_view::npos);
+  EXPECT_EQ(std::string(ParameterNames(Model::kGgx)[1]), "roughness");
 }
 
 }  // namespace

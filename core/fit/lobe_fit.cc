@@ -202,40 +202,6 @@ std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, con
 
 }  // namespace
 
-const char* BrdfModelName(BrdfModel model) {
-  switch (model) {
-    case BrdfModel::kPhong:
-      return brdf::Phong::kName;
-    case BrdfModel::kBlinnPhong:
-      return brdf::BlinnPhong::kName;
-    case BrdfModel::kGgx:
-      return brdf::Ggx::kName;
-  }
-  return "?";
-}
-
-absl::StatusOr<BrdfModel> ParseBrdfModel(absl::string_view name) {
-  for (BrdfModel m : {BrdfModel::kPhong, BrdfModel::kBlinnPhong, BrdfModel::kGgx}) {
-    if (name == BrdfModelName(m)) return m;
-  }
-  return absl::InvalidArgumentError(
-      absl::StrCat("BRDF model \"", name, "\": expected one of phong, blinn-phong, ggx"));
-}
-
-bool NeedsHalfVector(BrdfModel model) { return model != BrdfModel::kPhong; }
-
-std::array<const char*, 2> ParameterNames(BrdfModel model) {
-  switch (model) {
-    case BrdfModel::kPhong:
-      return {brdf::Phong::Parameters()[0].name, brdf::Phong::Parameters()[1].name};
-    case BrdfModel::kBlinnPhong:
-      return {brdf::BlinnPhong::Parameters()[0].name, brdf::BlinnPhong::Parameters()[1].name};
-    case BrdfModel::kGgx:
-      return {brdf::Ggx::Parameters()[0].name, brdf::Ggx::Parameters()[1].name};
-  }
-  return {"?", "?"};
-}
-
 absl::Status LobeFitOptions::Check() const {
   auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
   if (max_iterations <= 0) {
@@ -276,8 +242,8 @@ absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet&
                                       const LobeFitOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   if (absl::Status s = options.Check(); !s.ok()) return s;
-  if (NeedsHalfVector(model) && !set.half_vector) {
-    return absl::FailedPreconditionError(absl::StrCat("the ", BrdfModelName(model),
+  if (brdf::NeedsHalfVector(model) && !set.half_vector) {
+    return absl::FailedPreconditionError(absl::StrCat("the ", brdf::ModelName(model),
                                                       " model reads n.h and v.h: its Samples must be gathered with "
                                                       "the half-vector geometry (SampleSet::half_vector)"));
   }

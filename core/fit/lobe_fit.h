@@ -31,23 +31,17 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "core/brdf/model.h"
 #include "core/fit/phong_fit.h"
 #include "core/samples/sample_set.h"
 
 namespace mvbrdf::fit {
 
-enum class BrdfModel { kPhong, kBlinnPhong, kGgx };
-// "phong", "blinn-phong", "ggx" (the --brdf values).
-const char* BrdfModelName(BrdfModel model);
-absl::StatusOr<BrdfModel> ParseBrdfModel(absl::string_view name);
-// Whether the model reads the half-vector geometry (SampleSet::half_vector).
-bool NeedsHalfVector(BrdfModel model);
-// The names of the model's two parameters ("ks", "ke"; "f0", "roughness").
-std::array<const char*, 2> ParameterNames(BrdfModel model);
+using BrdfModel = brdf::Model;
 
 struct LobeChannel {
   double kd = 0.0;
-  std::array<double, 2> p = {0.0, 1.0};  // the model's parameters, in ParameterNames' order
+  std::array<double, 2> p = {0.0, 1.0};  // the model's parameters, in brdf::ParameterNames' order
 };
 
 struct LobeFitOptions {

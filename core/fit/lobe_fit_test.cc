@@ -83,7 +83,7 @@ samples::SampleSet Render(const Truth& truth, int num_samples, double noise, uin
 // Parameters within `tolerance` relative; kd also within `kd_absolute`.
 void ExpectRecovers(const Truth& truth, const LobeFitResult& fit, double tolerance, double kd_absolute = 0.0) {
   for (int c = 0; c < 3; ++c) {
-    SCOPED_TRACE(std::string(BrdfModelName(truth.model)) + " channel " + std::to_string(c));
+    SCOPED_TRACE(std::string(brdf::ModelName(truth.model)) + " channel " + std::to_string(c));
     EXPECT_NEAR(fit.params[c].kd, truth.params[c].kd, std::max(kd_absolute, tolerance * truth.params[c].kd));
     EXPECT_NEAR(fit.params[c].p[0], truth.params[c].p[0], tolerance * truth.params[c].p[0]);
     EXPECT_NEAR(fit.params[c].p[1], truth.params[c].p[1], tolerance * truth.params[c].p[1]);
@@ -107,7 +107,7 @@ TEST(LobeFitTest, EachModelRecoversItsOwnParametersExactly) {
     auto fit = FitLobe(truth.model, set, {}, samples::LightMask::FirstN(6), LobeFitOptions{});
     ASSERT_TRUE(fit.ok()) << fit.status();
     EXPECT_EQ(fit->samples_used, 3000u);
-    EXPECT_EQ(fit->flags() & ~kAtBound, 0u) << BrdfModelName(truth.model);
+    EXPECT_EQ(fit->flags() & ~kAtBound, 0u) << brdf::ModelName(truth.model);
     ExpectRecovers(truth, *fit, 1e-4, 1e-6);
     EXPECT_LT(fit->mse, 1e-12);
   }
@@ -176,7 +176,7 @@ TEST(LobeFitTest, TheTrueModelFitsBest) {
       EXPECT_TRUE(std::isfinite(c.kd) && std::isfinite(c.p[0]) && std::isfinite(c.p[1]));
     }
     mse[m++] = fit->mse;
-    std::printf("%-12s fitted to GGX truth: mse %.3g\n", BrdfModelName(model), fit->mse);
+    std::printf("%-12s fitted to GGX truth: mse %.3g\n", brdf::ModelName(model), fit->mse);
   }
   EXPECT_LT(mse[2], 1e-12);
   EXPECT_GT(mse[0], 1e3 * mse[2] + 1e-10);
@@ -197,18 +197,6 @@ TEST(LobeFitTest, HalfVectorModelsNeedTheGeometry) {
   auto phong = FitLobe(BrdfModel::kPhong, set, {}, samples::LightMask::FirstN(1), LobeFitOptions{});
   ASSERT_TRUE(phong.ok()) << phong.status();
   EXPECT_NE(phong->flags() & kKsKeNotIdentifiable, 0u);  // one sample: no lobe to fit
-}
-
-TEST(LobeFitTest, ModelNames) {
-  for (BrdfModel m : {BrdfModel::kPhong, BrdfModel::kBlinnPhong, BrdfModel::kGgx}) {
-    auto parsed = ParseBrdfModel(BrdfModelName(m));
-    ASSERT_TRUE(parsed.ok());
-    EXPECT_EQ(*parsed, m);
-  }
-  auto bad = ParseBrdfModel("cook");
-  ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.status().message().find("phong, blinn-phong, ggx"), absl::string_view::npos);
-  EXPECT_EQ(std::string(ParameterNames(BrdfModel::kGgx)[1]), "roughness");
 }
 
 }  // namespace

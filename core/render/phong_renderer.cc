@@ -67,6 +67,7 @@ constexpr GLint kCameraCenterLocation = 1;
 constexpr GLint kAtlasModeLocation = 2;
 constexpr GLint kFalloffLocation = 3;
 constexpr GLint kUvSpaceLocation = 4;
+constexpr GLint kBrdfModelLocation = 5;
 
 // Uploads an image with row 0 = v = 1 into a 2D RGB32F texture with row 0 at
 // t = 0 (GL's convention), i.e. flipped.
@@ -446,6 +447,7 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   glProgramUniform4fv(program, kCameraCenterLocation, 1, glm::value_ptr(camera_center));
   glProgramUniform1i(program, kAtlasModeLocation, mode == Mode::kAtlas ? 1 : 0);
   glProgramUniform1i(program, kFalloffLocation, options.inverse_square_falloff ? 1 : 0);
+  glProgramUniform1i(program, kBrdfModelLocation, static_cast<GLint>(options.brdf_model));
   glProgramUniform1i(program, kUvSpaceLocation, uv_space ? 1 : 0);
 
   const GLuint placeholder = placeholder_texture.id();

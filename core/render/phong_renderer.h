@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/brdf/model.h"
 #include "core/gl/egl_context.h"
 #include "core/render/solid_texture.h"
 #include "core/scene/camera_model.h"
@@ -42,6 +43,11 @@ struct ProceduralMaterial {
 struct RendererOptions {
   int shadow_map_size = 1024;  // texels per cube face / directional map side
   bool inverse_square_falloff = false;
+  // The reflectance model (issue #15): the thesis's Phong by default; with
+  // another, the materials' and atlases' ks and ke hold that model's two
+  // parameters (brdf::ParameterNames: Blinn-Phong's ks, ke; GGX's f0,
+  // roughness), the term as core/fit/lobe_fit.h evaluates it.
+  brdf::Model brdf_model = brdf::Model::kPhong;
   // No clip planes to set: near and far come from each pose's bounding
   // sphere and the camera (ClipRangeOf in camera_projection.h), so a scene of
   // any world scale draws alike.

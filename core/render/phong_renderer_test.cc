@@ -10,6 +10,9 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "core/brdf/blinn_phong.h"
+#include "core/brdf/geometry.h"
+#include "core/brdf/ggx.h"
 #include "core/render/phong_model.h"
 #include "core/render/solid_texture.h"
 
@@ -991,6 +994,76 @@ TEST_F(PhongRendererTest, AtlasTexelsMatchTheCpuModelAtTheirSurfacePoints) {
   absl::StatusOr<cv::Mat> again = renderer->RenderAtlas(pose, camera_center, kSize);
   ASSERT_TRUE(again.ok()) << again.status();
   EXPECT_EQ(cv::norm(*atlas, *again, cv::NORM_INF), 0.0);
+}
+
+// Issue #15: with another model the same renderer shades by core/brdf's
+// formulas (ks and ke holding the model's two parameters): every covered
+// texel equals the CPU model at its surface point, for Blinn-Phong and GGX
+// (a dielectric and a coloured metal-like F0), with fall-off.
+TEST_F(PhongRendererTest, EveryModelsAtlasTexelsMatchTheCpuModel) {
+  RenderMesh mesh;
+  Pose pose;
+  AppendGridWithUvs(8, 1.0, 0.0, 0, {0.1f, 0.1f}, {0.9f, 0.9f}, &mesh, &pose);
+  struct Case {
+    brdf::Model model;
+    glm::vec3 p0, p1;
+  };
+  const Case cases[] = {{brdf::Model::kBlinnPhong, {0.3f, 0.35f, 0.4f}, {30.0f, 60.0f, 120.0f}},
+                        {brdf::Model::kGgx, {0.04f, 0.5f, 0.9f}, {0.2f, 0.35f, 0.5f}}};
+  const std::vector<scene::Light> lights = {PointLight({0.6f, 0.3f, 1.5f}, {1.0f, 0.9f, 0.8f}),
+                                            PointLight({-0.8f, 0.5f, 1.0f}, {0.5f, 0.6f, 0.7f})};
+  const glm::vec3 camera_center(-0.4f, -0.2f, 1.8f);  // near the mirror direction of the first light
+  constexpr int kSize = 64;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(brdf::ModelName(c.model));
+    RendererOptions options;
+    options.shadow_map_size = 256;
+    options.inverse_square_falloff = true;
+    options.brdf_model = c.model;
+    auto renderer = MakeRenderer(mesh, options);
+    ASSERT_NE(renderer, nullptr);
+    ProceduralMaterial material;
+    material.kd.base = {0.5f, 0.4f, 0.3f};
+    material.ks = c.p0;
+    material.ke = c.p1;
+    ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+    ASSERT_TRUE(renderer->SetLights(lights).ok());
+    absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(pose, camera_center, kSize);
+    ASSERT_TRUE(atlas.ok()) << atlas.status();
+    const float scale = MaxValue(*atlas);
+    ASSERT_GT(scale, 0.0f);
+    int covered = 0;
+    float max_error = 0.0f;
+    for (int j = 0; j < kSize; ++j) {
+      for (int i = 0; i < kSize; ++i) {
+        const TexelTruth truth = LocateTexel(mesh, pose, i, j, kSize);
+        if (truth.ambiguous || !truth.covered) continue;
+        const glm::dvec3 n = glm::normalize(truth.normal);
+        const glm::dvec3 v = glm::normalize(glm::dvec3(camera_center) - truth.point);
+        glm::dvec3 expected(0.0);
+        for (const scene::Light& light : lights) {
+          const glm::dvec3 to_light = glm::dvec3(light.position) - truth.point;
+          const double a = 1.0 / glm::dot(to_light, to_light);
+          const brdf::Geometry geometry = brdf::GeometryOf(n, glm::normalize(to_light), v);
+          if (!(geometry.n_dot_l > 0.0)) continue;
+          for (int ch = 0; ch < 3; ++ch) {
+            const double p[2] = {c.p0[ch], c.p1[ch]};
+            const double specular = c.model == brdf::Model::kGgx ? brdf::Ggx::Specular(p, geometry, nullptr)
+                                                                 : brdf::BlinnPhong::Specular(p, geometry, nullptr);
+            const double weight = c.model == brdf::Model::kGgx ? brdf::Ggx::DiffuseWeight(p, geometry, nullptr) : 1.0;
+            expected[ch] += light.intensity[ch] * a * (material.kd.base[ch] * weight * geometry.n_dot_l + specular);
+          }
+        }
+        const float error = MaxChannelError(atlas->at<cv::Vec4f>(j, i), glm::vec3(expected));
+        max_error = std::max(max_error, error);
+        EXPECT_LE(error, kAtlasRelativeTolerance * scale) << "texel " << i << ", " << j;
+        ++covered;
+      }
+    }
+    EXPECT_GT(covered, kSize * kSize / 2);
+    std::printf("%s: atlas vs CPU, max error %.2g of the maximum %.3g\n", brdf::ModelName(c.model),
+                max_error / scale, scale);
+  }
 }
 
 // Flat ground (UVs on the left of the atlas) under a small square occluder
