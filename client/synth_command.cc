@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "absl/strings/str_cat.h"
 #include "client/commands.h"
 #include "client/flags.h"
 #include "client/output_dir.h"
@@ -19,6 +20,7 @@ int RunSynth(const std::vector<std::string>& args) {
   std::string egl = "auto";
   std::string lighting = "studio";
   std::string camera_model = "pinhole";
+  std::string brdf_model = "phong";
   const char* env_data = std::getenv("MVBRDF_DATA_DIR");
   std::string data_dir = env_data != nullptr ? env_data : MVBRDF_DEFAULT_DATA_DIR;
   FlagParser flags("synth",
@@ -59,6 +61,10 @@ int RunSynth(const std::vector<std::string>& args) {
                   "render geometry displaced by this amplitude that the scene's mesh does not model");
   flags.AddDouble("--exposure GAIN", &o.exposure, "gain before 8-bit clipping; > 1 clips highlights");
   flags.AddDouble("--distortion K1", &o.distortion_k1, "radial distortion k1 of every camera");
+  flags.AddString("--brdf MODEL", &brdf_model,
+                  "reflectance model rendered: phong (the thesis's, default), blinn-phong or ggx (glTF's "
+                  "metallic-roughness lobe); the presets' materials converted as core/synth/model_materials.h says, "
+                  "the truth records the model's parameters");
   flags.AddInt("--pixel-samples N", &o.pixel_samples,
                "N x N samples per pixel averaged in linear light, as a sensor integrates its pixel (1: one at the "
                "centre, aliased edges; up to 8)");
@@ -84,8 +90,10 @@ int RunSynth(const std::vector<std::string>& args) {
   auto platform = gl::ParseEglPlatform(egl);
   auto parsed_lighting = synth::ParseLighting(lighting);
   auto parsed_camera_model = synth::ParseCameraModel(camera_model);
-  for (const absl::Status& s :
-       {parsed_preset.status(), platform.status(), parsed_lighting.status(), parsed_camera_model.status()}) {
+  absl::StatusOr<brdf::Model> parsed_brdf = brdf::ParseModel(brdf_model);
+  if (!parsed_brdf.ok()) parsed_brdf = absl::InvalidArgumentError(absl::StrCat("--brdf: ", parsed_brdf.status().message()));
+  for (const absl::Status& s : {parsed_preset.status(), platform.status(), parsed_lighting.status(),
+                                parsed_camera_model.status(), parsed_brdf.status()}) {
     if (!s.ok()) {
       std::fprintf(stderr, "mvbrdf synth: %s\n", std::string(s.message()).c_str());
       return kExitUsage;
@@ -98,6 +106,7 @@ int RunSynth(const std::vector<std::string>& args) {
   o.preset = *parsed_preset;
   o.lighting = *parsed_lighting;
   o.camera_model = *parsed_camera_model;
+  o.brdf = *parsed_brdf;
   o.video_format = format == "png" ? synth::VideoFormat::kPng : synth::VideoFormat::kFfv1;
   o.out_dir = out;
   o.data_dir = data_dir;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/proto_json.h"
@@ -71,8 +72,9 @@ render::PhongParams GroundTruth::At(uint32_t triangle, const glm::vec3& rest_pos
   p.kd = !m.kd_texture_path().empty() && !kd_texture_.empty()
              ? SampleBilinear(kd_texture_, uv)
              : render::EvaluateSolidTexture(SolidTexture(m.kd()), rest_position);
-  p.ks = Vec3(m.ks(), glm::vec3(0.0f));
-  p.ke = Vec3(m.ke(), glm::vec3(1.0f));
+  const auto [p0, p1] = Parameters(m);
+  p.ks = p0;
+  p.ke = p1;
   return p;
 }
 
@@ -111,14 +113,23 @@ std::vector<scene::CameraModel> GroundTruth::Cameras() const {
   return cameras;
 }
 
+brdf::Model GroundTruth::Model() const {
+  auto model = brdf::ParseModel(truth_.brdf());
+  return truth_.brdf().empty() || !model.ok() ? brdf::Model::kPhong : *model;
+}
+
+std::pair<glm::vec3, glm::vec3> GroundTruth::Parameters(const v1::Material& m) const {
+  if (Model() == brdf::Model::kGgx) return {Vec3(m.f0(), glm::vec3(0.0f)), Vec3(m.roughness(), glm::vec3(1.0f))};
+  return {Vec3(m.ks(), glm::vec3(0.0f)), Vec3(m.ke(), glm::vec3(1.0f))};
+}
+
 std::vector<render::ProceduralMaterial> GroundTruth::RendererMaterials() const {
   std::vector<render::ProceduralMaterial> out;
   for (const v1::Material& m : truth_.materials()) {
     render::ProceduralMaterial pm;
     pm.kd = SolidTexture(m.kd());
     pm.kd_from_texture = !m.kd_texture_path().empty();
-    pm.ks = Vec3(m.ks(), glm::vec3(0.0f));
-    pm.ke = Vec3(m.ke(), glm::vec3(1.0f));
+    std::tie(pm.ks, pm.ke) = Parameters(m);
     out.push_back(pm);
   }
   return out;

@@ -6,11 +6,13 @@
 #define MVBRDF_CORE_SYNTH_GROUND_TRUTH_H_
 
 #include <filesystem>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
+#include "core/brdf/model.h"
 #include "core/render/phong_model.h"
 #include "core/render/phong_renderer.h"
 #include "core/scene/camera_model.h"
@@ -26,6 +28,13 @@ class GroundTruth {
   static absl::StatusOr<GroundTruth> Load(const std::filesystem::path& truth_file);
 
   const v1::GroundTruth& message() const { return truth_; }
+
+  // The model the truth was rendered with (truth.json's brdf; Phong when
+  // empty): At's and RendererMaterials' ks and ke hold its two parameters
+  // (brdf::ParameterNames), as the renderer takes them.
+  brdf::Model Model() const;
+  // A material's two parameters in the model's terms.
+  std::pair<glm::vec3, glm::vec3> Parameters(const v1::Material& material) const;
 
   // True parameters at a surface point of triangle `triangle` (file order):
   // `rest_position` is the point in the rest pose (frame 0, world units),

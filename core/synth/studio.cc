@@ -134,11 +134,13 @@ std::vector<StudioMaterial> StudioMaterials() {
   m[1].kd = {linear(m[1].seed_srgb8), 0.12f, 11.0f, {17.3f, 5.1f, 9.7f}};
   m[1].ks = glm::vec3(0.12f);
   m[1].ke = glm::vec3(16.0f);
+  m[1].ior = 1.4f;  // skin (F0 0.028)
   m[2].name = "hair";
   m[2].seed_srgb8 = {76, 74, 67};
   m[2].kd = {linear(m[2].seed_srgb8), 0.3f, 23.0f, {3.3f, 41.0f, 12.9f}};
   m[2].ks = glm::vec3(0.25f);
   m[2].ke = glm::vec3(40.0f);
+  m[2].ior = 1.55f;  // keratin (F0 0.047)
   return m;
 }
 

@@ -67,6 +67,9 @@ struct StudioMaterial {
   render::SolidTextureParams kd;
   glm::vec3 ks;
   glm::vec3 ke;
+  // Index of refraction of the dielectric, for the models with a Fresnel
+  // term (synth --brdf ggx: F0 = ((ior - 1) / (ior + 1))^2).
+  float ior = 1.5f;
 };
 
 // cloth, skin, hair: kd from the thesis's seed colours (linearised), with

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <tuple>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -21,6 +22,7 @@
 #include "core/scene/sequence.h"
 #include "core/scene/video_source.h"
 #include "core/synth/frame_encoder.h"
+#include "core/synth/model_materials.h"
 #include "core/synth/subject.h"
 #include "core/synth/video_writer.h"
 
@@ -286,14 +288,14 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   render_mesh.triangle_material = subject.triangle_material;
   render::RendererOptions renderer_options;
   renderer_options.shadow_map_size = options.shadow_map_size;
+  renderer_options.brdf_model = options.brdf;
   MVBRDF_ASSIGN_OR_RETURN(auto renderer, render::PhongRenderer::Create(context, render_mesh, renderer_options));
   std::vector<render::ProceduralMaterial> materials;
   for (const StudioMaterial& m : subject.materials) {
     render::ProceduralMaterial pm;
     pm.kd = m.kd;
     pm.kd_from_texture = !subject.kd_texture.empty();
-    pm.ks = m.ks;
-    pm.ke = m.ke;
+    std::tie(pm.ks, pm.ke) = ModelParametersOf(options.brdf, m);
     materials.push_back(pm);
   }
   MVBRDF_RETURN_IF_ERROR(renderer->SetProceduralMaterials(materials));
@@ -440,9 +442,16 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     mat->mutable_kd()->set_frequency(m.kd.frequency);
     SetVec3(m.kd.offset, mat->mutable_kd()->mutable_offset());
     if (!subject.kd_texture.empty()) mat->set_kd_texture_path("kd_texture.png");
-    SetVec3(m.ks, mat->mutable_ks());
-    SetVec3(m.ke, mat->mutable_ke());
+    const auto [p0, p1] = ModelParametersOf(options.brdf, m);
+    if (options.brdf == brdf::Model::kGgx) {
+      SetVec3(p0, mat->mutable_f0());
+      SetVec3(p1, mat->mutable_roughness());
+    } else {
+      SetVec3(p0, mat->mutable_ks());
+      SetVec3(p1, mat->mutable_ke());
+    }
   }
+  truth.set_brdf(brdf::ModelName(options.brdf));
   if (!subject.kd_texture.empty()) {
     std::filesystem::copy_file(subject.kd_texture_file, out / "ground_truth" / "kd_texture.png",
                                std::filesystem::copy_options::overwrite_existing, ec);

@@ -20,6 +20,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "core/brdf/model.h"
 #include "core/gl/egl_context.h"
 #include "core/scene/camera_model.h"
 #include "mvbrdf/v1/ground_truth.pb.h"
@@ -73,6 +74,9 @@ struct SynthOptions {
   // 1 renders one sample at each pixel centre, N averages N x N in linear
   // light, as a camera's pixel integrates over its area.
   int pixel_samples = 1;
+  // The reflectance model rendered (model_materials.h converts the presets'
+  // materials; recorded in truth.json's brdf and materials).
+  brdf::Model brdf = brdf::Model::kPhong;
   // Issue #14: the lights written to scene.json differ from the rendered
   // ones (truth.lights): each point light moved by this distance in a random
   // direction, each directional light turned by light_direction_error_deg

@@ -1,0 +1,23 @@
+#include "core/synth/model_materials.h"
+
+#include <cmath>
+
+namespace mvbrdf::synth {
+
+std::pair<glm::vec3, glm::vec3> ModelParametersOf(brdf::Model model, const StudioMaterial& material) {
+  switch (model) {
+    case brdf::Model::kPhong:
+      return {material.ks, material.ke};
+    case brdf::Model::kBlinnPhong:
+      return {material.ks, 4.0f * material.ke};
+    case brdf::Model::kGgx: {
+      const float r = (material.ior - 1.0f) / (material.ior + 1.0f);
+      glm::vec3 roughness;
+      for (int c = 0; c < 3; ++c) roughness[c] = std::pow(2.0f / (4.0f * material.ke[c] + 2.0f), 0.25f);
+      return {glm::vec3(r * r), roughness};
+    }
+  }
+  return {material.ks, material.ke};
+}
+
+}  // namespace mvbrdf::synth
