@@ -7,6 +7,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "core/brdf/model.h"
 #include "core/base/status_macros.h"
 
 namespace mvbrdf::client {
@@ -57,6 +58,9 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
       "(unit-free; 0: none)");
   flags.AddString("--sweep-criterion NAME", &job->sweep_criterion,
                   "held-out (kd fitted on some frames, error measured on the others) or e-d (the thesis's E_d)");
+  flags.AddString("--brdf MODEL", &job->brdf,
+                  "reflectance model fitted per cluster: phong (the thesis's mirror lobe), blinn-phong "
+                  "(energy-normalised half-vector lobe) or ggx (glTF's metallic-roughness: atlases f0, roughness)");
   flags.AddString("--cluster-smoothness X", &job->cluster_smoothness,
                   "spatial coherence of the clusters over the surface (0: each texel on its own)");
 }
@@ -109,6 +113,11 @@ absl::Status SetRobustnessOptions(const JobFlags& job, v1::FittingOptions* o) {
   else {
     return absl::InvalidArgumentError(
         absl::StrCat("--sweep-criterion: expected held-out or e-d, got \"", job.sweep_criterion, "\""));
+  }
+  if (absl::StatusOr<brdf::Model> model = brdf::ParseModel(job.brdf); !model.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("--brdf: expected phong, blinn-phong or ggx, got \"", job.brdf, "\""));
+  } else if (*model != brdf::Model::kPhong) {
+    o->set_brdf(brdf::ModelName(*model));
   }
   double v = 0.0;
   bool set = false;

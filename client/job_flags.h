@@ -40,6 +40,7 @@ struct JobFlags {
   std::string edge_margin;
   std::string gradient_rejection;
   std::string sweep_criterion = "held-out";  // held-out|e-d
+  std::string brdf = "phong";                 // phong|blinn-phong|ggx
   std::string cluster_smoothness;
 };
 

@@ -1,3 +1,4 @@
+#include "core/brdf/model.h"
 #include "core/evaluate/reconstruction_evaluator.h"
 
 #include <algorithm>
@@ -195,6 +196,12 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   }
   report.set_kd_rmse_all_seen(n_all > 0 ? std::sqrt(sq_all / (3.0 * static_cast<double>(n_all))) : 0.0);
 
+  brdf::Model run_model = brdf::Model::kPhong;
+  if (!run.brdf().empty()) {
+    absl::StatusOr<brdf::Model> parsed = brdf::ParseModel(run.brdf());
+    if (!parsed.ok()) return absl::InvalidArgumentError(absl::StrCat("result.json: brdf: ", parsed.status().message()));
+    run_model = *parsed;
+  }
   std::vector<int32_t> cluster_material(static_cast<size_t>(num_clusters), -1);
   for (int k = 0; k < num_clusters; ++k) {
     uint64_t best = 0;
@@ -214,14 +221,25 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     if (cluster_material[static_cast<size_t>(k)] < 0) continue;
     const v1::Material& m = truth.message().materials(cluster_material[static_cast<size_t>(k)]);
     cmp->set_material(m.name());
+    // The model's two parameters (issue #15): comparable only when the run
+    // fitted the model the truth was rendered with. The first (ks, F0)
+    // scales with the data's units (gain), the second does not.
+    cmp->set_brdf(brdf::ModelName(run_model));
+    cmp->set_truth_brdf(brdf::ModelName(truth.Model()));
+    const bool ggx = run_model == brdf::Model::kGgx;
+    const auto& p0 = ggx ? row.f0() : row.ks();
+    const auto& p1 = ggx ? row.roughness() : row.ke();
+    if (run_model != truth.Model() || p0.size() != 3 || p1.size() != 3) continue;
+    cmp->set_parameters_compared(true);
+    const auto [true_p0, true_p1] = truth.Parameters(m);
     double ks_err = 0.0, ke_err = 0.0;
     for (int c = 0; c < 3; ++c) {
-      cmp->add_ks(row.ks(c));
-      cmp->add_ks_true(gain * m.ks(c));
-      cmp->add_ke(row.ke(c));
-      cmp->add_ke_true(m.ke(c));
-      ks_err += RelativeError(row.ks(c), gain * m.ks(c)) / 3.0;
-      ke_err += RelativeError(row.ke(c), m.ke(c)) / 3.0;
+      cmp->add_ks(p0[c]);
+      cmp->add_ks_true(gain * true_p0[c]);
+      cmp->add_ke(p1[c]);
+      cmp->add_ke_true(true_p1[c]);
+      ks_err += RelativeError(p0[c], gain * true_p0[c]) / 3.0;
+      ke_err += RelativeError(p1[c], true_p1[c]) / 3.0;
     }
     cmp->set_ks_rel_error(ks_err);
     cmp->set_ke_rel_error(ke_err);

@@ -222,6 +222,30 @@ absl::Status LobeFitOptions::Check() const {
   return absl::OkStatus();
 }
 
+void LobeTerms(BrdfModel model, const std::array<LobeChannel, 3>& p, const samples::LightTerms& terms,
+               const std::vector<glm::vec3>& intensity, const samples::LightMask& mask, glm::vec3* specular,
+               glm::vec3* illumination) {
+  const ModelFunctions m = FunctionsOf(model);
+  glm::dvec3 s(0.0), g(0.0);
+  for (size_t j = 0; j < terms.count; ++j) {
+    const size_t k = terms.light[j];
+    if (!mask.Test(k)) continue;
+    brdf::Geometry geometry;
+    const double a = terms.falloff != nullptr ? terms.falloff[j] : 1.0;
+    geometry.n_dot_l = a > 0.0 ? std::min(1.0, static_cast<double>(terms.g[j]) / a) : 0.0;
+    geometry.r_dot_v = terms.h[j];
+    geometry.n_dot_v = terms.n_dot_v;
+    if (terms.n_dot_h != nullptr) geometry.n_dot_h = terms.n_dot_h[j];
+    if (terms.v_dot_h != nullptr) geometry.v_dot_h = terms.v_dot_h[j];
+    for (int c = 0; c < 3; ++c) {
+      s[c] += intensity[k][c] * a * m.specular(p[c].p.data(), geometry, nullptr);
+      g[c] += intensity[k][c] * m.diffuse_weight(p[c].p.data(), geometry, nullptr) * terms.g[j];
+    }
+  }
+  *specular = glm::vec3(s);
+  *illumination = glm::vec3(g);
+}
+
 double EvaluateLobe(BrdfModel model, const samples::SampleSet& set, size_t i, const samples::LightSelection& lights,
                     const LobeChannel& p, int c) {
   const ModelFunctions m = FunctionsOf(model);

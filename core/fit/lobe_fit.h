@@ -33,6 +33,7 @@
 #include "absl/strings/string_view.h"
 #include "core/brdf/model.h"
 #include "core/fit/phong_fit.h"
+#include "core/samples/assemble.h"
 #include "core/samples/sample_set.h"
 
 namespace mvbrdf::fit {
@@ -78,6 +79,15 @@ struct LobeFitResult {
 absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet& set,
                                       const std::vector<uint32_t>& indices, const samples::LightSelection& lights,
                                       const LobeFitOptions& options);
+
+// One observation's terms under a fitted model, per channel: the specular
+// radiance S = sum_k I_k a_k S(p; G_k) and the diffuse illumination
+// G = sum_k I_k W(p; G_k) g_k of the lights in `mask`, so that r ~ kd G + S
+// (for Phong G is the thesis's sum I_k g_k). The terms must carry the
+// half-vector geometry (the assemblers' LightTerms always do).
+void LobeTerms(BrdfModel model, const std::array<LobeChannel, 3>& p, const samples::LightTerms& terms,
+               const std::vector<glm::vec3>& intensity, const samples::LightMask& mask, glm::vec3* specular,
+               glm::vec3* illumination);
 
 // The model's value for sample i, channel c (the fit's f_i).
 double EvaluateLobe(BrdfModel model, const samples::SampleSet& set, size_t i, const samples::LightSelection& lights,

@@ -40,7 +40,7 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
     g.texels->reservoir = std::make_unique<TexelReservoir>(num_texels, static_cast<int>(num_lights),
                                                            options.reservoir_uniform, options.reservoir_highlight,
                                                            assemble.inverse_square_falloff, max_terms,
-                                                           options.half_vector_geometry);
+                                                           options.GathersHalfVector());
   }
   TexelStatistics* st = g.texels.get();
   const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);

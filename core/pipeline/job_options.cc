@@ -1,3 +1,4 @@
+#include "core/brdf/model.h"
 #include "core/pipeline/job_options.h"
 
 #include <cmath>
@@ -158,6 +159,14 @@ absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequ
     return absl::InvalidArgumentError("options.sweep_criterion: expected HELD_OUT or E_D");
   }
   o.sweep_criterion = f.sweep_criterion();
+  if (!f.brdf().empty()) {
+    absl::StatusOr<brdf::Model> model = brdf::ParseModel(f.brdf());
+    if (!model.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("options.brdf: expected phong, blinn-phong or ggx, got \"", f.brdf(), "\""));
+    }
+    o.brdf_model = *model;
+  }
   if (f.has_cluster_smoothness()) {
     MVBRDF_RETURN_IF_ERROR(
         CheckFiniteNonNegative("options.cluster_smoothness", f.cluster_smoothness(), "a finite number >= 0"));
@@ -196,6 +205,7 @@ absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequ
   fit.set_gradient_rejection(o.gradient_rejection);
   fit.set_sweep_criterion(o.sweep_criterion);
   fit.set_cluster_smoothness(o.cluster_smoothness);
+  fit.set_brdf(brdf::ModelName(o.brdf_model));
   return o;
 }
 

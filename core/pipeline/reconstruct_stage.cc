@@ -21,6 +21,7 @@
 #include "core/cluster/kmeans.h"
 #include "core/cluster/label_smoothing.h"
 #include "core/fit/light_sweep.h"
+#include "core/fit/lobe_fit.h"
 #include "core/fit/texel_kd_fit.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
@@ -708,6 +709,12 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   // One BRDF per cluster.
   t0 = Clock::now();
   std::vector<fit::PhongRgb> cluster_brdf(num_clusters);
+  // A model other than Phong (issue #15): each cluster's fit of it, whose kd
+  // also replaces cluster_brdf's (the per-texel kd's fallback and prior).
+  const brdf::Model model = options.brdf_model;
+  const bool phong = model == brdf::Model::kPhong;
+  std::vector<std::array<fit::LobeChannel, 3>> cluster_lobe(num_clusters);
+  report.set_brdf(brdf::ModelName(model));
   // Robust fits: per cluster the residual scale of per-texel kd (pass 2).
   std::vector<glm::dvec3> texel_sigma(num_clusters, glm::dvec3(0.0));
   for (size_t k = 0; k < num_clusters; ++k) {
@@ -719,7 +726,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       row->add_flags(tiny[k] ? "tiny" : "no_samples");
       continue;
     }
-    samples::SampleSet set = samples::MakeSampleSet(sequence.lights, options.half_vector_geometry);
+    samples::SampleSet set = samples::MakeSampleSet(sequence.lights, options.GathersHalfVector());
     // Spread the cap over the cluster's kept Samples, not its texels (most
     // texels keep fewer Samples than they have slots).
     const TexelReservoir& reservoir = *g.texels->reservoir;
@@ -760,7 +767,20 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     lobe_options.ke_max = lm.ke_max;
     lobe_options.ks_max = lm.ks_max;
     bool lobe_per_texel_kd = false;
-    if (!(lm_result.flags() & fit::kKsKeNotIdentifiable)) {
+    uint32_t flags = lm_result.flags();
+    if (!phong) {
+      // The model's own fit (fit::FitLobe) on the same Samples; the Phong
+      // fits above stay in the report's solver table (Table 6.2).
+      fit::LobeFitOptions lobe_fit;
+      lobe_fit.max_iterations = lm.max_iterations;
+      lobe_fit.kd_max = lm.kd_max;
+      lobe_fit.ks_max = lm.ks_max;
+      MVBRDF_ASSIGN_OR_RETURN(const fit::LobeFitResult model_fit,
+                              fit::FitLobe(model, set, {}, selection, lobe_fit));
+      cluster_lobe[k] = model_fit.params;
+      for (int c = 0; c < 3; ++c) cluster_brdf[k][c].kd = model_fit.params[c].kd;
+      flags = model_fit.flags();
+    } else if (!(lm_result.flags() & fit::kKsKeNotIdentifiable)) {
       MVBRDF_ASSIGN_OR_RETURN(const fit::TexelKdFitResult lobe,
                               fit::FitLobeWithTexelKd(set, selection, lm_result.params, lobe_options));
       cluster_brdf[k] = lobe.params;
@@ -779,14 +799,23 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     row->set_name(clusters.names[k]);
     row->set_texels(cluster_texels[k].size());
     row->set_lobe_per_texel_kd(lobe_per_texel_kd);
-    for (const std::string& f : FlagNames(lm_result.flags())) row->add_flags(f);
-    if (const std::string w = ClusterFitWarning(clusters.names[k], lm_result.flags(), lm); !w.empty()) {
+    for (const std::string& f : FlagNames(flags)) row->add_flags(f);
+    if (const std::string w = ClusterFitWarning(clusters.names[k], flags, lm); !w.empty()) {
       report.add_warnings(w);
     }
     for (int c = 0; c < 3; ++c) {
       row->add_centre(clusters.centres[k][c]);
-      row->add_ks(cluster_brdf[k][c].ks);
-      row->add_ke(cluster_brdf[k][c].ke);
+      row->add_kd(cluster_brdf[k][c].kd);
+      if (phong) {
+        row->add_ks(cluster_brdf[k][c].ks);
+        row->add_ke(cluster_brdf[k][c].ke);
+      } else if (model == brdf::Model::kGgx) {
+        row->add_f0(cluster_lobe[k][c].p[0]);
+        row->add_roughness(cluster_lobe[k][c].p[1]);
+      } else {
+        row->add_ks(cluster_lobe[k][c].p[0]);
+        row->add_ke(cluster_lobe[k][c].p[1]);
+      }
     }
   }
   g.texels.reset();
@@ -842,11 +871,18 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
               const int32_t k = texel_cluster[texel];
               if (k < 0) return;
               const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-              const glm::vec3 G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
-              glm::vec3 res;
-              for (int ch = 0; ch < 3; ++ch) {
-                res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) *
-                                        SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke);
+              glm::vec3 G, res;
+              if (phong) {
+                G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
+                for (int ch = 0; ch < 3; ++ch) {
+                  res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) *
+                                          SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke);
+                }
+              } else {
+                glm::vec3 specular;
+                fit::LobeTerms(model, cluster_lobe[static_cast<size_t>(k)], terms, intensity,
+                               selection.Of(t, all_lights), &specular, &G);
+                res = rgb - specular;
               }
               // Weighted by (n.v)^4: near-grazing observations come from
               // stretched image footprints and smear across silhouettes
@@ -923,9 +959,17 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
                 const cv::Vec4f& o =
                     observed.at<cv::Vec4f>(static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
                 const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-                const glm::vec3 G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
+                glm::vec3 G, specular;
+                if (phong) {
+                  G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
+                } else {
+                  fit::LobeTerms(model, cluster_lobe[static_cast<size_t>(k)], terms, intensity,
+                                 selection.Of(t, all_lights), &specular, &G);
+                }
                 for (int ch = 0; ch < 3; ++ch) {
-                  const double s = p[ch].ks * SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke);
+                  const double s =
+                      phong ? p[ch].ks * SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke)
+                            : specular[ch];
                   const double model = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
                   const double d = o[3] > 0.5f ? rgb[ch] - model : 0.0;
                   cam_corr_sq[static_cast<size_t>(c)] += d * d;
@@ -1021,17 +1065,22 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       const int y = static_cast<int>(i / atlas.size), x = static_cast<int>(i % atlas.size);
       confidence.at<float>(y, x) = static_cast<float>(kd.samples[i]);
       if (texel_cluster[i] < 0) continue;
-      const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(texel_cluster[i])];
-      ks[i] = glm::vec3(p[0].ks, p[1].ks, p[2].ks);
-      ke[i] = glm::vec3(p[0].ke, p[1].ke, p[2].ke);
+      const size_t k = static_cast<size_t>(texel_cluster[i]);
+      const fit::PhongRgb& p = cluster_brdf[k];
+      const std::array<fit::LobeChannel, 3>& q = cluster_lobe[k];
+      ks[i] = phong ? glm::vec3(p[0].ks, p[1].ks, p[2].ks) : glm::vec3(q[0].p[0], q[1].p[0], q[2].p[0]);
+      ke[i] = phong ? glm::vec3(p[0].ke, p[1].ke, p[2].ke) : glm::vec3(q[0].p[1], q[1].p[1], q[2].p[1]);
       cluster_map.at<int32_t>(y, x) = texel_cluster[i];
     }
     MVBRDF_RETURN_IF_ERROR(WriteRgbAtlas(atlases / "kd", kd_atlas, 1.0f));
-    MVBRDF_RETURN_IF_ERROR(
-        WriteRgbAtlas(atlases / "ks", resample::GrowAtlas(Rgba(ks, measured, atlas.size), options.grow_iterations), 1.0f));
+    // The model's two parameters (ks, ke; GGX's f0, roughness), named as it names them.
+    const std::array<const char*, 2> names = brdf::ParameterNames(model);
+    MVBRDF_RETURN_IF_ERROR(WriteRgbAtlas(
+        atlases / names[0], resample::GrowAtlas(Rgba(ks, measured, atlas.size), options.grow_iterations), 1.0f));
     const cv::Mat ke_atlas = resample::GrowAtlas(Rgba(ke, measured, atlas.size), options.grow_iterations);
-    MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "ke.exr", RgbOf(ke_atlas)));
-    MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(atlases / "ke.png", ke_atlas, 1.0f / 100.0f));
+    MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / absl::StrCat(names[1], ".exr"), RgbOf(ke_atlas)));
+    MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(atlases / absl::StrCat(names[1], ".png"), ke_atlas,
+                                                  model == brdf::Model::kGgx ? 1.0f : 1.0f / 100.0f));
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "cluster.exr", cluster_map));
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "confidence.exr", confidence));
     cv::Mat cluster_preview(atlas.size, atlas.size, CV_32FC4, cv::Scalar::all(0));

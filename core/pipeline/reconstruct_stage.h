@@ -31,6 +31,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "core/brdf/model.h"
 #include "core/atlas/atlas.h"
 #include "core/fit/diffuse.h"
 #include "core/fit/phong_fit.h"
@@ -53,8 +54,19 @@ struct ReconstructOptions {
   // Gather the half-vector geometry into every Sample (triangle Samples and
   // the kept texel Samples; SampleSet::half_vector), which the models other
   // than the thesis's Phong read (issue #15). Off on the Phong path: its
-  // Samples are what they were.
+  // Samples are what they were. (A brdf_model other than Phong gathers it
+  // into the kept texel Samples only: the sweep's triangle Samples, and the
+  // service's cache of them, stay the Phong path's.)
   bool half_vector_geometry = false;
+  // The reflectance model fitted per cluster (issue #15; --brdf): the
+  // thesis's Phong by default. Another model gathers the half-vector
+  // geometry whatever half_vector_geometry says, fits each cluster with
+  // fit::FitLobe after the Phong fit (kept for Table 6.2 and the flags), and
+  // writes its parameters' atlases (brdf::ParameterNames: ks, ke or f0,
+  // roughness). The light sweep stays the thesis's Phong (a choice among
+  // configurations, which the lobe's shape barely moves).
+  brdf::Model brdf_model = brdf::Model::kPhong;
+  bool GathersHalfVector() const { return half_vector_geometry || brdf::NeedsHalfVector(brdf_model); }
   // Triangle averaging for light estimation (thesis §5.1.3).
   float min_valid_fraction = 0.75f;
   fit::PhongFitOptions fit;

@@ -91,13 +91,26 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   }
   auto r = std::unique_ptr<ReconstructionRenderer>(new ReconstructionRenderer(run_dir, sequence, std::move(atlas)));
   MVBRDF_ASSIGN_OR_RETURN(r->kd_, ReadRgb(run_dir / "atlases" / "kd.exr"));
-  MVBRDF_ASSIGN_OR_RETURN(r->ks_, ReadRgb(run_dir / "atlases" / "ks.exr"));
-  MVBRDF_ASSIGN_OR_RETURN(r->ke_, ReadRgb(run_dir / "atlases" / "ke.exr"));
+  // The model's two parameter atlases (issue #15: ks, ke; GGX's f0, roughness).
+  brdf::Model model = brdf::Model::kPhong;
+  if (!run.brdf().empty()) {
+    absl::StatusOr<brdf::Model> parsed = brdf::ParseModel(run.brdf());
+    if (!parsed.ok()) {
+      return absl::FailedPreconditionError(
+          absl::StrCat(run_dir.string(), "/result.json: brdf: ", parsed.status().message()));
+    }
+    model = *parsed;
+  }
+  const std::array<const char*, 2> names = brdf::ParameterNames(model);
+  MVBRDF_ASSIGN_OR_RETURN(r->ks_, ReadRgb(run_dir / "atlases" / absl::StrCat(names[0], ".exr")));
+  MVBRDF_ASSIGN_OR_RETURN(r->ke_, ReadRgb(run_dir / "atlases" / absl::StrCat(names[1], ".exr")));
   render::RenderMesh& mesh = r->mesh_;
   mesh.triangles = r->atlas_.topology.triangles;
   mesh.uvs = r->atlas_.topology.uvs;
   mesh.rest_positions = scene::ToRenderVertices(r->atlas_.topology, sequence.rest_positions);
-  MVBRDF_ASSIGN_OR_RETURN(r->renderer_, render::PhongRenderer::Create(context, mesh, {}));
+  render::RendererOptions renderer_options;
+  renderer_options.brdf_model = model;
+  MVBRDF_ASSIGN_OR_RETURN(r->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
   MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_));
   return r;
 }

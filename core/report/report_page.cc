@@ -255,14 +255,18 @@ std::string CalibrationSection(const v1::RunReport& run, const std::optional<v1:
 std::string ClustersTable(const v1::RunReport& run) {
   if (run.clusters_size() == 0) return "";
   std::vector<std::vector<std::string>> rows;
+  // The model's two parameters (issue #15): ks, ke, or GGX's f0, roughness.
+  const bool ggx = run.brdf() == "ggx";
   for (const v1::ClusterRow& c : run.clusters()) {
     const std::string flags = absl::StrJoin(c.flags(), ", ");
-    rows.push_back({c.name(), absl::StrCat(c.texels()), Rgb(c.centre()), Rgb(c.ks()), Rgb(c.ke(), "%.1f"),
-                    flags.empty() ? "-" : flags});
+    rows.push_back({c.name(), absl::StrCat(c.texels()), Rgb(c.centre()), Rgb(ggx ? c.f0() : c.ks()),
+                    Rgb(ggx ? c.roughness() : c.ke(), ggx ? "%.3f" : "%.1f"), flags.empty() ? "-" : flags});
   }
-  return "<h3 id=\"clusters\">Clusters</h3>" +
-         Table({"cluster", "texels", "centre (linear RGB)", "ks (RGB)", "ke (RGB)", "flags"}, rows, "",
-               {term::kCluster, "", term::kKd, term::kKs, term::kKe, term::kClusterFlags});
+  const std::string model = run.brdf().empty() ? "phong" : run.brdf();
+  return "<h3 id=\"clusters\">Clusters</h3><p>Reflectance model: " + Escape(model) + ".</p>" +
+         Table({"cluster", "texels", "centre (linear RGB)", ggx ? "f0 (RGB)" : "ks (RGB)",
+                ggx ? "roughness (RGB)" : "ke (RGB)", "flags"},
+               rows, "", {term::kCluster, "", term::kKd, ggx ? "" : term::kKs, ggx ? "" : term::kKe, term::kClusterFlags});
 }
 
 }  // namespace
@@ -301,9 +305,14 @@ std::string BuildReportHtml(const ReportInputs& in) {
          F(e.cluster_accuracy(), "%.3f") + ".</p>";
     std::vector<std::vector<std::string>> rows;
     for (const v1::MaterialComparison& c : e.clusters()) {
-      rows.push_back({c.cluster(), c.material(), F(c.kd_rmse(), "%.4f"), Rgb(c.ks()), Rgb(c.ks_true()),
-                      F(c.ks_rel_error(), "%.3f"), Rgb(c.ke(), "%.1f"), Rgb(c.ke_true(), "%.1f"),
-                      F(c.ke_rel_error(), "%.3f")});
+      // ks and ke hold the model's two parameters; "-" where the truth's
+      // model is another (only kd is compared).
+      const bool compared = c.parameters_compared() || c.brdf().empty();
+      const char* second = c.brdf() == "ggx" ? "%.3f" : "%.1f";
+      rows.push_back({c.cluster(), c.material(), F(c.kd_rmse(), "%.4f"), compared ? Rgb(c.ks()) : "-",
+                      compared ? Rgb(c.ks_true()) : "-", compared ? F(c.ks_rel_error(), "%.3f") : "-",
+                      compared ? Rgb(c.ke(), second) : "-", compared ? Rgb(c.ke_true(), second) : "-",
+                      compared ? F(c.ke_rel_error(), "%.3f") : "-"});
     }
     h += Table(
         {"cluster", "true material", "kd RMSE", "ks", "ks true", "ks rel. error", "ke", "ke true", "ke rel. error"},
