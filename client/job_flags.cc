@@ -7,8 +7,8 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
-#include "core/brdf/model.h"
 #include "core/base/status_macros.h"
+#include "core/brdf/model.h"
 
 namespace mvbrdf::client {
 
