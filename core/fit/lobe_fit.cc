@@ -51,7 +51,9 @@ struct Terms {
   size_t size() const { return sample.size(); }
 };
 
-brdf::Geometry GeometryOfTerm(const samples::SampleSet& set, size_t i, size_t j) {
+}  // namespace
+
+brdf::Geometry TermGeometry(const samples::SampleSet& set, size_t i, size_t j) {
   brdf::Geometry geometry;
   const double a = set.TermFalloff(j);
   geometry.n_dot_l = a > 0.0 ? std::min(1.0, static_cast<double>(set.g[j]) / a) : 0.0;
@@ -63,6 +65,16 @@ brdf::Geometry GeometryOfTerm(const samples::SampleSet& set, size_t i, size_t j)
   }
   return geometry;
 }
+
+double ModelSpecular(BrdfModel model, const std::array<double, 2>& p, const brdf::Geometry& geometry) {
+  return FunctionsOf(model).specular(p.data(), geometry, nullptr);
+}
+
+double ModelDiffuseWeight(BrdfModel model, const std::array<double, 2>& p, const brdf::Geometry& geometry) {
+  return FunctionsOf(model).diffuse_weight(p.data(), geometry, nullptr);
+}
+
+namespace {
 
 // The solver's parameters x = (kd / A, s0, s1): s0 = ks / A (Phong,
 // Blinn-Phong) or F0 (GGX); s1 = ln ke or the roughness.
@@ -253,7 +265,7 @@ double EvaluateLobe(BrdfModel model, const samples::SampleSet& set, size_t i, co
   double f = 0.0;
   for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
     if (!own && !lights.config.Test(set.light[j])) continue;
-    const brdf::Geometry geometry = GeometryOfTerm(set, i, j);
+    const brdf::Geometry geometry = TermGeometry(set, i, j);
     const double w = m.diffuse_weight(p.p.data(), geometry, nullptr);
     const double spec = m.specular(p.p.data(), geometry, nullptr);
     f += set.light_intensity[set.light[j]][c] * (p.kd * w * set.g[j] + set.TermFalloff(j) * spec);
@@ -298,7 +310,7 @@ absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet&
       t.light.push_back(set.light[j]);
       t.g.push_back(set.g[j]);
       t.a.push_back(set.TermFalloff(j));
-      t.geometry.push_back(GeometryOfTerm(set, i, j));
+      t.geometry.push_back(TermGeometry(set, i, j));
     }
     t.begin.push_back(t.light.size());
     t.sample.push_back(i);

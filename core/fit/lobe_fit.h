@@ -31,6 +31,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "core/brdf/geometry.h"
 #include "core/brdf/model.h"
 #include "core/fit/phong_fit.h"
 #include "core/samples/assemble.h"
@@ -79,6 +80,13 @@ struct LobeFitResult {
 absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet& set,
                                       const std::vector<uint32_t>& indices, const samples::LightSelection& lights,
                                       const LobeFitOptions& options);
+
+// The geometry of term j of sample i (n.l = g / a; the half-vector cosines
+// when the set has them, else 0).
+brdf::Geometry TermGeometry(const samples::SampleSet& set, size_t i, size_t j);
+// The model's specular term and diffuse weight (core/brdf) at `p`.
+double ModelSpecular(BrdfModel model, const std::array<double, 2>& p, const brdf::Geometry& geometry);
+double ModelDiffuseWeight(BrdfModel model, const std::array<double, 2>& p, const brdf::Geometry& geometry);
 
 // One observation's terms under a fitted model, per channel: the specular
 // radiance S = sum_k I_k a_k S(p; G_k) and the diffuse illumination

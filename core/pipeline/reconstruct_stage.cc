@@ -22,6 +22,7 @@
 #include "core/cluster/label_smoothing.h"
 #include "core/fit/light_sweep.h"
 #include "core/fit/lobe_fit.h"
+#include "core/fit/lobe_texel_kd_fit.h"
 #include "core/fit/texel_kd_fit.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
@@ -778,8 +779,20 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       MVBRDF_ASSIGN_OR_RETURN(const fit::LobeFitResult model_fit,
                               fit::FitLobe(model, set, {}, selection, lobe_fit));
       cluster_lobe[k] = model_fit.params;
-      for (int c = 0; c < 3; ++c) cluster_brdf[k][c].kd = model_fit.params[c].kd;
       flags = model_fit.flags();
+      // Again with kd free per texel, as the Phong path's FitLobeWithTexelKd
+      // below (kept per channel where it predicts held-out frames no worse).
+      if (!(flags & fit::kKsKeNotIdentifiable)) {
+        fit::LobeTexelKdOptions texel_kd;
+        texel_kd.ke_min = lm.ke_min;
+        texel_kd.ke_max = lm.ke_max;
+        texel_kd.ks_max = lm.ks_max;
+        MVBRDF_ASSIGN_OR_RETURN(const fit::LobeTexelKdResult refined,
+                                fit::FitModelLobeWithTexelKd(model, set, selection, model_fit.params, texel_kd));
+        cluster_lobe[k] = refined.params;
+        for (bool r : refined.refined) lobe_per_texel_kd |= r;
+      }
+      for (int c = 0; c < 3; ++c) cluster_brdf[k][c].kd = cluster_lobe[k][c].kd;
     } else if (!(lm_result.flags() & fit::kKsKeNotIdentifiable)) {
       MVBRDF_ASSIGN_OR_RETURN(const fit::TexelKdFitResult lobe,
                               fit::FitLobeWithTexelKd(set, selection, lm_result.params, lobe_options));

@@ -484,7 +484,9 @@ TEST_F(SynthesizerTest, PixelSamplesAverageEachPixelsArea) {
     o.pixel_samples = samples;
     auto result = Synthesize(o, *context_);
     EXPECT_TRUE(result.ok()) << result.status();
-    if (result.ok()) EXPECT_EQ(result->truth.perturbations().pixel_samples(), static_cast<uint32_t>(samples));
+    if (result.ok()) {
+      EXPECT_EQ(result->truth.perturbations().pixel_samples(), static_cast<uint32_t>(samples));
+    }
     return o.out_dir;
   };
   const auto one = render(1), four = render(4), reference = render(8);
