@@ -161,7 +161,8 @@ std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, con
     shapes = {0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85, 1.0};
     f0s = {0.02, 0.04, 0.08, 0.15, 0.3, 0.5, 0.7, 0.9};
   } else {
-    for (double ke = 2.0; ke <= 5000.0; ke *= 1.6) shapes.push_back(std::log(ke));
+    const double ke_top = model == BrdfModel::kBlinnPhong ? 20000.0 : 5000.0;
+    for (double ke = 2.0; ke <= ke_top; ke *= 1.6) shapes.push_back(std::log(ke));
   }
   std::array<double, 3> best = {0.0, 0.0, shapes.front()};
   double best_cost = std::numeric_limits<double>::infinity();
@@ -369,7 +370,8 @@ absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet&
       lower[1] = 0.0;
       upper[1] = options.ks_max;
       lower[2] = std::log(options.ke_min);
-      upper[2] = std::log(options.ke_max);
+      // A half-vector exponent is ~4x the mirror one of the same lobe.
+      upper[2] = std::log(model == BrdfModel::kBlinnPhong ? 4.0 * options.ke_max : options.ke_max);
     }
     std::array<double, 3> x = InitialGuess(model, m, t, intensity, r, scaling, lower, upper);
     const double inverse_scale = r_rms > 0.0 ? 1.0 / r_rms : 1.0;

@@ -52,7 +52,8 @@ struct LobeFitOptions {
   // In units of the albedo scale A (see above).
   double kd_max = 10.0;
   double ks_max = 10.0;
-  // ke, Phong and Blinn-Phong (a half-vector exponent is ~4x a mirror one).
+  // ke, Phong (Blinn-Phong's upper bound is 4 ke_max: a half-vector exponent
+  // is ~4x the mirror one of the same lobe).
   double ke_min = 1.0;
   double ke_max = 1e4;
   // ks and the shape are reported not identifiable (kKsKeNotIdentifiable)

@@ -200,7 +200,8 @@ absl::StatusOr<LobeTexelKdResult> FitModelLobeWithTexelKd(BrdfModel model, const
   const bool ggx = model == BrdfModel::kGgx;
   // The shape's search interval: ln ke, or the roughness itself.
   const double lo = ggx ? brdf::Ggx::Parameters()[1].lower : std::log(options.ke_min);
-  const double hi = ggx ? brdf::Ggx::Parameters()[1].upper : std::log(options.ke_max);
+  const double hi = ggx ? brdf::Ggx::Parameters()[1].upper
+                        : std::log(model == BrdfModel::kBlinnPhong ? 4.0 * options.ke_max : options.ke_max);
   const auto shape_of = [&](double u) { return ggx ? u : std::exp(u); };
   for (int c = 0; c < 3; ++c) {
     if (p.r.empty()) break;
@@ -215,8 +216,7 @@ absl::StatusOr<LobeTexelKdResult> FitModelLobeWithTexelKd(BrdfModel model, const
     const double albedo_scale = rr > 0.0 ? std::sqrt(rr / gg) : 1.0;
     const double p0_max = ggx ? 0.999 : options.ks_max * albedo_scale;
     ChannelProblem problem(model, p, set.light_intensity, c, p0_max);
-    const double shape0 = ggx ? std::clamp(initial[c].p[1], lo, hi)
-                              : std::clamp(initial[c].p[1], options.ke_min, options.ke_max);
+    const double shape0 = ggx ? std::clamp(initial[c].p[1], lo, hi) : std::clamp(initial[c].p[1], std::exp(lo), std::exp(hi));
     const double p00 = std::clamp(initial[c].p[0], 0.0, p0_max);
     const ChannelProblem::Evaluation at_initial = problem.Evaluate(shape0, p00);
     std::vector<double> u(static_cast<size_t>(options.grid_points));
