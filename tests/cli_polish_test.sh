@@ -162,4 +162,50 @@ expect "--frames: seq_0000.png and seq_0002.png (absolute frames), no seq_0001.p
 expect "--frames: frame 2's image is --frame 1's (its pose)" cmp -s "$work/seq_0002.png" "$work/frame1.png"
 expect "--frames: the two frames differ (the actor moves)" bash -c "! cmp -s '$work/seq_0000.png' '$work/seq_0002.png'"
 
+# --- render follows the scene's inverse-square fall-off (scene.lighting):
+# a light twice as far with 4x the intensity lights the sphere alike with it,
+# 4x brighter without it (intensities low enough that 8 bits do not clip).
+# (render ignored the scene's fall-off before.)
+python3 - "$work/sphere/scene.json" "$work/sphere/falloff_scene.json" "$work" <<'EOF_PY'
+import json, math, sys
+s = json.load(open(sys.argv[1]))
+s.setdefault("lighting", {})["inverseSquareFalloff"] = True
+json.dump(s, open(sys.argv[2], "w"))
+u = [c / math.sqrt(29.0) for c in (2.0, 3.0, 4.0)]
+for name, distance, intensity in (("near1", 30, 0.1), ("far4", 60, 0.4), ("near900", 30, 90), ("far3600", 60, 360)):
+    light = {"name": "key", "position": [distance * c for c in u], "intensity": [intensity] * 3}
+    json.dump({"lights": [light]}, open("%s/%s.json" % (sys.argv[3], name), "w"))
+EOF_PY
+for l in near1 far4; do
+  check "render, no fall-off: light $l" 0 "wrote" -- "$bin" render "$work/run" --camera cam0 --lights "$work/$l.json" \
+    --alpha --out "$work/nofalloff_$l.png"
+done
+for l in near900 far3600; do
+  check "render, the scene's fall-off: light $l" 0 "wrote" -- "$bin" render "$work/run" --scene "$work/sphere/falloff_scene.json" \
+    --camera cam0 --lights "$work/$l.json" --alpha --out "$work/falloff_$l.png"
+done
+python3 - "$work" "$(dirname "$0")" <<'EOF_PY'
+import sys
+work = sys.argv[1]
+sys.path.insert(0, sys.argv[2])
+from png_read import read_png
+def lin(c):
+    c /= 255.0
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+def mean(name):
+    p = read_png("%s/%s.png" % (work, name), alpha=True)
+    v = [lin(px[k]) for row in p for px in row if px[3] == 255 for k in range(3)]
+    return sum(v) / max(1, len(v))
+without = mean("nofalloff_far4") / mean("nofalloff_near1")
+with_ = mean("falloff_far3600") / mean("falloff_near900")
+# And 90 at 30 (fall-off) is 90 / 30^2 = 0.1: the no-fall-off render of 0.1,
+# within the sphere's size (its lit side is ~1 unit nearer the light: 1.065
+# measured; 37 when render ignored the fall-off).
+same = mean("falloff_near900") / mean("nofalloff_near1")
+print("  far (2x, 4x intensity) / near mean brightness: without fall-off %.3f, with the scene's %.3f; "
+      "90 at 30 with fall-off / 0.1 without: %.3f" % (without, with_, same))
+sys.exit(0 if abs(without - 4.0) < 0.4 and abs(with_ - 1.0) < 0.1 and abs(same - 1.0) < 0.12 else 1)
+EOF_PY
+expect "render applies the scene's inverse-square fall-off" test $? -eq 0
+
 summary

@@ -110,6 +110,8 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   mesh.rest_positions = scene::ToRenderVertices(r->atlas_.topology, sequence.rest_positions);
   render::RendererOptions renderer_options;
   renderer_options.brdf_model = model;
+  // The scene's light fall-off, as the fit assumed it (scene.lighting).
+  renderer_options.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   MVBRDF_ASSIGN_OR_RETURN(r->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
   MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_));
   return r;
