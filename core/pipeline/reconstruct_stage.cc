@@ -983,8 +983,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
                   const double s =
                       phong ? p[ch].ks * SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke)
                             : specular[ch];
-                  const double model = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
-                  const double d = o[3] > 0.5f ? rgb[ch] - model : 0.0;
+                  const double predicted = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
+                  const double d = o[3] > 0.5f ? rgb[ch] - predicted : 0.0;
                   cam_corr_sq[static_cast<size_t>(c)] += d * d;
                 }
               });
