@@ -188,13 +188,9 @@ python3 - "$work" "$(dirname "$0")" <<'EOF_PY'
 import sys
 work = sys.argv[1]
 sys.path.insert(0, sys.argv[2])
-from png_read import read_png
-def lin(c):
-    c /= 255.0
-    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+from png_read import covered_linear
 def mean(name):
-    p = read_png("%s/%s.png" % (work, name), alpha=True)
-    v = [lin(px[k]) for row in p for px in row if px[3] == 255 for k in range(3)]
+    v = [c for row in covered_linear("%s/%s.png" % (work, name)) for px in row if px is not None for c in px]
     return sum(v) / max(1, len(v))
 without = mean("nofalloff_far4") / mean("nofalloff_near1")
 with_ = mean("falloff_far3600") / mean("falloff_near900")

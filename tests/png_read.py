@@ -33,3 +33,15 @@ def read_png(path, alpha=False):
         prev = line
     n = bpp if alpha else 3
     return [[tuple(r[x * bpp:x * bpp + n]) for x in range(w)] for r in rows]
+
+
+def linear(code):
+    """An sRGB 8-bit code value as linear light in [0, 1]."""
+    c = code / 255.0
+    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+
+
+def covered_linear(path):
+    """Per pixel the linear RGB of an RGBA render where its alpha is 255 (the mesh covers it), else None."""
+    return [[tuple(linear(px[k]) for k in range(3)) if px[3] == 255 else None for px in row]
+            for row in read_png(path, alpha=True)]
