@@ -89,6 +89,11 @@ constexpr char kKd[] = "kd: diffuse albedo per colour channel, linear, in the sc
 constexpr char kKs[] = "ks: specular coefficient per colour channel (extended Phong, mirror lobe).";
 constexpr char kKe[] =
     "ke: specular exponent of the mirror lobe (higher: a sharper highlight; a Blinn-Phong exponent is about 4x).";
+constexpr char kF0[] =
+    "F0 (--brdf ggx): specular reflectance at normal incidence per colour channel (glTF's metallic-roughness model; "
+    "0.04 for most dielectrics), in the scene's units.";
+constexpr char kRoughness[] =
+    "roughness (--brdf ggx): glTF's perceptual roughness in [0.02, 1]; higher: a broader highlight.";
 constexpr char kSamples[] =
     "Samples: one observation of a surface point: its radiance in one camera and frame with the light and view "
     "cosines (per triangle for the light sweep, per texel for the fits).";
@@ -266,7 +271,9 @@ std::string ClustersTable(const v1::RunReport& run) {
   return "<h3 id=\"clusters\">Clusters</h3><p>Reflectance model: " + Escape(model) + ".</p>" +
          Table({"cluster", "texels", "centre (linear RGB)", ggx ? "f0 (RGB)" : "ks (RGB)",
                 ggx ? "roughness (RGB)" : "ke (RGB)", "flags"},
-               rows, "", {term::kCluster, "", term::kKd, ggx ? "" : term::kKs, ggx ? "" : term::kKe, term::kClusterFlags});
+               rows, "",
+               {term::kCluster, "", term::kKd, ggx ? term::kF0 : term::kKs, ggx ? term::kRoughness : term::kKe,
+                term::kClusterFlags});
 }
 
 }  // namespace
