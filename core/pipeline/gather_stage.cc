@@ -16,6 +16,8 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                                     bool texels) {
   samples::AssembleOptions assemble = options.assemble;
   assemble.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
+  // The kept texel Samples of a half-vector model need the geometry.
+  assemble.half_vector_geometry = options.GathersHalfVector();
   const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
   const size_t num_lights = sequence.lights.size();
   const int num_cameras = static_cast<int>(sequence.cameras.size());

@@ -400,6 +400,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   const int num_cameras = static_cast<int>(scene_sequence.cameras.size());
   samples::AssembleOptions assemble = options.assemble;
   assemble.inverse_square_falloff = scene_sequence.scene.lighting().inverse_square_falloff();
+  // The texel pass of a half-vector model reads the geometry (fit::LobeTerms).
+  assemble.half_vector_geometry = brdf::NeedsHalfVector(options.brdf_model);
 
   // The atlas (kept UVs are still rasterised into the layout).
   auto t0 = Clock::now();

@@ -66,11 +66,11 @@ class TexelReservoir {
   bool falloff_;
   bool half_vector_;
   int uniform_, highlight_, slots_per_texel_;
+  // Per slot's row: rgb, g[M], h[M], (a[M]), (n.v, n.h[M], v.h[M]).
   size_t row_floats_;
+  size_t falloff_at_, half_vector_at_;
   std::vector<uint32_t> seen_;  // observations offered per texel
   std::vector<Slot> slots_;
-  // Per slot: rgb, g[M], h[M], (a[M]), (n.v, n.h[M], v.h[M]).
-  size_t falloff_at_, half_vector_at_;
   std::vector<float> rows_;
   std::vector<uint16_t> lights_;  // per slot: light[M]
 };

@@ -13,7 +13,7 @@ LightCosines ComputeLightCosines(const scene::Light& light, const glm::vec3& poi
 }
 
 LightCosines ComputeLightCosines(const scene::Light& light, const glm::vec3& point, const glm::vec3& unit_normal,
-                                 const glm::vec4& view_origin, bool inverse_square_falloff) {
+                                 const glm::vec4& view_origin, bool inverse_square_falloff, bool half_vector) {
   LightCosines cosines;
   glm::vec3 l;
   if (light.directional) {
@@ -32,6 +32,7 @@ LightCosines ComputeLightCosines(const scene::Light& light, const glm::vec3& poi
   const glm::vec3 r = 2.0f * l_dot_n * unit_normal - l;
   cosines.g = l_dot_n;
   cosines.h = std::max(0.0f, glm::dot(r, v));
+  if (!half_vector) return cosines;
   cosines.n_dot_v = glm::dot(unit_normal, v);
   const glm::vec3 sum = l + v;
   const float length = glm::length(sum);

@@ -166,7 +166,8 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
                                                   static_cast<double>(options.min_visible_fraction) * texels.size();
       if (visible) visible_bits[k / 16] = static_cast<uint16_t>(visible_bits[k / 16] | (1u << (k % 16)));
     }
-    const LightTerms terms = buffers->Fill(lights, c, n, view, visible_bits.data(), options.inverse_square_falloff);
+    const LightTerms terms = buffers->Fill(lights, c, n, view, visible_bits.data(), options.inverse_square_falloff,
+                                           options.half_vector_geometry || out->half_vector);
     out->AddTerms(static_cast<uint32_t>(t), frame, camera_index, means[t].rgb, terms.count, terms.light, terms.g,
                   terms.h, terms.any_falloff || !out->falloff.empty() ? terms.falloff : nullptr, terms.HalfVector());
   }

@@ -29,6 +29,11 @@ struct AssembleOptions {
   // A light counts as visible from a triangle when at least this share of the
   // triangle's texels see it in the shadow atlas.
   float min_visible_fraction = 0.5f;
+  // Also compute the half-vector geometry of each term for the visitors'
+  // LightTerms (n.v, n.h, v.h; null pointers without it): the models other
+  // than Phong read it. A SampleSet made with half_vector gets it from
+  // AppendTriangleSamples either way.
+  bool half_vector_geometry = false;
 };
 
 // The shadow atlas of L lights (core/resample/resampler.h ShadowAtlas) is a
@@ -44,9 +49,10 @@ void SetShadowBit(cv::Mat* shadows, int row, int column, size_t k);
 
 // The terms of one Sample as the assemblers hand them to visitors: `count`
 // lights (ascending) with their g, h and fall-off a (SampleSet's terms;
-// g > 0 for each; a = 1 without fall-off), and the half-vector geometry:
-// n.v of the Sample, n.h and v.h per term (SampleSet::n_dot_v, n_dot_h,
-// v_dot_h).
+// g > 0 for each; a = 1 without fall-off), and, when
+// AssembleOptions::half_vector_geometry asks, the half-vector geometry: n.v
+// of the Sample, n.h and v.h per term (SampleSet::n_dot_v, n_dot_h, v_dot_h;
+// else 0 and null).
 struct LightTerms {
   size_t count = 0;
   const uint16_t* light = nullptr;

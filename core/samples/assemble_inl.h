@@ -26,7 +26,7 @@ void Check(bool condition, const char* message);
 inline size_t LightTermsAt(const std::vector<scene::Light>& lights, const glm::vec3& point,
                            const glm::vec3& unit_normal, const glm::vec4& view_origin, const uint16_t* bits,
                            bool inverse_square_falloff, uint16_t* light, float* g, float* h, float* falloff,
-                           float* n_dot_h, float* v_dot_h, bool* any_falloff) {
+                           float* n_dot_h, float* v_dot_h, bool half_vector, bool* any_falloff) {
   size_t count = 0;
   const size_t num = lights.size();
   const size_t channels = static_cast<size_t>(ShadowChannels(num));
@@ -35,15 +35,17 @@ inline size_t LightTermsAt(const std::vector<scene::Light>& lights, const glm::v
       const size_t k = 16 * c + static_cast<size_t>(__builtin_ctz(word));
       if (k >= num) break;
       const render::LightCosines cos =
-          render::ComputeLightCosines(lights[k], point, unit_normal, view_origin, inverse_square_falloff);
+          render::ComputeLightCosines(lights[k], point, unit_normal, view_origin, inverse_square_falloff, half_vector);
       const float gk = cos.g * cos.attenuation;
       if (!(gk > 0.0f) && std::isfinite(gk)) continue;
       light[count] = static_cast<uint16_t>(k);
       g[count] = gk;
       h[count] = cos.h;
       falloff[count] = cos.attenuation;
-      n_dot_h[count] = cos.n_dot_h;
-      v_dot_h[count] = cos.v_dot_h;
+      if (half_vector) {
+        n_dot_h[count] = cos.n_dot_h;
+        v_dot_h[count] = cos.v_dot_h;
+      }
       *any_falloff |= cos.attenuation != 1.0f;
       ++count;
     }
@@ -56,17 +58,20 @@ struct TermBuffers {
   uint16_t light[kMaxLights];
   float g[kMaxLights], h[kMaxLights], falloff[kMaxLights], n_dot_h[kMaxLights], v_dot_h[kMaxLights];
   LightTerms Fill(const std::vector<scene::Light>& lights, const glm::vec3& point, const glm::vec3& unit_normal,
-                  const glm::vec4& view_origin, const uint16_t* bits, bool inverse_square_falloff) {
+                  const glm::vec4& view_origin, const uint16_t* bits, bool inverse_square_falloff,
+                  bool half_vector) {
     LightTerms t;
     t.count = LightTermsAt(lights, point, unit_normal, view_origin, bits, inverse_square_falloff, light, g, h,
-                           falloff, n_dot_h, v_dot_h, &t.any_falloff);
+                           falloff, n_dot_h, v_dot_h, half_vector, &t.any_falloff);
     t.light = light;
     t.g = g;
     t.h = h;
     t.falloff = falloff;
-    t.n_dot_v = glm::dot(unit_normal, scene::ViewDirection(view_origin, point));
-    t.n_dot_h = n_dot_h;
-    t.v_dot_h = v_dot_h;
+    if (half_vector) {
+      t.n_dot_v = glm::dot(unit_normal, scene::ViewDirection(view_origin, point));
+      t.n_dot_h = n_dot_h;
+      t.v_dot_h = v_dot_h;
+    }
     return t;
   }
 };
@@ -110,7 +115,8 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
       // a camera centre that differs from the one resampled with.
       if (!(glm::dot(n, scene::ViewDirection(view, point)) > 0.0f)) continue;
       const LightTerms terms = buffers->Fill(lights, point, n, view, bits + static_cast<size_t>(column) * channels,
-                                             options.inverse_square_falloff);
+                                             options.inverse_square_falloff,
+                                             options.half_vector_geometry);
       const uint32_t texel = static_cast<uint32_t>(row) * static_cast<uint32_t>(size) + static_cast<uint32_t>(column);
       const glm::vec3 rgb(value[column][0], value[column][1], value[column][2]);
       visit(texel, rgb, terms);
@@ -170,7 +176,8 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
       if (texel < 0 || texel >= static_cast<int64_t>(size) * size) continue;
       const uint16_t* bits = shadows.ptr<uint16_t>(static_cast<int>(texel / size)) +
                              static_cast<size_t>(texel % size) * static_cast<size_t>(channels);
-      const LightTerms terms = buffers->Fill(lights, point, n, view, bits, options.inverse_square_falloff);
+      const LightTerms terms = buffers->Fill(lights, point, n, view, bits, options.inverse_square_falloff,
+                                             options.half_vector_geometry);
       const cv::Vec3f& rgb = frame.at<cv::Vec3f>(y, x);
       visit(static_cast<uint32_t>(texel), glm::vec3(rgb[0], rgb[1], rgb[2]), terms);
     }
