@@ -216,23 +216,16 @@ std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, con
 }  // namespace
 
 absl::Status LobeFitOptions::Check() const {
-  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  if (max_iterations <= 0) {
-    return absl::InvalidArgumentError(absl::StrCat("max_iterations: must be > 0, got ", max_iterations));
-  }
-  if (!positive(function_tolerance)) {
-    return absl::InvalidArgumentError(absl::StrCat("function_tolerance: must be > 0, got ", function_tolerance));
-  }
-  if (!positive(kd_max)) return absl::InvalidArgumentError(absl::StrCat("kd_max: must be > 0, got ", kd_max));
-  if (!positive(ks_max)) return absl::InvalidArgumentError(absl::StrCat("ks_max: must be > 0, got ", ks_max));
-  if (!positive(ke_min)) return absl::InvalidArgumentError(absl::StrCat("ke_min: must be > 0, got ", ke_min));
-  if (!std::isfinite(ke_max) || !(ke_max > ke_min)) {
-    return absl::InvalidArgumentError(absl::StrCat("ke_max: must be > ke_min (", ke_min, "), got ", ke_max));
-  }
-  if (!std::isfinite(highlight_cosine) || highlight_cosine < 0.0 || highlight_cosine >= 1.0) {
-    return absl::InvalidArgumentError(absl::StrCat("highlight_cosine: must be in [0, 1), got ", highlight_cosine));
-  }
-  return absl::OkStatus();
+  // The same ranges as the Phong fit's options, with the same messages.
+  PhongFitOptions phong;
+  phong.max_iterations = max_iterations;
+  phong.function_tolerance = function_tolerance;
+  phong.kd_max = kd_max;
+  phong.ks_max = ks_max;
+  phong.ke_min = ke_min;
+  phong.ke_max = ke_max;
+  phong.highlight_cosine = highlight_cosine;
+  return phong.Check();
 }
 
 void LobeTerms(BrdfModel model, const std::array<LobeChannel, 3>& p, const samples::LightTerms& terms,
