@@ -65,6 +65,14 @@ int RunSynth(const std::vector<std::string>& args) {
                   "reflectance model rendered: phong (the thesis's, default), blinn-phong or ggx (glTF's "
                   "metallic-roughness lobe); the presets' materials converted as core/synth/model_materials.h says, "
                   "the truth records the model's parameters");
+  flags.AddString("--materials LIST", &o.materials,
+                  "measured materials (MERL, as neural BRDFs) for the preset's material slots: SLOT=NAME or NAME "
+                  "for the next slot, comma-separated, - keeps a slot analytic (e.g. cloth=blue-fabric,skin=-,"
+                  "hair=black-oxidized-steel; one NAME for sphere or spot); the truth is then no analytic model");
+  std::string merl_file;
+  flags.AddString("--merl-file FILE", &merl_file,
+                  "merl_nbrdf.json holding the measured materials (default: env MVBRDF_MERL_NBRDF, else "
+                  "DATA/merl_nbrdf/ or ../shared/data/merl_nbrdf/)");
   flags.AddInt("--pixel-samples N", &o.pixel_samples,
                "N x N samples per pixel averaged in linear light, as a sensor integrates its pixel (1: one at the "
                "centre, aliased edges; up to 8)");
@@ -110,6 +118,7 @@ int RunSynth(const std::vector<std::string>& args) {
   o.video_format = format == "png" ? synth::VideoFormat::kPng : synth::VideoFormat::kFfv1;
   o.out_dir = out;
   o.data_dir = data_dir;
+  o.merl_file = merl_file;
   if (absl::Status s = o.Check(); !s.ok()) {
     std::fprintf(stderr, "mvbrdf synth: %s\n", std::string(s.message()).c_str());
     return kExitUsage;

@@ -1,9 +1,12 @@
 // Main pass of core/render/phong_renderer.cc: the extended Phong model of
 // core/render/phong_model.h per fragment (or, by u_brdf_model, another model
-// of core/brdf: shaders/brdf_models.glsl), with shadow-map visibility per
-// light. The structs and bindings mirror the Gpu* structs in phong_renderer.cc.
+// of core/brdf: shaders/brdf_models.glsl; or a measured material,
+// shaders/nbrdf.glsl), with shadow-map visibility per light. The structs and
+// bindings mirror the Gpu* structs in phong_renderer.cc.
 
+#define NBRDF_WEIGHTS_BINDING 3
 #include "brdf_models.glsl"
+#include "nbrdf.glsl"
 #include "phong_model.glsl"
 #include "solid_texture.glsl"
 
@@ -29,8 +32,13 @@ layout(std140, binding = 0) uniform LightBlock {
 struct GpuMaterial {
   vec4 base_amplitude;       // solid-texture base rgb, amplitude
   vec4 offset_frequency;     // solid-texture offset xyz, frequency
-  vec4 ks_kd_from_texture;   // ks rgb (the model's first parameter); w > 0.5: kd from u_kd_texture
-  vec4 ke;                   // rgb (the model's second parameter)
+  // ks rgb (the model's first parameter; a measured material's gain);
+  // w > 0.5: kd from u_kd_texture
+  vec4 ks_kd_from_texture;
+  // rgb (the model's second parameter); w >= 0: the material is measured
+  // BRDF number w of NbrdfWeights (rho(wi, wo) n.l per unit intensity; kd,
+  // ks and ke unused), w < 0: an analytic one.
+  vec4 ke;
 };
 
 layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial u_materials[]; };
@@ -44,6 +52,8 @@ layout(location = 2) uniform int u_atlas_mode;      // 0: procedural materials, 
 layout(location = 3) uniform int u_inverse_square_falloff;
 // brdf::Model: 0 the thesis's Phong (ks, ke), 1 Blinn-Phong (ks, ke), 2 GGX
 // (f0, roughness); "ks" and "ke" below hold the model's two parameters.
+// -1 in atlas mode: per texel, from u_atlas_model (brdf::Model's value in
+// its red channel, read without filtering).
 layout(location = 5) uniform int u_brdf_model;
 
 layout(binding = 0) uniform sampler2D u_kd_texture;
@@ -52,6 +62,7 @@ layout(binding = 2) uniform sampler2D u_atlas_ks;
 layout(binding = 3) uniform sampler2D u_atlas_ke;
 layout(binding = 4) uniform samplerCubeArray u_point_shadows;      // distance to the light / shadow.y
 layout(binding = 5) uniform sampler2DArray u_directional_shadows;  // orthographic depth
+layout(binding = 6) uniform sampler2D u_atlas_model;
 
 in vec3 v_position;
 in vec3 v_normal;
@@ -62,7 +73,7 @@ layout(location = 0) out vec4 out_radiance;  // rgb radiance, a = 1 (coverage)
 
 // kd W g + S per unit intensity of a half-vector model (core/fit/lobe_fit.h's
 // equation; the caller multiplies by I, the fall-off and V).
-vec3 HalfVectorModelTerm(vec3 kd, vec3 p0, vec3 p1, vec3 l, vec3 n, vec3 v) {
+vec3 HalfVectorModelTerm(int model, vec3 kd, vec3 p0, vec3 p1, vec3 l, vec3 n, vec3 v) {
   BrdfGeometry g;
   g.n_dot_l = dot(n, l);
   g.n_dot_v = dot(n, v);
@@ -74,11 +85,22 @@ vec3 HalfVectorModelTerm(vec3 kd, vec3 p0, vec3 p1, vec3 l, vec3 n, vec3 v) {
   g.r_dot_v = max(0.0, dot(2.0 * g.n_dot_l * n - l, v));
   vec3 term;
   for (int c = 0; c < 3; ++c) {
-    float specular = u_brdf_model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], g);
-    float weight = u_brdf_model == 2 ? GgxDiffuseWeight(p0[c], g) : 1.0;
+    float specular = model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], g);
+    float weight = model == 2 ? GgxDiffuseWeight(p0[c], g) : 1.0;
     term[c] = kd[c] * weight * g.n_dot_l + specular;
   }
   return term;
+}
+
+// A measured material's rho(l, v) n.l per unit intensity, in a tangent frame
+// of n's choosing (the networks are isotropic: core/brdf/nbrdf.h).
+vec3 MeasuredTerm(int material, vec3 l, vec3 n, vec3 v) {
+  vec3 helper = abs(n.z) < 0.9 ? vec3(0.0, 0.0, 1.0) : vec3(1.0, 0.0, 0.0);
+  vec3 t = normalize(cross(helper, n));
+  vec3 b = cross(n, t);
+  vec3 wi = vec3(dot(l, t), dot(l, b), dot(l, n));
+  vec3 wo = vec3(dot(v, t), dot(v, b), dot(v, n));
+  return NbrdfEvalMaterial(material, wi, wo) * max(wi.z, 0.0);
 }
 
 // Slope-scaled bias, world units: a nearest shadow texel of world size
@@ -114,10 +136,17 @@ void main() {
   vec3 kd;
   vec3 ks;
   vec3 ke;
+  int model = u_brdf_model;
+  int measured = -1;
   if (u_atlas_mode != 0) {
     kd = texture(u_atlas_kd, v_uv).rgb;
     ks = texture(u_atlas_ks, v_uv).rgb;
     ke = texture(u_atlas_ke, v_uv).rgb;
+    if (model < 0) {
+      ivec2 size = textureSize(u_atlas_model, 0);
+      ivec2 texel = clamp(ivec2(floor(v_uv * vec2(size))), ivec2(0), size - 1);
+      model = int(texelFetch(u_atlas_model, texel, 0).r + 0.5);
+    }
   } else {
     GpuMaterial m = u_materials[u_triangle_material[gl_PrimitiveID]];
     vec3 kd_texture = texture(u_kd_texture, v_uv).rgb;
@@ -127,6 +156,7 @@ void main() {
                                     m.offset_frequency.xyz, v_rest_position);
     ks = m.ks_kd_from_texture.rgb;
     ke = m.ke.rgb;
+    measured = int(floor(m.ke.w + 0.5));
   }
 
   vec3 v = normalize(u_camera_center.xyz - u_camera_center.w * v_position);
@@ -151,7 +181,9 @@ void main() {
     bool visible = point ? PointLightVisible(light, distance_to_light, l, geometric_normal)
                          : DirectionalLightVisible(light, l, geometric_normal);
     if (!visible) continue;
-    vec3 term = u_brdf_model == 0 ? PhongTerm(kd, ks, ke, cosines) : HalfVectorModelTerm(kd, ks, ke, l, n, v);
+    vec3 term = measured >= 0 ? ks * MeasuredTerm(measured, l, n, v)
+                : model == 0  ? PhongTerm(kd, ks, ke, cosines)
+                              : HalfVectorModelTerm(model, kd, ks, ke, l, n, v);
     f += light.intensity.rgb * attenuation * term;
   }
   out_radiance = vec4(f, 1.0);

@@ -129,7 +129,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   std::vector<std::vector<uint64_t>> votes(static_cast<size_t>(num_clusters),
                                            std::vector<uint64_t>(static_cast<size_t>(num_materials), 0));
   double sq10 = 0.0, sq_all = 0.0;
-  uint64_t n10 = 0, n_all = 0;
+  uint64_t n10 = 0, n_all = 0, measured_texels = 0;
   std::vector<int32_t> texel_material(static_cast<size_t>(size) * size, -1);
   std::vector<double> abs_errors;
   cv::Mat error_image(size, size, CV_32FC4, cv::Scalar::all(0));
@@ -146,6 +146,15 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
         return absl::InvalidArgumentError(absl::StrCat("--truth: the run's atlas names triangle ", tri,
                                                        ", the truth has ", truth.message().triangle_materials_size(),
                                                        " triangles (not the same mesh)"));
+      }
+      const uint32_t material = truth.message().triangle_materials(tri);
+      texel_material[static_cast<size_t>(y) * size + x] = static_cast<int32_t>(material);
+      const int32_t k_cluster = cluster.at<int32_t>(y, x);
+      if (k_cluster >= 0 && k_cluster < num_clusters) ++votes[static_cast<size_t>(k_cluster)][material];
+      // A measured material has no kd to compare with (issue #15).
+      if (truth.IsMeasured(static_cast<int>(material))) {
+        ++measured_texels;
+        continue;
       }
       const glm::vec2 uv((x + 0.5f) / size, 1.0f - (y + 0.5f) / size);
       render::PhongParams t = truth.At(static_cast<uint32_t>(tri), {p[0], p[1], p[2]}, uv);
@@ -168,14 +177,11 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
         }
         abs_errors.push_back((std::abs(k[0] - t.kd[0]) + std::abs(k[1] - t.kd[1]) + std::abs(k[2] - t.kd[2])) / 3.0);
       }
-      const uint32_t material = truth.message().triangle_materials(tri);
-      texel_material[static_cast<size_t>(y) * size + x] = static_cast<int32_t>(material);
-      const int32_t k_cluster = cluster.at<int32_t>(y, x);
-      if (k_cluster >= 0 && k_cluster < num_clusters) ++votes[static_cast<size_t>(k_cluster)][material];
     }
   }
   report.set_kd_rmse(n10 > 0 ? std::sqrt(sq10 / (3.0 * static_cast<double>(n10))) : 0.0);
   report.set_kd_texels(n10);
+  report.set_measured_texels(measured_texels);
   if (!abs_errors.empty()) {
     std::sort(abs_errors.begin(), abs_errors.end());
     report.set_kd_median_abs_error(abs_errors[abs_errors.size() / 2]);
@@ -225,11 +231,12 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     // fitted the model the truth was rendered with. The first (ks, F0)
     // scales with the data's units (gain), the second does not.
     cmp->set_brdf(brdf::ModelName(run_model));
-    cmp->set_truth_brdf(brdf::ModelName(truth.Model()));
+    const bool measured = truth.IsMeasured(cluster_material[static_cast<size_t>(k)]);
+    cmp->set_truth_brdf(measured ? absl::StrCat("measured ", m.measured()) : brdf::ModelName(truth.Model()));
     const bool ggx = run_model == brdf::Model::kGgx;
     const auto& p0 = ggx ? row.f0() : row.ks();
     const auto& p1 = ggx ? row.roughness() : row.ke();
-    if (run_model != truth.Model() || p0.size() != 3 || p1.size() != 3) continue;
+    if (measured || run_model != truth.Model() || p0.size() != 3 || p1.size() != 3) continue;
     cmp->set_parameters_compared(true);
     const auto [true_p0, true_p1] = truth.Parameters(m);
     double ks_err = 0.0, ke_err = 0.0;

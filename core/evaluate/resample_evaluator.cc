@@ -75,6 +75,7 @@ absl::StatusOr<std::unique_ptr<ResampleEvaluator>> ResampleEvaluator::Create(
   renderer_options.inverse_square_falloff = message.inverse_square_falloff();
   renderer_options.brdf_model = truth.Model();
   MVBRDF_ASSIGN_OR_RETURN(e->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
+  MVBRDF_RETURN_IF_ERROR(e->renderer_->SetMeasuredBrdfs(truth.MeasuredBrdfs()));
   MVBRDF_RETURN_IF_ERROR(e->renderer_->SetProceduralMaterials(truth.RendererMaterials()));
   if (!truth.KdTexture().empty()) MVBRDF_RETURN_IF_ERROR(e->renderer_->SetKdTexture(truth.KdTexture()));
   e->all_lights_ = truth.ActiveLights();

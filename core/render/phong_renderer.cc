@@ -56,10 +56,12 @@ enum TextureUnit : GLuint {
   kAtlasKeUnit = 3,
   kPointShadowUnit = 4,
   kDirectionalShadowUnit = 5,
+  kAtlasModelUnit = 6,
 };
 constexpr GLuint kLightBlockBinding = 0;
 constexpr GLuint kMaterialBlockBinding = 1;
 constexpr GLuint kTriangleMaterialBlockBinding = 2;
+constexpr GLuint kNbrdfWeightsBinding = 3;  // NBRDF_WEIGHTS_BINDING in phong.frag
 
 // Uniform locations (layout(location = ...) in the shaders).
 constexpr GLint kClipFromWorldLocation = 0;
@@ -150,6 +152,8 @@ struct PhongRenderer::Impl {
   gl::Buffer triangle_material_buffer;
   gl::Buffer material_buffer;
   gl::Buffer light_buffer;
+  gl::Buffer nbrdf_buffer;  // the measured BRDFs' weights (one zero block when none)
+  size_t num_measured = 0;
 
   gl::Program phong_program;
   gl::Program triangle_id_program;
@@ -158,6 +162,7 @@ struct PhongRenderer::Impl {
   gl::Texture placeholder_texture;
   gl::Texture kd_texture;
   gl::Texture atlas_kd, atlas_ks, atlas_ke;
+  gl::Texture atlas_model;  // per-texel model (empty: options.brdf_model everywhere)
 
   enum class Mode { kNone, kProcedural, kAtlas };
   Mode mode = Mode::kNone;
@@ -279,6 +284,10 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
                        GL_DYNAMIC_STORAGE_BIT);
   impl->light_buffer = gl::CreateBuffer();
   glNamedBufferStorage(impl->light_buffer.id(), sizeof(GpuLightBlock), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  const std::vector<float> no_weights(brdf::NeuralBrdf::kNumWeights, 0.0f);
+  impl->nbrdf_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl->nbrdf_buffer.id(), static_cast<GLsizeiptr>(no_weights.size() * sizeof(float)),
+                       no_weights.data(), 0);
 
   impl->vertex_array = gl::CreateVertexArray();
   const GLuint vao = impl->vertex_array.id();
@@ -323,11 +332,16 @@ absl::Status PhongRenderer::SetProceduralMaterials(const std::vector<ProceduralM
       return absl::InvalidArgumentError(
           absl::StrCat("materials[", i, "].kd_from_texture: the mesh has no uvs to look the texture up with"));
     }
+    if (m.measured >= 0 && static_cast<size_t>(m.measured) >= impl_->num_measured) {
+      return absl::InvalidArgumentError(absl::StrCat("materials[", i, "].measured: measured BRDF ", m.measured,
+                                                     " of ", impl_->num_measured, " (SetMeasuredBrdfs)"));
+    }
     needs_kd_texture |= m.kd_from_texture;
     gpu[i].base_amplitude = glm::vec4(m.kd.base, m.kd.amplitude);
     gpu[i].offset_frequency = glm::vec4(m.kd.offset, m.kd.frequency);
-    gpu[i].ks_kd_from_texture = glm::vec4(m.ks, m.kd_from_texture ? 1.0f : 0.0f);
-    gpu[i].ke = glm::vec4(m.ke, 0.0f);
+    gpu[i].ks_kd_from_texture =
+        glm::vec4(m.measured >= 0 ? glm::vec3(m.measured_gain) : m.ks, m.kd_from_texture ? 1.0f : 0.0f);
+    gpu[i].ke = glm::vec4(m.ke, m.measured >= 0 ? static_cast<float>(m.measured) : -1.0f);
   }
   glNamedBufferSubData(impl_->material_buffer.id(), 0, static_cast<GLsizeiptr>(gpu.size() * sizeof(GpuMaterial)),
                        gpu.data());
@@ -336,19 +350,48 @@ absl::Status PhongRenderer::SetProceduralMaterials(const std::vector<ProceduralM
   return gl::CheckGlError("SetProceduralMaterials");
 }
 
+absl::Status PhongRenderer::SetMeasuredBrdfs(const std::vector<brdf::NeuralBrdf>& brdfs) {
+  std::vector<float> weights;
+  for (const brdf::NeuralBrdf& b : brdfs) {
+    const std::vector<float> w = b.GlslWeights();
+    weights.insert(weights.end(), w.begin(), w.end());
+  }
+  if (weights.empty()) weights.assign(brdf::NeuralBrdf::kNumWeights, 0.0f);
+  impl_->nbrdf_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl_->nbrdf_buffer.id(), static_cast<GLsizeiptr>(weights.size() * sizeof(float)),
+                       weights.data(), 0);
+  impl_->num_measured = brdfs.size();
+  return gl::CheckGlError("SetMeasuredBrdfs");
+}
+
 absl::Status PhongRenderer::SetKdTexture(const cv::Mat& kd_linear) {
   MVBRDF_ASSIGN_OR_RETURN(impl_->kd_texture, UploadUvImage(kd_linear, "kd texture"));
   return absl::OkStatus();
 }
 
-absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke) {
+absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke,
+                                             const cv::Mat& model) {
   if (!impl_->has_uvs) return absl::FailedPreconditionError("atlas materials: the mesh has no uvs");
+  gl::Texture model_texture;
+  if (!model.empty()) {
+    if (model.type() != CV_8UC1 || model.size() != kd.size()) {
+      return absl::InvalidArgumentError(absl::StrCat("model atlas: expected CV_8UC1 of the kd atlas's size ",
+                                                     kd.cols, "x", kd.rows, ", got type ", model.type(), " ",
+                                                     model.cols, "x", model.rows));
+    }
+    cv::Mat as_float;
+    model.convertTo(as_float, CV_32F);
+    cv::Mat rgb;
+    cv::merge(std::vector<cv::Mat>{as_float, as_float, as_float}, rgb);
+    MVBRDF_ASSIGN_OR_RETURN(model_texture, UploadUvImage(rgb, "model atlas"));
+  }
   MVBRDF_ASSIGN_OR_RETURN(gl::Texture kd_texture, UploadUvImage(kd, "kd atlas"));
   MVBRDF_ASSIGN_OR_RETURN(gl::Texture ks_texture, UploadUvImage(ks, "ks atlas"));
   MVBRDF_ASSIGN_OR_RETURN(gl::Texture ke_texture, UploadUvImage(ke, "ke atlas"));
   impl_->atlas_kd = std::move(kd_texture);
   impl_->atlas_ks = std::move(ks_texture);
   impl_->atlas_ke = std::move(ke_texture);
+  impl_->atlas_model = std::move(model_texture);
   impl_->mode = Impl::Mode::kAtlas;
   return absl::OkStatus();
 }
@@ -447,7 +490,8 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   glProgramUniform4fv(program, kCameraCenterLocation, 1, glm::value_ptr(camera_center));
   glProgramUniform1i(program, kAtlasModeLocation, mode == Mode::kAtlas ? 1 : 0);
   glProgramUniform1i(program, kFalloffLocation, options.inverse_square_falloff ? 1 : 0);
-  glProgramUniform1i(program, kBrdfModelLocation, static_cast<GLint>(options.brdf_model));
+  const bool per_texel_model = mode == Mode::kAtlas && atlas_model;
+  glProgramUniform1i(program, kBrdfModelLocation, per_texel_model ? -1 : static_cast<GLint>(options.brdf_model));
   glProgramUniform1i(program, kUvSpaceLocation, uv_space ? 1 : 0);
 
   const GLuint placeholder = placeholder_texture.id();
@@ -458,6 +502,8 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   glBindTextureUnit(kAtlasKeUnit, atlas ? atlas_ke.id() : placeholder);
   glBindTextureUnit(kPointShadowUnit, shadow_maps->point_maps().id());
   glBindTextureUnit(kDirectionalShadowUnit, shadow_maps->directional_maps().id());
+  glBindTextureUnit(kAtlasModelUnit, per_texel_model ? atlas_model.id() : placeholder);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kNbrdfWeightsBinding, nbrdf_buffer.id());
   glBindBufferBase(GL_UNIFORM_BUFFER, kLightBlockBinding, light_buffer.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMaterialBlockBinding, material_buffer.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTriangleMaterialBlockBinding, triangle_material_buffer.id());

@@ -17,6 +17,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/brdf/model.h"
+#include "core/brdf/nbrdf.h"
 #include "core/gl/egl_context.h"
 #include "core/render/solid_texture.h"
 #include "core/scene/camera_model.h"
@@ -38,6 +39,12 @@ struct ProceduralMaterial {
   bool kd_from_texture = false;
   glm::vec3 ks{0.0f};
   glm::vec3 ke{1.0f};
+  // >= 0: the material is measured BRDF number `measured` of
+  // SetMeasuredBrdfs' list (issue #15), drawn as rho(l, v) n.l I (rho in 1/sr,
+  // core/brdf/nbrdf.h; the analytic models' specular term has the same
+  // units), times `measured_gain`; kd, ks and ke are then unused.
+  int measured = -1;
+  float measured_gain = 1.0f;
 };
 
 struct RendererOptions {
@@ -79,10 +86,18 @@ class PhongRenderer {
   // Procedural mode. 1 to 64 materials, covering every id in
   // mesh.triangle_material (empty: all triangles use material 0).
   absl::Status SetProceduralMaterials(const std::vector<ProceduralMaterial>& materials);
+  // The measured BRDFs procedural materials may name (ProceduralMaterial::
+  // measured); replaces any earlier list. A material naming one past the
+  // list's end is refused by SetProceduralMaterials.
+  absl::Status SetMeasuredBrdfs(const std::vector<brdf::NeuralBrdf>& brdfs);
   // Linear RGB CV_32FC3 texture in UV space, row 0 = v = 1 (image convention).
   absl::Status SetKdTexture(const cv::Mat& kd_linear);
-  // Atlas mode: kd, ks, ke as CV_32FC3 images in UV space (row 0 = v = 1).
-  absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke);
+  // Atlas mode: kd, ks, ke as CV_32FC3 images in UV space (row 0 = v = 1),
+  // ks and ke the two parameters of RendererOptions::brdf_model; or, with
+  // `model` (CV_8UC1, the atlases' size: brdf::Model's value per texel, read
+  // without filtering), of each texel's own model (`--brdf auto`).
+  absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke,
+                                 const cv::Mat& model = cv::Mat());
 
   // Any number of lights, drawn in passes of 16 whose radiance is summed;
   // each light gets a shadow map. With at most 16 lights the maps are

@@ -7,12 +7,14 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "core/brdf/blinn_phong.h"
 #include "core/brdf/geometry.h"
 #include "core/brdf/ggx.h"
+#include "core/brdf/nbrdf.h"
 #include "core/render/phong_model.h"
 #include "core/render/solid_texture.h"
 
@@ -1064,6 +1066,129 @@ TEST_F(PhongRendererTest, EveryModelsAtlasTexelsMatchTheCpuModel) {
     std::printf("%s: atlas vs CPU, max error %.2g of the maximum %.3g\n", brdf::ModelName(c.model),
                 max_error / scale, scale);
   }
+}
+
+// Measured materials (issue #15): a procedural material naming a neural BRDF
+// is drawn as gain rho(l, v) n.l I, every covered texel equal to the CPU network
+// (core/brdf/nbrdf.h) at its surface point; the second network of the list
+// is the one drawn (its block's offset), kd, ks and ke unused. Weights:
+// deterministic pseudo-random ones (the MERL data is not needed here).
+TEST_F(PhongRendererTest, MeasuredMaterialsTexelsMatchTheCpuNetwork) {
+  RenderMesh mesh;
+  Pose pose;
+  AppendGridWithUvs(8, 1.0, 0.0, 0, {0.1f, 0.1f}, {0.9f, 0.9f}, &mesh, &pose);
+  std::vector<brdf::NeuralBrdf> networks;
+  for (int m = 0; m < 2; ++m) {
+    std::array<double, brdf::NeuralBrdf::kNumWeights> w{};
+    uint32_t state = 12345u + 77u * static_cast<uint32_t>(m);
+    for (double& x : w) {
+      state = state * 1664525u + 1013904223u;
+      x = 0.6 * ((state >> 8) / static_cast<double>(1u << 24) - 0.5);
+    }
+    networks.emplace_back(w);
+  }
+  const std::vector<scene::Light> lights = {PointLight({0.6f, 0.3f, 1.5f}, {1.0f, 0.9f, 0.8f}),
+                                            PointLight({-0.8f, 0.5f, 1.0f}, {0.5f, 0.6f, 0.7f})};
+  const glm::vec3 camera_center(-0.4f, -0.2f, 1.8f);
+  constexpr int kSize = 64;
+  RendererOptions options;
+  options.shadow_map_size = 256;
+  options.inverse_square_falloff = true;
+  auto renderer = MakeRenderer(mesh, options);
+  ASSERT_NE(renderer, nullptr);
+  ProceduralMaterial material;
+  material.kd.base = {0.5f, 0.4f, 0.3f};
+  material.ks = glm::vec3(0.3f);
+  material.measured = 1;
+  material.measured_gain = 1.5f;
+  EXPECT_EQ(renderer->SetProceduralMaterials({material}).code(), absl::StatusCode::kInvalidArgument);
+  ASSERT_TRUE(renderer->SetMeasuredBrdfs(networks).ok());
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+  ASSERT_TRUE(renderer->SetLights(lights).ok());
+  absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(pose, camera_center, kSize);
+  ASSERT_TRUE(atlas.ok()) << atlas.status();
+  std::vector<cv::Mat> channels;
+  cv::split(*atlas, channels);
+  channels.pop_back();
+  cv::Mat rgb;
+  cv::merge(channels, rgb);
+  const float scale = MaxValue(rgb);  // not the coverage channel
+  ASSERT_GT(scale, 0.0f);
+  int covered = 0;
+  float max_error = 0.0f, max_other = 0.0f;
+  for (int j = 0; j < kSize; ++j) {
+    for (int i = 0; i < kSize; ++i) {
+      const TexelTruth truth = LocateTexel(mesh, pose, i, j, kSize);
+      if (truth.ambiguous || !truth.covered) continue;
+      const glm::dvec3 n = glm::normalize(truth.normal);
+      const glm::dvec3 v = glm::normalize(glm::dvec3(camera_center) - truth.point);
+      glm::dvec3 expected(0.0), other(0.0);
+      for (const scene::Light& light : lights) {
+        const glm::dvec3 to_light = glm::dvec3(light.position) - truth.point;
+        const double a = 1.0 / glm::dot(to_light, to_light);
+        const glm::dvec3 l = glm::normalize(to_light);
+        const double n_dot_l = std::max(0.0, glm::dot(n, l));
+        expected += 1.5 * glm::dvec3(light.intensity) * a * networks[1].EvaluateWorld(n, l, v) * n_dot_l;
+        other += 1.5 * glm::dvec3(light.intensity) * a * networks[0].EvaluateWorld(n, l, v) * n_dot_l;
+      }
+      const float error = MaxChannelError(atlas->at<cv::Vec4f>(j, i), glm::vec3(expected));
+      max_error = std::max(max_error, error);
+      max_other = std::max(max_other, MaxChannelError(atlas->at<cv::Vec4f>(j, i), glm::vec3(other)));
+      EXPECT_LE(error, kAtlasRelativeTolerance * scale) << "texel " << i << ", " << j;
+      ++covered;
+    }
+  }
+  EXPECT_GT(covered, kSize * kSize / 2);
+  EXPECT_GT(max_other, 100.0f * kAtlasRelativeTolerance * scale);  // the two networks differ
+  std::printf("measured: atlas vs CPU network, max error %.2g of the maximum %.3g\n", max_error / scale, scale);
+}
+
+// `--brdf auto` (issue #15): with a model atlas every texel is shaded by its
+// own model: the left half of the atlas GGX, the right half Blinn-Phong, each
+// equal to the single-model render of the same parameter atlases there.
+TEST_F(PhongRendererTest, ModelAtlasShadesEachTexelByItsModel) {
+  RenderMesh mesh;
+  Pose pose;
+  AppendGridWithUvs(8, 1.0, 0.0, 0, {0.0f, 0.0f}, {1.0f, 1.0f}, &mesh, &pose);
+  constexpr int kSize = 32;
+  const cv::Mat kd(kSize, kSize, CV_32FC3, cv::Scalar(0.5, 0.4, 0.3));
+  const cv::Mat p0(kSize, kSize, CV_32FC3, cv::Scalar(0.3, 0.2, 0.1));
+  const cv::Mat p1(kSize, kSize, CV_32FC3, cv::Scalar(0.3, 0.4, 0.5));
+  cv::Mat model(kSize, kSize, CV_8UC1, cv::Scalar(static_cast<int>(brdf::Model::kBlinnPhong)));
+  model.colRange(0, kSize / 2).setTo(cv::Scalar(static_cast<int>(brdf::Model::kGgx)));
+  const std::vector<scene::Light> lights = {PointLight({0.6f, 0.3f, 1.5f}, {1.0f, 0.9f, 0.8f})};
+  const glm::vec3 camera_center(-0.4f, -0.2f, 1.8f);
+  std::map<int, cv::Mat> rendered;  // by model; -1: the per-texel render
+  for (int m : {-1, static_cast<int>(brdf::Model::kGgx), static_cast<int>(brdf::Model::kBlinnPhong)}) {
+    RendererOptions options;
+    options.shadow_map_size = 256;
+    options.brdf_model = m < 0 ? brdf::Model::kPhong : static_cast<brdf::Model>(m);
+    auto renderer = MakeRenderer(mesh, options);
+    ASSERT_NE(renderer, nullptr);
+    ASSERT_TRUE(renderer->SetAtlasMaterials(kd, p0, p1, m < 0 ? model : cv::Mat()).ok());
+    EXPECT_EQ(renderer->SetAtlasMaterials(kd, p0, p1, cv::Mat(4, 4, CV_8UC1)).code(),
+              absl::StatusCode::kInvalidArgument);
+    ASSERT_TRUE(renderer->SetAtlasMaterials(kd, p0, p1, m < 0 ? model : cv::Mat()).ok());
+    ASSERT_TRUE(renderer->SetLights(lights).ok());
+    absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(pose, camera_center, kSize);
+    ASSERT_TRUE(atlas.ok()) << atlas.status();
+    rendered[m] = *atlas;
+  }
+  const float scale = MaxValue(rendered[-1]);
+  ASSERT_GT(scale, 0.0f);
+  int compared = 0;
+  for (int j = 1; j < kSize - 1; ++j) {
+    for (int i = 1; i < kSize - 1; ++i) {
+      const cv::Mat& single = rendered[model.at<uint8_t>(j, i)];
+      const cv::Mat& other = rendered[model.at<uint8_t>(j, i) == 2 ? 1 : 2];
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(rendered[-1].at<cv::Vec4f>(j, i)[c], single.at<cv::Vec4f>(j, i)[c], 1e-6f * scale)
+            << "texel " << i << ", " << j;
+      }
+      if (std::abs(rendered[-1].at<cv::Vec4f>(j, i)[0] - other.at<cv::Vec4f>(j, i)[0]) > 1e-3f * scale) ++compared;
+    }
+  }
+  EXPECT_GT(compared, (kSize - 2) * (kSize - 2) / 2);  // the models differ over most texels
 }
 
 // Flat ground (UVs on the left of the atlas) under a small square occluder

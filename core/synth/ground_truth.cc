@@ -1,6 +1,7 @@
 #include "core/synth/ground_truth.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <tuple>
 
@@ -54,6 +55,21 @@ absl::StatusOr<GroundTruth> GroundTruth::Load(const std::filesystem::path& truth
       return absl::InvalidArgumentError(absl::StrCat(truth_file.string(), ": triangle_materials: material ", m,
                                                      " out of range"));
     }
+  }
+  for (const v1::Material& m : gt.truth_.materials()) {
+    if (m.measured().empty()) {
+      gt.measured_index_.push_back(-1);
+      continue;
+    }
+    if (m.measured_weights_size() != brdf::NeuralBrdf::kNumWeights) {
+      return absl::InvalidArgumentError(absl::StrCat(truth_file.string(), ": materials \"", m.name(),
+                                                     "\": measured_weights: expected ", brdf::NeuralBrdf::kNumWeights,
+                                                     " (a 6-21-21-3 network), got ", m.measured_weights_size()));
+    }
+    std::array<double, brdf::NeuralBrdf::kNumWeights> w{};
+    for (int i = 0; i < brdf::NeuralBrdf::kNumWeights; ++i) w[static_cast<size_t>(i)] = m.measured_weights(i);
+    gt.measured_index_.push_back(static_cast<int>(gt.measured_.size()));
+    gt.measured_.emplace_back(w);
   }
   for (const v1::Material& m : gt.truth_.materials()) {
     if (m.kd_texture_path().empty()) continue;
@@ -123,10 +139,17 @@ std::pair<glm::vec3, glm::vec3> GroundTruth::Parameters(const v1::Material& m) c
   return {Vec3(m.ks(), glm::vec3(0.0f)), Vec3(m.ke(), glm::vec3(1.0f))};
 }
 
+bool GroundTruth::IsMeasured(int index) const {
+  return index >= 0 && static_cast<size_t>(index) < measured_index_.size() &&
+         measured_index_[static_cast<size_t>(index)] >= 0;
+}
+
 std::vector<render::ProceduralMaterial> GroundTruth::RendererMaterials() const {
   std::vector<render::ProceduralMaterial> out;
   for (const v1::Material& m : truth_.materials()) {
     render::ProceduralMaterial pm;
+    if (out.size() < measured_index_.size()) pm.measured = measured_index_[out.size()];
+    pm.measured_gain = m.measured_gain() > 0.0 ? static_cast<float>(m.measured_gain()) : 1.0f;
     pm.kd = SolidTexture(m.kd());
     pm.kd_from_texture = !m.kd_texture_path().empty();
     std::tie(pm.ks, pm.ke) = Parameters(m);

@@ -1,5 +1,5 @@
 // Reads what `mvbrdf synth` recorded (ground_truth/truth.json) and evaluates
-// it: the true Phong parameters at any surface point, the active lights and
+// it: the true parameters at any surface point, the active lights and
 // the cameras as rendered. Later stages check their outputs against this,
 // never against their own.
 #ifndef MVBRDF_CORE_SYNTH_GROUND_TRUTH_H_
@@ -13,6 +13,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/brdf/model.h"
+#include "core/brdf/nbrdf.h"
 #include "core/render/phong_model.h"
 #include "core/render/phong_renderer.h"
 #include "core/scene/camera_model.h"
@@ -49,14 +50,22 @@ class GroundTruth {
   std::vector<scene::Light> FrameLights(uint32_t frame) const;
   // The cameras as rendered (before any calibration error).
   std::vector<scene::CameraModel> Cameras() const;
-  // The materials in the renderer's form (kd texture: see KdTexture()).
+  // The materials in the renderer's form (kd texture: see KdTexture();
+  // measured materials index MeasuredBrdfs(), to give the renderer first).
   std::vector<render::ProceduralMaterial> RendererMaterials() const;
+  // Whether material `index` is a measured one (v1::Material::measured):
+  // it has no analytic parameters and no kd to compare with.
+  bool IsMeasured(int index) const;
+  // The measured materials' networks, in material order (those RendererMaterials' measured indices name).
+  const std::vector<brdf::NeuralBrdf>& MeasuredBrdfs() const { return measured_; }
   // Linear RGB CV_32FC3 kd texture (row 0 = v = 1), empty when none.
   const cv::Mat& KdTexture() const { return kd_texture_; }
 
  private:
   v1::GroundTruth truth_;
   cv::Mat kd_texture_;
+  std::vector<brdf::NeuralBrdf> measured_;
+  std::vector<int> measured_index_;  // per material: its index in measured_, or -1
 };
 
 }  // namespace mvbrdf::synth

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <tuple>
 
@@ -22,6 +23,7 @@
 #include "core/scene/sequence.h"
 #include "core/scene/video_source.h"
 #include "core/synth/frame_encoder.h"
+#include "core/synth/measured_materials.h"
 #include "core/synth/model_materials.h"
 #include "core/synth/subject.h"
 #include "core/synth/video_writer.h"
@@ -204,6 +206,24 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
                                                    " frames, got ", options.num_frames));
   }
 
+  std::vector<std::optional<MeasuredMaterial>> measured(subject.materials.size());
+  if (!options.materials.empty()) {
+    std::vector<std::string> slots;
+    for (const StudioMaterial& m : subject.materials) slots.push_back(m.name);
+    MVBRDF_ASSIGN_OR_RETURN(measured, ResolveMeasuredMaterials(options.materials, slots,
+                                                               options.merl_file.empty()
+                                                                   ? DefaultMerlFile(options.data_dir)
+                                                                   : options.merl_file));
+  }
+
+  // Each measured material exposed like the slot's analytic one (MeasuredGain).
+  std::vector<double> measured_gain(subject.materials.size(), 1.0);
+  for (size_t k = 0; k < measured.size(); ++k) {
+    if (!measured[k]) continue;
+    const glm::vec3& base = subject.materials[k].kd.base;
+    measured_gain[k] = MeasuredGain(measured[k]->brdf, (base.x + base.y + base.z) / 3.0);
+  }
+
   SubjectBounds bounds{subject.rest_positions.front(), subject.rest_positions.front()};
   for (const glm::vec3& p : subject.rest_positions) {
     bounds.min = glm::min(bounds.min, p);
@@ -291,13 +311,22 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   renderer_options.brdf_model = options.brdf;
   MVBRDF_ASSIGN_OR_RETURN(auto renderer, render::PhongRenderer::Create(context, render_mesh, renderer_options));
   std::vector<render::ProceduralMaterial> materials;
-  for (const StudioMaterial& m : subject.materials) {
+  std::vector<brdf::NeuralBrdf> measured_brdfs;
+  for (size_t i = 0; i < subject.materials.size(); ++i) {
+    const StudioMaterial& m = subject.materials[i];
     render::ProceduralMaterial pm;
     pm.kd = m.kd;
     pm.kd_from_texture = !subject.kd_texture.empty();
     std::tie(pm.ks, pm.ke) = ModelParametersOf(options.brdf, m);
+    if (measured[i]) {
+      pm.measured = static_cast<int>(measured_brdfs.size());
+      pm.measured_gain = static_cast<float>(measured_gain[i]);
+      pm.kd_from_texture = false;
+      measured_brdfs.push_back(measured[i]->brdf);
+    }
     materials.push_back(pm);
   }
+  MVBRDF_RETURN_IF_ERROR(renderer->SetMeasuredBrdfs(measured_brdfs));
   MVBRDF_RETURN_IF_ERROR(renderer->SetProceduralMaterials(materials));
   if (!subject.kd_texture.empty()) {
     MVBRDF_RETURN_IF_ERROR(renderer->SetKdTexture(subject.kd_texture));
@@ -390,10 +419,17 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
       frame_lighting.push_back(std::move(fl));
     }
   }
-  for (const StudioMaterial& m : subject.materials) {
+  for (size_t k = 0; k < subject.materials.size(); ++k) {
+    const StudioMaterial& m = subject.materials[k];
     v1::MaterialSeed* seed = scene.add_material_seeds();
     seed->set_name(m.name);
-    for (int i = 0; i < 3; ++i) seed->add_srgb8(static_cast<uint32_t>(m.seed_srgb8[i]));
+    if (measured[k]) {
+      // The measured material's own diffuse colour, in the data's units.
+      const glm::dvec3 rgb = measured_gain[k] * DiffuseColour(measured[k]->brdf);
+      for (int i = 0; i < 3; ++i) seed->add_linear_rgb(rgb[i]);
+    } else {
+      for (int i = 0; i < 3; ++i) seed->add_srgb8(static_cast<uint32_t>(m.seed_srgb8[i]));
+    }
   }
   if (!subject.segment_names.empty()) {
     std::string lines;
@@ -434,9 +470,16 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   }
   truth.set_inverse_square_falloff(renderer_options.inverse_square_falloff);
   for (const auto& cam : studio.cameras) scene::CameraModelToProto(cam, truth.add_cameras());
-  for (const StudioMaterial& m : subject.materials) {
+  for (size_t k = 0; k < subject.materials.size(); ++k) {
+    const StudioMaterial& m = subject.materials[k];
     v1::Material* mat = truth.add_materials();
     mat->set_name(m.name);
+    if (measured[k]) {
+      mat->set_measured(measured[k]->name);
+      for (float w : measured[k]->brdf.GlslWeights()) mat->add_measured_weights(w);
+      mat->set_measured_gain(measured_gain[k]);
+      continue;
+    }
     SetVec3(m.kd.base, mat->mutable_kd()->mutable_base());
     mat->mutable_kd()->set_amplitude(m.kd.amplitude);
     mat->mutable_kd()->set_frequency(m.kd.frequency);

@@ -77,6 +77,12 @@ struct SynthOptions {
   // The reflectance model rendered (model_materials.h converts the presets'
   // materials; recorded in truth.json's brdf and materials).
   brdf::Model brdf = brdf::Model::kPhong;
+  // Issue #15: measured materials for some slots (measured_materials.h's
+  // spec, e.g. "cloth=blue-fabric,skin=-,hair=black-oxidized-steel"),
+  // from `merl_file` (a merl_nbrdf.json; empty: DefaultMerlFile). Recorded
+  // in truth.json's materials (measured, measured_weights).
+  std::string materials;
+  std::filesystem::path merl_file;
   // Issue #14: the lights written to scene.json differ from the rendered
   // ones (truth.lights): each point light moved by this distance in a random
   // direction, each directional light turned by light_direction_error_deg

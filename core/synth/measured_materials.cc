@@ -1,0 +1,133 @@
+#include "core/synth/measured_materials.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
+#include "absl/strings/ascii.h"
+
+namespace mvbrdf::synth {
+
+absl::StatusOr<std::vector<std::optional<MeasuredMaterial>>> ResolveMeasuredMaterials(
+    const std::string& spec, const std::vector<std::string>& slots, const std::filesystem::path& merl_file) {
+  std::vector<std::optional<std::string>> names(slots.size());
+  std::vector<bool> given(slots.size(), false);
+  size_t next = 0;
+  for (absl::string_view raw : absl::StrSplit(spec, ',')) {
+    const std::string entry(absl::StripAsciiWhitespace(raw));
+    if (entry.empty()) return absl::InvalidArgumentError(absl::StrCat("--materials: empty entry in \"", spec, "\""));
+    size_t slot = next;
+    std::string name = entry;
+    if (const size_t eq = entry.find('='); eq != std::string::npos) {
+      const std::string slot_name(absl::StripAsciiWhitespace(entry.substr(0, eq)));
+      name = std::string(absl::StripAsciiWhitespace(entry.substr(eq + 1)));
+      const auto it = std::find(slots.begin(), slots.end(), slot_name);
+      if (it == slots.end()) {
+        return absl::InvalidArgumentError(absl::StrCat("--materials: \"", entry, "\": no material slot \"", slot_name,
+                                                       "\" in this preset (its slots: ", absl::StrJoin(slots, ", "),
+                                                       ")"));
+      }
+      slot = static_cast<size_t>(it - slots.begin());
+    } else if (slot >= slots.size()) {
+      return absl::InvalidArgumentError(absl::StrCat("--materials: \"", entry, "\": the preset has ", slots.size(),
+                                                     " material slots (", absl::StrJoin(slots, ", "),
+                                                     "), all taken by earlier entries"));
+    }
+    if (given[slot]) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--materials: \"", entry, "\": slot \"", slots[slot], "\" is given twice"));
+    }
+    given[slot] = true;
+    next = slot + 1;
+    if (name != "-") names[slot] = name;
+  }
+  std::vector<std::optional<MeasuredMaterial>> out(slots.size());
+  bool any = false;
+  for (const auto& n : names) any |= n.has_value();
+  if (!any) return out;
+  if (merl_file.empty()) {
+    return absl::InvalidArgumentError(
+        "--materials: no merl_nbrdf.json (the measured materials) found: give --merl-file FILE or set "
+        "MVBRDF_MERL_NBRDF");
+  }
+  for (size_t s = 0; s < slots.size(); ++s) {
+    if (!names[s]) continue;
+    absl::StatusOr<brdf::NeuralBrdf> b = brdf::LoadNeuralBrdf(merl_file, *names[s]);
+    if (!b.ok()) {
+      return absl::Status(b.status().code(), absl::StrCat("--materials: slot \"", slots[s], "\": ", b.status().message()));
+    }
+    out[s] = MeasuredMaterial{*names[s], *b};
+  }
+  return out;
+}
+
+std::filesystem::path DefaultMerlFile(const std::filesystem::path& data_dir) {
+  if (const char* env = std::getenv("MVBRDF_MERL_NBRDF"); env != nullptr && *env != '\0') return env;
+  std::error_code ec;
+  for (const std::filesystem::path& p :
+       {data_dir / "merl_nbrdf" / "merl_nbrdf.json",
+        std::filesystem::path("..") / "shared" / "data" / "merl_nbrdf" / "merl_nbrdf.json"}) {
+    if (!p.empty() && std::filesystem::is_regular_file(p, ec)) return p;
+  }
+  return {};
+}
+
+glm::dvec3 DiffuseColour(const brdf::NeuralBrdf& brdf) {
+  constexpr double kPi = 3.14159265358979323846;
+  const auto direction = [&](double theta_deg, double phi_deg) {
+    const double t = theta_deg * kPi / 180.0, p = phi_deg * kPi / 180.0;
+    return glm::dvec3(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t));
+  };
+  // Light and view 90 to 180 degrees apart in azimuth at moderate elevations:
+  // the half vector stays >= ~35 degrees from the normal (off the highlight).
+  std::vector<double> per_channel[3];
+  for (double ti : {40.0, 55.0}) {
+    for (double to : {40.0, 55.0}) {
+      for (double dphi : {90.0, 135.0, 180.0}) {
+        const glm::dvec3 rho = brdf.Evaluate(direction(ti, 0.0), direction(to, dphi));
+        for (int c = 0; c < 3; ++c) per_channel[c].push_back(rho[c]);
+      }
+    }
+  }
+  glm::dvec3 out;
+  for (int c = 0; c < 3; ++c) {
+    std::vector<double>& v = per_channel[c];
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    out[c] = v[v.size() / 2];
+  }
+  return out;
+}
+
+double DirectionalAlbedo(const brdf::NeuralBrdf& brdf) {
+  constexpr double kPi = 3.14159265358979323846;
+  constexpr int kRings = 48, kSectors = 96;
+  const double s = std::sqrt(0.5);
+  const glm::dvec3 wi(s, 0.0, s);
+  glm::dvec3 sum(0.0);
+  // Cosine-weighted: sin^2 theta uniform in [0, 1), phi uniform; the
+  // estimator of the albedo is pi rho at each point.
+  for (int r = 0; r < kRings; ++r) {
+    const double sin_theta = std::sqrt((r + 0.5) / kRings);
+    const double cos_theta = std::sqrt(1.0 - sin_theta * sin_theta);
+    for (int k = 0; k < kSectors; ++k) {
+      const double phi = 2.0 * kPi * (k + 0.5) / kSectors;
+      sum += brdf.Evaluate(wi, {sin_theta * std::cos(phi), sin_theta * std::sin(phi), cos_theta});
+    }
+  }
+  const glm::dvec3 albedo = kPi * sum / static_cast<double>(kRings * kSectors);
+  return (albedo.x + albedo.y + albedo.z) / 3.0;
+}
+
+double MeasuredGain(const brdf::NeuralBrdf& brdf, double kd_mean) {
+  constexpr double kPi = 3.14159265358979323846;
+  const double albedo = DirectionalAlbedo(brdf);
+  if (!(albedo > 0.0)) return 16.0;
+  return std::clamp(kPi * kd_mean / albedo, 0.25, 16.0);
+}
+
+}  // namespace mvbrdf::synth
