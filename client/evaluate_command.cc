@@ -7,22 +7,60 @@
 #include "client/flags.h"
 #include "client/output_dir.h"
 #include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
 #include "core/evaluate/reconstruction_evaluator.h"
+#include "core/gl/egl_context.h"
+#include "core/pipeline/relighting_evaluation.h"
+#include "core/scene/sequence.h"
+#include "core/synth/ground_truth.h"
 
 namespace mvbrdf::client {
+namespace {
+
+// The relighting error (issue #15) of the run against the truth.
+absl::StatusOr<v1::RelightingEvaluation> Relighting(const std::filesystem::path& run_dir,
+                                                    const std::filesystem::path& truth_dir,
+                                                    const pipeline::RelightingOptions& options,
+                                                    gl::EglPlatform platform) {
+  const std::filesystem::path truth_file = evaluate::TruthFileOf(truth_dir);
+  MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth truth, synth::GroundTruth::Load(truth_file));
+  MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
+  const std::optional<std::filesystem::path> scene_file = evaluate::SceneOfRun(run_dir, run, truth_file);
+  if (!scene_file) {
+    return absl::NotFoundError("no scene found (result.json's, or scene.json beside the truth) to draw the run from");
+  }
+  scene::LoadOptions load;
+  load.check_all_frames = false;
+  load.probe_videos = false;
+  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(*scene_file, load));
+  MVBRDF_ASSIGN_OR_RETURN(auto context, gl::EglContext::Create(platform));
+  return pipeline::EvaluateRelighting(run_dir, truth, sequence, *context, options);
+}
+
+}  // namespace
 
 int RunEvaluate(const std::vector<std::string>& args) {
-  std::string dir, truth, error_atlas;
+  std::string dir, truth, error_atlas, egl = "auto";
+  bool no_relighting = false;
+  pipeline::RelightingOptions relighting;
   FlagParser flags("evaluate",
                    "Compares a reconstruction (the output directory of 'mvbrdf run') with the synthetic\n"
                    "generator's ground truth and prints JSON: configuration_correct, kd_rmse (texels seen at\n"
                    "least 10 times), per cluster ks and ke relative errors, cluster_accuracy; per camera the\n"
                    "rotation, centre and reprojection error of the scene's calibration (before) and of the cameras\n"
                    "as used (after, refined), per light its position, direction and intensity error (intensities\n"
-                   "after one common scale: the data cannot tell it from kd's).");
+                   "after one common scale: the data cannot tell it from kd's); and the relighting error: the\n"
+                   "reconstruction and the truth drawn from views between the cameras under lights the capture\n"
+                   "did not use (RMSE in linear radiance, overall, per material and per view and light): the\n"
+                   "figure that scores a model when the truth is measured (synth --materials).");
   flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
   flags.AddString("--truth DIR", &truth, "the synthetic bundle (or its ground_truth/ directory)");
   flags.AddString("--error-atlas FILE", &error_atlas, "also write the per-texel kd error (.png, x10, or .exr)");
+  flags.AddBool("--no-relighting", &no_relighting, "leave out the relighting error (it renders; needs EGL)");
+  flags.AddInt("--relight-views N", &relighting.views, "held-out views for the relighting error (default 4)");
+  flags.AddInt("--relight-lights N", &relighting.lights, "held-out lights, each alone (default 3)");
+  flags.AddInt("--relight-frame T", &relighting.frame, "the frame drawn (default: the middle one)");
+  flags.AddString("--egl PLATFORM", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf evaluate: %s\n", std::string(s.message()).c_str());
     return kExitUsage;
@@ -50,8 +88,22 @@ int RunEvaluate(const std::vector<std::string>& args) {
       }
     }
   }
+  auto platform = gl::ParseEglPlatform(egl);
+  if (!platform.ok()) {
+    std::fprintf(stderr, "mvbrdf evaluate: %s\n", std::string(platform.status().message()).c_str());
+    return kExitUsage;
+  }
+  if (relighting.views < 1 || relighting.lights < 1) {
+    std::fprintf(stderr, "mvbrdf evaluate: --relight-views and --relight-lights: must be >= 1\n");
+    return kExitUsage;
+  }
   auto report = evaluate::EvaluateReconstruction(dir, truth, error_atlas);
   if (!report.ok()) return ReportFailure(report.status());
+  if (!no_relighting && report->clusters_size() > 0) {
+    auto relit = Relighting(dir, truth, relighting, *platform);
+    if (!relit.ok()) return ReportFailure(relit.status());
+    *report->mutable_relighting() = *relit;
+  }
   std::fputs(MessageToJsonWithDefaults(*report).c_str(), stdout);  // "configurationCorrect": false too
   std::fputs("\n", stdout);
   return kExitOk;

@@ -82,10 +82,19 @@ kd = {m: e[m]["kdRmse"] for m in e}
 print("  kd RMSE on GGX truth: " + ", ".join("%s %.4f" % (m, kd[m]) for m in kd))
 if not kd["ggx"] < min(kd["blinn-phong"], kd["phong"]): bad.append("the true model does not fit kd best: %s" % kd)
 if kd["ggx"] > 0.02: bad.append("GGX kd RMSE %.4f > 0.02" % kd["ggx"])
+# The relighting error (held-out views and lights): the true model relights best.
+relit = {m: e[m]["relighting"]["relativeRmse"] for m in e}
+print("  relighting relative RMSE on GGX truth: " + ", ".join("%s %.4f" % kv for kv in relit.items()))
+if not relit["ggx"] < min(relit["blinn-phong"], relit["phong"]): bad.append("GGX does not relight best: %s" % relit)
+rows = e["ggx"]["relighting"]["rows"]
+if len(rows) != 12 or any(r["pixels"] == 0 for r in rows): bad.append("relighting rows: %s" % rows)
 for b in bad: print("FAIL " + b)
 sys.exit(1 if bad else 0)
 PY
-expect "GGX fits its own truth (parameters, kd RMSE below the other models')" test $? -eq 0
+expect "GGX fits its own truth (parameters, kd RMSE and relighting error below the other models')" test $? -eq 0
+check "evaluate --no-relighting leaves it out" 0 "" -- "$bin" evaluate "$work/ggx" --truth "$work/b" --no-relighting
+expect "no relighting key with --no-relighting" test \
+  "$("$bin" evaluate "$work/ggx" --truth "$work/b" --no-relighting | grep -c relighting)" = 0
 
 # render and the report follow the model: the GGX reconstruction drawn by
 # `render` is closer to the GGX truth's frame than the other models'.

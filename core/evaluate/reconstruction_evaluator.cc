@@ -57,6 +57,8 @@ absl::Status CheckErrorAtlasPath(const std::filesystem::path& file) {
 // The run's scene file: `scene` when given, else result.json's (relative to
 // the run directory), else the scene.json of the truth's bundle; nullopt
 // when none exists.
+}  // namespace
+
 std::optional<std::filesystem::path> SceneOfRun(const std::filesystem::path& run_dir, const v1::RunReport& run,
                                                 const std::filesystem::path& truth_file,
                                                 const std::filesystem::path& scene) {
@@ -72,6 +74,14 @@ std::optional<std::filesystem::path> SceneOfRun(const std::filesystem::path& run
   return std::nullopt;
 }
 
+std::filesystem::path TruthFileOf(const std::filesystem::path& truth) {
+  std::filesystem::path truth_file = truth / "truth.json";
+  if (!std::filesystem::exists(truth_file)) truth_file = truth / "ground_truth" / "truth.json";
+  return truth_file;
+}
+
+namespace {
+
 double RelativeError(double value, double truth) {
   return std::abs(value - truth) / std::max(std::abs(truth), 1e-12);
 }
@@ -83,8 +93,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
                                                             const std::filesystem::path& error_atlas,
                                                             const std::filesystem::path& scene) {
   if (!error_atlas.empty()) MVBRDF_RETURN_IF_ERROR(CheckErrorAtlasPath(error_atlas));
-  std::filesystem::path truth_file = truth_path / "truth.json";
-  if (!std::filesystem::exists(truth_file)) truth_file = truth_path / "ground_truth" / "truth.json";
+  const std::filesystem::path truth_file = TruthFileOf(truth_path);
   MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth truth, synth::GroundTruth::Load(truth_file));
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
   // A truth of another scene must not give figures (it gave

@@ -4,6 +4,7 @@
 #define MVBRDF_CORE_EVALUATE_RECONSTRUCTION_EVALUATOR_H_
 
 #include <filesystem>
+#include <optional>
 
 #include "absl/status/statusor.h"
 #include "mvbrdf/v1/run_report.pb.h"
@@ -28,6 +29,15 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
                                                             const std::filesystem::path& truth,
                                                             const std::filesystem::path& error_atlas = {},
                                                             const std::filesystem::path& scene = {});
+
+// The truth.json of `truth` (a bundle or its ground_truth directory).
+std::filesystem::path TruthFileOf(const std::filesystem::path& truth);
+
+// The scene the run reconstructed: `scene` when given, else result.json's
+// (when the run read it from disk), else scene.json beside the truth's bundle.
+std::optional<std::filesystem::path> SceneOfRun(const std::filesystem::path& run_dir, const v1::RunReport& run,
+                                                const std::filesystem::path& truth_file,
+                                                const std::filesystem::path& scene = {});
 
 }  // namespace mvbrdf::evaluate
 

@@ -36,12 +36,13 @@ cv::Vec3f SampleAtlas(const cv::Mat& atlas, glm::dvec2 uv) {
          (at(x0, y0 + 1) * (1 - fx) + at(x0 + 1, y0 + 1) * fx) * fy;
 }
 
-// kd * ambient added to every pixel the undistorted image's triangle ids
-// cover: the pixel's ray (pinhole: through its centre from the camera
-// centre; orthographic: along +z) meets its triangle at barycentric (a, b,
-// c), whose UVs give the kd atlas texel.
-void AddAmbient(const cv::Mat& triangle_ids, const scene::CameraModel& camera, const render::RenderMesh& mesh,
-                const render::Pose& pose, const cv::Mat& kd, const glm::vec3& ambient, cv::Mat* radiance) {
+// Calls visit(x, y, uv) for every pixel the undistorted image's triangle ids
+// cover, uv the surface point's atlas coordinate: the pixel's ray (pinhole:
+// through its centre from the camera centre; orthographic: along +z) meets
+// its triangle at barycentric (a, b, c), whose UVs give it.
+template <typename Visit>
+void ForEachPixelUv(const cv::Mat& triangle_ids, const scene::CameraModel& camera, const render::RenderMesh& mesh,
+                    const render::Pose& pose, Visit visit) {
   // The pose in camera coordinates, once (not three vertices per pixel).
   std::vector<glm::dvec3> in_camera(pose.positions.size());
   for (size_t v = 0; v < in_camera.size(); ++v) in_camera[v] = camera.CamFromWorld(glm::dvec3(pose.positions[v]));
@@ -69,8 +70,7 @@ void AddAmbient(const cv::Mat& triangle_ids, const scene::CameraModel& camera, c
       const double bc = std::clamp(b, 0.0, 1.0), cc = std::clamp(c, 0.0, 1.0 - bc);
       const glm::dvec2 uv = glm::dvec2(mesh.uvs[tri[0]]) * (1.0 - bc - cc) + glm::dvec2(mesh.uvs[tri[1]]) * bc +
                             glm::dvec2(mesh.uvs[tri[2]]) * cc;
-      const cv::Vec3f k = SampleAtlas(kd, uv);
-      radiance->at<cv::Vec3f>(y, x) += cv::Vec3f(k[0] * ambient.x, k[1] * ambient.y, k[2] * ambient.z);
+      visit(x, y, uv);
     }
   }
 }
@@ -146,9 +146,35 @@ absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel&
   pose.positions = scene::ToRenderVertices(atlas_.topology, positions);
   pose.normals = scene::ToRenderVertices(atlas_.topology, scene::ComputeFileVertexNormals(atlas_.topology, positions));
   MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer_->Render(pose, camera));
+  cv::Mat ids;
+  if (extras.ambient != glm::vec3(0.0f) || extras.observed != nullptr) {
+    MVBRDF_ASSIGN_OR_RETURN(ids, renderer_->RenderTriangleIds(pose, camera, 1));
+  }
   if (extras.ambient != glm::vec3(0.0f)) {
-    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ids, renderer_->RenderTriangleIds(pose, camera, 1));
-    AddAmbient(ids, camera, mesh_, pose, correction ? corrected_kd_ : kd_, extras.ambient, &image.radiance);
+    // kd * ambient at every covered pixel's surface point.
+    const cv::Mat& kd = correction ? corrected_kd_ : kd_;
+    const glm::vec3 ambient = extras.ambient;
+    ForEachPixelUv(ids, camera, mesh_, pose, [&](int x, int y, const glm::dvec2& uv) {
+      const cv::Vec3f k = SampleAtlas(kd, uv);
+      image.radiance.at<cv::Vec3f>(y, x) += cv::Vec3f(k[0] * ambient.x, k[1] * ambient.y, k[2] * ambient.z);
+    });
+  }
+  if (extras.observed != nullptr) {
+    if (confidence_.empty()) {
+      MVBRDF_ASSIGN_OR_RETURN(image::ExrImage c, image::ReadExr(run_dir_ / "atlases" / "confidence.exr"));
+      if (c.image.type() != CV_32FC1 || c.image.size() != kd_.size()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat((run_dir_ / "atlases" / "confidence.exr").string(), ": expected one channel, kd's size"));
+      }
+      confidence_ = c.image;
+    }
+    cv::Mat observed(image.radiance.size(), CV_8UC1, cv::Scalar(0));
+    ForEachPixelUv(ids, camera, mesh_, pose, [&](int x, int y, const glm::dvec2& uv) {
+      const int i = std::clamp(static_cast<int>(std::floor(uv.x * confidence_.cols)), 0, confidence_.cols - 1);
+      const int j = std::clamp(static_cast<int>(std::floor((1.0 - uv.y) * confidence_.rows)), 0, confidence_.rows - 1);
+      if (confidence_.at<float>(j, i) > 0.0f) observed.at<uint8_t>(y, x) = 255;
+    });
+    *extras.observed = observed;
   }
   if (extras.coverage != nullptr) {
     cv::Mat coverage;

@@ -42,6 +42,10 @@ class ReconstructionRenderer {
     // where it covers the pixel centre, 0 where it does not; fractional only
     // where lens distortion resamples an edge).
     cv::Mat* coverage = nullptr;
+    // When set: CV_8UC1, 255 where the pixel's surface point lies in a texel
+    // the run observed (atlases/confidence.exr > 0), else 0; the undistorted
+    // image (as Render's own pixels before the lens), for held-out views.
+    cv::Mat* observed = nullptr;
   };
   absl::StatusOr<cv::Mat> Render(const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
                                  int frame, bool correction, const Extras& extras);
@@ -54,6 +58,7 @@ class ReconstructionRenderer {
   const scene::Sequence& sequence_;
   const atlas::Atlas atlas_;
   cv::Mat kd_, ks_, ke_;
+  cv::Mat confidence_;  // read when Extras::observed is first asked for
   cv::Mat corrected_kd_;  // kd + the last correction atlas rendered
   render::RenderMesh mesh_;
   bool with_correction_ = false;  // the renderer's kd currently includes a correction atlas

@@ -1,0 +1,53 @@
+// `mvbrdf evaluate`'s relighting error (issue #15): a reconstruction and the
+// generator's truth drawn by the same renderer from views and under lights
+// the capture did not have, compared pixel by pixel in linear radiance. When
+// the truth is no analytic model (synth --materials) there are no parameters
+// to compare: this is the figure a model is judged by.
+//
+// Held-out views: for up to `views` pairs of consecutive capture cameras, a
+// camera turned from the first towards the second by half their angle about
+// the scene's up axis (the cameras' mean up) through the subject's centre,
+// with the first's intrinsics and no lens distortion. Held-out lights: the
+// scene's candidate lights the truth's capture did not use (each alone), else
+// the capture's lights turned by 45 degrees about the up axis. The pose: one
+// frame (the middle one by default). Pixels count where both images cover the
+// mesh and the surface point's texel was observed by the run.
+#ifndef MVBRDF_CORE_PIPELINE_RELIGHTING_EVALUATION_H_
+#define MVBRDF_CORE_PIPELINE_RELIGHTING_EVALUATION_H_
+
+#include <filesystem>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/gl/egl_context.h"
+#include "core/scene/camera_model.h"
+#include "core/scene/light.h"
+#include "core/scene/sequence.h"
+#include "core/synth/ground_truth.h"
+#include "mvbrdf/v1/run_report.pb.h"
+
+namespace mvbrdf::pipeline {
+
+struct RelightingOptions {
+  int views = 4;    // held-out views, >= 1
+  int lights = 3;   // held-out lights, >= 1, each drawn alone
+  int frame = -1;   // the pose drawn, relative to the scene's first frame; -1: the middle one
+};
+
+// The held-out views and lights for a sequence whose capture used
+// `capture_lights` (by name), as described above. Exposed for tests.
+std::vector<scene::CameraModel> HeldOutViews(const scene::Sequence& sequence, const std::vector<glm::vec3>& pose,
+                                             int count);
+std::vector<scene::Light> HeldOutLights(const scene::Sequence& sequence, const std::vector<scene::Light>& capture_lights,
+                                        const std::vector<glm::vec3>& pose, int count);
+
+// `run_dir` an output of `mvbrdf run` of `sequence` (its scene), `truth` the
+// synthetic bundle's truth. The context must be current on this thread.
+absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesystem::path& run_dir,
+                                                            const synth::GroundTruth& truth,
+                                                            const scene::Sequence& sequence, gl::EglContext& context,
+                                                            const RelightingOptions& options = {});
+
+}  // namespace mvbrdf::pipeline
+
+#endif  // MVBRDF_CORE_PIPELINE_RELIGHTING_EVALUATION_H_
