@@ -60,7 +60,9 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
                   "held-out (kd fitted on some frames, error measured on the others) or e-d (the thesis's E_d)");
   flags.AddString("--brdf MODEL", &job->brdf,
                   "reflectance model fitted per cluster: phong (the thesis's mirror lobe), blinn-phong "
-                  "(energy-normalised half-vector lobe) or ggx (glTF's metallic-roughness: atlases f0, roughness)");
+                  "(energy-normalised half-vector lobe), ggx (glTF's metallic-roughness: atlases f0, roughness) or "
+                  "auto (per cluster the model with the lowest error on held-out frames and a held-out camera; "
+                  "atlases model.png, parameter_1, parameter_2)");
   flags.AddString("--cluster-smoothness X", &job->cluster_smoothness,
                   "spatial coherence of the clusters over the surface (0: each texel on its own)");
 }
@@ -114,8 +116,11 @@ absl::Status SetRobustnessOptions(const JobFlags& job, v1::FittingOptions* o) {
     return absl::InvalidArgumentError(
         absl::StrCat("--sweep-criterion: expected held-out or e-d, got \"", job.sweep_criterion, "\""));
   }
-  if (absl::StatusOr<brdf::Model> model = brdf::ParseModel(job.brdf); !model.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat("--brdf: expected phong, blinn-phong or ggx, got \"", job.brdf, "\""));
+  if (job.brdf == "auto") {
+    o->set_brdf("auto");
+  } else if (absl::StatusOr<brdf::Model> model = brdf::ParseModel(job.brdf); !model.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--brdf: expected phong, blinn-phong, ggx or auto, got \"", job.brdf, "\""));
   } else if (*model != brdf::Model::kPhong) {
     o->set_brdf(brdf::ModelName(*model));
   }

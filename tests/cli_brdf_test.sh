@@ -18,9 +18,9 @@ fit=(--config NE,NW,SE,SW --no-powell --atlas 128)
 check "synth --brdf ggx" 0 "" -- "$bin" synth "${small[@]}" --brdf ggx --format png --noise 0 --out "$work/b"
 check "synth --brdf cook is a usage error naming the flag" 2 "--brdf: .*expected one of phong, blinn-phong, ggx" -- \
   "$bin" synth "${small[@]}" --brdf cook --out "$work/x"
-check "run --brdf cook is a usage error naming the flag" 2 "--brdf: expected phong, blinn-phong or ggx" -- \
+check "run --brdf cook is a usage error naming the flag" 2 "--brdf: expected phong, blinn-phong, ggx or auto" -- \
   "$bin" run "$work/b/scene.json" --brdf cook --out "$work/x"
-check "submit --brdf cook is a usage error too" 2 "--brdf: expected phong, blinn-phong or ggx" -- \
+check "submit --brdf cook is a usage error too" 2 "--brdf: expected phong, blinn-phong, ggx or auto" -- \
   "$bin" submit "$work/b/scene.json" --brdf cook --server 127.0.0.1:1
 check "run --help names --brdf" 0 "--brdf MODEL" -- "$bin" run --help
 expect "the truth records the model and GGX's parameters" python3 -c '
@@ -130,5 +130,40 @@ expect "the GGX render is the closest to the truth" test $? -eq 0
 check "report of the GGX run" 0 "wrote" -- "$bin" report "$work/ggx" --truth "$work/b" --out "$work/report.html"
 expect "the report names the model and its parameters" grep -q "Reflectance model: ggx.*f0 (RGB).*roughness (RGB)" \
   "$work/report.html"
+expect "the report shows the relighting error" grep -q 'id="relighting"' "$work/report.html"
+
+# --brdf auto: per cluster the model its held-out Samples prefer; on GGX
+# truth every cluster picks GGX and relights as well as the GGX run.
+check "run --brdf auto" 0 "wrote" -- "$bin" run "$work/b/scene.json" --brdf auto "${fit[@]}" --out "$work/auto"
+expect "auto writes the model atlas and model-neutral parameter atlases" test -f "$work/auto/atlases/model.png" -a \
+  -f "$work/auto/atlases/parameter_1.exr" -a -f "$work/auto/atlases/parameter_2.exr" -a ! -e "$work/auto/atlases/f0.exr"
+"$bin" evaluate "$work/auto" --truth "$work/b" > "$work/auto.eval.json" || echo "evaluate auto failed"
+python3 - "$work" <<'PY'
+import json, sys
+work = sys.argv[1]
+d = json.load(open("%s/auto/result.json" % work))
+e = {m: json.load(open("%s/%s.eval.json" % (work, m))) for m in ("auto", "ggx", "phong")}
+bad = []
+if d["brdf"] != "auto" or d["options"]["fitting"]["brdf"] != "auto": bad.append("result.json brdf: %s" % d["brdf"])
+for c in d["clusters"]:
+    choices = {m["model"]: m["heldOutRmse"] for m in c.get("modelChoices", [])}
+    print("  auto %s: %s (%s)" % (c["name"], c.get("brdf"), c.get("brdfReason")))
+    if sorted(choices) != ["blinn-phong", "ggx", "phong"]: bad.append("%s: model choices %s" % (c["name"], choices))
+    if c.get("brdf") != "ggx": bad.append("%s picked %s on GGX truth" % (c["name"], c.get("brdf")))
+    if c.get("brdf") == "ggx" and len(c.get("f0", [])) != 3: bad.append("%s: no f0" % c["name"])
+for c in e["auto"]["clusters"]:
+    if not c.get("parametersCompared"): bad.append("%s: auto's GGX parameters not compared" % c["cluster"])
+relit = {m: e[m]["relighting"]["relativeRmse"] for m in e}
+print("  relighting relative RMSE: " + ", ".join("%s %.4f" % kv for kv in relit.items()))
+if abs(relit["auto"] - relit["ggx"]) > 0.02 or not relit["auto"] < relit["phong"]: bad.append("relighting %s" % relit)
+for b in bad: print("FAIL " + b)
+sys.exit(1 if bad else 0)
+PY
+expect "auto picks GGX on GGX truth, records why, and relights like GGX" test $? -eq 0
+check "render the auto reconstruction" 0 "wrote" -- "$bin" render "$work/auto" --camera cam1 \
+  --lights "$work/lights.json" --frame 3 --out "$work/render_auto.png"
+check "report of the auto run" 0 "wrote" -- "$bin" report "$work/auto" --truth "$work/b" --out "$work/report_auto.html"
+expect "the report shows models x clusters" grep -q 'Reflectance model: auto.*id="models".*held-out RMSE' \
+  "$work/report_auto.html"
 
 summary

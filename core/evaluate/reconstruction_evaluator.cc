@@ -211,12 +211,18 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   }
   report.set_kd_rmse_all_seen(n_all > 0 ? std::sqrt(sq_all / (3.0 * static_cast<double>(n_all))) : 0.0);
 
-  brdf::Model run_model = brdf::Model::kPhong;
-  if (!run.brdf().empty()) {
-    absl::StatusOr<brdf::Model> parsed = brdf::ParseModel(run.brdf());
-    if (!parsed.ok()) return absl::InvalidArgumentError(absl::StrCat("result.json: brdf: ", parsed.status().message()));
-    run_model = *parsed;
-  }
+  // The model of each cluster: its row's (--brdf auto picks per cluster),
+  // else the run's.
+  const auto model_of = [&](const v1::ClusterRow& row) -> absl::StatusOr<brdf::Model> {
+    const std::string& name = !row.brdf().empty() ? row.brdf() : run.brdf();
+    if (name.empty()) return brdf::Model::kPhong;
+    absl::StatusOr<brdf::Model> parsed = brdf::ParseModel(name);
+    if (!parsed.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat("result.json: cluster \"", row.name(), "\": brdf: ",
+                                                     parsed.status().message()));
+    }
+    return *parsed;
+  };
   std::vector<int32_t> cluster_material(static_cast<size_t>(num_clusters), -1);
   for (int k = 0; k < num_clusters; ++k) {
     uint64_t best = 0;
@@ -228,6 +234,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     }
     v1::MaterialComparison* cmp = report.add_clusters();
     const v1::ClusterRow& row = run.clusters(k);
+    MVBRDF_ASSIGN_OR_RETURN(const brdf::Model run_model, model_of(row));
     cmp->set_cluster(row.name());
     cmp->set_kd_texels(cluster_n[static_cast<size_t>(k)]);
     if (cluster_n[static_cast<size_t>(k)] > 0) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "core/fit/lobe_fit.h"
 #include "core/fit/phong_fit.h"
 #include "core/samples/sample_set.h"
 
@@ -62,6 +63,22 @@ glm::dvec3 ModelValue(const samples::SampleSet& set, size_t i, const samples::Li
 PhongRgb MakePhong(const glm::dvec3& kd, const glm::dvec3& ks, const glm::dvec3& ke);
 
 std::string ToString(const PhongRgb& p);
+
+// Issue #15: any model of core/brdf, per channel.
+struct LobeTruth {
+  BrdfModel model;
+  std::array<LobeChannel, 3> params;
+};
+
+// Samples of a surface point (n = +z) seen from random views under 4 of 6
+// lights, half of them placed near the mirror direction of the view so that
+// every model's lobe is observed; rendered with `truth` (core/brdf's models,
+// the fit's own equation) and relative noise `noise`.
+// With `texels` > 0 the samples belong to that many texels (element i mod
+// texels, frames i / texels) whose kd varies by +- `texture` (relative).
+// Sample i is from camera i % 4.
+samples::SampleSet RenderLobeSamples(const LobeTruth& truth, int num_samples, double noise, uint32_t seed,
+                                     double intensity_scale = 1.0, int texels = 0, double texture = 0.0);
 
 }  // namespace mvbrdf::fit::testing
 

@@ -11,6 +11,7 @@
 #include "core/brdf/geometry.h"
 #include "core/brdf/ggx.h"
 #include "core/brdf/phong.h"
+#include "core/fit/fit_test_util.h"
 #include "core/fit/lobe_texel_kd_fit.h"
 
 namespace mvbrdf::fit {
@@ -18,71 +19,12 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-struct Truth {
-  BrdfModel model;
-  std::array<LobeChannel, 3> params;
-};
+using testing::LobeTruth;
+using Truth = LobeTruth;
 
-glm::dvec3 Direction(double theta, double phi) {
-  return {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-}
-
-// Samples of a surface point (n = +z) seen from random views under 4 of 6
-// lights, half of them placed near the mirror direction of the view so that
-// every model's lobe is observed; rendered with `truth` (core/brdf's models,
-// the fit's own equation) and relative noise `noise`.
-// With `texels` > 0 the samples belong to that many texels (element i mod
-// texels, frames i / texels) whose kd varies by +- `texture` (relative).
 samples::SampleSet Render(const Truth& truth, int num_samples, double noise, uint32_t seed,
                           double intensity_scale = 1.0, int texels = 0, double texture = 0.0) {
-  samples::SampleSet set;
-  set.half_vector = true;
-  for (int k = 0; k < 6; ++k) {
-    set.light_names.push_back("L" + std::to_string(k));
-    set.light_intensity.push_back(glm::vec3(1.0f + 0.2f * k, 1.1f, 0.9f + 0.1f * k) *
-                                  static_cast<float>(intensity_scale));
-  }
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::normal_distribution<double> gauss(0.0, 1.0);
-  const glm::dvec3 n(0, 0, 1);
-  for (int i = 0; i < num_samples; ++i) {
-    const glm::dvec3 v = Direction(std::acos(1.0 - 0.7 * unit(rng)), 2 * kPi * unit(rng));
-    const glm::dvec3 mirror = 2.0 * v.z * n - v;
-    std::vector<uint16_t> light;
-    std::vector<float> g, h, nh, vh;
-    glm::dvec3 rgb(0.0);
-    for (int k = 0; k < 6; ++k) {
-      if (unit(rng) < 0.33) continue;
-      glm::dvec3 l;
-      if (k % 2 == 0) {  // near the mirror direction: within ~25 degrees
-        l = glm::normalize(mirror + 0.45 * glm::dvec3(gauss(rng), gauss(rng), gauss(rng)));
-      } else {
-        l = Direction(std::acos(1.0 - 0.9 * unit(rng)), 2 * kPi * unit(rng));
-      }
-      const brdf::Geometry geometry = brdf::GeometryOf(n, l, v);
-      if (!(geometry.n_dot_l > 0.01)) continue;
-      brdf::Geometry clamped = geometry;
-      clamped.r_dot_v = std::max(0.0, geometry.r_dot_v);
-      light.push_back(static_cast<uint16_t>(k));
-      g.push_back(static_cast<float>(geometry.n_dot_l));
-      h.push_back(static_cast<float>(clamped.r_dot_v));
-      nh.push_back(static_cast<float>(geometry.n_dot_h));
-      vh.push_back(static_cast<float>(geometry.v_dot_h));
-    }
-    samples::HalfVectorTerms hv{static_cast<float>(v.z), nh.data(), vh.data()};
-    const uint32_t element = static_cast<uint32_t>(texels > 0 ? i % texels : i);
-    const int frame = texels > 0 ? i / texels : 0;
-    set.AddTerms(element, frame, 0, glm::vec3(0.0f), light.size(), light.data(), g.data(), h.data(), nullptr, hv);
-    for (int c = 0; c < 3; ++c) {
-      LobeChannel p = truth.params[c];
-      if (texels > 0) p.kd *= 1.0 + texture * std::sin(2.3 * element);
-      const double f = EvaluateLobe(truth.model, set, set.size() - 1, samples::LightMask::FirstN(6), p, c);
-      rgb[c] = f * (1.0 + noise * gauss(rng));
-    }
-    set.reflectance.back() = glm::vec3(rgb);
-  }
-  return set;
+  return testing::RenderLobeSamples(truth, num_samples, noise, seed, intensity_scale, texels, texture);
 }
 
 // Parameters within `tolerance` relative; kd also within `kd_absolute`.

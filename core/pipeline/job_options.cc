@@ -159,11 +159,13 @@ absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequ
     return absl::InvalidArgumentError("options.sweep_criterion: expected HELD_OUT or E_D");
   }
   o.sweep_criterion = f.sweep_criterion();
-  if (!f.brdf().empty()) {
+  if (f.brdf() == "auto") {
+    o.brdf_auto = true;
+  } else if (!f.brdf().empty()) {
     absl::StatusOr<brdf::Model> model = brdf::ParseModel(f.brdf());
     if (!model.ok()) {
       return absl::InvalidArgumentError(
-          absl::StrCat("options.brdf: expected phong, blinn-phong or ggx, got \"", f.brdf(), "\""));
+          absl::StrCat("options.brdf: expected phong, blinn-phong, ggx or auto, got \"", f.brdf(), "\""));
     }
     o.brdf_model = *model;
   }
@@ -205,7 +207,7 @@ absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequ
   fit.set_gradient_rejection(o.gradient_rejection);
   fit.set_sweep_criterion(o.sweep_criterion);
   fit.set_cluster_smoothness(o.cluster_smoothness);
-  fit.set_brdf(brdf::ModelName(o.brdf_model));
+  fit.set_brdf(o.brdf_auto ? "auto" : brdf::ModelName(o.brdf_model));
   return o;
 }
 

@@ -35,6 +35,8 @@ TEST(JobOptionsTest, OutOfRangeOptionsNameTheField) {
       {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_kd_prior_strength(std::nan("")); },
        "options.kd_prior_strength: must be finite and >= 0, got nan"},
       {[](v1::SubmitJobRequest* r) { r->add_outputs(static_cast<v1::Output>(99)); }, "outputs[0]: unknown output 99"},
+      {[](v1::SubmitJobRequest* r) { r->mutable_options()->set_brdf("cook"); },
+       "options.brdf: expected phong, blinn-phong, ggx or auto, got \"cook\""},
   };
   for (const Case& c : cases) {
     v1::SubmitJobRequest request;
@@ -71,6 +73,15 @@ TEST(JobOptionsTest, TheRequestReachesTheOptions) {
   EXPECT_EQ(options->request.candidates, (std::vector<std::string>{"NE,NW", "C"}));
   EXPECT_EQ(options->atlas.size, 256);
   EXPECT_EQ(options->threads, 3);
+  EXPECT_FALSE(options->brdf_auto);
+  EXPECT_FALSE(options->GathersHalfVector());
+  // --brdf auto (issue #15): every model is a candidate, so the half-vector
+  // geometry is gathered.
+  request.mutable_options()->set_brdf("auto");
+  const auto automatic = ReconstructOptionsFor(request, 3);
+  ASSERT_TRUE(automatic.ok()) << automatic.status();
+  EXPECT_TRUE(automatic->brdf_auto);
+  EXPECT_TRUE(automatic->GathersHalfVector());
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <unordered_map>
@@ -23,6 +24,7 @@
 #include "core/fit/light_sweep.h"
 #include "core/fit/lobe_fit.h"
 #include "core/fit/lobe_texel_kd_fit.h"
+#include "core/fit/model_selection.h"
 #include "core/fit/texel_kd_fit.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
@@ -200,6 +202,40 @@ cv::Mat RgbOf(const cv::Mat& rgba) {
 absl::Status WriteRgbAtlas(const std::filesystem::path& stem, const cv::Mat& rgba, float preview_gain) {
   MVBRDF_RETURN_IF_ERROR(image::WriteExr(stem.string() + ".exr", RgbOf(rgba)));
   return image::WritePngPreview(stem.string() + ".png", rgba, preview_gain);
+}
+
+// --brdf auto's model atlas (ReconstructOptions::brdf_auto): brdf::Model's
+// value per texel, kNoModel where no cluster is; grown by `iterations` rings
+// (each empty texel next to a set one takes the lowest of its set
+// 8-neighbours) like the parameter atlases, 8-bit PNG.
+constexpr uint8_t kNoModel = 255;
+
+absl::Status WriteModelAtlas(const std::filesystem::path& file, cv::Mat model, int iterations) {
+  for (int it = 0; it < iterations; ++it) {
+    cv::Mat next = model.clone();
+    bool grew = false;
+    for (int y = 0; y < model.rows; ++y) {
+      for (int x = 0; x < model.cols; ++x) {
+        if (model.at<uint8_t>(y, x) != kNoModel) continue;
+        uint8_t best = kNoModel;
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int yy = y + dy, xx = x + dx;
+            if (yy < 0 || xx < 0 || yy >= model.rows || xx >= model.cols) continue;
+            best = std::min(best, model.at<uint8_t>(yy, xx));
+          }
+        }
+        if (best != kNoModel) {
+          next.at<uint8_t>(y, x) = best;
+          grew = true;
+        }
+      }
+    }
+    model = next;
+    if (!grew) break;
+  }
+  if (!cv::imwrite(file.string(), model)) return absl::InternalError(absl::StrCat("cannot write ", file.string()));
+  return absl::OkStatus();
 }
 
 // Sum of I_k a_k h_k^ke over the lights in `mask`, channel c (a: the
@@ -401,7 +437,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   samples::AssembleOptions assemble = options.assemble;
   assemble.inverse_square_falloff = scene_sequence.scene.lighting().inverse_square_falloff();
   // The texel pass of a half-vector model reads the geometry (fit::LobeTerms).
-  assemble.half_vector_geometry = brdf::NeedsHalfVector(options.brdf_model);
+  assemble.half_vector_geometry = options.brdf_auto || brdf::NeedsHalfVector(options.brdf_model);
 
   // The atlas (kept UVs are still rasterised into the layout).
   auto t0 = Clock::now();
@@ -714,10 +750,11 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   std::vector<fit::PhongRgb> cluster_brdf(num_clusters);
   // A model other than Phong (issue #15): each cluster's fit of it, whose kd
   // also replaces cluster_brdf's (the per-texel kd's fallback and prior).
-  const brdf::Model model = options.brdf_model;
-  const bool phong = model == brdf::Model::kPhong;
+  // Per cluster its model: options.brdf_model, or with --brdf auto
+  // fit::SelectModel's pick from the cluster's Samples.
+  std::vector<brdf::Model> cluster_model(num_clusters, options.brdf_model);
   std::vector<std::array<fit::LobeChannel, 3>> cluster_lobe(num_clusters);
-  report.set_brdf(brdf::ModelName(model));
+  report.set_brdf(options.brdf_auto ? "auto" : brdf::ModelName(options.brdf_model));
   // Robust fits: per cluster the residual scale of per-texel kd (pass 2).
   std::vector<glm::dvec3> texel_sigma(num_clusters, glm::dvec3(0.0));
   for (size_t k = 0; k < num_clusters; ++k) {
@@ -745,6 +782,27 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     // off: 0.75 -> 0.81). So ReconstructOptions::robust does not reach them.
     lm.robust = fit::RobustOptions();
     MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, selection, lm));
+    v1::ClusterRow* row = report.add_clusters();
+    if (options.brdf_auto) {
+      fit::ModelSelectionOptions choose;
+      choose.fit.max_iterations = lm.max_iterations;
+      choose.fit.kd_max = lm.kd_max;
+      choose.fit.ks_max = lm.ks_max;
+      choose.fit.ke_min = lm.ke_min;
+      choose.fit.ke_max = lm.ke_max;
+      MVBRDF_ASSIGN_OR_RETURN(const fit::ModelSelection chosen, fit::SelectModel(set, selection, choose));
+      cluster_model[k] = chosen.model;
+      for (brdf::Model m : brdf::kModels) {
+        v1::ModelChoice* choice = row->add_model_choices();
+        choice->set_model(brdf::ModelName(m));
+        choice->set_held_out_rmse(chosen.held_out_rmse[static_cast<size_t>(m)]);
+        choice->set_seconds(chosen.seconds[static_cast<size_t>(m)]);
+      }
+      row->set_brdf_reason(chosen.reason);
+    }
+    const brdf::Model model = cluster_model[k];
+    const bool phong = model == brdf::Model::kPhong;
+    row->set_brdf(brdf::ModelName(model));
     // No data is no result: the fit's initial guess is not written as one.
     // (A seed that no texel resembles has an empty cluster: flagged, not fatal.)
     if (!cluster_texels[k].empty() && (lm_result.flags() & (fit::kNoSamples | fit::kKdNotIdentifiable))) {
@@ -810,7 +868,6 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult p_result, fit::FitPhong(set, {}, selection, powell));
       SolverRowFrom(clusters.names[k], p_result, report.add_solvers());
     }
-    v1::ClusterRow* row = report.add_clusters();
     row->set_name(clusters.names[k]);
     row->set_texels(cluster_texels[k].size());
     row->set_lobe_per_texel_kd(lobe_per_texel_kd);
@@ -886,6 +943,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
               const int32_t k = texel_cluster[texel];
               if (k < 0) return;
               const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
+              const brdf::Model model = cluster_model[static_cast<size_t>(k)];
+              const bool phong = model == brdf::Model::kPhong;
               glm::vec3 G, res;
               if (phong) {
                 G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
@@ -974,6 +1033,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
                 const cv::Vec4f& o =
                     observed.at<cv::Vec4f>(static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
                 const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
+                const brdf::Model model = cluster_model[static_cast<size_t>(k)];
+                const bool phong = model == brdf::Model::kPhong;
                 glm::vec3 G, specular;
                 if (phong) {
                   G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
@@ -1076,6 +1137,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     std::vector<glm::vec3> ks(num_texels), ke(num_texels);
     cv::Mat cluster_map(atlas.size, atlas.size, CV_32SC1, cv::Scalar(-1));
     cv::Mat confidence(atlas.size, atlas.size, CV_32FC1, cv::Scalar(0));
+    cv::Mat texel_model(atlas.size, atlas.size, CV_8UC1, cv::Scalar(kNoModel));
     for (size_t i = 0; i < num_texels; ++i) {
       const int y = static_cast<int>(i / atlas.size), x = static_cast<int>(i % atlas.size);
       confidence.at<float>(y, x) = static_cast<float>(kd.samples[i]);
@@ -1083,19 +1145,31 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       const size_t k = static_cast<size_t>(texel_cluster[i]);
       const fit::PhongRgb& p = cluster_brdf[k];
       const std::array<fit::LobeChannel, 3>& q = cluster_lobe[k];
+      const bool phong = cluster_model[k] == brdf::Model::kPhong;
+      texel_model.at<uint8_t>(y, x) = static_cast<uint8_t>(cluster_model[k]);
       ks[i] = phong ? glm::vec3(p[0].ks, p[1].ks, p[2].ks) : glm::vec3(q[0].p[0], q[1].p[0], q[2].p[0]);
       ke[i] = phong ? glm::vec3(p[0].ke, p[1].ke, p[2].ke) : glm::vec3(q[0].p[1], q[1].p[1], q[2].p[1]);
       cluster_map.at<int32_t>(y, x) = texel_cluster[i];
     }
     MVBRDF_RETURN_IF_ERROR(WriteRgbAtlas(atlases / "kd", kd_atlas, 1.0f));
-    // The model's two parameters (ks, ke; GGX's f0, roughness), named as it names them.
-    const std::array<const char*, 2> names = brdf::ParameterNames(model);
+    // The model's two parameters (ks, ke; GGX's f0, roughness), named as it
+    // names them; with --brdf auto model-neutral, beside the model atlas.
+    const std::array<std::string, 2> names =
+        options.brdf_auto ? std::array<std::string, 2>{"parameter_1", "parameter_2"}
+                          : std::array<std::string, 2>{brdf::ParameterNames(options.brdf_model)[0],
+                                                       brdf::ParameterNames(options.brdf_model)[1]};
     MVBRDF_RETURN_IF_ERROR(WriteRgbAtlas(
         atlases / names[0], resample::GrowAtlas(Rgba(ks, measured, atlas.size), options.grow_iterations), 1.0f));
     const cv::Mat ke_atlas = resample::GrowAtlas(Rgba(ke, measured, atlas.size), options.grow_iterations);
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / absl::StrCat(names[1], ".exr"), RgbOf(ke_atlas)));
-    MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(atlases / absl::StrCat(names[1], ".png"), ke_atlas,
-                                                  model == brdf::Model::kGgx ? 1.0f : 1.0f / 100.0f));
+    MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(
+        atlases / absl::StrCat(names[1], ".png"), ke_atlas,
+        !options.brdf_auto && options.brdf_model == brdf::Model::kGgx ? 1.0f : 1.0f / 100.0f));
+    if (options.brdf_auto) {
+      // Grown like the parameters, so that filtering at chart edges reads
+      // the texel's own model.
+      MVBRDF_RETURN_IF_ERROR(WriteModelAtlas(atlases / "model.png", texel_model, options.grow_iterations));
+    }
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "cluster.exr", cluster_map));
     MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "confidence.exr", confidence));
     cv::Mat cluster_preview(atlas.size, atlas.size, CV_32FC4, cv::Scalar::all(0));

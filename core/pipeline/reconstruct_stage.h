@@ -66,7 +66,16 @@ struct ReconstructOptions {
   // roughness). The light sweep stays the thesis's Phong (a choice among
   // configurations, which the lobe's shape barely moves).
   brdf::Model brdf_model = brdf::Model::kPhong;
-  bool GathersHalfVector() const { return half_vector_geometry || brdf::NeedsHalfVector(brdf_model); }
+  // `--brdf auto`: brdf_model unused; each cluster fits the model of
+  // core/brdf that fit::SelectModel picks from its Samples (lowest error on
+  // held-out frames and a held-out camera), and the atlases are model-neutral:
+  // atlases/model.png (brdf::Model's value per texel, 255 where none) and
+  // parameter_1, parameter_2 (each texel's model's parameters, in
+  // brdf::ParameterNames' order).
+  bool brdf_auto = false;
+  bool GathersHalfVector() const {
+    return half_vector_geometry || brdf_auto || brdf::NeedsHalfVector(brdf_model);
+  }
   // Triangle averaging for light estimation (thesis §5.1.3).
   float min_valid_fraction = 0.75f;
   fit::PhongFitOptions fit;

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "absl/strings/str_cat.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -93,7 +95,8 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   MVBRDF_ASSIGN_OR_RETURN(r->kd_, ReadRgb(run_dir / "atlases" / "kd.exr"));
   // The model's two parameter atlases (issue #15: ks, ke; GGX's f0, roughness).
   brdf::Model model = brdf::Model::kPhong;
-  if (!run.brdf().empty()) {
+  const bool per_texel_model = run.brdf() == "auto";  // --brdf auto: model.png, parameter_1, parameter_2
+  if (!run.brdf().empty() && !per_texel_model) {
     absl::StatusOr<brdf::Model> parsed = brdf::ParseModel(run.brdf());
     if (!parsed.ok()) {
       return absl::FailedPreconditionError(
@@ -101,9 +104,23 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
     }
     model = *parsed;
   }
-  const std::array<const char*, 2> names = brdf::ParameterNames(model);
+  const std::array<std::string, 2> names =
+      per_texel_model ? std::array<std::string, 2>{"parameter_1", "parameter_2"}
+                      : std::array<std::string, 2>{brdf::ParameterNames(model)[0], brdf::ParameterNames(model)[1]};
   MVBRDF_ASSIGN_OR_RETURN(r->ks_, ReadRgb(run_dir / "atlases" / absl::StrCat(names[0], ".exr")));
   MVBRDF_ASSIGN_OR_RETURN(r->ke_, ReadRgb(run_dir / "atlases" / absl::StrCat(names[1], ".exr")));
+  if (per_texel_model) {
+    const std::filesystem::path file = run_dir / "atlases" / "model.png";
+    r->model_ = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
+    if (r->model_.empty() || r->model_.size() != r->kd_.size()) {
+      return absl::FailedPreconditionError(
+          absl::StrCat(file.string(), ": missing, unreadable or not the kd atlas's size (--brdf auto's model atlas)"));
+    }
+    // Texels of no cluster (255) draw as Phong with the parameters 0 there.
+    for (auto it = r->model_.begin<uint8_t>(); it != r->model_.end<uint8_t>(); ++it) {
+      if (*it >= brdf::kModels.size()) *it = static_cast<uint8_t>(brdf::Model::kPhong);
+    }
+  }
   render::RenderMesh& mesh = r->mesh_;
   mesh.triangles = r->atlas_.topology.triangles;
   mesh.uvs = r->atlas_.topology.uvs;
@@ -113,7 +130,7 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   // The scene's light fall-off, as the fit assumed it (scene.lighting).
   renderer_options.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   MVBRDF_ASSIGN_OR_RETURN(r->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
-  MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_));
+  MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_, r->model_));
   return r;
 }
 
@@ -134,10 +151,10 @@ absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel&
     std::snprintf(name, sizeof(name), "%04d.exr", sequence_.AbsoluteFrame(frame));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat c, ReadRgb(run_dir_ / "atlases" / "correction" / name));
     corrected_kd_ = kd_ + c;
-    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(corrected_kd_, ks_, ke_));  // render with kd + c
+    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(corrected_kd_, ks_, ke_, model_));  // render with kd + c
     with_correction_ = true;
   } else if (with_correction_) {
-    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_, ks_, ke_));
+    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_, ks_, ke_, model_));
     with_correction_ = false;
   }
   MVBRDF_RETURN_IF_ERROR(renderer_->SetLights(lights));

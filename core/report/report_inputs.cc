@@ -12,6 +12,8 @@
 #include "core/evaluate/reconstruction_evaluator.h"
 #include "core/image/exr.h"
 #include "core/pipeline/reconstruction_renderer.h"
+#include "core/pipeline/relighting_evaluation.h"
+#include "core/synth/ground_truth.h"
 #include "core/pipeline/run_scene.h"
 #include "core/scene/sequence.h"
 #include "core/scene/video_source.h"
@@ -150,7 +152,14 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
   if (ec) return absl::FailedPreconditionError(absl::StrCat(options.scratch_dir.string(), ": ", ec.message()));
 
   for (const auto& [name, caption] : std::vector<std::pair<std::string, std::string>>{
-           {"kd", "kd (diffuse)"}, {"ks", "ks (specular)"}, {"ke", "ke (exponent, /100)"}, {"cluster", "clusters"}}) {
+           {"kd", "kd (diffuse)"},
+           {"ks", "ks (specular)"},
+           {"ke", "ke (exponent, /100)"},
+           {"f0", "f0 (GGX)"},
+           {"roughness", "roughness (GGX)"},
+           {"parameter_1", "each texel's model's first parameter (--brdf auto: ks or f0)"},
+           {"parameter_2", "each texel's model's second parameter, /100 (--brdf auto: ke or roughness)"},
+           {"cluster", "clusters"}}) {
     const fs::path file = run_dir / "atlases" / (name + ".png");
     if (!fs::exists(file)) continue;
     MVBRDF_ASSIGN_OR_RETURN(std::string png, ReadFileToString(file));
@@ -177,6 +186,20 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
   if (!truth.empty()) {
     const fs::path error_png = options.scratch_dir / "kd_error.png";
     MVBRDF_ASSIGN_OR_RETURN(in.evaluation, evaluate::EvaluateReconstruction(run_dir, truth, error_png, options.scene));
+    // The relighting error (issue #15), where the report may render.
+    if (options.gl != nullptr && in.evaluation->clusters_size() > 0 && fs::exists(run_dir / "atlases" / "kd.exr")) {
+      MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth ground_truth,
+                              synth::GroundTruth::Load(evaluate::TruthFileOf(truth)));
+      if (const std::optional<fs::path> scene_file =
+              evaluate::SceneOfRun(run_dir, in.run, evaluate::TruthFileOf(truth), options.scene)) {
+        scene::LoadOptions load;
+        load.check_all_frames = false;
+        load.probe_videos = false;
+        MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(*scene_file, load));
+        MVBRDF_ASSIGN_OR_RETURN(*in.evaluation->mutable_relighting(),
+                                pipeline::EvaluateRelighting(run_dir, ground_truth, sequence, *options.gl));
+      }
+    }
     if (fs::exists(error_png)) {  // runs with atlases
       MVBRDF_ASSIGN_OR_RETURN(std::string png, ReadFileToString(error_png));
       in.atlases.push_back({"|kd - kd true| ×10", std::move(png)});

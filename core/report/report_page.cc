@@ -1,5 +1,6 @@
 #include "core/report/report_page.h"
 
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <optional>
@@ -89,6 +90,14 @@ constexpr char kKd[] = "kd: diffuse albedo per colour channel, linear, in the sc
 constexpr char kKs[] = "ks: specular coefficient per colour channel (extended Phong, mirror lobe).";
 constexpr char kKe[] =
     "ke: specular exponent of the mirror lobe (higher: a sharper highlight; a Blinn-Phong exponent is about 4x).";
+constexpr char kModelChoice[] =
+    "--brdf auto: each cluster fits every model of core/brdf to its Samples but those of the last camera and every "
+    "fourth frame, and takes the one with the lowest error on those (another model must beat Phong by more than "
+    "2 %).";
+constexpr char kRelighting[] =
+    "The reconstruction and the truth drawn by the same renderer from views between the capture's cameras under "
+    "lights the capture did not use, one at a time; RMSE in linear radiance over pixels showing observed texels, "
+    "relative: over the truth's RMS.";
 constexpr char kF0[] =
     "F0 (--brdf ggx): specular reflectance at normal incidence per colour channel (glTF's metallic-roughness model; "
     "0.04 for most dielectrics), in the scene's units.";
@@ -260,12 +269,51 @@ std::string CalibrationSection(const v1::RunReport& run, const std::optional<v1:
 std::string ClustersTable(const v1::RunReport& run) {
   if (run.clusters_size() == 0) return "";
   std::vector<std::vector<std::string>> rows;
-  // The model's two parameters (issue #15): ks, ke, or GGX's f0, roughness.
+  // The model's two parameters (issue #15): ks, ke, or GGX's f0, roughness;
+  // with --brdf auto each cluster's own model, named in its cells.
+  const bool per_cluster = run.brdf() == "auto";
   const bool ggx = run.brdf() == "ggx";
   for (const v1::ClusterRow& c : run.clusters()) {
     const std::string flags = absl::StrJoin(c.flags(), ", ");
-    rows.push_back({c.name(), absl::StrCat(c.texels()), Rgb(c.centre()), Rgb(ggx ? c.f0() : c.ks()),
-                    Rgb(ggx ? c.roughness() : c.ke(), ggx ? "%.3f" : "%.1f"), flags.empty() ? "-" : flags});
+    const bool row_ggx = per_cluster ? c.brdf() == "ggx" : ggx;
+    std::string p0 = Rgb(row_ggx ? c.f0() : c.ks());
+    std::string p1 = Rgb(row_ggx ? c.roughness() : c.ke(), row_ggx ? "%.3f" : "%.1f");
+    std::vector<std::string> row = {c.name(), absl::StrCat(c.texels()), Rgb(c.centre())};
+    if (per_cluster) {
+      row.push_back(c.brdf().empty() ? "-" : c.brdf());
+      p0 = (row_ggx ? "f0 " : "ks ") + p0;
+      p1 = (row_ggx ? "roughness " : "ke ") + p1;
+    }
+    row.insert(row.end(), {p0, p1, flags.empty() ? "-" : flags});
+    rows.push_back(row);
+  }
+  if (per_cluster) {
+    std::string out = "<h3 id=\"clusters\">Clusters</h3><p>Reflectance model: auto (" +
+                      Abbr("per cluster", term::kModelChoice) + ").</p>" +
+                      Table({"cluster", "texels", "centre (linear RGB)", "model", "first parameter (RGB)",
+                             "second parameter (RGB)", "flags"},
+                            rows, "", {term::kCluster, "", term::kKd, "", "", "", term::kClusterFlags});
+    // Models x clusters: each model's error on the held-out Samples, its fit
+    // time, and the pick with its reason.
+    std::vector<std::vector<std::string>> choices;
+    std::vector<std::string> header = {"cluster"};
+    for (const v1::ClusterRow& c : run.clusters()) {
+      if (c.model_choices_size() == 0) continue;
+      std::vector<std::string> row = {c.name()};
+      for (const v1::ModelChoice& m : c.model_choices()) {
+        if (choices.empty()) header.push_back(m.model() + " held-out RMSE (fit s)");
+        row.push_back(std::isfinite(m.held_out_rmse())
+                          ? F(m.held_out_rmse(), "%.5f") + " (" + F(m.seconds(), "%.2f") + ")"
+                          : "no fit");
+      }
+      row.push_back(c.brdf());
+      row.push_back(c.brdf_reason());
+      choices.push_back(row);
+    }
+    header.push_back("chosen");
+    header.push_back("why");
+    if (!choices.empty()) out += "<p id=\"models\">Models × clusters:</p>" + Table(header, choices, "", {});
+    return out;
   }
   const std::string model = run.brdf().empty() ? "phong" : run.brdf();
   return "<h3 id=\"clusters\">Clusters</h3><p>Reflectance model: " + Escape(model) + ".</p>" +
@@ -324,6 +372,18 @@ std::string BuildReportHtml(const ReportInputs& in) {
     h += Table(
         {"cluster", "true material", "kd RMSE", "ks", "ks true", "ks rel. error", "ke", "ke true", "ke rel. error"},
         rows, "", {term::kCluster, "", term::kKdRmse, term::kKs, "", "", term::kKe});
+    if (e.has_relighting()) {
+      const v1::RelightingEvaluation& r = e.relighting();
+      h += "<p id=\"relighting\">" + Abbr("Relighting error", term::kRelighting) + " (" +
+           absl::StrCat(r.rows_size()) + " held-out views × lights, frame " + absl::StrCat(r.frame()) +
+           "): RMSE " + F(r.rmse(), "%.5f") + ", relative " + F(r.relative_rmse(), "%.3f") + ".</p>";
+      std::vector<std::vector<std::string>> relit;
+      for (const v1::RelightingMaterialRow& m : r.materials()) {
+        relit.push_back({m.material(), m.truth_brdf(), absl::StrCat(m.pixels()), F(m.rmse(), "%.5f"),
+                         F(m.relative_rmse(), "%.3f")});
+      }
+      h += Table({"true material", "truth", "pixels", "relighting RMSE", "relative"}, relit, "", {});
+    }
     h += "</section>";
   }
 
