@@ -69,7 +69,12 @@ int RunSynth(const std::vector<std::string>& args) {
                   "measured materials (MERL, as neural BRDFs) for the preset's material slots: SLOT=NAME or NAME "
                   "for the next slot, comma-separated, - keeps a slot analytic (e.g. cloth=blue-fabric,skin=-,"
                   "hair=black-oxidized-steel; one NAME for sphere or spot); the truth is then no analytic model");
-  std::string merl_file;
+  std::string merl_file, measured_exposure = "albedo";
+  flags.AddString("--measured-exposure MODE", &measured_exposure,
+                  "albedo (default: each measured material as bright as its slot's; glossy highlights may clip, as "
+                  "in an 8-bit capture exposed for the diffuse) or highlights (no highlight clips under the "
+                  "brightest light; use with --bit-depth 16)");
+  flags.AddInt("--bit-depth N", &o.bit_depth, "bits per channel of the frames: 8 (default) or 16 (with --format png)");
   flags.AddString("--merl-file FILE", &merl_file,
                   "merl_nbrdf.json holding the measured materials (default: env MVBRDF_MERL_NBRDF, else "
                   "DATA/merl_nbrdf/ or ../shared/data/merl_nbrdf/)");
@@ -119,6 +124,13 @@ int RunSynth(const std::vector<std::string>& args) {
   o.out_dir = out;
   o.data_dir = data_dir;
   o.merl_file = merl_file;
+  if (measured_exposure != "albedo" && measured_exposure != "highlights") {
+    std::fprintf(stderr, "mvbrdf synth: --measured-exposure: expected albedo or highlights, got \"%s\"\n",
+                 measured_exposure.c_str());
+    return kExitUsage;
+  }
+  o.measured_exposure = measured_exposure == "highlights" ? synth::SynthOptions::MeasuredExposure::kHighlights
+                                                          : synth::SynthOptions::MeasuredExposure::kAlbedo;
   if (absl::Status s = o.Check(); !s.ok()) {
     std::fprintf(stderr, "mvbrdf synth: %s\n", std::string(s.message()).c_str());
     return kExitUsage;

@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
+#include "core/fit/lobe_texel_kd_fit.h"
 
 namespace mvbrdf::fit {
 namespace {
@@ -57,6 +58,32 @@ double HeldOutRmse(brdf::Model model, const samples::SampleSet& set, const sampl
   return std::sqrt(sse / (3.0 * static_cast<double>(held_out.size())));
 }
 
+// The Samples `indices` of `set` as a set of their own.
+samples::SampleSet SubsetOf(const samples::SampleSet& set, const std::vector<uint32_t>& indices) {
+  samples::SampleSet out;
+  out.light_names = set.light_names;
+  out.light_intensity = set.light_intensity;
+  out.half_vector = set.half_vector;
+  for (uint32_t i : indices) {
+    const size_t b = set.TermsBegin(i), e = set.TermsEnd(i);
+    out.element.push_back(set.element[i]);
+    out.frame.push_back(set.frame[i]);
+    out.camera.push_back(set.camera[i]);
+    out.reflectance.push_back(set.reflectance[i]);
+    out.light.insert(out.light.end(), set.light.begin() + b, set.light.begin() + e);
+    out.g.insert(out.g.end(), set.g.begin() + b, set.g.begin() + e);
+    out.h.insert(out.h.end(), set.h.begin() + b, set.h.begin() + e);
+    if (!set.falloff.empty()) out.falloff.insert(out.falloff.end(), set.falloff.begin() + b, set.falloff.begin() + e);
+    if (set.half_vector) {
+      out.n_dot_v.push_back(set.n_dot_v[i]);
+      out.n_dot_h.insert(out.n_dot_h.end(), set.n_dot_h.begin() + b, set.n_dot_h.begin() + e);
+      out.v_dot_h.insert(out.v_dot_h.end(), set.v_dot_h.begin() + b, set.v_dot_h.begin() + e);
+    }
+    out.offset.push_back(out.light.size());
+  }
+  return out;
+}
+
 }  // namespace
 
 absl::StatusOr<ModelSelection> SelectModel(const samples::SampleSet& set, const samples::LightSelection& lights,
@@ -86,9 +113,21 @@ absl::StatusOr<ModelSelection> SelectModel(const samples::SampleSet& set, const 
                               " held out; ", kMinSamples, " each needed): phong kept");
     return out;
   }
+  // Each model fitted as the pipeline fits it: the cluster's lobe
+  // (FitLobe), then refitted with kd free per texel (FitModelLobeWithTexelKd).
+  const samples::SampleSet training_set = SubsetOf(set, training);
+  LobeTexelKdOptions texel_kd;
+  texel_kd.ke_min = options.fit.ke_min;
+  texel_kd.ke_max = options.fit.ke_max;
+  texel_kd.ks_max = options.fit.ks_max;
   for (brdf::Model model : brdf::kModels) {
     const auto t0 = std::chrono::steady_clock::now();
-    absl::StatusOr<LobeFitResult> fit = FitLobe(model, set, training, lights, options.fit);
+    absl::StatusOr<LobeFitResult> fit = FitLobe(model, training_set, {}, lights, options.fit);
+    if (fit.ok() && !(fit->flags() & kKsKeNotIdentifiable)) {
+      absl::StatusOr<LobeTexelKdResult> refined =
+          FitModelLobeWithTexelKd(model, training_set, lights, fit->params, texel_kd);
+      if (refined.ok()) fit->params = refined->params;
+    }
     const size_t m = static_cast<size_t>(model);
     out.seconds[m] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     if (!fit.ok()) continue;

@@ -3,10 +3,12 @@
 //
 // Split: held out are the Samples of the last camera and of every fourth
 // frame (frame % 4 == 3) from the others, so that the judge is both a new
-// view and a new time (pose against the lights); the rest train. Each model
-// is fitted to the training Samples (fit::FitLobe), kd then re-solved per
-// texel from the texel's training Samples with the lobe fixed (a cluster's kd
-// texture would otherwise swamp the lobes' differences), and scored by the
+// view and a new time (pose against the lights; with one light per frame, new
+// lights); the rest train. Each model is fitted to the training Samples as
+// the pipeline fits it (fit::FitLobe, then FitModelLobeWithTexelKd), kd then
+// re-solved per texel from the texel's training Samples with the lobe fixed
+// (a cluster's kd texture would otherwise swamp the lobes' differences), and
+// scored by the
 // RMSE of the held-out Samples (over Samples and channels, in the data's
 // units; a texel without training Samples takes the cluster's kd).
 //

@@ -1,6 +1,7 @@
 #include "core/synth/frame_encoder.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
@@ -26,26 +27,40 @@ cv::Mat ApplyDistortion(const cv::Mat& undistorted, const scene::CameraModel& ca
   return out;
 }
 
-cv::Mat EncodeSrgb8(const cv::Mat& linear_rgb, const EncodeOptions& options, std::mt19937& rng) {
+namespace {
+
+template <typename T>
+cv::Mat Encode(const cv::Mat& linear_rgb, const EncodeOptions& options, std::mt19937& rng) {
   CV_Assert(linear_rgb.type() == CV_32FC3);
-  cv::Mat out(linear_rgb.rows, linear_rgb.cols, CV_8UC3);
-  std::normal_distribution<float> noise(0.0f, static_cast<float>(options.noise_sigma));
+  constexpr float kTop = static_cast<float>(std::numeric_limits<T>::max());
+  cv::Mat out(linear_rgb.rows, linear_rgb.cols, CV_MAKETYPE(cv::DataType<T>::depth, 3));
+  std::normal_distribution<float> noise(0.0f, static_cast<float>(options.noise_sigma) * kTop / 255.0f);
   const bool noisy = options.noise_sigma > 0.0;
   const float gain = static_cast<float>(options.exposure);
   for (int y = 0; y < linear_rgb.rows; ++y) {
     const cv::Vec3f* in = linear_rgb.ptr<cv::Vec3f>(y);
-    cv::Vec3b* o = out.ptr<cv::Vec3b>(y);
+    cv::Vec<T, 3>* o = out.ptr<cv::Vec<T, 3>>(y);
     for (int x = 0; x < linear_rgb.cols; ++x) {
       for (int c = 0; c < 3; ++c) {
         const float lin = std::clamp(in[x][c] * gain, 0.0f, 1.0f);
-        float code = 255.0f * scene::LinearToSrgb(lin);
+        float code = kTop * scene::LinearToSrgb(lin);
         if (noisy) code += noise(rng);
         // RGB in, BGR out.
-        o[x][2 - c] = static_cast<uint8_t>(std::clamp(std::lround(code), 0L, 255L));
+        o[x][2 - c] = static_cast<T>(std::clamp(std::lround(code), 0L, static_cast<long>(kTop)));
       }
     }
   }
   return out;
+}
+
+}  // namespace
+
+cv::Mat EncodeSrgb8(const cv::Mat& linear_rgb, const EncodeOptions& options, std::mt19937& rng) {
+  return Encode<uint8_t>(linear_rgb, options, rng);
+}
+
+cv::Mat EncodeSrgb(const cv::Mat& linear_rgb, const EncodeOptions& options, int bits, std::mt19937& rng) {
+  return bits == 16 ? Encode<uint16_t>(linear_rgb, options, rng) : Encode<uint8_t>(linear_rgb, options, rng);
 }
 
 }  // namespace mvbrdf::synth

@@ -27,6 +27,9 @@ struct EncodeOptions {
 // CV_32FC3 linear RGB -> CV_8UC3 sRGB in OpenCV's BGR order, ready for
 // cv::VideoWriter / cv::imwrite.
 cv::Mat EncodeSrgb8(const cv::Mat& linear_rgb, const EncodeOptions& options, std::mt19937& rng);
+// The same with `bits` 8 or 16 per channel (CV_8UC3 or CV_16UC3); the noise
+// is the same in light (noise_sigma 8-bit code values are 257 16-bit ones).
+cv::Mat EncodeSrgb(const cv::Mat& linear_rgb, const EncodeOptions& options, int bits, std::mt19937& rng);
 
 }  // namespace mvbrdf::synth
 

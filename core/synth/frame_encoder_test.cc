@@ -40,6 +40,31 @@ TEST(FrameEncoderTest, NoiseHasTheRequestedSigma) {
   EXPECT_NEAR(stddev[0], 2.0, 0.1);  // rounding adds 1/12 to the variance
 }
 
+// 16 bits per channel: the same sRGB curve at 65535 code values, so a dark
+// value (a glossy material exposed for its highlights) keeps it to ~0.1 %
+// instead of 8 bits' ~5-20 %; noise of sigma 2 8-bit code values is 514.
+TEST(FrameEncoderTest, SixteenBitsKeepDarkValues) {
+  cv::Mat img(1, 2, CV_32FC3);
+  img.at<cv::Vec3f>(0, 0) = {0.002f, 0.0005f, 1.0f};
+  img.at<cv::Vec3f>(0, 1) = {0.21586f, 0.21586f, 0.21586f};
+  std::mt19937 rng(1);
+  const cv::Mat out = EncodeSrgb(img, {}, 16, rng);
+  ASSERT_EQ(out.type(), CV_16UC3);
+  const cv::Vec<uint16_t, 3> dark = out.at<cv::Vec<uint16_t, 3>>(0, 0);
+  EXPECT_EQ(dark[0], 65535);  // BGR: blue is 1.0
+  EXPECT_NEAR(scene::SrgbToLinear(dark[2] / 65535.0f), 0.002f, 0.002f * 1e-3f);
+  EXPECT_NEAR(scene::SrgbToLinear(dark[1] / 65535.0f), 0.0005f, 0.0005f * 2e-3f);
+  const double mid = out.at<cv::Vec<uint16_t, 3>>(0, 1)[0];
+  EXPECT_NEAR(mid, 128.0 * 257.0, 257.0);
+  EXPECT_EQ(EncodeSrgb(img, {}, 8, rng).type(), CV_8UC3);
+  cv::Mat grey(200, 200, CV_32FC3, cv::Scalar::all(0.21586));
+  EncodeOptions options;
+  options.noise_sigma = 2.0;
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(EncodeSrgb(grey, options, 16, rng).reshape(1), mean, stddev);
+  EXPECT_NEAR(stddev[0], 2.0 * 257.0, 0.1 * 257.0);
+}
+
 TEST(FrameEncoderTest, DistortionMovesPixelsWhereTheCameraModelSays) {
   scene::CameraModel cam;
   cam.width = 160;

@@ -123,8 +123,41 @@ double DirectionalAlbedo(const brdf::NeuralBrdf& brdf) {
   return (albedo.x + albedo.y + albedo.z) / 3.0;
 }
 
-double MeasuredGain(const brdf::NeuralBrdf& brdf, double kd_mean) {
+double PeakReflectance(const brdf::NeuralBrdf& brdf) {
   constexpr double kPi = 3.14159265358979323846;
+  const auto direction = [&](double theta_deg, double phi_deg) {
+    const double t = theta_deg * kPi / 180.0, p = phi_deg * kPi / 180.0;
+    return glm::dvec3(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t));
+  };
+  glm::dvec3 peak(0.0);
+  for (int ti = 0; ti <= 85; ti += 5) {
+    const glm::dvec3 wi = direction(ti, 180.0);
+    // Views over the hemisphere (fabrics peak at grazing, not at the mirror
+    // direction), and at and near the mirror direction (sharp lobes).
+    for (int to = 0; to <= 85; to += 5) {
+      for (int po = 0; po < 360; po += 15) peak = glm::max(peak, brdf.Evaluate(wi, direction(to, po)) * wi.z);
+    }
+    for (double d : {0.0, 0.5, 1.0, 2.0}) {
+      for (double po : {0.0, 90.0, 180.0, 270.0}) {
+        const glm::dvec3 mirror = direction(ti, 0.0);
+        const glm::dvec3 off = d > 0.0 ? glm::normalize(mirror + std::tan(d * kPi / 180.0) *
+                                                                      glm::dvec3(std::cos(po * kPi / 180.0) * mirror.z,
+                                                                                 std::sin(po * kPi / 180.0),
+                                                                                 -std::cos(po * kPi / 180.0) * mirror.x))
+                                       : mirror;
+        if (off.z > 0.0) peak = glm::max(peak, brdf.Evaluate(wi, off) * wi.z);
+      }
+    }
+  }
+  return (peak.x + peak.y + peak.z) / 3.0;
+}
+
+double MeasuredGain(const brdf::NeuralBrdf& brdf, double kd_mean, double brightest_light) {
+  constexpr double kPi = 3.14159265358979323846;
+  if (brightest_light > 0.0) {
+    const double peak = PeakReflectance(brdf) * brightest_light;
+    return peak > 0.0 ? 0.9 / peak : 1.0;
+  }
   const double albedo = DirectionalAlbedo(brdf);
   if (!(albedo > 0.0)) return 16.0;
   return std::clamp(kPi * kd_mean / albedo, 0.25, 16.0);

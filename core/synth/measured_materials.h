@@ -47,12 +47,21 @@ glm::dvec3 DiffuseColour(const brdf::NeuralBrdf& brdf);
 // stratified quadrature over the view hemisphere.
 double DirectionalAlbedo(const brdf::NeuralBrdf& brdf);
 
-// The gain that gives a measured material the directional albedo of a
-// Lambertian kd (the slot's analytic material's mean kd in the project's
-// units, L = kd n.l I: albedo pi kd), clamped to [1/4, 16]: the synthesizer's
-// exposure per material, so that a dark fabric is not a few code values and
-// a mirror metal not all clipped.
-double MeasuredGain(const brdf::NeuralBrdf& brdf, double kd_mean);
+// The largest rho(wi, wo) wi.z of the material (mean over channels of the
+// channel maxima), over light elevations 0-85 degrees and views over the
+// hemisphere (5 x 15 degree steps) and at and near the mirror direction: its
+// brightest response per unit intensity.
+double PeakReflectance(const brdf::NeuralBrdf& brdf);
+
+// The synthesizer's exposure per material: the gain that gives the measured
+// material the directional albedo of a Lambertian kd (the slot's analytic
+// material's mean kd in the project's units, L = kd n.l I: albedo pi kd),
+// clamped to [1/4, 16], so that a dark fabric is not a few code values (its
+// highlights may clip, as a glossy surface's do in a capture exposed for the
+// diffuse). With `brightest_light` > 0 instead the gain that keeps its peak
+// highlight under that intensity at 0.9: nothing clips (glossy materials
+// then need 16-bit frames for their diffuse).
+double MeasuredGain(const brdf::NeuralBrdf& brdf, double kd_mean, double brightest_light = 0.0);
 
 }  // namespace mvbrdf::synth
 

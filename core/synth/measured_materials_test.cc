@@ -97,6 +97,10 @@ TEST(MeasuredMaterialsTest, GainMatchesTheAlbedoOfTheSlotsKd) {
   EXPECT_NEAR(MeasuredGain(*grey, 100.0), 16.0, 1e-9);
   EXPECT_NEAR(MeasuredGain(*grey, 0.001), 0.25, 1e-9);
   EXPECT_NEAR(MeasuredGain(*black, 0.4), 16.0, 1e-9);
+  // Exposed for its highlights: its peak is rho cos(0) = 0.1 per unit
+  // intensity, so under a light of 1.5 the gain is 0.9 / 0.15.
+  EXPECT_NEAR(PeakReflectance(*grey), 0.1, 1e-6);  // the JSON holds float32 weights
+  EXPECT_NEAR(MeasuredGain(*grey, 0.4, 1.5), 6.0, 1e-4);
 }
 
 }  // namespace

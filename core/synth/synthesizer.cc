@@ -166,6 +166,12 @@ absl::Status SynthOptions::Check() const {
   MVBRDF_RETURN_IF_ERROR(CheckRange("--frames", num_frames, 1, 100000));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--width", width, 16, 8192));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--height", height, 16, 8192));
+  if (bit_depth != 8 && bit_depth != 16) {
+    return absl::InvalidArgumentError(absl::StrCat("--bit-depth: expected 8 or 16, got ", bit_depth));
+  }
+  if (bit_depth == 16 && (video_format != VideoFormat::kPng || lossy_video)) {
+    return absl::InvalidArgumentError("--bit-depth 16: needs --format png (the video codecs store 8 bits)");
+  }
   MVBRDF_RETURN_IF_ERROR(CheckRange("--fps", fps, 0.1, 1000));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--noise", noise_sigma, 0, 255));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--camera-rotation-error", camera_rotation_error_deg, 0, 90));
@@ -214,14 +220,6 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
                                                                options.merl_file.empty()
                                                                    ? DefaultMerlFile(options.data_dir)
                                                                    : options.merl_file));
-  }
-
-  // Each measured material exposed like the slot's analytic one (MeasuredGain).
-  std::vector<double> measured_gain(subject.materials.size(), 1.0);
-  for (size_t k = 0; k < measured.size(); ++k) {
-    if (!measured[k]) continue;
-    const glm::vec3& base = subject.materials[k].kd.base;
-    measured_gain[k] = MeasuredGain(measured[k]->brdf, (base.x + base.y + base.z) / 3.0);
   }
 
   SubjectBounds bounds{subject.rest_positions.front(), subject.rest_positions.front()};
@@ -291,6 +289,20 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     return {studio.lights[static_cast<size_t>(t) % studio.lights.size()]};
   };
   if (olat) active_lights = studio.lights;  // every light lights some frame
+
+  // Each measured material's exposure (MeasuredGain): like the slot's
+  // analytic material, or its highlights under the brightest light unclipped.
+  std::vector<double> measured_gain(subject.materials.size(), 1.0);
+  float brightest = 0.0f;
+  for (const scene::Light& l : active_lights) {
+    brightest = std::max({brightest, l.intensity.x, l.intensity.y, l.intensity.z});
+  }
+  for (size_t k = 0; k < measured.size(); ++k) {
+    if (!measured[k]) continue;
+    const glm::vec3& base = subject.materials[k].kd.base;
+    const bool highlights = options.measured_exposure == SynthOptions::MeasuredExposure::kHighlights;
+    measured_gain[k] = MeasuredGain(measured[k]->brdf, (base.x + base.y + base.z) / 3.0, highlights ? brightest : 0.0);
+  }
 
   std::mt19937 rng(options.seed);
   // Cameras as rendered (truth) and as written to the scene (perturbed).
@@ -367,7 +379,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     for (size_t c = 0; c < studio.cameras.size(); ++c) {
       MVBRDF_ASSIGN_OR_RETURN(const cv::Mat image,
                               RenderPixelAreas(*renderer, pose, studio.cameras[c], options.pixel_samples));
-      MVBRDF_RETURN_IF_ERROR(sinks[c]->Write(EncodeSrgb8(image, encode, rng)));
+      MVBRDF_RETURN_IF_ERROR(sinks[c]->Write(EncodeSrgb(image, encode, options.bit_depth, rng)));
     }
   }
   for (auto& sink : sinks) MVBRDF_RETURN_IF_ERROR(sink->Close());
@@ -384,7 +396,7 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
     scene::CameraModelToProto(scene_cameras[c], cam);
     cam->mutable_video()->set_path(sinks[c]->scene_path());
     cam->mutable_video()->set_encoding(v1::SRGB);
-    cam->mutable_video()->set_bit_depth(8);
+    cam->mutable_video()->set_bit_depth(static_cast<uint32_t>(options.bit_depth));
   }
   // The lights as written (perturbed; truth.lights are the rendered ones).
   std::mt19937 light_rng(options.seed ^ 0x9e3779b9u);

@@ -83,6 +83,15 @@ struct SynthOptions {
   // in truth.json's materials (measured, measured_weights).
   std::string materials;
   std::filesystem::path merl_file;
+  // How a measured material is exposed (MeasuredGain): kAlbedo gives it the
+  // slot's albedo (its highlights clip as a glossy surface's do in an
+  // 8-bit capture exposed for the diffuse); kHighlights keeps its brightest
+  // highlight under the brightest light below clipping (with 16-bit frames
+  // the diffuse stays well quantised).
+  enum class MeasuredExposure { kAlbedo, kHighlights };
+  MeasuredExposure measured_exposure = MeasuredExposure::kAlbedo;
+  // Bits per channel of the stored frames: 8, or 16 (PNG sequences only).
+  int bit_depth = 8;
   // Issue #14: the lights written to scene.json differ from the rendered
   // ones (truth.lights): each point light moved by this distance in a random
   // direction, each directional light turned by light_direction_error_deg

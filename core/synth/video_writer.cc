@@ -44,8 +44,11 @@ absl::StatusOr<std::unique_ptr<FrameSink>> FrameSink::Open(const std::filesystem
 }
 
 absl::Status FrameSink::Write(const cv::Mat& bgr8) {
-  if (bgr8.type() != CV_8UC3 || bgr8.cols != width_ || bgr8.rows != height_) {
-    return absl::InvalidArgumentError(absl::StrCat(file_.string(), ": frame must be ", width_, "x", height_, " CV_8UC3"));
+  // 16-bit frames only as PNG images (video codecs here are 8-bit).
+  const bool ok_type = bgr8.type() == CV_8UC3 || (bgr8.type() == CV_16UC3 && codec_ == VideoCodec::kPngSequence);
+  if (!ok_type || bgr8.cols != width_ || bgr8.rows != height_) {
+    return absl::InvalidArgumentError(absl::StrCat(file_.string(), ": frame must be ", width_, "x", height_,
+                                                   " CV_8UC3 (CV_16UC3 for a PNG sequence)"));
   }
   if (codec_ == VideoCodec::kPngSequence) {
     const std::string path = FormatFramePattern(file_.string(), next_frame_);

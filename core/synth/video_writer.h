@@ -23,7 +23,7 @@ class FrameSink {
   static absl::StatusOr<std::unique_ptr<FrameSink>> Open(const std::filesystem::path& stem,
                                                          const std::filesystem::path& scene_dir, VideoCodec codec,
                                                          int width, int height, double fps, int first_frame);
-  // Appends a CV_8UC3 BGR frame.
+  // Appends a CV_8UC3 BGR frame (or CV_16UC3 to a PNG sequence).
   absl::Status Write(const cv::Mat& bgr8);
   absl::Status Close();
   const std::string& scene_path() const { return scene_path_; }
