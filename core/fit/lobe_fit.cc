@@ -158,8 +158,14 @@ std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, con
                                    const Scaling& scaling, const double* lower, const double* upper) {
   std::vector<double> shapes, f0s = {0.0};
   if (model == BrdfModel::kGgx) {
-    shapes = {0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85, 1.0};
-    f0s = {0.02, 0.04, 0.08, 0.15, 0.3, 0.5, 0.7, 0.9};
+    shapes = {0.02, 0.035, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85, 1.0};
+    // GGX is linear in kd' = kd (1 - F0) and F0 at a fixed roughness:
+    // r ~ kd' D + S0 + F0 S1 (D the diffuse regressor at F0 = 0, S0 the
+    // specular at F0 = 0, S1 its increase to F0 = 1), so F0 is solved at
+    // each roughness, at whatever scale the data's units give it (a grid of
+    // F0 from 0.02 missed an F0 of 5e-4: a glossy material exposed for its
+    // highlights).
+    f0s = {-1.0};
   } else {
     const double ke_top = model == BrdfModel::kBlinnPhong ? 20000.0 : 5000.0;
     for (double ke = 2.0; ke <= ke_top; ke *= 1.6) shapes.push_back(std::log(ke));
@@ -184,6 +190,44 @@ std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, con
         ssr += spec * r[s];
       }
       double kd = 0.0, ks = 1.0;
+      if (f0 < 0.0) {  // GGX: kd' and F0 by least squares on r - S0
+        double x0[3] = {0.0, 0.0, shape}, x1[3] = {0.0, 1.0, shape}, xd[3] = {1.0, 0.0, shape};
+        double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
+        for (size_t s = 0; s < t.size(); ++s) {
+          const double s0 = ModelValue(m, t, intensity, s, scaling, x0, nullptr);
+          const double s1 = ModelValue(m, t, intensity, s, scaling, x1, nullptr) - s0;
+          const double d = ModelValue(m, t, intensity, s, scaling, xd, nullptr) - s0;
+          const double y = r[s] - s0;
+          a11 += d * d;
+          a12 += d * s1;
+          a22 += s1 * s1;
+          b1 += d * y;
+          b2 += s1 * y;
+        }
+        double kd_prime = 0.0, f = 0.0;
+        const double det = a11 * a22 - a12 * a12;
+        if (det > 1e-300) {
+          kd_prime = (b1 * a22 - b2 * a12) / det;
+          f = (b2 * a11 - b1 * a12) / det;
+        }
+        if (!(f >= 0.0)) {
+          f = 0.0;
+          kd_prime = a11 > 0.0 ? b1 / a11 : 0.0;
+        }
+        if (!(kd_prime >= 0.0)) {
+          kd_prime = 0.0;
+          f = a22 > 0.0 ? std::max(0.0, b2 / a22) : 0.0;
+        }
+        f = std::clamp(f, lower[1], upper[1]);
+        kd = f < 1.0 ? kd_prime / (1.0 - f) : 0.0;
+        const std::array<double, 3> x = {std::clamp(kd, lower[0], upper[0]), f, shape};
+        const double cost = Cost(m, t, intensity, r, scaling, x.data());
+        if (cost < best_cost) {
+          best_cost = cost;
+          best = x;
+        }
+        continue;
+      }
       if (HasLobeScale(model)) {
         const double det = sdd * sss - sds * sds;
         if (det > 1e-300) {

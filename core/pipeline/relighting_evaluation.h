@@ -8,8 +8,9 @@
 // camera turned from the first towards the second by half their angle about
 // the scene's up axis (the cameras' mean up) through the subject's centre,
 // with the first's intrinsics and no lens distortion. Held-out lights: the
-// scene's candidate lights the truth's capture did not use (each alone), else
-// the capture's lights turned by 45 degrees about the up axis. The pose: one
+// scene's candidate lights no frame of the truth's capture used (each alone),
+// else (an OLAT capture used them all) the capture's lights turned by 45
+// degrees about the up axis. The pose: one
 // frame (the middle one by default). Pixels count where both images cover the
 // mesh and the surface point's texel was observed by the run.
 #ifndef MVBRDF_CORE_PIPELINE_RELIGHTING_EVALUATION_H_
