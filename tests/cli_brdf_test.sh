@@ -95,6 +95,13 @@ expect "GGX fits its own truth (parameters, kd RMSE and relighting error below t
 check "evaluate --no-relighting leaves it out" 0 "" -- "$bin" evaluate "$work/ggx" --truth "$work/b" --no-relighting
 expect "no relighting key with --no-relighting" test \
   "$("$bin" evaluate "$work/ggx" --truth "$work/b" --no-relighting | grep -c relighting)" = 0
+"$bin" evaluate "$work/ggx" --truth "$work/b" --relight-views 2 --relight-lights 1 --relight-frame 2 \
+  > "$work/ggx.relight.json" || echo "evaluate --relight-* failed"
+expect "--relight-views, --relight-lights and --relight-frame choose the rows and the pose" test \
+  "$(json "$work/ggx.relight.json" 'len(d["relighting"]["rows"]), d["relighting"]["frame"], d["relighting"]["rmse"] != json.load(open("'"$work"'/ggx.eval.json"))["relighting"]["rmse"]')" = \
+  "(2, 2, True)"
+check "--relight-views 0 is a usage error" 2 "--relight-views" -- "$bin" evaluate "$work/ggx" --truth "$work/b" \
+  --relight-views 0
 
 # render and the report follow the model: the GGX reconstruction drawn by
 # `render` is closer to the GGX truth's frame than the other models'.
