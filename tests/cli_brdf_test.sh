@@ -167,6 +167,15 @@ for b in bad: print("FAIL " + b)
 sys.exit(1 if bad else 0)
 PY
 expect "auto picks GGX on GGX truth, records why, and relights like GGX" test $? -eq 0
+# A cluster without parameters (flagged tiny: its texels joined another) has no
+# model of its own in an auto run; evaluate takes it as it is.
+cp -r "$work/auto" "$work/auto_tiny"
+python3 -c 'import json, sys
+d = json.load(open(sys.argv[1]))
+d["clusters"].append({"name": "stray", "texels": 0, "centre": [0.5, 0.5, 0.5], "flags": ["tiny"]})
+json.dump(d, open(sys.argv[1], "w"))' "$work/auto_tiny/result.json"
+check "evaluate an auto run with a tiny cluster" 0 "clusterAccuracy" -- "$bin" evaluate "$work/auto_tiny" \
+  --truth "$work/b" --no-relighting
 check "render the auto reconstruction" 0 "wrote" -- "$bin" render "$work/auto" --camera cam1 \
   --lights "$work/lights.json" --frame 3 --out "$work/render_auto.png"
 check "report of the auto run" 0 "wrote" -- "$bin" report "$work/auto" --truth "$work/b" --out "$work/report_auto.html"

@@ -215,7 +215,8 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   // else the run's.
   const auto model_of = [&](const v1::ClusterRow& row) -> absl::StatusOr<brdf::Model> {
     const std::string& name = !row.brdf().empty() ? row.brdf() : run.brdf();
-    if (name.empty()) return brdf::Model::kPhong;
+    // A row without parameters (flagged tiny or no_samples) of an auto run.
+    if (name.empty() || name == "auto") return brdf::Model::kPhong;
     absl::StatusOr<brdf::Model> parsed = brdf::ParseModel(name);
     if (!parsed.ok()) {
       return absl::InvalidArgumentError(absl::StrCat("result.json: cluster \"", row.name(), "\": brdf: ",
