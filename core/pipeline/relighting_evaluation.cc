@@ -180,13 +180,14 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
   uint64_t all_n = 0, unobserved = 0;
   for (const scene::CameraModel& view : views) {
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ids, renderer->RenderTriangleIds(pose, view, 1));
+    cv::Mat observed;  // depends on the view only: found with its first light
     for (const scene::Light& light : lights) {
       MVBRDF_RETURN_IF_ERROR(renderer->SetLights({light}));
       MVBRDF_ASSIGN_OR_RETURN(const render::RenderOutput t, renderer->Render(pose, view));
-      cv::Mat coverage, observed;
+      cv::Mat coverage;
       ReconstructionRenderer::Extras extras;
       extras.coverage = &coverage;
-      extras.observed = &observed;
+      if (observed.empty()) extras.observed = &observed;
       MVBRDF_ASSIGN_OR_RETURN(const cv::Mat r, reconstruction->Render(view, {light}, frame, false, extras));
       double sq = 0.0, truth_sq = 0.0;
       uint64_t n = 0;

@@ -12,6 +12,17 @@
 #include "absl/strings/ascii.h"
 
 namespace mvbrdf::synth {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The unit direction of polar angle theta and azimuth phi (degrees), z up.
+glm::dvec3 Direction(double theta_deg, double phi_deg) {
+  const double t = theta_deg * kPi / 180.0, p = phi_deg * kPi / 180.0;
+  return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
+}
+
+}  // namespace
 
 absl::StatusOr<std::vector<std::optional<MeasuredMaterial>>> ResolveMeasuredMaterials(
     const std::string& spec, const std::vector<std::string>& slots, const std::filesystem::path& merl_file) {
@@ -78,18 +89,13 @@ std::filesystem::path DefaultMerlFile(const std::filesystem::path& data_dir) {
 }
 
 glm::dvec3 DiffuseColour(const brdf::NeuralBrdf& brdf) {
-  constexpr double kPi = 3.14159265358979323846;
-  const auto direction = [&](double theta_deg, double phi_deg) {
-    const double t = theta_deg * kPi / 180.0, p = phi_deg * kPi / 180.0;
-    return glm::dvec3(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t));
-  };
   // Light and view 90 to 180 degrees apart in azimuth at moderate elevations:
   // the half vector stays >= ~35 degrees from the normal (off the highlight).
   std::vector<double> per_channel[3];
   for (double ti : {40.0, 55.0}) {
     for (double to : {40.0, 55.0}) {
       for (double dphi : {90.0, 135.0, 180.0}) {
-        const glm::dvec3 rho = brdf.Evaluate(direction(ti, 0.0), direction(to, dphi));
+        const glm::dvec3 rho = brdf.Evaluate(Direction(ti, 0.0), Direction(to, dphi));
         for (int c = 0; c < 3; ++c) per_channel[c].push_back(rho[c]);
       }
     }
@@ -104,7 +110,6 @@ glm::dvec3 DiffuseColour(const brdf::NeuralBrdf& brdf) {
 }
 
 double DirectionalAlbedo(const brdf::NeuralBrdf& brdf) {
-  constexpr double kPi = 3.14159265358979323846;
   constexpr int kRings = 48, kSectors = 96;
   const double s = std::sqrt(0.5);
   const glm::dvec3 wi(s, 0.0, s);
@@ -124,22 +129,17 @@ double DirectionalAlbedo(const brdf::NeuralBrdf& brdf) {
 }
 
 double PeakReflectance(const brdf::NeuralBrdf& brdf) {
-  constexpr double kPi = 3.14159265358979323846;
-  const auto direction = [&](double theta_deg, double phi_deg) {
-    const double t = theta_deg * kPi / 180.0, p = phi_deg * kPi / 180.0;
-    return glm::dvec3(std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t));
-  };
   glm::dvec3 peak(0.0);
   for (int ti = 0; ti <= 85; ti += 5) {
-    const glm::dvec3 wi = direction(ti, 180.0);
+    const glm::dvec3 wi = Direction(ti, 180.0);
     // Views over the hemisphere (fabrics peak at grazing, not at the mirror
     // direction), and at and near the mirror direction (sharp lobes).
     for (int to = 0; to <= 85; to += 5) {
-      for (int po = 0; po < 360; po += 15) peak = glm::max(peak, brdf.Evaluate(wi, direction(to, po)) * wi.z);
+      for (int po = 0; po < 360; po += 15) peak = glm::max(peak, brdf.Evaluate(wi, Direction(to, po)) * wi.z);
     }
     for (double d : {0.0, 0.5, 1.0, 2.0}) {
       for (double po : {0.0, 90.0, 180.0, 270.0}) {
-        const glm::dvec3 mirror = direction(ti, 0.0);
+        const glm::dvec3 mirror = Direction(ti, 0.0);
         const glm::dvec3 off = d > 0.0 ? glm::normalize(mirror + std::tan(d * kPi / 180.0) *
                                                                       glm::dvec3(std::cos(po * kPi / 180.0) * mirror.z,
                                                                                  std::sin(po * kPi / 180.0),
@@ -153,7 +153,6 @@ double PeakReflectance(const brdf::NeuralBrdf& brdf) {
 }
 
 double MeasuredGain(const brdf::NeuralBrdf& brdf, double kd_mean, double brightest_light) {
-  constexpr double kPi = 3.14159265358979323846;
   if (brightest_light > 0.0) {
     const double peak = PeakReflectance(brdf) * brightest_light;
     return peak > 0.0 ? 0.9 / peak : 1.0;
