@@ -55,13 +55,12 @@ expect "the service and the direct run agree" test \
   "$(json "$work/ggx/result.json" '[c["f0"] + c["roughness"] for c in d["clusters"]]')" = \
   "$(json "$work/ggx_direct/result.json" '[c["f0"] + c["roughness"] for c in d["clusters"]]')"
 
-# Against the truth. Measured (this sequence): GGX fit roughness errors
-# 0.004 / 0.005 / 0.003 and F0 errors 0.047 / 0.137 / 0.019 (cloth / skin /
-# hair; the lobe refitted with kd per texel: one kd per cluster left cloth's
-# F0 0.34 off, its textured red kd swamping an F0 of 0.04); kd RMSE GGX
-# 0.0157, Blinn-Phong 0.0170, Phong 0.0168. (Full size, 8 cameras x 12
-# frames: F0 0.031 / 0.008 / 0.005, roughness 0.005 / 0.023 / 0.001, kd RMSE
-# 0.0125.)
+# Against the truth. Measured (this sequence, GGX's Fresnel scaled by F0):
+# GGX fit roughness errors 0.005 / 0.012 / 0.002 and F0 errors 0.040 / 0.025 /
+# 0.019 (cloth / skin / hair; with F90 fixed at 1 they were 0.047 / 0.137 /
+# 0.019); kd RMSE GGX 0.0157, Blinn-Phong 0.0172, Phong 0.0171. (8 cameras x
+# 30 frames: F0 0.006 / 0.013 / 0.003, roughness 0.001 / 0.023 / 0.001, kd
+# RMSE 0.0113.)
 python3 - "$work" <<'PY'
 import json, sys
 work = sys.argv[1]
@@ -70,7 +69,7 @@ bad = []
 for c in e["ggx"]["clusters"]:
     if not c.get("parametersCompared"):
         bad.append("%s: GGX parameters not compared" % c["cluster"]); continue
-    f0_bound = {"cloth": 0.1, "skin": 0.2, "hair": 0.1}[c["material"]]
+    f0_bound = 0.08
     print("  GGX %s: F0 error %.3f, roughness error %.3f" % (c["cluster"], c["ksRelError"], c["keRelError"]))
     if c["keRelError"] > 0.1: bad.append("%s roughness error %.3f > 0.1" % (c["cluster"], c["keRelError"]))
     if c["ksRelError"] > f0_bound: bad.append("%s F0 error %.3f > %g" % (c["cluster"], c["ksRelError"], f0_bound))

@@ -4,7 +4,8 @@
 # clusters, ke and per-camera errors (Table 7.1, in image units), kd and ks
 # x 1/10 (f = I (kd g + ks h^ke): the model is linear in I kd and I ks). With
 # the per-texel kd prior in absolute units (0.1 pseudo-observations at G = 1)
-# the per-camera error changed by several per cent. The scaled copy gives its
+# the per-camera error changed by several per cent. GGX's F0 scales as ks
+# (intensity mode). The scaled copy gives its
 # material seeds as linearRgb x 1/10 (issue #13 item 8), the original as srgb8.
 # Usage: cli_units_test.sh MVBRDF_BINARY WORK_DIR [intensity|world|world-small]
 #   intensity (default): lights x10; world: the world x1000 (mesh vertices,
@@ -84,7 +85,7 @@ if [c["name"] for c in ca] != [c["name"] for c in cb]: bad.append("cluster names
 for x, y in zip(ca, cb):
     if abs(int(x.get("texels", 0)) - int(y.get("texels", 0))) > 0.001 * int(x.get("texels", 1)):
         bad.append("cluster %s: %s vs %s texels" % (x["name"], x.get("texels"), y.get("texels")))
-    for key, scale in (("ks", f), ("ke", 1.0), ("centre", f)):
+    for key, scale in (("ks", f), ("ke", 1.0), ("f0", f), ("roughness", 1.0), ("centre", f)):
         for u, v in zip(x.get(key, []), y.get(key, [])):
             if rel(u * scale, v) > 1e-3 and abs(u * scale - v) > 1e-6: bad.append("cluster %s %s: %g vs %g" % (x["name"], key, u, v))
 for x, y in zip(a["solvers"], b["solvers"]):
@@ -102,6 +103,19 @@ EOF_PY
 }
 expect "the $mode-scaled run: same clusters and ke, kd and ks x$kd_factor, per-camera error within 1e-3" \
   compare "$work/r_base" "$work/r_scaled" "$kd_factor"
+if [ "$mode" = intensity ]; then
+  # GGX too (issue #15): its F0 scales as ks does (its Fresnel curve is a
+  # dielectric's scaled by F0; with F90 fixed at 1 it could not follow).
+  check "run --brdf ggx on the original" 0 "wrote" -- \
+    "$bin" run --direct "$work/base/scene.json" "${run_opts[@]}" --brdf ggx --out "$work/g_base"
+  check "run --brdf ggx on the $mode-scaled copy" 0 "wrote" -- \
+    "$bin" run --direct "$work/scaled/scene.json" "${run_opts[@]}" --brdf ggx --out "$work/g_scaled"
+  expect "GGX: same clusters and roughness, kd and F0 x$kd_factor, per-camera error within 1e-3" \
+    compare "$work/g_base" "$work/g_scaled" "$kd_factor"
+  expect "GGX rows carry f0 (the comparison saw it)" python3 -c '
+import json, sys
+sys.exit(not all(len(c.get("f0", [])) == 3 for c in json.load(open(sys.argv[1]))["clusters"]))' "$work/g_base/result.json"
+fi
 # The original run against the truth, so that the invariance is not that of a broken fit.
 kd_rmse=$("$bin" evaluate "$work/r_base" --truth "$work/base" | python3 -c 'import json,sys; print(json.load(sys.stdin)["kdRmse"])')
 echo "     kd RMSE of the original run against the truth: $kd_rmse"

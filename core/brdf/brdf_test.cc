@@ -1,6 +1,7 @@
 // The BRDF models against their definitions: analytic Jacobians against
 // Ceres' numeric differentiation, hand-computed values, reciprocity, and the
 // energy they reflect (integrated over the hemisphere of light directions).
+#include <algorithm>
 #include <ceres/ceres.h>
 #include <ceres/gradient_checker.h>
 #include <gtest/gtest.h>
@@ -174,40 +175,79 @@ TEST(BrdfReciprocityTest, BlinnPhongAndGgxAreReciprocalPhongIsNot) {
   EXPECT_GT(phong_worst, 0.1);
 }
 
+// The integral over the hemisphere of directions l of f(geometry of l and
+// v), v at `view_angle` from n (midpoint rule in theta, phi).
+template <typename F>
+double OverHemisphere(double view_angle, int theta_steps, F f) {
+  const glm::dvec3 n(0, 0, 1), v(std::sin(view_angle), 0, std::cos(view_angle));
+  const int phi_steps = 2 * theta_steps;
+  double sum = 0;
+  for (int i = 0; i < theta_steps; ++i) {
+    const double theta = (i + 0.5) * (0.5 * kPi / theta_steps);
+    for (int j = 0; j < phi_steps; ++j) {
+      const double phi = (j + 0.5) * (2.0 * kPi / phi_steps);
+      const glm::dvec3 l(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+      sum += f(GeometryOf(n, l, v)) * std::sin(theta);
+    }
+  }
+  return sum * (0.5 * kPi / theta_steps) * (2.0 * kPi / phi_steps);
+}
+
 // Directional albedo: the radiance reflected towards v under unit radiance
 // from every direction, = integral over l of L(l, v) (L includes n.l).
 template <typename M>
 double Albedo(const double* p, double view_angle) {
-  const glm::dvec3 n(0, 0, 1), v(std::sin(view_angle), 0, std::cos(view_angle));
-  constexpr int kTheta = 600, kPhi = 1200;
-  double sum = 0;
-  for (int i = 0; i < kTheta; ++i) {
-    const double theta = (i + 0.5) * (0.5 * kPi / kTheta);
-    for (int j = 0; j < kPhi; ++j) {
-      const double phi = (j + 0.5) * (2.0 * kPi / kPhi);
-      const glm::dvec3 l(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
-      sum += M::Specular(p, GeometryOf(n, l, v), nullptr) * std::sin(theta);
-    }
-  }
-  return sum * (0.5 * kPi / kTheta) * (2.0 * kPi / kPhi);
+  return OverHemisphere(view_angle, 600, [&](const Geometry& g) { return M::Specular(p, g, nullptr); });
 }
+
+// The diffuse part's directional albedo for kd = 1 / pi (a white Lambertian
+// surface): integral over l of W(l, v) n.l / pi.
+template <typename M>
+double DiffuseAlbedo(const double* p, double view_angle) {
+  return OverHemisphere(view_angle, 300,
+                        [&](const Geometry& g) { return M::DiffuseWeight(p, g, nullptr) * g.n_dot_l / kPi; });
+}
+
+// GGX's lobe with F = 1 (n.l D V): its Specular over F = F0 (1 + (1 / kF0 -
+// 1) (1 - v.h)^5).
+struct GgxUnitFresnel {
+  static double Specular(const double* p, const Geometry& g, double*) {
+    const double m = 1.0 - std::clamp(g.v_dot_h, 0.0, 1.0);
+    const double f = p[0] * (1.0 + (1.0 / Ggx::kF0 - 1.0) * m * m * m * m * m);
+    return f > 0.0 ? Ggx::Specular(p, g, nullptr) / f : 0.0;
+  }
+};
 
 TEST(BrdfEnergyTest, NormalisedModelsReflectAtMostWhatArrives) {
   const double deg = kPi / 180.0;
-  const double blinn[] = {1.0, 40.0}, ggx_rough[] = {1.0, 0.5}, ggx_smooth[] = {1.0, 0.3};
+  const double blinn[] = {1.0, 40.0}, ggx_rough[] = {Ggx::kF0, 0.5}, ggx_smooth[] = {Ggx::kF0, 0.3};
   for (double view : {0.0, 30.0, 60.0, 80.0}) {
     const double b = Albedo<BlinnPhong>(blinn, view * deg);
-    const double r = Albedo<Ggx>(ggx_rough, view * deg), s = Albedo<Ggx>(ggx_smooth, view * deg);
-    std::printf("view %2.0f deg: albedo Blinn-Phong (ks 1, ke 40) %.6f, GGX (F0 1) roughness 0.5 %.6f, 0.3 %.6f\n",
-                view, b, r, s);
+    // GGX's lobe with F = 1 (the most it can reflect), and at F0 = kF0 (F90 =
+    // 1, a dielectric of index 1.5) specular and diffuse weight apart (glTF's
+    // sum of the two, kd = 1 / pi, exceeds 1 at grazing views: 1.22 at 80
+    // degrees, roughness 0.3; the model's, not this code's).
+    const double r = Albedo<GgxUnitFresnel>(ggx_rough, view * deg);
+    const double s = Albedo<GgxUnitFresnel>(ggx_smooth, view * deg);
+    const double sf = Albedo<Ggx>(ggx_smooth, view * deg), d = DiffuseAlbedo<Ggx>(ggx_smooth, view * deg);
+    std::printf("view %2.0f deg: albedo Blinn-Phong (ks 1, ke 40) %.6f, GGX (F 1) roughness 0.5 %.6f, 0.3 %.6f; "
+                "F0 0.04: specular %.6f, diffuse (kd 1/pi) %.6f\n",
+                view, b, r, s, sf, d);
     EXPECT_LE(b, 1.0 + kQuadratureError) << view;
     EXPECT_LE(r, 1.0 + kQuadratureError) << view;
     EXPECT_LE(s, 1.0 + kQuadratureError) << view;
+    EXPECT_LE(sf, s) << view;
+    EXPECT_LE(d, 1.0 - Ggx::kF0 + kQuadratureError) << view;
   }
   // Not far below either (a factor lost in D or V would show): single
   // scattering loses a few percent at these roughnesses.
-  EXPECT_GT(Albedo<Ggx>(ggx_smooth, 0.0), 0.9);
+  EXPECT_GT(Albedo<GgxUnitFresnel>(ggx_smooth, 0.0), 0.9);
   EXPECT_GT(Albedo<BlinnPhong>(blinn, 0.0), 0.9);
+  // The lobe's scale is F0's: twice F0, twice the specular albedo (the model
+  // is linear in it, ggx.h), the diffuse weight unchanged.
+  const double ggx_double[] = {2.0 * Ggx::kF0, 0.3};
+  EXPECT_NEAR(Albedo<Ggx>(ggx_double, 30.0 * deg), 2.0 * Albedo<Ggx>(ggx_smooth, 30.0 * deg), 1e-12);
+  EXPECT_DOUBLE_EQ(DiffuseAlbedo<Ggx>(ggx_double, 30.0 * deg), DiffuseAlbedo<Ggx>(ggx_smooth, 30.0 * deg));
   // The thesis's lobe is not normalised: ks 1, ke 40 reflects far less than
   // a white surface would.
   const double phong[] = {1.0, 40.0};

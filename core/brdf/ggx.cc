@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace mvbrdf::brdf {
 namespace {
@@ -15,10 +16,13 @@ double SchlickWeight(const Geometry& geometry) {
   return m2 * m2 * m;
 }
 
+// F / F0 at Schlick weight w: 1 + (1 / kF0 - 1) w.
+double FresnelShape(double w) { return 1.0 + (1.0 / Ggx::kF0 - 1.0) * w; }
+
 }  // namespace
 
 const std::array<Parameter, Ggx::kNumParameters>& Ggx::Parameters() {
-  static const std::array<Parameter, kNumParameters> parameters = {{{"f0", 0.0, 1.0}, {"roughness", 0.02, 1.0}}};
+  static const std::array<Parameter, kNumParameters> parameters = {{{"f0", 0.0, std::numeric_limits<double>::infinity()}, {"roughness", 0.02, 1.0}}};
   return parameters;
 }
 
@@ -40,23 +44,21 @@ double Ggx::Specular(const double* p, const Geometry& geometry, double* jacobian
   const double v = 0.5 / s;
   const double ds_da = nl1 * a * (1.0 - nv1 * nv1) / root_v + nv1 * a * (1.0 - nl1 * nl1) / root_l;
   const double dv_da = -0.5 * ds_da / (s * s);
-  // F.
-  const double w = SchlickWeight(geometry);
-  const double f = f0 + (1.0 - f0) * w;
+  // F = F0 (1 + (1 / kF0 - 1) w): the dielectric's Fresnel curve scaled.
+  const double dfdf0 = FresnelShape(SchlickWeight(geometry));
+  const double f = f0 * dfdf0;
   if (jacobian != nullptr) {
-    jacobian[0] = nl * (1.0 - w) * d * v;
+    jacobian[0] = nl * dfdf0 * d * v;
     jacobian[1] = nl * f * (dd_da * v + d * dv_da) * 2.0 * roughness;
   }
   return nl * f * d * v;
 }
 
-double Ggx::DiffuseWeight(const double* p, const Geometry& geometry, double* jacobian) {
-  const double w = SchlickWeight(geometry);
-  if (jacobian != nullptr) {
-    jacobian[0] = -(1.0 - w);
-    jacobian[1] = 0.0;
-  }
-  return 1.0 - (p[0] + (1.0 - p[0]) * w);
+double Ggx::DiffuseWeight(const double*, const Geometry& geometry, double* jacobian) {
+  if (jacobian != nullptr) jacobian[0] = jacobian[1] = 0.0;
+  // 1 - F / F90: what the surface does not reflect specularly, a fraction
+  // (independent of the data's units, so of F0).
+  return 1.0 - kF0 * FresnelShape(SchlickWeight(geometry));
 }
 
 }  // namespace mvbrdf::brdf

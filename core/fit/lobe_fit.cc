@@ -36,10 +36,6 @@ ModelFunctions FunctionsOf(BrdfModel model) {
   return {&brdf::Phong::Specular, &brdf::Phong::DiffuseWeight};
 }
 
-// The lobe scale (ks) is linear and in the data's units for Phong and
-// Blinn-Phong; GGX's first parameter is F0, a reflectance.
-bool HasLobeScale(BrdfModel model) { return model != BrdfModel::kGgx; }
-
 // The terms of the used samples, shared by the channels: per term the light,
 // g, a and the geometry.
 struct Terms {
@@ -77,20 +73,21 @@ double ModelDiffuseWeight(BrdfModel model, const std::array<double, 2>& p, const
 namespace {
 
 // The solver's parameters x = (kd / A, s0, s1): s0 = ks / A (Phong,
-// Blinn-Phong) or F0 (GGX); s1 = ln ke or the roughness.
+// Blinn-Phong) or F0 / A (GGX; every model's first parameter is its lobe's
+// scale, in the data's units); s1 = ln ke or the roughness.
 struct Scaling {
   BrdfModel model;
   double albedo = 1.0;  // A
   LobeChannel ToChannel(const double* x) const {
     LobeChannel c;
     c.kd = x[0] * albedo;
-    c.p[0] = HasLobeScale(model) ? x[1] * albedo : x[1];
+    c.p[0] = x[1] * albedo;
     c.p[1] = model == BrdfModel::kGgx ? x[2] : std::exp(x[2]);
     return c;
   }
   // d(model parameter) / d(solver parameter) for p[0], p[1].
   std::array<double, 2> Chain(const double* x) const {
-    return {HasLobeScale(model) ? albedo : 1.0, model == BrdfModel::kGgx ? 1.0 : std::exp(x[2])};
+    return {albedo, model == BrdfModel::kGgx ? 1.0 : std::exp(x[2])};
   }
 };
 
@@ -152,20 +149,13 @@ double Cost(const ModelFunctions& m, const Terms& t, const std::vector<double>& 
   return cost;
 }
 
-// The best x on a grid of shapes (and F0), kd and ks by least squares.
+// The best x on a grid of shapes, kd and the lobe's scale by least squares.
 std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, const Terms& t,
                                    const std::vector<double>& intensity, const std::vector<double>& r,
                                    const Scaling& scaling, const double* lower, const double* upper) {
-  std::vector<double> shapes, f0s = {0.0};
+  std::vector<double> shapes;
   if (model == BrdfModel::kGgx) {
     shapes = {0.02, 0.035, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85, 1.0};
-    // GGX is linear in kd' = kd (1 - F0) and F0 at a fixed roughness:
-    // r ~ kd' D + S0 + F0 S1 (D the diffuse regressor at F0 = 0, S0 the
-    // specular at F0 = 0, S1 its increase to F0 = 1), so F0 is solved at
-    // each roughness, at whatever scale the data's units give it (a grid of
-    // F0 from 0.02 missed an F0 of 5e-4: a glossy material exposed for its
-    // highlights).
-    f0s = {-1.0};
   } else {
     const double ke_top = model == BrdfModel::kBlinnPhong ? 20000.0 : 5000.0;
     for (double ke = 2.0; ke <= ke_top; ke *= 1.6) shapes.push_back(std::log(ke));
@@ -174,84 +164,40 @@ std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, con
   double best_cost = std::numeric_limits<double>::infinity();
   for (double shape : shapes) {
     shape = std::clamp(shape, lower[2], upper[2]);
-    for (double f0 : f0s) {
-      // Diffuse and specular regressors at kd = 1 and (ks = 1 | F0 = f0).
-      double x_unit[3] = {0.0, HasLobeScale(model) ? 1.0 : f0, shape};
-      double sdd = 0, sds = 0, sss = 0, sdr = 0, ssr = 0;
-      for (size_t s = 0; s < t.size(); ++s) {
-        x_unit[0] = 0.0;
-        const double spec = ModelValue(m, t, intensity, s, scaling, x_unit, nullptr);
-        x_unit[0] = 1.0;
-        const double diffuse = ModelValue(m, t, intensity, s, scaling, x_unit, nullptr) - spec;
-        sdd += diffuse * diffuse;
-        sds += diffuse * spec;
-        sss += spec * spec;
-        sdr += diffuse * r[s];
-        ssr += spec * r[s];
-      }
-      double kd = 0.0, ks = 1.0;
-      if (f0 < 0.0) {  // GGX: kd' and F0 by least squares on r - S0
-        double x0[3] = {0.0, 0.0, shape}, x1[3] = {0.0, 1.0, shape}, xd[3] = {1.0, 0.0, shape};
-        double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
-        for (size_t s = 0; s < t.size(); ++s) {
-          const double s0 = ModelValue(m, t, intensity, s, scaling, x0, nullptr);
-          const double s1 = ModelValue(m, t, intensity, s, scaling, x1, nullptr) - s0;
-          const double d = ModelValue(m, t, intensity, s, scaling, xd, nullptr) - s0;
-          const double y = r[s] - s0;
-          a11 += d * d;
-          a12 += d * s1;
-          a22 += s1 * s1;
-          b1 += d * y;
-          b2 += s1 * y;
-        }
-        double kd_prime = 0.0, f = 0.0;
-        const double det = a11 * a22 - a12 * a12;
-        if (det > 1e-300) {
-          kd_prime = (b1 * a22 - b2 * a12) / det;
-          f = (b2 * a11 - b1 * a12) / det;
-        }
-        if (!(f >= 0.0)) {
-          f = 0.0;
-          kd_prime = a11 > 0.0 ? b1 / a11 : 0.0;
-        }
-        if (!(kd_prime >= 0.0)) {
-          kd_prime = 0.0;
-          f = a22 > 0.0 ? std::max(0.0, b2 / a22) : 0.0;
-        }
-        f = std::clamp(f, lower[1], upper[1]);
-        kd = f < 1.0 ? kd_prime / (1.0 - f) : 0.0;
-        const std::array<double, 3> x = {std::clamp(kd, lower[0], upper[0]), f, shape};
-        const double cost = Cost(m, t, intensity, r, scaling, x.data());
-        if (cost < best_cost) {
-          best_cost = cost;
-          best = x;
-        }
-        continue;
-      }
-      if (HasLobeScale(model)) {
-        const double det = sdd * sss - sds * sds;
-        if (det > 1e-300) {
-          kd = (sdr * sss - ssr * sds) / det;
-          ks = (ssr * sdd - sdr * sds) / det;
-        }
-        if (!(ks >= 0.0)) {  // the lobe only where it helps
-          ks = 0.0;
-          kd = sdd > 0.0 ? sdr / sdd : 0.0;
-        }
-        if (!(kd >= 0.0)) {
-          kd = 0.0;
-          ks = sss > 0.0 ? std::max(0.0, ssr / sss) : 0.0;
-        }
-      } else {
-        kd = sdd > 0.0 ? std::max(0.0, (sdr - sds) / sdd) : 0.0;  // r ~ kd D + S
-      }
-      const std::array<double, 3> x = {std::clamp(kd, lower[0], upper[0]),
-                                       HasLobeScale(model) ? std::clamp(ks, lower[1], upper[1]) : f0, shape};
-      const double cost = Cost(m, t, intensity, r, scaling, x.data());
-      if (cost < best_cost) {
-        best_cost = cost;
-        best = x;
-      }
+    // Diffuse and specular regressors at kd = 1 and a lobe scale of 1 (every
+    // model's diffuse weight is independent of that scale).
+    double x_unit[3] = {0.0, 1.0, shape};
+    double sdd = 0, sds = 0, sss = 0, sdr = 0, ssr = 0;
+    for (size_t s = 0; s < t.size(); ++s) {
+      x_unit[0] = 0.0;
+      const double spec = ModelValue(m, t, intensity, s, scaling, x_unit, nullptr);
+      x_unit[0] = 1.0;
+      const double diffuse = ModelValue(m, t, intensity, s, scaling, x_unit, nullptr) - spec;
+      sdd += diffuse * diffuse;
+      sds += diffuse * spec;
+      sss += spec * spec;
+      sdr += diffuse * r[s];
+      ssr += spec * r[s];
+    }
+    double kd = 0.0, ks = 1.0;
+    const double det = sdd * sss - sds * sds;
+    if (det > 1e-300) {
+      kd = (sdr * sss - ssr * sds) / det;
+      ks = (ssr * sdd - sdr * sds) / det;
+    }
+    if (!(ks >= 0.0)) {  // the lobe only where it helps
+      ks = 0.0;
+      kd = sdd > 0.0 ? sdr / sdd : 0.0;
+    }
+    if (!(kd >= 0.0)) {
+      kd = 0.0;
+      ks = sss > 0.0 ? std::max(0.0, ssr / sss) : 0.0;
+    }
+    const std::array<double, 3> x = {std::clamp(kd, lower[0], upper[0]), std::clamp(ks, lower[1], upper[1]), shape};
+    const double cost = Cost(m, t, intensity, r, scaling, x.data());
+    if (cost < best_cost) {
+      best_cost = cost;
+      best = x;
     }
   }
   return best;
@@ -397,15 +343,13 @@ absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet&
     double lower[3], upper[3];
     lower[0] = 0.0;
     upper[0] = options.kd_max;
+    lower[1] = 0.0;
+    upper[1] = options.ks_max;
     if (model == BrdfModel::kGgx) {
       const auto& p = brdf::Ggx::Parameters();
-      lower[1] = p[0].lower;
-      upper[1] = p[0].upper;
       lower[2] = p[1].lower;
       upper[2] = p[1].upper;
     } else {
-      lower[1] = 0.0;
-      upper[1] = options.ks_max;
       lower[2] = std::log(options.ke_min);
       // A half-vector exponent is ~4x the mirror one of the same lobe.
       upper[2] = std::log(model == BrdfModel::kBlinnPhong ? 4.0 * options.ke_max : options.ke_max);

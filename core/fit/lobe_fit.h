@@ -6,20 +6,17 @@
 // with G_ik the geometry of sample i and light k (core/brdf/geometry.h: n.l =
 // g_ik / a_k, n.v, n.h, v.h from the Samples' half-vector geometry, R(l).v =
 // h_ik), S the model's specular radiance per unit intensity (brdf::Phong,
-// BlinnPhong, Ggx ::Specular), W its diffuse weight (1, or GGX's 1 - F), g_ik
-// and a_k as in SampleSet (visibility and fall-off folded into g).
+// BlinnPhong, Ggx ::Specular), W its diffuse weight (1, or GGX's 1 - F / F90:
+// no parameter's), g_ik and a_k as in SampleSet (visibility and fall-off
+// folded into g).
 //
-// Units: kd, and the lobe scale ks of Phong and Blinn-Phong, are solved in
-// units of the data's albedo scale A = rms(r) / rms(G) (as FitPhong), so that
-// scaling every I_k by s scales them by exactly 1/s. GGX's F0 is a
-// reflectance (the glTF meaning): it is fitted in the scene's own units, i.e.
-// where the lights' intensities and the images are in one unit (the
-// generator's bundles, a capture with measured lights). In other units F0
-// scales with them up to its bound 1 (flagged at_bound): a scene-level
-// radiometric scale is what would remove that (noted in issue #15).
+// Units: kd and every model's lobe scale (Phong's and Blinn-Phong's ks, GGX's
+// F0: ggx.h's F scales with it) are solved in units of the data's albedo
+// scale A = rms(r) / rms(G) (as FitPhong), so that scaling every I_k by s
+// scales them by exactly 1/s, and the shape (ke, roughness) not at all.
 //
-// The solve: a grid over the model's shape parameter (ke or roughness; F0
-// too for GGX) with kd and ks by linear least squares starts Ceres'
+// The solve: a grid over the model's shape parameter (ke or roughness) with kd
+// and the lobe's scale by linear least squares starts Ceres'
 // Levenberg-Marquardt with the models' analytic Jacobians (ke as ln ke).
 #ifndef MVBRDF_CORE_FIT_LOBE_FIT_H_
 #define MVBRDF_CORE_FIT_LOBE_FIT_H_

@@ -61,10 +61,6 @@ Prepared Prepare(const samples::SampleSet& set, const samples::LightSelection& s
   return p;
 }
 
-// W(p0) / W(0): the factor between the texels' kd and the kd' they are
-// solved for (1 for Phong and Blinn-Phong, 1 - F0 for GGX).
-double DiffuseScale(BrdfModel model, double p0) { return model == BrdfModel::kGgx ? 1.0 - p0 : 1.0; }
-
 // One channel at one shape: the regressors of every Sample, then the
 // variable-projection solve.
 class ChannelProblem {
@@ -76,7 +72,7 @@ class ChannelProblem {
     double p0 = 0.0;
     double cost = 0.0;
     double information = 0.0;
-    double kd = 0.0;  // the cluster's kd (not kd')
+    double kd = 0.0;  // the cluster's kd
   };
 
   // At `shape` with p0 solved (fixed_p0 < 0) or given.
@@ -114,8 +110,7 @@ class ChannelProblem {
       gc += t.c - e.p0 * t.b;
     }
     e.cost = 0.5 * std::max(0.0, cost);
-    const double scale = DiffuseScale(model_, e.p0);
-    e.kd = ga > 0.0 && scale > 0.0 ? std::max(0.0, gc / ga) / scale : 0.0;
+    e.kd = ga > 0.0 ? std::max(0.0, gc / ga) : 0.0;
     return e;
   }
 
@@ -214,7 +209,7 @@ absl::StatusOr<LobeTexelKdResult> FitModelLobeWithTexelKd(BrdfModel model, const
     }
     if (!(gg > 0.0)) continue;
     const double albedo_scale = rr > 0.0 ? std::sqrt(rr / gg) : 1.0;
-    const double p0_max = ggx ? 0.999 : options.ks_max * albedo_scale;
+    const double p0_max = options.ks_max * albedo_scale;
     ChannelProblem problem(model, p, set.light_intensity, c, p0_max);
     const double shape0 = ggx ? std::clamp(initial[c].p[1], lo, hi) : std::clamp(initial[c].p[1], std::exp(lo), std::exp(hi));
     const double p00 = std::clamp(initial[c].p[0], 0.0, p0_max);

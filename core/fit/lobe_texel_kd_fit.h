@@ -5,16 +5,17 @@
 // Every model of core/brdf is linear in kd and in its first parameter p0 once
 // its second (the shape: ke, or GGX's roughness) is fixed:
 //
-//   r_i  ~  kd'_t G_i + p0 S1_i + S0_i,
-//   G_i  = sum_k I_k W(0; k) g_k,        kd' = kd W(p0) / W(0),
+//   r_i  ~  kd_t G_i + p0 S1_i + S0_i,
+//   G_i  = sum_k I_k W(k) g_k,
 //   S1_i = sum_k I_k a_k (S(1; k) - S(0; k)),   S0_i = sum_k I_k a_k S(0; k)
 //
 // with S(p0; k) the model's specular term and W its diffuse weight at
-// (p0, shape): for Phong and Blinn-Phong W = 1 and S(0) = 0 (p0 = ks); for
-// GGX p0 = F0, W(F0) = (1 - F0)(1 - w), S(F0) = F D V n.l with
-// F = F0 + (1 - F0) w, w = (1 - v.h)^5. So kd'_t is eliminated in closed
-// form per texel and p0 solves one normal equation (variable projection), and
-// the shape is searched on a grid, then by golden section. The refined lobe
+// (p0, shape), which no model's p0 changes (W = 1 for Phong and Blinn-Phong;
+// GGX's 1 - F / F90 = 0.96 (1 - (1 - v.h)^5), ggx.h), and S(0) = 0 for every
+// model of core/brdf (S0 kept for one that has a fixed part). So kd_t is
+// eliminated in closed form per texel and p0 solves one normal equation
+// (variable projection), and the shape is searched on a grid, then by golden
+// section. The refined lobe
 // replaces the initial one per channel only when it predicts held-out frames
 // (odd from even and back, kd per texel from the other frames) at least as
 // well.
@@ -32,7 +33,7 @@ namespace mvbrdf::fit {
 struct LobeTexelKdOptions {
   // Bounds of the shape (ke for Phong and Blinn-Phong, searched in ln ke;
   // GGX's roughness within its own bounds) and of ks (in units of the data's
-  // albedo scale, as LobeFitOptions); F0 stays in [0, 1).
+  // albedo scale, as LobeFitOptions; GGX's F0 as well).
   double ke_min = 1.0;
   double ke_max = 1e4;
   double ks_max = 10.0;

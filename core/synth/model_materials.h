@@ -8,7 +8,9 @@
 //                 ke_half = 4 ke (a half-vector lobe as wide as the mirror
 //                 lobe of exponent ke; shared/NOTES.md).
 //   ggx:          F0 = ((ior - 1) / (ior + 1))^2 per the material's index of
-//                 refraction (all three presets' materials are dielectrics),
+//                 refraction (all three presets' materials are dielectrics;
+//                 ggx.h's Fresnel curve is an index-1.5 dielectric's scaled
+//                 by F0, so F90 = F0 / 0.04: 0.7 for skin, 1.18 for hair),
 //                 roughness = (2 / (ke_half + 2))^(1/4), the GGX width whose
 //                 alpha^2 = 2 / (ke_half + 2) matches that Blinn-Phong lobe
 //                 (Walter et al. 2007's correspondence).
