@@ -1,11 +1,12 @@
 // The BRDF models against their definitions: analytic Jacobians against
 // Ceres' numeric differentiation, hand-computed values, reciprocity, and the
 // energy they reflect (integrated over the hemisphere of light directions).
-#include <algorithm>
 #include <ceres/ceres.h>
 #include <ceres/gradient_checker.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <glm/glm.hpp>
 #include <random>
@@ -15,6 +16,7 @@
 #include "core/brdf/model.h"
 #include "core/brdf/geometry.h"
 #include "core/brdf/ggx.h"
+#include "core/brdf/ggx_equivalent.h"
 #include "core/brdf/phong.h"
 
 namespace mvbrdf::brdf {
@@ -264,6 +266,28 @@ TEST(BrdfModelTest, Names) {
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message().find("phong, blinn-phong, ggx"), absl::string_view::npos);
   EXPECT_EQ(std::string(ParameterNames(Model::kGgx)[1]), "roughness");
+}
+
+// The glTF export's GGX of any model (ggx_equivalent.h): GGX itself
+// unchanged; Phong and Blinn-Phong at the same head-on peak, with the width
+// rule of synth --brdf ggx (roughness^4 = 2 / (ke_half + 2)).
+TEST(GgxEquivalentTest, SamePeakHeadOnAndTheWidthRule) {
+  const std::array<double, 2> ggx = {0.03, 0.4};
+  EXPECT_EQ(GgxEquivalent(Model::kGgx, ggx), ggx);
+  const glm::dvec3 n(0, 0, 1);
+  const Geometry head_on = GeometryOf(n, n, n);
+  for (Model model : {Model::kPhong, Model::kBlinnPhong}) {
+    const std::array<double, 2> p = {0.2, 30.0};
+    const std::array<double, 2> g = GgxEquivalent(model, p);
+    const double ke_half = model == Model::kPhong ? 4.0 * p[1] : p[1];
+    EXPECT_NEAR(g[1], std::pow(2.0 / (ke_half + 2.0), 0.25), 1e-12) << ModelName(model);
+    const double peak = model == Model::kPhong ? Phong::Specular(p.data(), head_on, nullptr)
+                                               : BlinnPhong::Specular(p.data(), head_on, nullptr);
+    EXPECT_NEAR(Ggx::Specular(g.data(), head_on, nullptr), peak, 1e-12 * peak) << ModelName(model);
+  }
+  // Widths beyond GGX's bounds clamp to them.
+  EXPECT_EQ(GgxEquivalent(Model::kBlinnPhong, {0.1, 1e9})[1], Ggx::Parameters()[1].lower);
+  EXPECT_EQ(GgxEquivalent(Model::kBlinnPhong, {0.1, 0.0})[1], Ggx::Parameters()[1].upper);
 }
 
 }  // namespace

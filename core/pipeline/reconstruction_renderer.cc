@@ -11,6 +11,7 @@
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/image/exr.h"
+#include "core/pipeline/run_atlases.h"
 #include "core/synth/frame_encoder.h"
 #include "mvbrdf/v1/run_report.pb.h"
 
@@ -82,45 +83,15 @@ void ForEachPixelUv(const cv::Mat& triangle_ids, const scene::CameraModel& camer
 absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::Open(
     const std::filesystem::path& run_dir, const scene::Sequence& sequence, gl::EglContext& context) {
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
-  atlas::AtlasOptions atlas_options;
-  atlas_options.size = static_cast<int>(run.atlas().size());
-  MVBRDF_ASSIGN_OR_RETURN(atlas::Atlas atlas,
-                          atlas::BuildAtlas(sequence.topology, sequence.rest_positions, atlas_options));
-  MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage ids, image::ReadExr(run_dir / "atlas" / "triangle_id.exr"));
-  if (ids.image.size() != atlas.triangle_id.size() || cv::norm(ids.image, atlas.triangle_id, cv::NORM_INF) != 0) {
-    return absl::FailedPreconditionError(
-        absl::StrCat(run_dir.string(), "/atlas/triangle_id.exr: the run's atlas differs from the one built now"));
-  }
+  MVBRDF_ASSIGN_OR_RETURN(atlas::Atlas atlas, OpenRunAtlas(run_dir, run, sequence));
+  MVBRDF_ASSIGN_OR_RETURN(RunAtlases atlases, ReadRunAtlases(run_dir, run));
   auto r = std::unique_ptr<ReconstructionRenderer>(new ReconstructionRenderer(run_dir, sequence, std::move(atlas)));
-  MVBRDF_ASSIGN_OR_RETURN(r->kd_, ReadRgb(run_dir / "atlases" / "kd.exr"));
-  // The model's two parameter atlases (issue #15: ks, ke; GGX's f0, roughness).
-  brdf::Model model = brdf::Model::kPhong;
-  const bool per_texel_model = run.brdf() == "auto";  // --brdf auto: model.png, parameter_1, parameter_2
-  if (!run.brdf().empty() && !per_texel_model) {
-    absl::StatusOr<brdf::Model> parsed = brdf::ParseModel(run.brdf());
-    if (!parsed.ok()) {
-      return absl::FailedPreconditionError(
-          absl::StrCat(run_dir.string(), "/result.json: brdf: ", parsed.status().message()));
-    }
-    model = *parsed;
-  }
-  const std::array<std::string, 2> names =
-      per_texel_model ? std::array<std::string, 2>{"parameter_1", "parameter_2"}
-                      : std::array<std::string, 2>{brdf::ParameterNames(model)[0], brdf::ParameterNames(model)[1]};
-  MVBRDF_ASSIGN_OR_RETURN(r->ks_, ReadRgb(run_dir / "atlases" / absl::StrCat(names[0], ".exr")));
-  MVBRDF_ASSIGN_OR_RETURN(r->ke_, ReadRgb(run_dir / "atlases" / absl::StrCat(names[1], ".exr")));
-  if (per_texel_model) {
-    const std::filesystem::path file = run_dir / "atlases" / "model.png";
-    r->model_ = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
-    if (r->model_.empty() || r->model_.size() != r->kd_.size()) {
-      return absl::FailedPreconditionError(
-          absl::StrCat(file.string(), ": missing, unreadable or not the kd atlas's size (--brdf auto's model atlas)"));
-    }
-    // Texels of no cluster (255) draw as Phong with the parameters 0 there.
-    for (auto it = r->model_.begin<uint8_t>(); it != r->model_.end<uint8_t>(); ++it) {
-      if (*it >= brdf::kModels.size()) *it = static_cast<uint8_t>(brdf::Model::kPhong);
-    }
-  }
+  const brdf::Model model = atlases.model;
+  r->kd_ = atlases.kd;
+  r->ks_ = atlases.p1;
+  r->ke_ = atlases.p2;
+  r->model_ = atlases.model_atlas;
+  r->confidence_ = atlases.confidence;
   render::RenderMesh& mesh = r->mesh_;
   mesh.triangles = r->atlas_.topology.triangles;
   mesh.uvs = r->atlas_.topology.uvs;
@@ -177,14 +148,6 @@ absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel&
     });
   }
   if (extras.observed != nullptr) {
-    if (confidence_.empty()) {
-      MVBRDF_ASSIGN_OR_RETURN(image::ExrImage c, image::ReadExr(run_dir_ / "atlases" / "confidence.exr"));
-      if (c.image.type() != CV_32FC1 || c.image.size() != kd_.size()) {
-        return absl::InvalidArgumentError(
-            absl::StrCat((run_dir_ / "atlases" / "confidence.exr").string(), ": expected one channel, kd's size"));
-      }
-      confidence_ = c.image;
-    }
     cv::Mat observed(image.radiance.size(), CV_8UC1, cv::Scalar(0));
     ForEachPixelUv(ids, camera, mesh_, pose, [&](int x, int y, const glm::dvec2& uv) {
       const int i = std::clamp(static_cast<int>(std::floor(uv.x * confidence_.cols)), 0, confidence_.cols - 1);

@@ -59,7 +59,7 @@ class ReconstructionRenderer {
   const atlas::Atlas atlas_;
   cv::Mat kd_, ks_, ke_;
   cv::Mat confidence_;
-  cv::Mat model_;  // --brdf auto: the per-texel model (CV_8UC1), else empty  // read when Extras::observed is first asked for
+  cv::Mat model_;  // --brdf auto: the per-texel model (CV_8UC1), else empty
   cv::Mat corrected_kd_;  // kd + the last correction atlas rendered
   render::RenderMesh mesh_;
   bool with_correction_ = false;  // the renderer's kd currently includes a correction atlas

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "core/brdf/ggx_equivalent.h"
+
 namespace mvbrdf::synth {
 
 std::pair<glm::vec3, glm::vec3> ModelParametersOf(brdf::Model model, const StudioMaterial& material) {
@@ -13,7 +15,9 @@ std::pair<glm::vec3, glm::vec3> ModelParametersOf(brdf::Model model, const Studi
     case brdf::Model::kGgx: {
       const float r = (material.ior - 1.0f) / (material.ior + 1.0f);
       glm::vec3 roughness;
-      for (int c = 0; c < 3; ++c) roughness[c] = std::pow(2.0f / (4.0f * material.ke[c] + 2.0f), 0.25f);
+      for (int c = 0; c < 3; ++c) {
+        roughness[c] = static_cast<float>(brdf::GgxRoughnessOfHalfVectorExponent(4.0 * material.ke[c]));
+      }
       return {glm::vec3(r * r), roughness};
     }
   }

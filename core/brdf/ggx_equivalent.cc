@@ -1,0 +1,31 @@
+#include "core/brdf/ggx_equivalent.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/brdf/blinn_phong.h"
+#include "core/brdf/geometry.h"
+#include "core/brdf/ggx.h"
+#include "core/brdf/phong.h"
+
+namespace mvbrdf::brdf {
+
+double GgxRoughnessOfHalfVectorExponent(double ke_half) {
+  const auto& bounds = Ggx::Parameters()[1];
+  if (!(ke_half > -2.0)) return bounds.upper;
+  return std::clamp(std::pow(2.0 / (ke_half + 2.0), 0.25), bounds.lower, bounds.upper);
+}
+
+std::array<double, 2> GgxEquivalent(Model model, const std::array<double, 2>& p) {
+  if (model == Model::kGgx) return p;
+  const double roughness = GgxRoughnessOfHalfVectorExponent(model == Model::kPhong ? 4.0 * p[1] : p[1]);
+  const glm::dvec3 n(0.0, 0.0, 1.0);
+  const Geometry head_on = GeometryOf(n, n, n);
+  const double peak = model == Model::kPhong ? Phong::Specular(p.data(), head_on, nullptr)
+                                             : BlinnPhong::Specular(p.data(), head_on, nullptr);
+  const double unit[2] = {1.0, roughness};
+  const double ggx_peak = Ggx::Specular(unit, head_on, nullptr);
+  return {ggx_peak > 0.0 ? std::max(0.0, peak / ggx_peak) : 0.0, roughness};
+}
+
+}  // namespace mvbrdf::brdf

@@ -1,0 +1,30 @@
+// Any model's lobe as the GGX lobe of ggx.h that resembles it most simply
+// (issue #16: the glTF export speaks GGX only), per colour channel:
+//
+//   roughness: the lobe's width. Blinn-Phong's exponent ke maps to GGX's
+//     alpha^2 = 2 / (ke + 2) (Walter et al. 2007), roughness = alpha^(1/2);
+//     the thesis's mirror lobe of exponent ke is about as wide as a half-vector
+//     lobe of exponent 4 ke (shared/NOTES.md). Clamped to GGX's bounds.
+//   F0: the peak, matched head on (light and view along the normal, h = n),
+//     F0 = S_model(p; head on) / S_ggx(F0 = 1, roughness; head on).
+//
+// GGX itself maps to itself. `synth --brdf ggx` converts its Phong presets by
+// the same width rule (core/synth/model_materials.h).
+#ifndef MVBRDF_CORE_BRDF_GGX_EQUIVALENT_H_
+#define MVBRDF_CORE_BRDF_GGX_EQUIVALENT_H_
+
+#include <array>
+
+#include "core/brdf/model.h"
+
+namespace mvbrdf::brdf {
+
+// GGX's roughness of a Blinn-Phong (half-vector) exponent, within GGX's bounds.
+double GgxRoughnessOfHalfVectorExponent(double ke_half);
+
+// {F0, roughness} of the model's parameters {p0, p1} (ParameterNames' order).
+std::array<double, 2> GgxEquivalent(Model model, const std::array<double, 2>& p);
+
+}  // namespace mvbrdf::brdf
+
+#endif  // MVBRDF_CORE_BRDF_GGX_EQUIVALENT_H_

@@ -1,0 +1,44 @@
+// What a reconstruction (the output directory of `mvbrdf run`) holds in its
+// atlases, read back for drawing (ReconstructionRenderer) and export
+// (core/export): the layout rebuilt from the run's scene and checked against
+// atlas/triangle_id.exr, and kd, the model's two parameter atlases and
+// confidence.
+#ifndef MVBRDF_CORE_PIPELINE_RUN_ATLASES_H_
+#define MVBRDF_CORE_PIPELINE_RUN_ATLASES_H_
+
+#include <filesystem>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "core/atlas/atlas.h"
+#include "core/brdf/model.h"
+#include "core/scene/sequence.h"
+#include "mvbrdf/v1/run_report.pb.h"
+
+namespace mvbrdf::pipeline {
+
+// The layout of the run (result.json's atlas size), rebuilt
+// (deterministically) from `sequence`, the run's scene; FAILED_PRECONDITION
+// when it differs from the run's atlas/triangle_id.exr.
+absl::StatusOr<atlas::Atlas> OpenRunAtlas(const std::filesystem::path& run_dir, const v1::RunReport& run,
+                                          const scene::Sequence& sequence);
+
+struct RunAtlases {
+  // The run's model (result.json's brdf; Phong when empty). With --brdf auto
+  // (per_texel_model) each texel's model is in `model_atlas`.
+  brdf::Model model = brdf::Model::kPhong;
+  bool per_texel_model = false;
+  cv::Mat kd;              // CV_32FC3
+  cv::Mat p1, p2;          // CV_32FC3: the model's two parameters (ks, ke; f0, roughness; parameter_1, _2)
+  cv::Mat model_atlas;     // CV_8UC1 with per_texel_model: brdf::Model values (texels of no cluster: Phong)
+  cv::Mat confidence;      // CV_32FC1: observations per texel (0: never observed)
+};
+
+// atlases/ of the run: kd.exr, the two parameter atlases the model names,
+// model.png under auto, confidence.exr; errors name the file.
+absl::StatusOr<RunAtlases> ReadRunAtlases(const std::filesystem::path& run_dir, const v1::RunReport& run);
+
+}  // namespace mvbrdf::pipeline
+
+#endif  // MVBRDF_CORE_PIPELINE_RUN_ATLASES_H_
