@@ -49,6 +49,7 @@ int RunResample(const std::vector<std::string>& args);
 int RunRun(const std::vector<std::string>& args);
 int RunEvaluate(const std::vector<std::string>& args);
 int RunRender(const std::vector<std::string>& args);
+int RunExport(const std::vector<std::string>& args);
 int RunServer(const std::vector<std::string>& args);
 int RunWorker(const std::vector<std::string>& args);
 int RunJobs(const std::vector<std::string>& args);

@@ -23,6 +23,7 @@ constexpr char kUsage[] =
     "  resample   resample every frame into the texture atlas; coverage, timing and error vs truth\n"
     "  run        reconstruct the BRDF: light sweep, clustering, fitting, atlases, errors\n"
     "  render     draw a reconstruction from any camera under any lights\n"
+    "  export     write a reconstruction as glTF 2.0 (.glb, .gltf): mesh, PBR material, cameras, lights\n"
     "  evaluate   compare a reconstruction with the synthetic generator's ground truth\n"
     "  report     the HTML report of a reconstruction (plots, tables, atlases, renderings)\n"
     "  server     run the job server (gRPC; state in --data)\n"
@@ -87,6 +88,7 @@ int Dispatch(int argc, char** argv) {
   if (command == "resample") return mvbrdf::client::RunResample(args);
   if (command == "run") return mvbrdf::client::RunRun(args);
   if (command == "render") return mvbrdf::client::RunRender(args);
+  if (command == "export") return mvbrdf::client::RunExport(args);
   if (command == "evaluate") return mvbrdf::client::RunEvaluate(args);
   if (command == "report") return mvbrdf::client::RunReport(args);
   if (command == "server") return mvbrdf::client::RunServer(args);
@@ -100,7 +102,7 @@ int Dispatch(int argc, char** argv) {
   if (command == "health") return mvbrdf::client::RunHealth(args);
   if (command == "version") return mvbrdf::client::RunVersion(args);
   // The closest command, when it is a likely typo ("rnu": did you mean "run"?).
-  const std::vector<std::string> commands = {"synth",  "import", "validate", "resample",  "run",   "render",
+  const std::vector<std::string> commands = {"synth",  "import", "validate", "resample",  "run",   "render", "export",
                                              "evaluate", "report", "server", "worker",   "jobs",   "submit",
                                              "watch",  "artifacts", "fetch", "cancel",   "health", "version"};
   const std::string closest = mvbrdf::scene::ClosestName(command, commands);

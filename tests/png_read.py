@@ -1,5 +1,5 @@
-# png_read.py: read_png(PATH[, alpha]) decodes an 8-bit RGB or RGBA PNG into rows of channel tuples (RGB, or
-# every channel with alpha=True) with the standard library only; imported by the tests' PNG checks.
+# png_read.py: read_png(PATH[, alpha]) decodes an 8-bit grey, RGB or RGBA PNG into rows of channel tuples (RGB,
+# or every channel with alpha=True; one for grey) with the standard library only; imported by the tests' PNG checks.
 import struct, zlib
 
 def read_png(path, alpha=False):
@@ -11,8 +11,8 @@ def read_png(path, alpha=False):
         body = data[pos + 8:pos + 8 + n]
         if kind == b"IHDR":
             w, h, depth, color = struct.unpack(">IIBB", body[:10])
-            assert depth == 8 and color in (2, 6), (depth, color)
-            bpp = 3 if color == 2 else 4
+            assert depth == 8 and color in (0, 2, 6), (depth, color)
+            bpp = {0: 1, 2: 3, 6: 4}[color]
         elif kind == b"IDAT":
             idat += body
         pos += 12 + n
@@ -31,7 +31,7 @@ def read_png(path, alpha=False):
                 line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
         rows.append(line)
         prev = line
-    n = bpp if alpha else 3
+    n = bpp if alpha or bpp == 1 else 3
     return [[tuple(r[x * bpp:x * bpp + n]) for x in range(w)] for r in rows]
 
 

@@ -1,0 +1,86 @@
+// `mvbrdf export DIR --out model.glb|model.gltf [--frame T]`: a reconstruction
+// written as glTF 2.0 (issue #16; core/export/gltf_export.h says what it holds).
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "client/commands.h"
+#include "client/flags.h"
+#include "core/base/proto_json.h"
+#include "core/base/status_macros.h"
+#include "core/export/gltf_export.h"
+#include "core/pipeline/run_scene.h"
+#include "core/scene/sequence.h"
+#include "mvbrdf/v1/run_report.pb.h"
+
+namespace mvbrdf::client {
+namespace {
+
+absl::StatusOr<exporter::GltfExportSummary> Export(const std::filesystem::path& run_dir, const std::string& out,
+                                                   int frame, const std::string& scene_flag) {
+  MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
+  scene::LoadOptions load;
+  load.check_all_frames = false;
+  load.probe_videos = false;
+  MVBRDF_ASSIGN_OR_RETURN(const std::filesystem::path scene_file, pipeline::SceneOfRun(run_dir, run, scene_flag));
+  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(scene_file, load));
+  exporter::GltfExportOptions options;
+  options.frame = frame;
+  return exporter::ExportGltf(run_dir, sequence, out, options);
+}
+
+}  // namespace
+
+int RunExport(const std::vector<std::string>& args) {
+  std::string dir, out, scene_flag;
+  int frame = -1;
+  FlagParser flags("export",
+                   "Writes a reconstruction (the output directory of 'mvbrdf run') as glTF 2.0: the mesh with the\n"
+                   "atlas UVs, one metallic-roughness material with KHR_materials_specular (every texel's lobe as\n"
+                   "GGX), the confidence atlas as an extra texture, the scene's cameras and lights\n"
+                   "(KHR_lights_punctual); core/export/gltf_export.h and README say how each value is made.");
+  flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
+  flags.AddString("--out FILE", &out, "model.glb (binary) or model.gltf (JSON, buffers and images embedded)");
+  flags.AddInt("--frame N", &frame, "the pose of frame N (0-based; default -1: the rest pose)");
+  flags.AddString(
+      "--scene FILE", &scene_flag,
+      "the scene file (default: result.json's scene, relative to DIR; needed for a fetched service result)");
+  if (absl::Status s = flags.Parse(args); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf export: %s\n", std::string(s.message()).c_str());
+    return kExitUsage;
+  }
+  if (flags.help_requested()) {
+    std::fputs(flags.Usage().c_str(), stdout);
+    return kExitOk;
+  }
+  const std::string ext = std::filesystem::path(out).extension().string();
+  if (out.empty() || (ext != ".glb" && ext != ".gltf")) {
+    std::fprintf(stderr, "mvbrdf export: --out: %s\n",
+                 out.empty() ? "required" : absl::StrCat("expected a .glb or .gltf file, got ", out).c_str());
+    return kExitUsage;
+  }
+  if (std::filesystem::is_directory(out)) {
+    std::fprintf(stderr, "mvbrdf export: --out %s: is a directory, expected a file name\n", out.c_str());
+    return kExitUsage;
+  }
+  absl::StatusOr<exporter::GltfExportSummary> summary = Export(dir, out, frame, scene_flag);
+  if (!summary.ok()) return ReportFailure(summary.status(), "mvbrdf export");
+  std::printf("%d vertices, %d triangles, %dx%d textures, %d cameras, %d lights; scale %.6g (materials x scale, "
+              "lights / scale)\n",
+              summary->vertices, summary->triangles, summary->texture_size, summary->texture_size, summary->cameras,
+              summary->lights, summary->scale);
+  if (summary->clipped_fraction > 0.0) {
+    std::printf("warning: %.2f %% of the observed texels clipped at baseColor or specularFactor 1\n",
+                100.0 * summary->clipped_fraction);
+  }
+  if (summary->point_lights_without_falloff) {
+    std::printf("warning: the scene's lights do not fall off with distance; glTF's point lights do (inverse "
+                "square), so a viewer draws them differently\n");
+  }
+  std::printf("wrote %s\n", out.c_str());
+  return kExitOk;
+}
+
+}  // namespace mvbrdf::client
