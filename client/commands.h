@@ -19,6 +19,10 @@ namespace mvbrdf::v1 {
 class ListArtifactsResponse;
 }  // namespace mvbrdf::v1
 
+namespace mvbrdf::scene {
+struct Sequence;
+}  // namespace mvbrdf::scene
+
 namespace mvbrdf::client {
 
 // Exit codes scripts can rely on.
@@ -50,6 +54,12 @@ int RunRun(const std::vector<std::string>& args);
 int RunEvaluate(const std::vector<std::string>& args);
 int RunRender(const std::vector<std::string>& args);
 int RunExport(const std::vector<std::string>& args);
+// `export` and `run --export FILE`: INVALID_ARGUMENT (a usage error) unless
+// `out` names a .glb or .gltf file; then the run in `run_dir` written there
+// (frame -1: the rest pose), its summary and warnings printed.
+absl::Status CheckExportFile(const std::string& flag, const std::string& out);
+absl::Status ExportRun(const std::filesystem::path& run_dir, const scene::Sequence& sequence, const std::string& out,
+                       int frame);
 int RunServer(const std::vector<std::string>& args);
 int RunWorker(const std::vector<std::string>& args);
 int RunJobs(const std::vector<std::string>& args);

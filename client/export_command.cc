@@ -16,19 +16,52 @@
 #include "mvbrdf/v1/run_report.pb.h"
 
 namespace mvbrdf::client {
+
+absl::Status CheckExportFile(const std::string& flag, const std::string& out) {
+  const std::string ext = std::filesystem::path(out).extension().string();
+  if (out.empty()) return absl::InvalidArgumentError(absl::StrCat(flag, ": required"));
+  if (ext != ".glb" && ext != ".gltf") {
+    return absl::InvalidArgumentError(absl::StrCat(flag, ": expected a .glb or .gltf file, got ", out));
+  }
+  if (std::filesystem::is_directory(out)) {
+    return absl::InvalidArgumentError(absl::StrCat(flag, " ", out, ": is a directory, expected a file name"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status ExportRun(const std::filesystem::path& run_dir, const scene::Sequence& sequence, const std::string& out,
+                       int frame) {
+  exporter::GltfExportOptions options;
+  options.frame = frame;
+  MVBRDF_ASSIGN_OR_RETURN(const exporter::GltfExportSummary summary,
+                          exporter::ExportGltf(run_dir, sequence, out, options));
+  std::printf("export: %d vertices, %d triangles, %dx%d textures, %d cameras, %d lights; scale %.6g (materials x "
+              "scale, lights / scale)\n",
+              summary.vertices, summary.triangles, summary.texture_size, summary.texture_size, summary.cameras,
+              summary.lights, summary.scale);
+  if (summary.clipped_fraction > 0.0) {
+    std::printf("warning: %.2f %% of the observed texels clipped at baseColor or specularFactor 1\n",
+                100.0 * summary.clipped_fraction);
+  }
+  if (summary.point_lights_without_falloff) {
+    std::printf("warning: the scene's point lights do not fall off with distance; glTF's do (inverse square), so "
+                "a viewer draws them differently\n");
+  }
+  std::printf("wrote %s\n", out.c_str());
+  return absl::OkStatus();
+}
+
 namespace {
 
-absl::StatusOr<exporter::GltfExportSummary> Export(const std::filesystem::path& run_dir, const std::string& out,
-                                                   int frame, const std::string& scene_flag) {
+absl::Status Export(const std::filesystem::path& run_dir, const std::string& out, int frame,
+                    const std::string& scene_flag) {
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
   scene::LoadOptions load;
   load.check_all_frames = false;
   load.probe_videos = false;
   MVBRDF_ASSIGN_OR_RETURN(const std::filesystem::path scene_file, pipeline::SceneOfRun(run_dir, run, scene_flag));
   MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(scene_file, load));
-  exporter::GltfExportOptions options;
-  options.frame = frame;
-  return exporter::ExportGltf(run_dir, sequence, out, options);
+  return ExportRun(run_dir, sequence, out, frame);
 }
 
 }  // namespace
@@ -55,31 +88,11 @@ int RunExport(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
-  const std::string ext = std::filesystem::path(out).extension().string();
-  if (out.empty() || (ext != ".glb" && ext != ".gltf")) {
-    std::fprintf(stderr, "mvbrdf export: --out: %s\n",
-                 out.empty() ? "required" : absl::StrCat("expected a .glb or .gltf file, got ", out).c_str());
+  if (absl::Status s = CheckExportFile("--out", out); !s.ok()) {
+    std::fprintf(stderr, "mvbrdf export: %s\n", std::string(s.message()).c_str());
     return kExitUsage;
   }
-  if (std::filesystem::is_directory(out)) {
-    std::fprintf(stderr, "mvbrdf export: --out %s: is a directory, expected a file name\n", out.c_str());
-    return kExitUsage;
-  }
-  absl::StatusOr<exporter::GltfExportSummary> summary = Export(dir, out, frame, scene_flag);
-  if (!summary.ok()) return ReportFailure(summary.status(), "mvbrdf export");
-  std::printf("%d vertices, %d triangles, %dx%d textures, %d cameras, %d lights; scale %.6g (materials x scale, "
-              "lights / scale)\n",
-              summary->vertices, summary->triangles, summary->texture_size, summary->texture_size, summary->cameras,
-              summary->lights, summary->scale);
-  if (summary->clipped_fraction > 0.0) {
-    std::printf("warning: %.2f %% of the observed texels clipped at baseColor or specularFactor 1\n",
-                100.0 * summary->clipped_fraction);
-  }
-  if (summary->point_lights_without_falloff) {
-    std::printf("warning: the scene's lights do not fall off with distance; glTF's point lights do (inverse "
-                "square), so a viewer draws them differently\n");
-  }
-  std::printf("wrote %s\n", out.c_str());
+  if (absl::Status s = Export(dir, out, frame, scene_flag); !s.ok()) return ReportFailure(s, "mvbrdf export");
   return kExitOk;
 }
 

@@ -273,7 +273,7 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
 int RunRun(const std::vector<std::string>& args) {
   // Before any thread starts (OpenCV's, gRPC's): see InterruptCleanup.
   InterruptCleanup cleanup;
-  std::string scene_file, out, egl = "auto", data_dir;
+  std::string scene_file, out, egl = "auto", data_dir, export_file;
   JobFlags job;
   int threads = 2, workers = 1;
   bool direct = false, write_report = false, force = false;
@@ -296,6 +296,8 @@ int RunRun(const std::vector<std::string>& args) {
   flags.AddBool("--direct", &direct, "run the pipeline directly, without the in-process service");
   flags.AddString("--egl PLATFORM", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   flags.AddBool("--report", &write_report, "also write DIR/report.html (see 'mvbrdf report')");
+  flags.AddString("--export FILE", &export_file,
+                  "also write the reconstruction as glTF 2.0 to FILE (.glb or .gltf; see 'mvbrdf export')");
   AddReportFlags(flags, &report_flags);
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf run: %s\n", std::string(s.message()).c_str());
@@ -310,6 +312,7 @@ int RunRun(const std::vector<std::string>& args) {
   auto platform = gl::ParseEglPlatform(egl);
   if (usage.ok()) usage = platform.status();
   if (usage.ok() && out.empty()) usage = absl::InvalidArgumentError("--out: required");
+  if (usage.ok() && !export_file.empty()) usage = CheckExportFile("--export", export_file);
   if (usage.ok() && (threads < 1 || threads > 64)) usage = absl::InvalidArgumentError("--threads: must be in [1, 64]");
   if (usage.ok() && (workers < 1 || workers > 16)) usage = absl::InvalidArgumentError("--workers: must be in [1, 16]");
   // As `report` checks it (99999999 made run --report render for hours; -5 was taken).
@@ -378,7 +381,11 @@ int RunRun(const std::vector<std::string>& args) {
   const int ran = direct ? RunDirect(*sequence, request, *platform, threads, out, command_line)
                          : RunEmbedded(scene_file, request, *platform, threads, workers, data_dir, out, &cleanup,
                                        command_line);
-  if (ran != kExitOk || !write_report) return ran;
+  if (ran != kExitOk) return ran;
+  if (!export_file.empty()) {
+    if (absl::Status s = ExportRun(out, *sequence, export_file, -1); !s.ok()) return ReportFailure(s, "mvbrdf run");
+  }
+  if (!write_report) return kExitOk;
   report_flags.egl = egl;
   const std::filesystem::path report_file = std::filesystem::path(out) / "report.html";
   if (absl::Status s = WriteRunReport(out, report_file, report_flags); !s.ok()) return ReportFailure(s, "mvbrdf run");

@@ -1,0 +1,49 @@
+# gltf_three_compare.py: draws a glTF export with three.js in headless Chromium
+# (tests/gltf_viewer.html) and the run with `mvbrdf render`, from one camera
+# under one light, and prints their difference over the pixels both cover, in
+# linear RGB: "MEAN P95 MEAN_RADIANCE" (issue #16's acceptance measure).
+# Usage: gltf_three_compare.py MVBRDF RUN_DIR MODEL.glb THREE_DIR SCENE.json CAMERA LIGHT WORK_DIR
+import base64, json, os, re, subprocess, sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from png_read import linear, read_png  # noqa: E402
+
+mvbrdf, run, model, three, scene_file, camera, light, work = sys.argv[1:9]
+here = os.path.dirname(os.path.abspath(__file__))
+url = "file://%s/gltf_viewer.html?three=file://%s&model=file://%s&camera=%s&light=%s" % (
+    here, os.path.abspath(three), os.path.abspath(model), camera, light)
+m = None
+for attempt in range(3):  # a page whose loads outlast the virtual time budget stays "pending": draw again
+    dom = subprocess.run(
+        ["/usr/bin/chromium", "--headless", "--no-sandbox", "--disable-quic", "--no-first-run",
+         "--allow-file-access-from-files", "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+         "--virtual-time-budget=60000", "--dump-dom", url],
+        capture_output=True, text=True, timeout=300).stdout
+    m = re.search(r'<pre id="out">data:image/png;base64,([A-Za-z0-9+/=]+)', dom)
+    if m or '<pre id="out">pending' not in dom:
+        break
+if not m:
+    shown = re.search(r'<pre id="out">([^<]*)', dom)
+    sys.exit("three.js drew nothing: %s" % (shown.group(1)[:300] if shown else dom[-500:]))
+viewer = os.path.join(work, "three-%s-%s.png" % (camera, light))
+open(viewer, "wb").write(base64.b64decode(m.group(1)))
+lights = [l for l in json.load(open(scene_file))["lights"] if l["name"] == light]
+lights_file = os.path.join(work, "light-%s.json" % light)
+json.dump({"lights": lights}, open(lights_file, "w"))
+reference = os.path.join(work, "render-%s-%s.png" % (camera, light))
+subprocess.run([mvbrdf, "render", run, "--camera", camera, "--lights", lights_file, "--alpha", "--out", reference],
+               check=True, capture_output=True)
+a, b = read_png(viewer, True), read_png(reference, True)
+if len(a) != len(b) or len(a[0]) != len(b[0]):
+    sys.exit("sizes differ: three.js %dx%d, render %dx%d" % (len(a[0]), len(a), len(b[0]), len(b)))
+errors, radiance = [], 0.0
+for ra, rb in zip(a, b):
+    for pa, pb in zip(ra, rb):
+        if pa[3] == 255 and pb[3] == 255:
+            for k in range(3):
+                errors.append(abs(linear(pa[k]) - linear(pb[k])))
+                radiance += linear(pb[k])
+if not errors:
+    sys.exit("no pixel covered in both images")
+errors.sort()
+print("%.6g %.6g %.6g" % (sum(errors) / len(errors), errors[int(0.95 * len(errors))], radiance / len(errors)))
