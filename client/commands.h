@@ -56,10 +56,11 @@ int RunRender(const std::vector<std::string>& args);
 int RunExport(const std::vector<std::string>& args);
 // `export` and `run --export FILE`: INVALID_ARGUMENT (a usage error) unless
 // `out` names a .glb or .gltf file; then the run in `run_dir` written there
-// (frame -1: the rest pose), its summary and warnings printed.
+// (frame -1: the rest pose; animation: core/export/gltf_export.h), its
+// summary and warnings printed.
 absl::Status CheckExportFile(const std::string& flag, const std::string& out);
 absl::Status ExportRun(const std::filesystem::path& run_dir, const scene::Sequence& sequence, const std::string& out,
-                       int frame);
+                       int frame, bool animation = false);
 int RunServer(const std::vector<std::string>& args);
 int RunWorker(const std::vector<std::string>& args);
 int RunJobs(const std::vector<std::string>& args);

@@ -30,9 +30,10 @@ absl::Status CheckExportFile(const std::string& flag, const std::string& out) {
 }
 
 absl::Status ExportRun(const std::filesystem::path& run_dir, const scene::Sequence& sequence, const std::string& out,
-                       int frame) {
+                       int frame, bool animation) {
   exporter::GltfExportOptions options;
   options.frame = frame;
+  options.animation = animation;
   MVBRDF_ASSIGN_OR_RETURN(const exporter::GltfExportSummary summary,
                           exporter::ExportGltf(run_dir, sequence, out, options));
   std::printf("export: %d vertices, %d triangles, %dx%d textures, %d cameras, %d lights; scale %.6g (materials x "
@@ -47,13 +48,17 @@ absl::Status ExportRun(const std::filesystem::path& run_dir, const scene::Sequen
     std::printf("warning: the scene's point lights do not fall off with distance; glTF's do (inverse square), so "
                 "a viewer draws them differently\n");
   }
+  if (summary.morph_targets > 0) {
+    std::printf("export: the tracked motion as %d morph targets, animated at the scene's frame rate\n",
+                summary.morph_targets);
+  }
   std::printf("wrote %s\n", out.c_str());
   return absl::OkStatus();
 }
 
 namespace {
 
-absl::Status Export(const std::filesystem::path& run_dir, const std::string& out, int frame,
+absl::Status Export(const std::filesystem::path& run_dir, const std::string& out, int frame, bool animation,
                     const std::string& scene_flag) {
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
   scene::LoadOptions load;
@@ -61,7 +66,7 @@ absl::Status Export(const std::filesystem::path& run_dir, const std::string& out
   load.probe_videos = false;
   MVBRDF_ASSIGN_OR_RETURN(const std::filesystem::path scene_file, pipeline::SceneOfRun(run_dir, run, scene_flag));
   MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(scene_file, load));
-  return ExportRun(run_dir, sequence, out, frame);
+  return ExportRun(run_dir, sequence, out, frame, animation);
 }
 
 }  // namespace
@@ -69,6 +74,7 @@ absl::Status Export(const std::filesystem::path& run_dir, const std::string& out
 int RunExport(const std::vector<std::string>& args) {
   std::string dir, out, scene_flag;
   int frame = -1;
+  bool animation = false;
   FlagParser flags("export",
                    "Writes a reconstruction (the output directory of 'mvbrdf run') as glTF 2.0: the mesh with the\n"
                    "atlas UVs, one metallic-roughness material with KHR_materials_specular (every texel's lobe as\n"
@@ -77,6 +83,9 @@ int RunExport(const std::vector<std::string>& args) {
   flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
   flags.AddString("--out FILE", &out, "model.glb (binary) or model.gltf (JSON, buffers and images embedded)");
   flags.AddInt("--frame N", &frame, "the pose of frame N (0-based; default -1: the rest pose)");
+  flags.AddBool("--animation", &animation,
+                "the tracked motion: one morph target per frame and an animation at the scene's frame rate "
+                "(from the rest pose; not with --frame)");
   flags.AddString(
       "--scene FILE", &scene_flag,
       "the scene file (default: result.json's scene, relative to DIR; needed for a fetched service result)");
@@ -88,11 +97,15 @@ int RunExport(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
-  if (absl::Status s = CheckExportFile("--out", out); !s.ok()) {
+  absl::Status usage = CheckExportFile("--out", out);
+  if (usage.ok() && animation && frame >= 0) {
+    usage = absl::InvalidArgumentError("--animation: the animation starts from the rest pose; leave out --frame");
+  }
+  if (absl::Status s = usage; !s.ok()) {
     std::fprintf(stderr, "mvbrdf export: %s\n", std::string(s.message()).c_str());
     return kExitUsage;
   }
-  if (absl::Status s = Export(dir, out, frame, scene_flag); !s.ok()) return ReportFailure(s, "mvbrdf export");
+  if (absl::Status s = Export(dir, out, frame, animation, scene_flag); !s.ok()) return ReportFailure(s, "mvbrdf export");
   return kExitOk;
 }
 

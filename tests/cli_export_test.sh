@@ -45,8 +45,12 @@ check "a run moved away from its scene names the scene it looked for" 3 "scene" 
   "$bin" export "$work/moved/r" --out "$work/x.glb"
 check "--scene names it" 0 "wrote" -- "$bin" export "$work/moved/r" --scene "$work/b/scene.json" --out "$work/moved.glb"
 expect "the moved run's export with --scene is the original's" cmp "$work/model.glb" "$work/moved.glb"
+check "export --animation" 0 "8 morph targets" -- "$bin" export "$work/r" --animation --out "$work/anim.glb"
+check "--animation with --frame is a usage error" 2 "--animation: .*leave out --frame" -- \
+  "$bin" export "$work/r" --animation --frame 2 --out "$work/x.glb"
 check "the Khronos glTF Validator: 0 errors, 0 warnings" 0 "0 errors, 0 warnings" -- \
-  node "$here/gltf_validate.js" "$node_modules" "$work/model.glb" "$work/frame5.gltf" "$work/frame0.glb"
+  node "$here/gltf_validate.js" "$node_modules" "$work/model.glb" "$work/frame5.gltf" "$work/frame0.glb" \
+    "$work/anim.glb"
 
 # The material against the truth: every observed texel's roughness (the
 # metallicRoughness texture's G) and F0 (0.04 x specularColor x
@@ -105,6 +109,38 @@ def bounds(path):
 rest, f0, f5 = (bounds(sys.argv[1] + p) for p in ("/model.glb", "/frame0.glb", "/frame5.gltf"))
 print("  rest %s\n  frame 5 %s" % (rest, f5))
 sys.exit(not (rest == f0 and max(abs(a - b) for a, b in zip(rest, f5)) > 1e-3))
+PY
+
+# --animation: the rest pose plus morph target t is frame t's pose (every
+# vertex, against --frame t's export), keyed at t / fps with STEP.
+expect "--animation: rest + target 5 is frame 5's pose; keys at t / fps, one target at a time" \
+  /usr/bin/python3 - "$work" "$here" <<'PY'
+import json, struct, sys
+sys.path.insert(0, sys.argv[2])
+from gltf_read import read_gltf
+work = sys.argv[1]
+doc, _, view = read_gltf(work + "/anim.glb")
+def floats(d, v, index):
+    a = d["accessors"][index]
+    n = a["count"] * {"SCALAR": 1, "VEC2": 2, "VEC3": 3}[a["type"]]
+    return struct.unpack("<%df" % n, v(a["bufferView"])[:4 * n])
+prim = doc["meshes"][0]["primitives"][0]
+rest = floats(doc, view, prim["attributes"]["POSITION"])
+delta = floats(doc, view, prim["targets"][5]["POSITION"])
+f5doc, _, f5view = read_gltf(work + "/frame5.gltf")
+frame5 = floats(f5doc, f5view, f5doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"])
+worst = max(abs(r + d - f) for r, d, f in zip(rest, delta, frame5))
+sampler = doc["animations"][0]["samplers"][0]
+times = floats(doc, view, sampler["input"])
+weights = floats(doc, view, sampler["output"])
+fps = json.load(open(work + "/b/scene.json"))["frames"]["fps"]
+n = len(prim["targets"])
+print("  %d targets, worst vertex error %.2g, keys %s" % (n, worst, [round(t, 4) for t in times]))
+ok = (n == 8 and worst < 1e-5 and sampler["interpolation"] == "STEP"
+      and all(abs(t - k / fps) < 1e-6 for k, t in enumerate(times))
+      and all(weights[k * n + j] == (1.0 if j == k else 0.0) for k in range(n) for j in range(n))
+      and doc["meshes"][0]["extras"]["targetNames"][5] == "frame 0005")
+sys.exit(not ok)
 PY
 
 # three.js against `mvbrdf render`: a GGX sphere under 8 directional lights

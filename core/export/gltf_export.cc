@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/ggx.h"
@@ -248,6 +249,69 @@ void AddLight(tinygltf::Model* model, const scene::Light& light, double scale) {
   model->nodes.push_back(node);
 }
 
+// The tracked motion as morph targets of `primitive` (one per frame: its
+// offsets from the rest pose) and an animation of `mesh`'s weights showing
+// frame t alone from t / fps on; the mesh node is node 0.
+absl::Status AddMotion(tinygltf::Model* model, const scene::Sequence& sequence, const scene::MeshTopology& topology,
+                       const std::vector<glm::vec3>& rest, const std::vector<glm::vec3>& rest_normals,
+                       tinygltf::Primitive* primitive, tinygltf::Mesh* mesh) {
+  const int n = sequence.num_frames;
+  // Positions and normals per frame, and the weights' keys: n x n floats.
+  const double bytes = static_cast<double>(n) * static_cast<double>(rest.size()) * 24.0 + 4.0 * n * n;
+  if (bytes > 1.5 * (1u << 30)) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("--animation: ", n, " frames of ", rest.size(), " vertices need ", std::lround(bytes / (1 << 20)),
+                     " MiB, beyond a GLB's practical size (1.5 GiB); export a frame range's scene instead"));
+  }
+  tinygltf::Value::Array names;
+  for (int t = 0; t < n; ++t) {
+    MVBRDF_ASSIGN_OR_RETURN(const scene::FramePositions positions, sequence.LoadFrame(t));
+    std::vector<glm::vec3> p = scene::ToRenderVertices(topology, positions);
+    std::vector<glm::vec3> nrm =
+        scene::ToRenderVertices(topology, scene::ComputeFileVertexNormals(topology, positions));
+    for (size_t i = 0; i < p.size(); ++i) p[i] -= rest[i], nrm[i] -= rest_normals[i];
+    primitive->targets.push_back(
+        {{"POSITION", AddVec3Accessor(model, p, true)}, {"NORMAL", AddVec3Accessor(model, nrm, false)}});
+    names.push_back(tinygltf::Value(absl::StrFormat("frame %04d", sequence.AbsoluteFrame(t))));
+  }
+  mesh->weights.assign(static_cast<size_t>(n), 0.0);
+  mesh->extras = Object({{"targetNames", tinygltf::Value(names)}});
+  const double fps = sequence.scene.frames().fps();
+  std::vector<float> times(static_cast<size_t>(n)), weights(static_cast<size_t>(n) * static_cast<size_t>(n), 0.0f);
+  for (int t = 0; t < n; ++t) {
+    times[static_cast<size_t>(t)] = static_cast<float>(t / fps);
+    weights[static_cast<size_t>(t) * static_cast<size_t>(n) + static_cast<size_t>(t)] = 1.0f;
+  }
+  tinygltf::Accessor input;
+  input.bufferView = AddView(model, times.data(), times.size() * sizeof(float), 0);
+  input.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  input.type = TINYGLTF_TYPE_SCALAR;
+  input.count = times.size();
+  input.minValues = {times.front()};
+  input.maxValues = {times.back()};
+  model->accessors.push_back(input);
+  tinygltf::Accessor output;
+  output.bufferView = AddView(model, weights.data(), weights.size() * sizeof(float), 0);
+  output.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  output.type = TINYGLTF_TYPE_SCALAR;
+  output.count = weights.size();
+  model->accessors.push_back(output);
+  tinygltf::Animation animation;
+  animation.name = "tracked motion";
+  tinygltf::AnimationSampler sampler;
+  sampler.input = static_cast<int>(model->accessors.size() - 2);
+  sampler.output = static_cast<int>(model->accessors.size() - 1);
+  sampler.interpolation = "STEP";
+  animation.samplers.push_back(sampler);
+  tinygltf::AnimationChannel channel;
+  channel.sampler = 0;
+  channel.target_node = 0;
+  channel.target_path = "weights";
+  animation.channels.push_back(channel);
+  model->animations.push_back(animation);
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_dir, const scene::Sequence& sequence,
@@ -260,6 +324,9 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
           absl::StrCat("--out: expected a file ending in .glb or .gltf, got \"", out.string(), "\""));
     }
     binary = ext == ".glb";
+  }
+  if (options.animation && options.frame >= 0) {
+    return absl::InvalidArgumentError("--animation: the animation starts from the rest pose; leave out --frame");
   }
   if (options.frame < -1 || options.frame >= sequence.num_frames) {
     return absl::InvalidArgumentError(
@@ -314,6 +381,10 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
     primitive.indices = static_cast<int>(model.accessors.size() - 1);
   }
   primitive.material = 0;
+  tinygltf::Mesh mesh;
+  if (options.animation) {
+    MVBRDF_RETURN_IF_ERROR(AddMotion(&model, sequence, atlas.topology, vertices, normals, &primitive, &mesh));
+  }
 
   const MaterialTextures textures = Convert(atlases);
   MVBRDF_ASSIGN_OR_RETURN(const int base_color, AddPngTexture(&model, textures.base_color, "baseColor"));
@@ -335,7 +406,6 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
   model.materials.push_back(material);
   model.extensionsUsed.push_back("KHR_materials_specular");
 
-  tinygltf::Mesh mesh;
   mesh.name = "reconstruction";
   mesh.primitives.push_back(primitive);
   model.meshes.push_back(mesh);
@@ -372,6 +442,7 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
   summary.cameras = static_cast<int>(sequence.cameras.size());
   summary.lights = static_cast<int>(sequence.lights.size());
   summary.texture_size = atlases.kd.cols;
+  summary.morph_targets = options.animation ? sequence.num_frames : 0;
   summary.clipped_fraction = textures.clipped_fraction;
   for (const scene::Light& light : sequence.lights) {
     summary.point_lights_without_falloff |=

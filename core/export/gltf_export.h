@@ -39,6 +39,12 @@ namespace mvbrdf::exporter {
 struct GltfExportOptions {
   // The pose: -1 the rest pose (frame 0), else a frame of the sequence.
   int frame = -1;
+  // The tracked motion: the rest pose with one morph target per frame (its
+  // positions' and normals' offsets), and an animation of the mesh's weights
+  // that shows frame t alone from t / fps seconds on (STEP), named
+  // "frame NNNN" (absolute frame numbers) in the mesh's extras.targetNames.
+  // Not with `frame` >= 0.
+  bool animation = false;
   // GLB (one binary file) or glTF (JSON with the buffers and images embedded
   // as data URIs); by default from `out`'s extension (.glb / .gltf).
   enum class Format { kByExtension, kGlb, kGltf } format = Format::kByExtension;
@@ -47,6 +53,7 @@ struct GltfExportOptions {
 struct GltfExportSummary {
   double scale = 1.0;   // s above
   int vertices = 0, triangles = 0, cameras = 0, lights = 0;
+  int morph_targets = 0;  // frames with --animation
   int texture_size = 0;
   double clipped_fraction = 0.0;  // observed texels whose baseColor or specularFactor clipped at 1
   // The scene has point lights that do not fall off with distance (glTF's
