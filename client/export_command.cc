@@ -11,6 +11,7 @@
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/export/gltf_export.h"
+#include "core/export/obj_export.h"
 #include "core/pipeline/run_scene.h"
 #include "core/scene/sequence.h"
 #include "mvbrdf/v1/run_report.pb.h"
@@ -20,8 +21,8 @@ namespace mvbrdf::client {
 absl::Status CheckExportFile(const std::string& flag, const std::string& out) {
   const std::string ext = std::filesystem::path(out).extension().string();
   if (out.empty()) return absl::InvalidArgumentError(absl::StrCat(flag, ": required"));
-  if (ext != ".glb" && ext != ".gltf") {
-    return absl::InvalidArgumentError(absl::StrCat(flag, ": expected a .glb or .gltf file, got ", out));
+  if (ext != ".glb" && ext != ".gltf" && ext != ".obj") {
+    return absl::InvalidArgumentError(absl::StrCat(flag, ": expected a .glb, .gltf or .obj file, got ", out));
   }
   if (std::filesystem::is_directory(out)) {
     return absl::InvalidArgumentError(absl::StrCat(flag, " ", out, ": is a directory, expected a file name"));
@@ -31,6 +32,17 @@ absl::Status CheckExportFile(const std::string& flag, const std::string& out) {
 
 absl::Status ExportRun(const std::filesystem::path& run_dir, const scene::Sequence& sequence, const std::string& out,
                        int frame, bool animation) {
+  if (std::filesystem::path(out).extension() == ".obj") {
+    if (animation) return absl::InvalidArgumentError("--animation: glTF only (.glb, .gltf), not OBJ");
+    MVBRDF_ASSIGN_OR_RETURN(const exporter::ObjExportSummary summary, exporter::ExportObj(run_dir, sequence, out, frame));
+    std::printf("export: %d vertices, %d triangles; scale %.6g (Kd, Ks x scale)\n", summary.vertices,
+                summary.triangles, summary.scale);
+    if (summary.clipped_fraction > 0.0) {
+      std::printf("warning: %.2f %% of the observed texels clipped at Kd or Ks 1\n", 100.0 * summary.clipped_fraction);
+    }
+    for (const std::filesystem::path& file : summary.files) std::printf("wrote %s\n", file.string().c_str());
+    return absl::OkStatus();
+  }
   exporter::GltfExportOptions options;
   options.frame = frame;
   options.animation = animation;
@@ -81,7 +93,9 @@ int RunExport(const std::vector<std::string>& args) {
                    "GGX), the confidence atlas as an extra texture, the scene's cameras and lights\n"
                    "(KHR_lights_punctual); core/export/gltf_export.h and README say how each value is made.");
   flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
-  flags.AddString("--out FILE", &out, "model.glb (binary) or model.gltf (JSON, buffers and images embedded)");
+  flags.AddString("--out FILE", &out,
+                  "model.glb (binary), model.gltf (JSON, buffers and images embedded) or model.obj (OBJ + MTL: the "
+                  "thesis's Phong, maps beside it)");
   flags.AddInt("--frame N", &frame, "the pose of frame N (0-based; default -1: the rest pose)");
   flags.AddBool("--animation", &animation,
                 "the tracked motion: one morph target per frame and an animation at the scene's frame rate "
@@ -98,6 +112,9 @@ int RunExport(const std::vector<std::string>& args) {
     return kExitOk;
   }
   absl::Status usage = CheckExportFile("--out", out);
+  if (usage.ok() && animation && std::filesystem::path(out).extension() == ".obj") {
+    usage = absl::InvalidArgumentError("--animation: glTF only (.glb, .gltf), not OBJ");
+  }
   if (usage.ok() && animation && frame >= 0) {
     usage = absl::InvalidArgumentError("--animation: the animation starts from the rest pose; leave out --frame");
   }

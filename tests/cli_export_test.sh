@@ -6,7 +6,8 @@
 # three true materials), whose --frame poses the mesh, and which three.js (npm
 # three, in headless Chromium) draws as `mvbrdf render` draws the run: a GGX
 # sphere under a dome of directional lights (glTF's point lights always fall
-# off; the studio's do not), each front-lit view compared in linear RGB.
+# off; the studio's do not), each front-lit view compared in linear RGB; and
+# OBJ + MTL, the Phong-native alternative.
 # Usage: cli_export_test.sh MVBRDF_BINARY WORK_DIR NODE_MODULES
 set -u
 bin=$1
@@ -32,10 +33,10 @@ check "run --export writes the glTF beside the run" 0 "wrote $work/run-export.gl
   "$bin" run --direct "$work/b/scene.json" --brdf ggx --config NE,NW,SE,SW --no-powell --atlas 128 --out "$work/r2" \
     --export "$work/run-export.glb"
 expect "run --export gives what export gives" cmp "$work/model.glb" "$work/run-export.glb"
-check "run --export checks the extension before running (usage)" 2 "--export: expected a .glb or .gltf file" -- \
-  "$bin" run --direct "$work/b/scene.json" --out "$work/r3" --export "$work/model.obj"
-check "--out must be .glb or .gltf (usage)" 2 "expected a .glb or .gltf file" -- \
-  "$bin" export "$work/r" --out "$work/model.obj"
+check "run --export checks the extension before running (usage)" 2 "--export: expected a .glb, .gltf or .obj file" -- \
+  "$bin" run --direct "$work/b/scene.json" --out "$work/r3" --export "$work/model.ply"
+check "--out must be .glb, .gltf or .obj (usage)" 2 "expected a .glb, .gltf or .obj file" -- \
+  "$bin" export "$work/r" --out "$work/model.ply"
 check "--frame out of range names the flag" 3 "--frame: expected -1 .* or a frame in .0, 8., got 8" -- \
   "$bin" export "$work/r" --out "$work/x.glb" --frame 8
 check "a directory that is no run names result.json" 3 "result.json" -- \
@@ -165,4 +166,40 @@ for model in ggx phong; do
       python3 -c "import sys; m, p, r = map(float, sys.argv[1].split()); sys.exit(not (r > 0.01 and m <= 0.05 * r and p <= 0.15 * r))" "$figures"
   done
 done
+
+# OBJ + MTL of the Phong run: the thesis's model itself. Every observed texel's
+# Ks / scale and Ns are the run's cluster ks and ke (8-bit sRGB Ks, 16-bit Ns).
+check "export .obj" 0 "wrote $work/obj/model_Ns.png" -- "$bin" export "$work/s-phong" --out "$work/obj/model.obj"
+check "--animation is glTF only (usage)" 2 "--animation: glTF only" -- \
+  "$bin" export "$work/s-phong" --animation --out "$work/obj/x.obj"
+expect "the OBJ's mesh is the glTF's, its maps the Phong run's ks and ke" /usr/bin/python3 - "$work" "$here" <<'PY'
+import json, re, sys
+sys.path.insert(0, sys.argv[2])
+from gltf_read import read_gltf
+from png_read import linear, read_png
+work = sys.argv[1]
+obj = open(work + "/obj/model.obj").read()
+mtl = open(work + "/obj/model.mtl").read()
+doc, images, _ = read_gltf(work + "/s-phong.glb")
+prim = doc["meshes"][0]["primitives"][0]
+nv = doc["accessors"][prim["attributes"]["POSITION"]]["count"]
+nf = doc["accessors"][prim["indices"]]["count"] // 3
+counts = {k: len(re.findall(r"^%s " % k, obj, re.M)) for k in ("v", "vt", "vn", "f")}
+scale = float(re.search(r"Scale ([0-9.eE+-]+)", mtl).group(1))
+open(work + "/obj/confidence.png", "wb").write(images["confidence"])
+conf = read_png(work + "/obj/confidence.png")
+ks_map, ns_map = read_png(work + "/obj/model_Ks.png"), read_png(work + "/obj/model_Ns.png")
+cluster = json.load(open(work + "/s-phong/result.json"))["clusters"][0]
+ks, ke = cluster["ks"][1], sum(cluster["ke"]) / 3
+worst_ks = worst_ke = 0.0
+for y, row in enumerate(conf):
+    for x, c in enumerate(row):
+        if c[0] == 0: continue
+        worst_ks = max(worst_ks, abs(linear(ks_map[y][x][1]) / scale - ks) / ks)
+        worst_ke = max(worst_ke, abs(ns_map[y][x][0] / 65535.0 * 10000.0 - ke) / ke)
+print("  OBJ %s (glTF %d vertices, %d triangles); worst ks %.4f, ke %.5f relative" % (counts, nv, nf, worst_ks, worst_ke))
+ok = (counts == {"v": nv, "vt": nv, "vn": nv, "f": nf} and "map_Kd model_Kd.png" in mtl and "mtllib model.mtl" in obj
+      and worst_ks < 0.03 and worst_ke < 0.005)
+sys.exit(not ok)
+PY
 summary

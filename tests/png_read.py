@@ -1,5 +1,6 @@
-# png_read.py: read_png(PATH[, alpha]) decodes an 8-bit grey, RGB or RGBA PNG into rows of channel tuples (RGB,
-# or every channel with alpha=True; one for grey) with the standard library only; imported by the tests' PNG checks.
+# png_read.py: read_png(PATH[, alpha]) decodes an 8-bit grey, RGB or RGBA PNG (or a 16-bit grey one) into rows of
+# channel tuples (RGB, or every channel with alpha=True; one for grey) with the standard library only; imported by
+# the tests' PNG checks.
 import struct, zlib
 
 def read_png(path, alpha=False):
@@ -11,8 +12,8 @@ def read_png(path, alpha=False):
         body = data[pos + 8:pos + 8 + n]
         if kind == b"IHDR":
             w, h, depth, color = struct.unpack(">IIBB", body[:10])
-            assert depth == 8 and color in (0, 2, 6), (depth, color)
-            bpp = {0: 1, 2: 3, 6: 4}[color]
+            assert (depth == 8 and color in (0, 2, 6)) or (depth == 16 and color == 0), (depth, color)
+            bpp = {0: 1, 2: 3, 6: 4}[color] * depth // 8
         elif kind == b"IDAT":
             idat += body
         pos += 12 + n
@@ -31,6 +32,8 @@ def read_png(path, alpha=False):
                 line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
         rows.append(line)
         prev = line
+    if depth == 16:  # grey: big-endian pairs
+        return [[(r[2 * x] << 8 | r[2 * x + 1],) for x in range(w)] for r in rows]
     n = bpp if alpha or bpp == 1 else 3
     return [[tuple(r[x * bpp:x * bpp + n]) for x in range(w)] for r in rows]
 

@@ -285,6 +285,15 @@ TEST(GgxEquivalentTest, SamePeakHeadOnAndTheWidthRule) {
                                                : BlinnPhong::Specular(p.data(), head_on, nullptr);
     EXPECT_NEAR(Ggx::Specular(g.data(), head_on, nullptr), peak, 1e-12 * peak) << ModelName(model);
   }
+  // And back: PhongEquivalent keeps the peak and the width rule.
+  for (Model model : {Model::kBlinnPhong, Model::kGgx}) {
+    const std::array<double, 2> p = model == Model::kGgx ? std::array<double, 2>{0.04, 0.3}
+                                                         : std::array<double, 2>{0.2, 120.0};
+    const std::array<double, 2> there = GgxEquivalent(model, p);
+    const std::array<double, 2> back = GgxEquivalent(Model::kPhong, PhongEquivalent(model, p));
+    EXPECT_NEAR(back[0], there[0], 1e-9 * there[0]) << ModelName(model);
+    EXPECT_NEAR(back[1], there[1], 1e-9) << ModelName(model);
+  }
   // Widths beyond GGX's bounds clamp to them.
   EXPECT_EQ(GgxEquivalent(Model::kBlinnPhong, {0.1, 1e9})[1], Ggx::Parameters()[1].lower);
   EXPECT_EQ(GgxEquivalent(Model::kBlinnPhong, {0.1, 0.0})[1], Ggx::Parameters()[1].upper);

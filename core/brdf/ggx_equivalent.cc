@@ -28,4 +28,21 @@ std::array<double, 2> GgxEquivalent(Model model, const std::array<double, 2>& p)
   return {ggx_peak > 0.0 ? std::max(0.0, peak / ggx_peak) : 0.0, roughness};
 }
 
+std::array<double, 2> PhongEquivalent(Model model, const std::array<double, 2>& p) {
+  if (model == Model::kPhong) return p;
+  const glm::dvec3 n(0.0, 0.0, 1.0);
+  const Geometry head_on = GeometryOf(n, n, n);
+  double ke_half = p[1];
+  double peak = 0.0;
+  if (model == Model::kGgx) {
+    const double a = p[1] * p[1];
+    ke_half = 2.0 / std::max(a * a, 1e-300) - 2.0;
+    peak = Ggx::Specular(p.data(), head_on, nullptr);
+  } else {
+    peak = BlinnPhong::Specular(p.data(), head_on, nullptr);
+  }
+  const auto& bounds = Phong::Parameters()[1];
+  return {std::max(0.0, peak), std::clamp(ke_half / 4.0, bounds.lower, bounds.upper)};
+}
+
 }  // namespace mvbrdf::brdf

@@ -9,7 +9,10 @@
 //     F0 = S_model(p; head on) / S_ggx(F0 = 1, roughness; head on).
 //
 // GGX itself maps to itself. `synth --brdf ggx` converts its Phong presets by
-// the same width rule (core/synth/model_materials.h).
+// the same width rule (core/synth/model_materials.h). PhongEquivalent is the
+// way back to the thesis's mirror lobe (the OBJ + MTL export), by the same
+// rules: GgxEquivalent(kPhong, PhongEquivalent(m, p)) = GgxEquivalent(m, p)
+// within the bounds.
 #ifndef MVBRDF_CORE_BRDF_GGX_EQUIVALENT_H_
 #define MVBRDF_CORE_BRDF_GGX_EQUIVALENT_H_
 
@@ -24,6 +27,10 @@ double GgxRoughnessOfHalfVectorExponent(double ke_half);
 
 // {F0, roughness} of the model's parameters {p0, p1} (ParameterNames' order).
 std::array<double, 2> GgxEquivalent(Model model, const std::array<double, 2>& p);
+
+// {ks, ke} of the thesis's Phong: ke = ke_half / 4 (ke_half = 2 / alpha^2 - 2
+// for GGX), ks = the model's head-on peak; ke within Phong's bounds.
+std::array<double, 2> PhongEquivalent(Model model, const std::array<double, 2>& p);
 
 }  // namespace mvbrdf::brdf
 

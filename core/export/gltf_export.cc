@@ -13,12 +13,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/ggx.h"
 #include "core/brdf/ggx_equivalent.h"
-#include "core/pipeline/run_atlases.h"
-#include "core/scene/mesh.h"
+#include "core/export/export_input.h"
 #include "core/base/version.h"
 #include "mvbrdf/v1/run_report.pb.h"
 
@@ -27,23 +25,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
-
-// Linear [0, 1] to an sRGB code value.
-uint8_t Srgb8(double linear) {
-  const double c = std::clamp(linear, 0.0, 1.0);
-  const double e = c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
-  return static_cast<uint8_t>(std::lround(255.0 * e));
-}
-
-uint8_t Linear8(double v) { return static_cast<uint8_t>(std::lround(255.0 * std::clamp(v, 0.0, 1.0))); }
-
-// The q-quantile of `values` (q in [0, 1]; 0 when empty).
-double Quantile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  const size_t k = std::min(values.size() - 1, static_cast<size_t>(q * static_cast<double>(values.size())));
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return values[k];
-}
 
 // Appends bytes to the model's one buffer as a new buffer view (4-byte
 // aligned); returns the view's index.
@@ -265,10 +246,8 @@ absl::Status AddMotion(tinygltf::Model* model, const scene::Sequence& sequence, 
   }
   tinygltf::Value::Array names;
   for (int t = 0; t < n; ++t) {
-    MVBRDF_ASSIGN_OR_RETURN(const scene::FramePositions positions, sequence.LoadFrame(t));
-    std::vector<glm::vec3> p = scene::ToRenderVertices(topology, positions);
-    std::vector<glm::vec3> nrm =
-        scene::ToRenderVertices(topology, scene::ComputeFileVertexNormals(topology, positions));
+    std::vector<glm::vec3> p, nrm;
+    MVBRDF_RETURN_IF_ERROR(PoseOf(sequence, topology, t, &p, &nrm));
     for (size_t i = 0; i < p.size(); ++i) p[i] -= rest[i], nrm[i] -= rest_normals[i];
     primitive->targets.push_back(
         {{"POSITION", AddVec3Accessor(model, p, true)}, {"NORMAL", AddVec3Accessor(model, nrm, false)}});
@@ -328,21 +307,12 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
   if (options.animation && options.frame >= 0) {
     return absl::InvalidArgumentError("--animation: the animation starts from the rest pose; leave out --frame");
   }
-  if (options.frame < -1 || options.frame >= sequence.num_frames) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--frame: expected -1 (the rest pose) or a frame in [0, ", sequence.num_frames, "), got ",
-                     options.frame));
-  }
-  MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
-  MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas atlas, pipeline::OpenRunAtlas(run_dir, run, sequence));
-  MVBRDF_ASSIGN_OR_RETURN(const pipeline::RunAtlases atlases, pipeline::ReadRunAtlases(run_dir, run));
-  scene::FramePositions positions = sequence.rest_positions;
-  if (options.frame >= 0) {
-    MVBRDF_ASSIGN_OR_RETURN(positions, sequence.LoadFrame(options.frame));
-  }
-  const std::vector<glm::vec3> vertices = scene::ToRenderVertices(atlas.topology, positions);
-  const std::vector<glm::vec3> normals =
-      scene::ToRenderVertices(atlas.topology, scene::ComputeFileVertexNormals(atlas.topology, positions));
+  MVBRDF_ASSIGN_OR_RETURN(const ExportInput in, ReadExportInput(run_dir, sequence, options.frame));
+  const v1::RunReport& run = in.run;
+  const atlas::Atlas& atlas = in.atlas;
+  const pipeline::RunAtlases& atlases = in.atlases;
+  const std::vector<glm::vec3>& vertices = in.vertices;
+  const std::vector<glm::vec3>& normals = in.normals;
   std::vector<glm::vec2> uvs = atlas.topology.uvs;
   for (glm::vec2& uv : uvs) uv.y = 1.0f - uv.y;  // glTF: v = 0 at the image's first row
   std::vector<uint32_t> indices;
