@@ -1,7 +1,9 @@
 # gltf_three_compare.py: draws a glTF export with three.js in headless Chromium
 # (tests/gltf_viewer.html) and the run with `mvbrdf render`, from one camera
 # under one light, and prints their difference over the pixels both cover, in
-# linear RGB: "MEAN P95 MEAN_RADIANCE" (issue #16's acceptance measure).
+# linear RGB: "MEAN P95 MEAN_RADIANCE" (issue #16's acceptance measure). SCENE.json
+# (the run's scene, or a copy, e.g. with lighting.inverseSquareFalloff) gives
+# the light and is the scene `mvbrdf render` draws with.
 # Usage: gltf_three_compare.py MVBRDF RUN_DIR MODEL.glb THREE_DIR SCENE.json CAMERA LIGHT WORK_DIR
 import base64, json, os, re, subprocess, sys
 
@@ -31,7 +33,8 @@ lights = [l for l in json.load(open(scene_file))["lights"] if l["name"] == light
 lights_file = os.path.join(work, "light-%s.json" % light)
 json.dump({"lights": lights}, open(lights_file, "w"))
 reference = os.path.join(work, "render-%s-%s.png" % (camera, light))
-subprocess.run([mvbrdf, "render", run, "--camera", camera, "--lights", lights_file, "--alpha", "--out", reference],
+subprocess.run([mvbrdf, "render", run, "--scene", scene_file, "--camera", camera, "--lights", lights_file, "--alpha",
+                "--out", reference],
                check=True, capture_output=True)
 a, b = read_png(viewer, True), read_png(reference, True)
 if len(a) != len(b) or len(a[0]) != len(b[0]):
