@@ -196,6 +196,14 @@ done
 # OBJ + MTL of the Phong run: the thesis's model itself. Every observed texel's
 # Ks / scale and Ns are the run's cluster ks and ke (8-bit sRGB Ks, 16-bit Ns).
 check "export .obj" 0 "wrote $work/obj/model_Ns.png" -- "$bin" export "$work/s-phong" --out "$work/obj/model.obj"
+# A run directory whose name holds a line break cannot add lines to the OBJ.
+hostile="$work/run
+v 9 9 9"
+cp -r "$work/s-phong" "$hostile"
+check "export .obj of a run whose directory name has a line break" 0 "wrote" -- \
+  "$bin" export "$hostile" --scene "$work/s/scene.json" --out "$work/obj2/model.obj"
+expect "its OBJ has the mesh's vertices only" test "$(grep -c '^v ' "$work/obj2/model.obj")" = \
+  "$(grep -c '^v ' "$work/obj/model.obj")"
 check "--animation is glTF only (usage)" 2 "--animation: glTF only" -- \
   "$bin" export "$work/s-phong" --animation --out "$work/obj/x.obj"
 expect "the OBJ's mesh is the glTF's, its maps the Phong run's ks and ke" /usr/bin/python3 - "$work" "$here" <<'PY'

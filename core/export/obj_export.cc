@@ -13,6 +13,7 @@
 #include "core/base/status_macros.h"
 #include "core/brdf/ggx_equivalent.h"
 #include "core/export/export_input.h"
+#include "core/scene/names.h"
 
 namespace mvbrdf::exporter {
 namespace {
@@ -88,7 +89,7 @@ absl::StatusOr<ObjExportSummary> ExportObj(const std::filesystem::path& run_dir,
   const std::filesystem::path dir = out.parent_path();
   const std::string stem = out.stem().string();
   const std::string mtl = stem + ".mtl", kd_png = stem + "_Kd.png", ks_png = stem + "_Ks.png", ns_png = stem + "_Ns.png";
-  std::string obj = absl::StrCat("# mvbrdf export of ", run_dir.string(), " (", frame < 0 ? "rest pose" : "frame ",
+  std::string obj = absl::StrCat("# mvbrdf export of ", scene::ShownName(run_dir.string()), " (", frame < 0 ? "rest pose" : "frame ",
                                  frame < 0 ? "" : std::to_string(frame), ")\nmtllib ", mtl, "\no reconstruction\n");
   for (const glm::vec3& v : in.vertices) absl::StrAppendFormat(&obj, "v %.9g %.9g %.9g\n", v.x, v.y, v.z);
   // OBJ's v runs up the image, as the atlas's does (row 0 = v 1).
