@@ -4,16 +4,18 @@
 # linear RGB: "MEAN P95 MEAN_RADIANCE" (issue #16's acceptance measure). SCENE.json
 # (the run's scene, or a copy, e.g. with lighting.inverseSquareFalloff) gives
 # the light and is the scene `mvbrdf render` draws with.
-# Usage: gltf_three_compare.py MVBRDF RUN_DIR MODEL.glb THREE_DIR SCENE.json CAMERA LIGHT WORK_DIR
+# Usage: gltf_three_compare.py MVBRDF RUN_DIR MODEL.glb THREE_DIR SCENE.json CAMERA LIGHT WORK_DIR [gltf-diffuse]
+# (gltf-diffuse: three.js's direct diffuse weighted by glTF's 1 - F, tests/gltf_viewer.html)
 import base64, json, os, re, subprocess, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from png_read import linear, read_png  # noqa: E402
 
 mvbrdf, run, model, three, scene_file, camera, light, work = sys.argv[1:9]
+gltf_diffuse = len(sys.argv) > 9 and sys.argv[9] == "gltf-diffuse"
 here = os.path.dirname(os.path.abspath(__file__))
-url = "file://%s/gltf_viewer.html?three=file://%s&model=file://%s&camera=%s&light=%s" % (
-    here, os.path.abspath(three), os.path.abspath(model), camera, light)
+url = "file://%s/gltf_viewer.html?three=file://%s&model=file://%s&camera=%s&light=%s&gltfdiffuse=%d" % (
+    here, os.path.abspath(three), os.path.abspath(model), camera, light, gltf_diffuse)
 m = None
 for attempt in range(3):  # a page whose loads outlast the virtual time budget stays "pending": draw again
     dom = subprocess.run(
