@@ -73,11 +73,7 @@ namespace {
 absl::Status Export(const std::filesystem::path& run_dir, const std::string& out, int frame, bool animation,
                     const std::string& scene_flag) {
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
-  scene::LoadOptions load;
-  load.check_all_frames = false;
-  load.probe_videos = false;
-  MVBRDF_ASSIGN_OR_RETURN(const std::filesystem::path scene_file, pipeline::SceneOfRun(run_dir, run, scene_flag));
-  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(scene_file, load));
+  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, pipeline::LoadSceneOfRun(run_dir, run, scene_flag));
   return ExportRun(run_dir, sequence, out, frame, animation);
 }
 

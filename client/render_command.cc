@@ -142,11 +142,7 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
                     const std::string& scene_flag, std::vector<std::string>* written) {
   const std::filesystem::path run_dir = dir;
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
-  scene::LoadOptions load;
-  load.check_all_frames = false;
-  load.probe_videos = false;
-  MVBRDF_ASSIGN_OR_RETURN(const std::filesystem::path scene_file, pipeline::SceneOfRun(run_dir, run, scene_flag));
-  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, scene::LoadSequence(scene_file, load));
+  MVBRDF_ASSIGN_OR_RETURN(const scene::Sequence sequence, pipeline::LoadSceneOfRun(run_dir, run, scene_flag));
   {
     // Up front: --out is a .png or .exr, and not a file render reads.
     const std::filesystem::path out_path = out;

@@ -4,6 +4,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/base/files.h"
 
 namespace mvbrdf::pipeline {
@@ -44,6 +45,15 @@ absl::StatusOr<fs::path> SceneOfRun(const fs::path& run_dir, const v1::RunReport
   return absl::NotFoundError(absl::StrCat(result.string(), ": its scene \"", run.scene(),
                                           "\" (relative to the directory of result.json) is not found as ",
                                           scene.string(), "; move the input with the output, or give --scene FILE"));
+}
+
+absl::StatusOr<scene::Sequence> LoadSceneOfRun(const std::filesystem::path& run_dir, const v1::RunReport& run,
+                                               const std::filesystem::path& scene_flag) {
+  MVBRDF_ASSIGN_OR_RETURN(const std::filesystem::path scene_file, SceneOfRun(run_dir, run, scene_flag));
+  scene::LoadOptions load;
+  load.check_all_frames = false;
+  load.probe_videos = false;
+  return scene::LoadSequence(scene_file, load);
 }
 
 }  // namespace mvbrdf::pipeline

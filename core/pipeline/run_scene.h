@@ -8,6 +8,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "core/scene/sequence.h"
 #include "mvbrdf/v1/run_report.pb.h"
 
 namespace mvbrdf::pipeline {
@@ -24,6 +25,11 @@ std::string SceneRelativeTo(const std::filesystem::path& scene_file, const std::
 // the bundle and --scene.
 absl::StatusOr<std::filesystem::path> SceneOfRun(const std::filesystem::path& run_dir, const v1::RunReport& run,
                                                  const std::filesystem::path& scene_flag = {});
+
+// The scene of the run (SceneOfRun) loaded for reading the run back (render,
+// report, export): frames checked when read, videos not probed.
+absl::StatusOr<scene::Sequence> LoadSceneOfRun(const std::filesystem::path& run_dir, const v1::RunReport& run,
+                                               const std::filesystem::path& scene_flag = {});
 
 }  // namespace mvbrdf::pipeline
 

@@ -44,11 +44,7 @@ std::vector<scene::Light> LightsOf(const scene::Sequence& sequence, const std::s
 
 absl::Status AddRenderings(const fs::path& run_dir, const v1::RunReport& run, const ReportOptions& options,
                            ReportInputs* in) {
-  scene::LoadOptions load;
-  load.check_all_frames = false;
-  load.probe_videos = false;
-  MVBRDF_ASSIGN_OR_RETURN(const fs::path scene_file, pipeline::SceneOfRun(run_dir, run, options.scene));
-  MVBRDF_ASSIGN_OR_RETURN(scene::Sequence sequence, scene::LoadSequence(scene_file, load));
+  MVBRDF_ASSIGN_OR_RETURN(scene::Sequence sequence, pipeline::LoadSceneOfRun(run_dir, run, options.scene));
   // Rendered with the cameras as the run used them (issue #14: refined).
   MVBRDF_RETURN_IF_ERROR(calibrate::ApplyCameraRefinement(run.calibration(), &sequence));
   MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *options.gl));
