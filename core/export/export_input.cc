@@ -10,12 +10,21 @@
 
 namespace mvbrdf::exporter {
 
-absl::Status PoseOf(const scene::Sequence& sequence, const scene::MeshTopology& topology, int frame,
-                    std::vector<glm::vec3>* vertices, std::vector<glm::vec3>* normals) {
+namespace {
+
+absl::Status CheckFrame(const scene::Sequence& sequence, int frame) {
   if (frame < -1 || frame >= sequence.num_frames) {
     return absl::InvalidArgumentError(absl::StrCat("--frame: expected -1 (the rest pose) or a frame in [0, ",
                                                    sequence.num_frames, "), got ", frame));
   }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status PoseOf(const scene::Sequence& sequence, const scene::MeshTopology& topology, int frame,
+                    std::vector<glm::vec3>* vertices, std::vector<glm::vec3>* normals) {
+  MVBRDF_RETURN_IF_ERROR(CheckFrame(sequence, frame));
   scene::FramePositions positions = sequence.rest_positions;
   if (frame >= 0) {
     MVBRDF_ASSIGN_OR_RETURN(positions, sequence.LoadFrame(frame));
@@ -27,10 +36,8 @@ absl::Status PoseOf(const scene::Sequence& sequence, const scene::MeshTopology& 
 
 absl::StatusOr<ExportInput> ReadExportInput(const std::filesystem::path& run_dir, const scene::Sequence& sequence,
                                             int frame) {
+  MVBRDF_RETURN_IF_ERROR(CheckFrame(sequence, frame));  // before any file is read
   ExportInput in;
-  if (frame < -1 || frame >= sequence.num_frames) {  // before any file is read
-    return PoseOf(sequence, sequence.topology, frame, &in.vertices, &in.normals);
-  }
   MVBRDF_ASSIGN_OR_RETURN(in.run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
   MVBRDF_ASSIGN_OR_RETURN(in.atlas, pipeline::OpenRunAtlas(run_dir, in.run, sequence));
   MVBRDF_ASSIGN_OR_RETURN(in.atlases, pipeline::ReadRunAtlases(run_dir, in.run));

@@ -104,8 +104,7 @@ MaterialTextures Convert(const pipeline::RunAtlases& a) {
   for (int y = 0; y < rows; ++y) {
     for (int x = 0; x < cols; ++x) {
       const size_t i = static_cast<size_t>(y * cols + x);
-      const brdf::Model model =
-          a.per_texel_model ? static_cast<brdf::Model>(a.model_atlas.at<uint8_t>(y, x)) : a.model;
+      const brdf::Model model = a.ModelAt(x, y);
       const cv::Vec3f p1 = a.p1.at<cv::Vec3f>(y, x), p2 = a.p2.at<cv::Vec3f>(y, x);
       double r = 0.0;
       for (int c = 0; c < 3; ++c) {
@@ -295,15 +294,12 @@ absl::Status AddMotion(tinygltf::Model* model, const scene::Sequence& sequence, 
 
 absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_dir, const scene::Sequence& sequence,
                                              const std::filesystem::path& out, const GltfExportOptions& options) {
-  bool binary = options.format == GltfExportOptions::Format::kGlb;
-  if (options.format == GltfExportOptions::Format::kByExtension) {
-    const std::string ext = out.extension().string();
-    if (ext != ".glb" && ext != ".gltf") {
-      return absl::InvalidArgumentError(
-          absl::StrCat("--out: expected a file ending in .glb or .gltf, got \"", out.string(), "\""));
-    }
-    binary = ext == ".glb";
+  const std::string ext = out.extension().string();
+  if (ext != ".glb" && ext != ".gltf") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--out: expected a file ending in .glb or .gltf, got \"", out.string(), "\""));
   }
+  const bool binary = ext == ".glb";
   if (options.animation && options.frame >= 0) {
     return absl::InvalidArgumentError("--animation: the animation starts from the rest pose; leave out --frame");
   }

@@ -45,9 +45,6 @@ struct GltfExportOptions {
   // "frame NNNN" (absolute frame numbers) in the mesh's extras.targetNames.
   // Not with `frame` >= 0.
   bool animation = false;
-  // GLB (one binary file) or glTF (JSON with the buffers and images embedded
-  // as data URIs); by default from `out`'s extension (.glb / .gltf).
-  enum class Format { kByExtension, kGlb, kGltf } format = Format::kByExtension;
 };
 
 struct GltfExportSummary {
@@ -61,7 +58,9 @@ struct GltfExportSummary {
   bool point_lights_without_falloff = false;
 };
 
-// Writes `out` from the run in `run_dir` whose scene `sequence` is. Errors
+// Writes `out` from the run in `run_dir` whose scene `sequence` is: GLB (one
+// binary file) when it ends in .glb, glTF (JSON with the buffers and images
+// embedded as data URIs) when in .gltf. Errors
 // name the file or field: INVALID_ARGUMENT for a bad frame or extension,
 // FAILED_PRECONDITION for a run whose atlases do not match its scene.
 absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_dir, const scene::Sequence& sequence,

@@ -45,7 +45,7 @@ absl::StatusOr<ObjExportSummary> ExportObj(const std::filesystem::path& run_dir,
   for (int y = 0; y < rows; ++y) {
     for (int x = 0; x < cols; ++x) {
       const size_t i = static_cast<size_t>(y * cols + x);
-      const brdf::Model model = a.per_texel_model ? static_cast<brdf::Model>(a.model_atlas.at<uint8_t>(y, x)) : a.model;
+      const brdf::Model model = a.ModelAt(x, y);
       const cv::Vec3f p1 = a.p1.at<cv::Vec3f>(y, x), p2 = a.p2.at<cv::Vec3f>(y, x), kd = a.kd.at<cv::Vec3f>(y, x);
       double ks_top = 0.0;
       for (int c = 0; c < 3; ++c) {

@@ -33,6 +33,11 @@ struct RunAtlases {
   cv::Mat p1, p2;          // CV_32FC3: the model's two parameters (ks, ke; f0, roughness; parameter_1, _2)
   cv::Mat model_atlas;     // CV_8UC1 with per_texel_model: brdf::Model values (texels of no cluster: Phong)
   cv::Mat confidence;      // CV_32FC1: observations per texel (0: never observed)
+
+  // The model of texel (x, y): model_atlas's under auto, else `model`.
+  brdf::Model ModelAt(int x, int y) const {
+    return per_texel_model ? static_cast<brdf::Model>(model_atlas.at<uint8_t>(y, x)) : model;
+  }
 };
 
 // atlases/ of the run: kd.exr, the two parameter atlases the model names,
