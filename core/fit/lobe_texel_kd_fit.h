@@ -1,6 +1,7 @@
 // A cluster's lobe of any model refitted with kd free per texel (issue #15),
-// as texel_kd_fit.h does for the thesis's Phong (which keeps its own, exact
-// code: the thesis tables do not move).
+// as texel_kd_fit.h does for the thesis's Phong (which keeps its own
+// regressors, ln h and exp, so the thesis tables do not move); both solve by
+// texel_kd_projection.h.
 //
 // Every model of core/brdf is linear in kd and in its first parameter p0 once
 // its second (the shape: ke, or GGX's roughness) is fixed:
