@@ -32,24 +32,26 @@ float BrdfSchlickWeight(BrdfGeometry g) {
   return m2 * m2 * m;
 }
 
-// F / F0 = 1 + (1 / 0.04 - 1) w: a dielectric's Fresnel curve (ggx.h's kF0).
-float GgxFresnelShape(BrdfGeometry g) {
-  return 1.0 + (1.0 / 0.04 - 1.0) * BrdfSchlickWeight(g);
+// F / F0 = 1 + (ratio - 1) w, ratio = F90 / F0 (ggx.h; 25: a dielectric of
+// index 1.5, Ggx::kDielectricRatio).
+float GgxFresnelShape(float ratio, BrdfGeometry g) {
+  return 1.0 + (ratio - 1.0) * BrdfSchlickWeight(g);
 }
 
 // glTF's GGX lobe: n.l F D V with a = roughness^2; 0 where n.l or n.v <= 0.
-float GgxSpecular(float f0, float roughness, BrdfGeometry g) {
+float GgxSpecular(float f0, float roughness, float ratio, BrdfGeometry g) {
   if (!(g.n_dot_l > 0.0) || !(g.n_dot_v > 0.0)) return 0.0;
   float nl = min(g.n_dot_l, 1.0), nv = min(g.n_dot_v, 1.0), c = clamp(g.n_dot_h, 0.0, 1.0);
   float a = roughness * roughness, a2 = a * a;
   float q = c * c * (a2 - 1.0) + 1.0;
   float d = a2 / (kBrdfPi * q * q);
   float v = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
-  float f = f0 * GgxFresnelShape(g);
+  float f = f0 * GgxFresnelShape(ratio, g);
   return g.n_dot_l * f * d * v;
 }
 
-// The weight of the diffuse term kd n.l under GGX: 1 - F / F90.
-float GgxDiffuseWeight(float f0, BrdfGeometry g) {
-  return 1.0 - 0.04 * GgxFresnelShape(g);
+// The weight of the diffuse term kd n.l under GGX: 1 - F / F90 =
+// (1 - 1 / ratio) (1 - w).
+float GgxDiffuseWeight(float ratio, BrdfGeometry g) {
+  return (1.0 - 1.0 / ratio) * (1.0 - BrdfSchlickWeight(g));
 }

@@ -39,6 +39,7 @@ struct GpuMaterial {
   // BRDF number w of NbrdfWeights (rho(wi, wo) n.l per unit intensity; kd,
   // ks and ke unused), w < 0: an analytic one.
   vec4 ke;
+  vec4 p3;  // rgb: the model's third parameter (GGX's f90_ratio)
 };
 
 layout(std430, binding = 1) readonly buffer MaterialBlock { GpuMaterial u_materials[]; };
@@ -63,6 +64,7 @@ layout(binding = 3) uniform sampler2D u_atlas_ke;
 layout(binding = 4) uniform samplerCubeArray u_point_shadows;      // distance to the light / shadow.y
 layout(binding = 5) uniform sampler2DArray u_directional_shadows;  // orthographic depth
 layout(binding = 6) uniform sampler2D u_atlas_model;
+layout(binding = 7) uniform sampler2D u_atlas_p3;  // the third parameter (GGX's f90_ratio)
 
 in vec3 v_position;
 in vec3 v_normal;
@@ -73,7 +75,7 @@ layout(location = 0) out vec4 out_radiance;  // rgb radiance, a = 1 (coverage)
 
 // kd W g + S per unit intensity of a half-vector model (core/fit/lobe_fit.h's
 // equation; the caller multiplies by I, the fall-off and V).
-vec3 HalfVectorModelTerm(int model, vec3 kd, vec3 p0, vec3 p1, vec3 l, vec3 n, vec3 v) {
+vec3 HalfVectorModelTerm(int model, vec3 kd, vec3 p0, vec3 p1, vec3 p2, vec3 l, vec3 n, vec3 v) {
   BrdfGeometry g;
   g.n_dot_l = dot(n, l);
   g.n_dot_v = dot(n, v);
@@ -85,8 +87,8 @@ vec3 HalfVectorModelTerm(int model, vec3 kd, vec3 p0, vec3 p1, vec3 l, vec3 n, v
   g.r_dot_v = max(0.0, dot(2.0 * g.n_dot_l * n - l, v));
   vec3 term;
   for (int c = 0; c < 3; ++c) {
-    float specular = model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], g);
-    float weight = model == 2 ? GgxDiffuseWeight(p0[c], g) : 1.0;
+    float specular = model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], p2[c], g);
+    float weight = model == 2 ? GgxDiffuseWeight(p2[c], g) : 1.0;
     term[c] = kd[c] * weight * g.n_dot_l + specular;
   }
   return term;
@@ -136,12 +138,14 @@ void main() {
   vec3 kd;
   vec3 ks;
   vec3 ke;
+  vec3 p3;
   int model = u_brdf_model;
   int measured = -1;
   if (u_atlas_mode != 0) {
     kd = texture(u_atlas_kd, v_uv).rgb;
     ks = texture(u_atlas_ks, v_uv).rgb;
     ke = texture(u_atlas_ke, v_uv).rgb;
+    p3 = texture(u_atlas_p3, v_uv).rgb;
     if (model < 0) {
       ivec2 size = textureSize(u_atlas_model, 0);
       ivec2 texel = clamp(ivec2(floor(v_uv * vec2(size))), ivec2(0), size - 1);
@@ -156,6 +160,7 @@ void main() {
                                     m.offset_frequency.xyz, v_rest_position);
     ks = m.ks_kd_from_texture.rgb;
     ke = m.ke.rgb;
+    p3 = m.p3.rgb;
     measured = int(floor(m.ke.w + 0.5));
   }
 
@@ -183,7 +188,7 @@ void main() {
     if (!visible) continue;
     vec3 term = measured >= 0 ? ks * MeasuredTerm(measured, l, n, v)
                 : model == 0  ? PhongTerm(kd, ks, ke, cosines)
-                              : HalfVectorModelTerm(model, kd, ks, ke, l, n, v);
+                              : HalfVectorModelTerm(model, kd, ks, ke, p3, l, n, v);
     f += light.intensity.rgb * attenuation * term;
   }
   out_radiance = vec4(f, 1.0);

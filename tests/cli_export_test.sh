@@ -55,8 +55,8 @@ check "the Khronos glTF Validator: 0 errors, 0 warnings" 0 "0 errors, 0 warnings
 
 # The material against the truth: every observed texel's roughness (the
 # metallicRoughness texture's G) and F0 (0.04 x specularColor x
-# specularFactor / the export's scale, in the data's units) near one of the
-# true materials'; metallic 0.
+# specularColorFactor x specularFactor / the export's scale, in the data's
+# units) near one of the true materials'; metallic 0.
 /usr/bin/python3 - "$work" "$here" <<'PY'
 import json, sys
 work, here = sys.argv[1], sys.argv[2]
@@ -72,6 +72,7 @@ mr, spec = png("metallicRoughness"), png("specular", alpha=True)
 truth = json.load(open(work + "/b/ground_truth/truth.json"))["materials"]
 true = [(m["roughness"][0], m["f0"][0]) for m in truth]
 scale = doc["asset"]["extras"]["mvbrdf"]["scale"]
+colour_factor = doc["materials"][0]["extensions"]["KHR_materials_specular"].get("specularColorFactor", [1, 1, 1])[1]
 # Observed texels: the confidence texture (grey PNG) > 0.
 conf = png("confidence")
 bad, near, total, metallic = [], 0, 0, 0
@@ -82,10 +83,10 @@ for y, row in enumerate(conf):
         roughness = mr[y][x][1] / 255.0
         metallic += mr[y][x][2] != 0
         s = spec[y][x]
-        f0 = 0.04 * linear(s[1]) * (s[3] / 255.0) / scale
+        f0 = 0.04 * linear(s[1]) * colour_factor * (s[3] / 255.0) / scale
         if any(abs(roughness - r) <= 0.03 and abs(f0 - f) <= 0.15 * f for r, f in true): near += 1
-print("  %d observed texels, %.3f near a true material's roughness (0.03) and F0 (15 %%); scale %.4g"
-      % (total, near / max(total, 1), scale))
+print("  %d observed texels, %.3f near a true material's roughness (0.03) and F0 (15 %%); scale %.4g, "
+      "specularColorFactor %.3g" % (total, near / max(total, 1), scale, colour_factor))
 if total == 0: bad.append("no observed texel in the confidence texture")
 if near < 0.9 * total: bad.append("only %d of %d texels near a true material" % (near, total))
 if metallic: bad.append("%d texels metallic" % metallic)

@@ -23,14 +23,14 @@ namespace {
 constexpr double kRelativeTolerance = 1e-4;
 constexpr double kAbsoluteTolerance = 1e-6;
 
-struct Case {  // one std430 record: 8 floats
-  float n_dot_l, n_dot_v, n_dot_h, v_dot_h, r_dot_v, p0, p1, model;
+struct Case {  // one std430 record: 9 floats
+  float n_dot_l, n_dot_v, n_dot_h, v_dot_h, r_dot_v, p0, p1, p2, model;
 };
 
 constexpr char kProbe[] = R"(
 #include "brdf_models.glsl"
 layout(local_size_x = 64) in;
-struct Case { float n_dot_l, n_dot_v, n_dot_h, v_dot_h, r_dot_v, p0, p1, model; };
+struct Case { float n_dot_l, n_dot_v, n_dot_h, v_dot_h, r_dot_v, p0, p1, p2, model; };
 layout(std430, binding = 0) readonly buffer Cases { Case cases[]; };
 layout(std430, binding = 1) writeonly buffer Results { vec2 results[]; };
 void main() {
@@ -40,7 +40,7 @@ void main() {
   BrdfGeometry g = BrdfGeometry(c.n_dot_l, c.n_dot_v, c.n_dot_h, c.v_dot_h, c.r_dot_v);
   if (c.model == 0.0) results[i] = vec2(PhongSpecular(c.p0, c.p1, g), 1.0);
   else if (c.model == 1.0) results[i] = vec2(BlinnPhongSpecular(c.p0, c.p1, g), 1.0);
-  else results[i] = vec2(GgxSpecular(c.p0, c.p1, g), GgxDiffuseWeight(c.p0, g));
+  else results[i] = vec2(GgxSpecular(c.p0, c.p1, c.p2, g), GgxDiffuseWeight(c.p2, g));
 }
 )";
 
@@ -58,9 +58,9 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
     return glm::normalize(d);
   };
   const glm::dvec3 n(0, 0, 1);
-  const double parameters[3][3][2] = {{{0.2, 4.0}, {0.05, 40.0}, {1.5, 120.0}},
-                                      {{0.5, 16.0}, {0.05, 160.0}, {1.0, 1.0}},
-                                      {{0.04, 0.5}, {0.9, 0.2}, {0.5, 1.0}}};
+  const double parameters[3][3][3] = {{{0.2, 4.0, 0.0}, {0.05, 40.0, 0.0}, {1.5, 120.0, 0.0}},
+                                      {{0.5, 16.0, 0.0}, {0.05, 160.0, 0.0}, {1.0, 1.0, 0.0}},
+                                      {{0.04, 0.5, 25.0}, {0.9, 0.2, 1.0}, {0.5, 1.0, 6.0}}};
   std::vector<Case> cases;
   std::vector<Geometry> geometries;
   for (int i = 0; i < 400; ++i) {
@@ -75,7 +75,7 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
       for (const auto& p : parameters[model]) {
         cases.push_back({static_cast<float>(g.n_dot_l), static_cast<float>(g.n_dot_v), static_cast<float>(g.n_dot_h),
                          static_cast<float>(g.v_dot_h), static_cast<float>(g.r_dot_v), static_cast<float>(p[0]),
-                         static_cast<float>(p[1]), static_cast<float>(model)});
+                         static_cast<float>(p[1]), static_cast<float>(p[2]), static_cast<float>(model)});
         geometries.push_back(g);
       }
     }
@@ -101,7 +101,7 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
     g.n_dot_h = cases[i].n_dot_h;
     g.v_dot_h = cases[i].v_dot_h;
     g.r_dot_v = cases[i].r_dot_v;
-    const double p[2] = {cases[i].p0, cases[i].p1};
+    const double p[3] = {cases[i].p0, cases[i].p1, cases[i].p2};
     double specular = 0, weight = 1;
     switch (static_cast<int>(cases[i].model)) {
       case 0:

@@ -63,6 +63,7 @@ class ModelCost : public ceres::SizedCostFunction<2, M::kNumParameters> {
 struct JacobianProbe {
   double p0, p1;
   double spread;  // radians: how far v strays from l's mirror direction
+  double p2 = Ggx::kDielectricRatio;  // GGX's f90_ratio
 };
 
 // Probed near each lobe (v within ~`spread` of l's mirror direction, so the
@@ -82,6 +83,16 @@ void CheckJacobians(const std::vector<JacobianProbe>& probes) {
       const glm::dvec3 v = glm::normalize(mirror + probe.spread * glm::dvec3(normal(rng), normal(rng), normal(rng)));
       if (v.z < 0.05) continue;
       const Geometry geometry = GeometryOf(n, l, v);
+      double p[3] = {probe.p0, probe.p1, probe.p2};
+      // A derivative below the value's rounding (GGX's ratio where (1 - v.h)^5
+      // is ~1e-13, near the mirror direction) cannot be resolved numerically.
+      double ds[3] = {0.0, 0.0, 0.0};
+      const double s = M::Specular(p, geometry, ds);
+      bool resolvable = true;
+      for (int k = 0; k < M::kNumParameters; ++k) {
+        if (ds[k] != 0.0 && std::abs(ds[k] * p[k]) < 1e-7 * std::abs(s)) resolvable = false;
+      }
+      if (!resolvable) continue;
       ModelCost<M> cost(geometry);
       // GradientChecker differentiates by Ridders' method; from its default
       // first step (1e-2 relative) it settled on a wrong slope of the GGX
@@ -92,7 +103,6 @@ void CheckJacobians(const std::vector<JacobianProbe>& probes) {
       const std::vector<const ceres::Manifold*>* no_manifolds = nullptr;
       ceres::GradientChecker checker(&cost, no_manifolds, numeric);
       ceres::GradientChecker::ProbeResults results;
-      double p[2] = {probe.p0, probe.p1};
       const double* blocks[] = {p};
       EXPECT_TRUE(checker.Probe(blocks, kJacobianPrecision, &results))
           << M::kName << " at " << p[0] << ", " << p[1] << ", n.l " << geometry.n_dot_l << " n.v " << geometry.n_dot_v
@@ -112,7 +122,13 @@ TEST(BrdfJacobianTest, BlinnPhongMatchesNumericDerivatives) {
 }
 
 TEST(BrdfJacobianTest, GgxMatchesNumericDerivatives) {
-  CheckJacobians<Ggx>({{0.04, 0.5, 0.5}, {0.9, 0.2, 0.15}, {0.5, 1.0, 0.9}, {0.02, 0.05, 0.01}});
+  CheckJacobians<Ggx>({{0.04, 0.5, 0.5},
+                       {0.9, 0.2, 0.15},
+                       {0.5, 1.0, 0.9},
+                       {0.02, 0.05, 0.01},
+                       {0.3, 0.3, 0.9, 1.0},
+                       {0.1, 0.6, 0.9, 4.0},
+                       {0.01, 0.1, 0.2, 50.0}});
 }
 
 TEST(BrdfValueTest, HandComputedValues) {
@@ -125,10 +141,27 @@ TEST(BrdfValueTest, HandComputedValues) {
   EXPECT_NEAR(BlinnPhong::Specular(blinn, head_on, nullptr),
               0.5 * 26.0 * 28.0 / (8.0 * kPi * (std::exp2(-12.0) + 24.0)), kValueTolerance);
   // GGX head on: D = 1 / (pi a^2), V = 1/4, F = F0.
-  const double ggx[] = {0.04, 0.5};
+  const double ggx[] = {0.04, 0.5, Ggx::kDielectricRatio};
   const double a = 0.25;
   EXPECT_NEAR(Ggx::Specular(ggx, head_on, nullptr), 0.04 / (4.0 * kPi * a * a), kValueTolerance);
   EXPECT_NEAR(Ggx::DiffuseWeight(ggx, head_on, nullptr), 0.96, kValueTolerance);
+  // The ratio: head on F = F0 whatever it is; at grazing v.h -> 0, F -> F90 =
+  // phi F0; a flat curve (phi 1) leaves no diffuse.
+  const double flat[] = {0.04, 0.5, 1.0}, fourfold[] = {0.04, 0.5, 4.0};
+  EXPECT_NEAR(Ggx::Specular(flat, head_on, nullptr), Ggx::Specular(ggx, head_on, nullptr), kValueTolerance);
+  EXPECT_EQ(Ggx::DiffuseWeight(flat, head_on, nullptr), 0.0);
+  EXPECT_NEAR(Ggx::DiffuseWeight(fourfold, head_on, nullptr), 0.75, kValueTolerance);
+  {
+    const double deg = kPi / 180.0;
+    // Light and view 89.9 degrees apart from each other about n: v.h = cos 89.9 deg.
+    const glm::dvec3 l(std::sin(89.9 * deg), 0, std::cos(89.9 * deg)), v(-l.x, 0, l.z);
+    const Geometry grazing = GeometryOf(n, l, v);
+    const double w = std::pow(1.0 - grazing.v_dot_h, 5.0);
+    for (const double* p : {ggx, flat, fourfold}) {
+      const double f = Ggx::Specular(p, grazing, nullptr) / Ggx::Specular(flat, grazing, nullptr) * p[0];
+      EXPECT_NEAR(f, p[0] * (1.0 + (p[2] - 1.0) * w), 1e-12) << p[2];
+    }
+  }
 
   // The thesis's mirror lobe: l at 30 degrees, v at its mirror direction
   // rotated by 10 degrees in the plane: h = cos 10 degrees.
@@ -162,7 +195,7 @@ double Brdf(const double* p, const glm::dvec3& n, const glm::dvec3& l, const glm
 TEST(BrdfReciprocityTest, BlinnPhongAndGgxAreReciprocalPhongIsNot) {
   std::mt19937 rng(11);
   const glm::dvec3 n(0, 0, 1);
-  const double blinn[] = {0.7, 30.0}, ggx[] = {0.3, 0.35}, phong[] = {0.7, 30.0};
+  const double blinn[] = {0.7, 30.0}, ggx[] = {0.3, 0.35, 7.0}, phong[] = {0.7, 30.0};
   double phong_worst = 0;
   for (int i = 0; i < 200; ++i) {
     const glm::dvec3 l = RandomUpperDirection(rng), v = RandomUpperDirection(rng);
@@ -210,19 +243,21 @@ double DiffuseAlbedo(const double* p, double view_angle) {
                         [&](const Geometry& g) { return M::DiffuseWeight(p, g, nullptr) * g.n_dot_l / kPi; });
 }
 
-// GGX's lobe with F = 1 (n.l D V): its Specular over F = F0 (1 + (1 / kF0 -
-// 1) (1 - v.h)^5).
+// GGX's lobe with F = 1 (n.l D V): its Specular over F = F0 (1 + (phi - 1)
+// (1 - v.h)^5).
 struct GgxUnitFresnel {
   static double Specular(const double* p, const Geometry& g, double*) {
     const double m = 1.0 - std::clamp(g.v_dot_h, 0.0, 1.0);
-    const double f = p[0] * (1.0 + (1.0 / Ggx::kF0 - 1.0) * m * m * m * m * m);
+    const double f = p[0] * (1.0 + (p[2] - 1.0) * m * m * m * m * m);
     return f > 0.0 ? Ggx::Specular(p, g, nullptr) / f : 0.0;
   }
 };
 
 TEST(BrdfEnergyTest, NormalisedModelsReflectAtMostWhatArrives) {
   const double deg = kPi / 180.0;
-  const double blinn[] = {1.0, 40.0}, ggx_rough[] = {Ggx::kF0, 0.5}, ggx_smooth[] = {Ggx::kF0, 0.3};
+  constexpr double kF0 = 1.0 / Ggx::kDielectricRatio;  // F90 = 1
+  const double blinn[] = {1.0, 40.0}, ggx_rough[] = {kF0, 0.5, Ggx::kDielectricRatio},
+               ggx_smooth[] = {kF0, 0.3, Ggx::kDielectricRatio};
   for (double view : {0.0, 30.0, 60.0, 80.0}) {
     const double b = Albedo<BlinnPhong>(blinn, view * deg);
     // GGX's lobe with F = 1 (the most it can reflect), and at F0 = kF0 (F90 =
@@ -239,7 +274,7 @@ TEST(BrdfEnergyTest, NormalisedModelsReflectAtMostWhatArrives) {
     EXPECT_LE(r, 1.0 + kQuadratureError) << view;
     EXPECT_LE(s, 1.0 + kQuadratureError) << view;
     EXPECT_LE(sf, s) << view;
-    EXPECT_LE(d, 1.0 - Ggx::kF0 + kQuadratureError) << view;
+    EXPECT_LE(d, 1.0 - kF0 + kQuadratureError) << view;
   }
   // Not far below either (a factor lost in D or V would show): single
   // scattering loses a few percent at these roughnesses.
@@ -247,7 +282,7 @@ TEST(BrdfEnergyTest, NormalisedModelsReflectAtMostWhatArrives) {
   EXPECT_GT(Albedo<BlinnPhong>(blinn, 0.0), 0.9);
   // The lobe's scale is F0's: twice F0, twice the specular albedo (the model
   // is linear in it, ggx.h), the diffuse weight unchanged.
-  const double ggx_double[] = {2.0 * Ggx::kF0, 0.3};
+  const double ggx_double[] = {2.0 * kF0, 0.3, Ggx::kDielectricRatio};
   EXPECT_NEAR(Albedo<Ggx>(ggx_double, 30.0 * deg), 2.0 * Albedo<Ggx>(ggx_smooth, 30.0 * deg), 1e-12);
   EXPECT_DOUBLE_EQ(DiffuseAlbedo<Ggx>(ggx_double, 30.0 * deg), DiffuseAlbedo<Ggx>(ggx_smooth, 30.0 * deg));
   // The thesis's lobe is not normalised: ks 1, ke 40 reflects far less than
@@ -266,19 +301,23 @@ TEST(BrdfModelTest, Names) {
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message().find("phong, blinn-phong, ggx"), absl::string_view::npos);
   EXPECT_EQ(std::string(ParameterNames(Model::kGgx)[1]), "roughness");
+  EXPECT_EQ(std::string(ParameterNames(Model::kGgx)[2]), "f90_ratio");
+  EXPECT_EQ(std::string(ParameterNames(Model::kPhong)[2]), "");
+  EXPECT_EQ(NumParameters(Model::kGgx), 3);
+  EXPECT_EQ(NumParameters(Model::kBlinnPhong), 2);
 }
 
 // The glTF export's GGX of any model (ggx_equivalent.h): GGX itself
 // unchanged; Phong and Blinn-Phong at the same head-on peak, with the width
 // rule of synth --brdf ggx (roughness^4 = 2 / (ke_half + 2)).
 TEST(GgxEquivalentTest, SamePeakHeadOnAndTheWidthRule) {
-  const std::array<double, 2> ggx = {0.03, 0.4};
+  const ParameterVector ggx = {0.03, 0.4, 6.0};
   EXPECT_EQ(GgxEquivalent(Model::kGgx, ggx), ggx);
   const glm::dvec3 n(0, 0, 1);
   const Geometry head_on = GeometryOf(n, n, n);
   for (Model model : {Model::kPhong, Model::kBlinnPhong}) {
-    const std::array<double, 2> p = {0.2, 30.0};
-    const std::array<double, 2> g = GgxEquivalent(model, p);
+    const ParameterVector p = {0.2, 30.0, 0.0};
+    const ParameterVector g = GgxEquivalent(model, p);
     const double ke_half = model == Model::kPhong ? 4.0 * p[1] : p[1];
     EXPECT_NEAR(g[1], std::pow(2.0 / (ke_half + 2.0), 0.25), 1e-12) << ModelName(model);
     const double peak = model == Model::kPhong ? Phong::Specular(p.data(), head_on, nullptr)
@@ -287,16 +326,16 @@ TEST(GgxEquivalentTest, SamePeakHeadOnAndTheWidthRule) {
   }
   // And back: PhongEquivalent keeps the peak and the width rule.
   for (Model model : {Model::kBlinnPhong, Model::kGgx}) {
-    const std::array<double, 2> p = model == Model::kGgx ? std::array<double, 2>{0.04, 0.3}
-                                                         : std::array<double, 2>{0.2, 120.0};
-    const std::array<double, 2> there = GgxEquivalent(model, p);
-    const std::array<double, 2> back = GgxEquivalent(Model::kPhong, PhongEquivalent(model, p));
+    const ParameterVector p = model == Model::kGgx ? ParameterVector{0.04, 0.3, Ggx::kDielectricRatio}
+                                                         : ParameterVector{0.2, 120.0, 0.0};
+    const ParameterVector there = GgxEquivalent(model, p);
+    const ParameterVector back = GgxEquivalent(Model::kPhong, PhongEquivalent(model, p));
     EXPECT_NEAR(back[0], there[0], 1e-9 * there[0]) << ModelName(model);
     EXPECT_NEAR(back[1], there[1], 1e-9) << ModelName(model);
   }
   // Widths beyond GGX's bounds clamp to them.
-  EXPECT_EQ(GgxEquivalent(Model::kBlinnPhong, {0.1, 1e9})[1], Ggx::Parameters()[1].lower);
-  EXPECT_EQ(GgxEquivalent(Model::kBlinnPhong, {0.1, 0.0})[1], Ggx::Parameters()[1].upper);
+  EXPECT_EQ(GgxEquivalent(Model::kBlinnPhong, {0.1, 1e9, 0.0})[1], Ggx::Parameters()[1].lower);
+  EXPECT_EQ(GgxEquivalent(Model::kBlinnPhong, {0.1, 0.0, 0.0})[1], Ggx::Parameters()[1].upper);
 }
 
 }  // namespace

@@ -16,19 +16,19 @@ double GgxRoughnessOfHalfVectorExponent(double ke_half) {
   return std::clamp(std::pow(2.0 / (ke_half + 2.0), 0.25), bounds.lower, bounds.upper);
 }
 
-std::array<double, 2> GgxEquivalent(Model model, const std::array<double, 2>& p) {
+ParameterVector GgxEquivalent(Model model, const ParameterVector& p) {
   if (model == Model::kGgx) return p;
   const double roughness = GgxRoughnessOfHalfVectorExponent(model == Model::kPhong ? 4.0 * p[1] : p[1]);
   const glm::dvec3 n(0.0, 0.0, 1.0);
   const Geometry head_on = GeometryOf(n, n, n);
   const double peak = model == Model::kPhong ? Phong::Specular(p.data(), head_on, nullptr)
                                              : BlinnPhong::Specular(p.data(), head_on, nullptr);
-  const double unit[2] = {1.0, roughness};
+  const double unit[3] = {1.0, roughness, Ggx::kDielectricRatio};
   const double ggx_peak = Ggx::Specular(unit, head_on, nullptr);
-  return {ggx_peak > 0.0 ? std::max(0.0, peak / ggx_peak) : 0.0, roughness};
+  return {ggx_peak > 0.0 ? std::max(0.0, peak / ggx_peak) : 0.0, roughness, Ggx::kDielectricRatio};
 }
 
-std::array<double, 2> PhongEquivalent(Model model, const std::array<double, 2>& p) {
+ParameterVector PhongEquivalent(Model model, const ParameterVector& p) {
   if (model == Model::kPhong) return p;
   const glm::dvec3 n(0.0, 0.0, 1.0);
   const Geometry head_on = GeometryOf(n, n, n);
@@ -42,7 +42,7 @@ std::array<double, 2> PhongEquivalent(Model model, const std::array<double, 2>& 
     peak = BlinnPhong::Specular(p.data(), head_on, nullptr);
   }
   const auto& bounds = Phong::Parameters()[1];
-  return {std::max(0.0, peak), std::clamp(ke_half / 4.0, bounds.lower, bounds.upper)};
+  return {std::max(0.0, peak), std::clamp(ke_half / 4.0, bounds.lower, bounds.upper), 0.0};
 }
 
 }  // namespace mvbrdf::brdf

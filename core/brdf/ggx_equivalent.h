@@ -8,7 +8,7 @@
 //   F0: the peak, matched head on (light and view along the normal, h = n),
 //     F0 = S_model(p; head on) / S_ggx(F0 = 1, roughness; head on).
 //
-// GGX itself maps to itself. `synth --brdf ggx` converts its Phong presets by
+// GGX itself maps to itself (its head-on peak is F0's whatever its ratio). `synth --brdf ggx` converts its Phong presets by
 // the same width rule (core/synth/model_materials.h). PhongEquivalent is the
 // way back to the thesis's mirror lobe (the OBJ + MTL export), by the same
 // rules: GgxEquivalent(kPhong, PhongEquivalent(m, p)) = GgxEquivalent(m, p)
@@ -25,12 +25,13 @@ namespace mvbrdf::brdf {
 // GGX's roughness of a Blinn-Phong (half-vector) exponent, within GGX's bounds.
 double GgxRoughnessOfHalfVectorExponent(double ke_half);
 
-// {F0, roughness} of the model's parameters {p0, p1} (ParameterNames' order).
-std::array<double, 2> GgxEquivalent(Model model, const std::array<double, 2>& p);
+// {F0, roughness, f90_ratio} of the model's parameters (ParameterNames'
+// order); the ratio of a model without one is a dielectric's (25).
+ParameterVector GgxEquivalent(Model model, const ParameterVector& p);
 
 // {ks, ke} of the thesis's Phong: ke = ke_half / 4 (ke_half = 2 / alpha^2 - 2
 // for GGX), ks = the model's head-on peak; ke within Phong's bounds.
-std::array<double, 2> PhongEquivalent(Model model, const std::array<double, 2>& p);
+ParameterVector PhongEquivalent(Model model, const ParameterVector& p);
 
 }  // namespace mvbrdf::brdf
 

@@ -29,16 +29,40 @@ absl::StatusOr<Model> ParseModel(absl::string_view name) {
 
 bool NeedsHalfVector(Model model) { return model != Model::kPhong; }
 
-std::array<const char*, 2> ParameterNames(Model model) {
+namespace {
+
+template <typename M>
+std::array<const char*, kMaxParameters> NamesOf() {
+  std::array<const char*, kMaxParameters> names;
+  names.fill("");
+  for (int q = 0; q < M::kNumParameters; ++q) names[static_cast<size_t>(q)] = M::Parameters()[static_cast<size_t>(q)].name;
+  return names;
+}
+
+}  // namespace
+
+int NumParameters(Model model) {
   switch (model) {
     case Model::kPhong:
-      return {Phong::Parameters()[0].name, Phong::Parameters()[1].name};
+      return Phong::kNumParameters;
     case Model::kBlinnPhong:
-      return {BlinnPhong::Parameters()[0].name, BlinnPhong::Parameters()[1].name};
+      return BlinnPhong::kNumParameters;
     case Model::kGgx:
-      return {Ggx::Parameters()[0].name, Ggx::Parameters()[1].name};
+      return Ggx::kNumParameters;
   }
-  return {"?", "?"};
+  return 2;
+}
+
+std::array<const char*, kMaxParameters> ParameterNames(Model model) {
+  switch (model) {
+    case Model::kPhong:
+      return NamesOf<Phong>();
+    case Model::kBlinnPhong:
+      return NamesOf<BlinnPhong>();
+    case Model::kGgx:
+      return NamesOf<Ggx>();
+  }
+  return NamesOf<Phong>();
 }
 
 }  // namespace mvbrdf::brdf

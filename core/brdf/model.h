@@ -9,6 +9,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "core/brdf/parameter.h"
 
 namespace mvbrdf::brdf {
 
@@ -22,9 +23,11 @@ const char* ModelName(Model model);
 absl::StatusOr<Model> ParseModel(absl::string_view name);
 // Whether the model reads the half-vector geometry (n.v, n.h, v.h).
 bool NeedsHalfVector(Model model);
-// The names of the model's two parameters ("ks", "ke"; "f0", "roughness"),
-// as atlases and reports name them.
-std::array<const char*, 2> ParameterNames(Model model);
+// How many parameters the model has (2; GGX 3), and their names ("ks",
+// "ke"; "f0", "roughness", "f90_ratio"), as atlases and reports name them
+// (entries past NumParameters are "").
+int NumParameters(Model model);
+std::array<const char*, kMaxParameters> ParameterNames(Model model);
 
 }  // namespace mvbrdf::brdf
 

@@ -3,7 +3,17 @@
 #ifndef MVBRDF_CORE_BRDF_PARAMETER_H_
 #define MVBRDF_CORE_BRDF_PARAMETER_H_
 
+#include <array>
+
 namespace mvbrdf::brdf {
+
+// The most parameters a model of core/brdf has (GGX's f0, roughness,
+// f90_ratio); the others have two, and callers size their arrays by this.
+constexpr int kMaxParameters = 3;
+
+// A model's parameter values in its order (entries past the model's count
+// unused).
+using ParameterVector = std::array<double, kMaxParameters>;
 
 struct Parameter {
   const char* name;

@@ -1,4 +1,3 @@
-#include "core/brdf/model.h"
 #include "core/evaluate/reconstruction_evaluator.h"
 
 #include <algorithm>
@@ -12,6 +11,8 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
+#include "core/brdf/ggx.h"
+#include "core/brdf/model.h"
 #include "core/evaluate/calibration_truth.h"
 #include "core/image/exr.h"
 #include "core/scene/fingerprint.h"
@@ -267,6 +268,15 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     }
     cmp->set_ks_rel_error(ks_err);
     cmp->set_ke_rel_error(ke_err);
+    if (ggx && row.f90_ratio_size() == 3) {
+      double ratio_err = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        cmp->add_f90_ratio(row.f90_ratio(c));
+        cmp->add_f90_ratio_true(brdf::Ggx::kDielectricRatio);
+        ratio_err += RelativeError(row.f90_ratio(c), brdf::Ggx::kDielectricRatio) / 3.0;
+      }
+      cmp->set_f90_ratio_rel_error(ratio_err);
+    }
   }
   uint64_t correct = 0, assigned = 0;
   for (int y = 0; y < size; ++y) {

@@ -88,16 +88,20 @@ std::vector<double> Quaternion(const glm::dmat3& rotation) {
 struct MaterialTextures {
   cv::Mat base_color;         // CV_8UC3 BGR, sRGB
   cv::Mat metallic_roughness; // CV_8UC3 BGR, linear: G roughness, B metallic 0
-  cv::Mat specular;           // CV_8UC4 BGRA: RGB specularColor (sRGB), A specularFactor (linear)
+  cv::Mat specular;           // CV_8UC4 BGRA: RGB specularColor / colour_factor (sRGB), A specularFactor (linear)
   cv::Mat confidence;         // CV_8UC1
   double scale = 1.0;
+  // specularColorFactor (all three): 1, or above 1 where a lobe's F90 / F0 is
+  // below a dielectric's 25 (specularColor = 25 / (F90 / F0) there), so that
+  // the texture stays in [0, 1].
+  double colour_factor = 1.0;
   double clipped_fraction = 0.0;
 };
 
 MaterialTextures Convert(const pipeline::RunAtlases& a) {
   const int rows = a.kd.rows, cols = a.kd.cols;
-  // Per texel: the GGX lobe (F0 per channel, one roughness) and kd.
-  std::vector<glm::dvec3> f0(static_cast<size_t>(rows * cols));
+  // Per texel: the GGX lobe (F0 and F90 per channel, one roughness) and kd.
+  std::vector<glm::dvec3> f0(static_cast<size_t>(rows * cols)), f90(f0.size());
   std::vector<double> roughness(f0.size());
   std::vector<double> f90_observed, diffuse_observed;
   double confidence_max = 0.0;
@@ -106,10 +110,13 @@ MaterialTextures Convert(const pipeline::RunAtlases& a) {
       const size_t i = static_cast<size_t>(y * cols + x);
       const brdf::Model model = a.ModelAt(x, y);
       const cv::Vec3f p1 = a.p1.at<cv::Vec3f>(y, x), p2 = a.p2.at<cv::Vec3f>(y, x);
+      const cv::Vec3f p3 = a.p3.empty() ? cv::Vec3f::all(static_cast<float>(brdf::Ggx::kDielectricRatio))
+                                        : a.p3.at<cv::Vec3f>(y, x);
       double r = 0.0;
       for (int c = 0; c < 3; ++c) {
-        const std::array<double, 2> g = brdf::GgxEquivalent(model, {p1[c], p2[c]});
+        const brdf::ParameterVector g = brdf::GgxEquivalent(model, {p1[c], p2[c], p3[c]});
         f0[i][c] = std::isfinite(g[0]) ? std::max(0.0, g[0]) : 0.0;
+        f90[i][c] = f0[i][c] * (std::isfinite(g[2]) && g[2] >= 1.0 ? g[2] : brdf::Ggx::kDielectricRatio);
         r += g[1] / 3.0;
       }
       roughness[i] = r;
@@ -117,7 +124,7 @@ MaterialTextures Convert(const pipeline::RunAtlases& a) {
       confidence_max = std::max(confidence_max, static_cast<double>(conf));
       if (conf > 0.0f) {
         const cv::Vec3f kd = a.kd.at<cv::Vec3f>(y, x);
-        f90_observed.push_back(std::max({f0[i].x, f0[i].y, f0[i].z}) / brdf::Ggx::kF0);
+        f90_observed.push_back(std::max({f90[i].x, f90[i].y, f90[i].z}));
         diffuse_observed.push_back(kPi * std::max({kd[0], kd[1], kd[2]}));
       }
     }
@@ -129,22 +136,39 @@ MaterialTextures Convert(const pipeline::RunAtlases& a) {
   t.metallic_roughness.create(rows, cols, CV_8UC3);
   t.specular.create(rows, cols, CV_8UC4);
   t.confidence.create(rows, cols, CV_8UC1);
+  // glTF's F0 = 0.04 specularColor specularFactor (ior 1.5), F90 =
+  // specularFactor: specularColor = F0 / (0.04 F90) per channel.
+  constexpr double kIorF0 = 1.0 / brdf::Ggx::kDielectricRatio;
+  const auto colour_of = [&](size_t i, int c) {
+    const double top = std::max({f90[i].x, f90[i].y, f90[i].z});
+    return top > 0.0 ? f0[i][c] / (kIorF0 * top) : 0.0;
+  };
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      const size_t i = static_cast<size_t>(y * cols + x);
+      if (a.confidence.at<float>(y, x) <= 0.0f) continue;
+      for (int c = 0; c < 3; ++c) t.colour_factor = std::max(t.colour_factor, colour_of(i, c));
+    }
+  }
   size_t clipped = 0;
   for (int y = 0; y < rows; ++y) {
     for (int x = 0; x < cols; ++x) {
       const size_t i = static_cast<size_t>(y * cols + x);
-      const double f90 = std::max({f0[i].x, f0[i].y, f0[i].z}) / brdf::Ggx::kF0 * t.scale;
-      const double factor = std::min(1.0, f90);
+      const double top = std::max({f90[i].x, f90[i].y, f90[i].z}) * t.scale;
+      const double factor = std::min(1.0, top);
       const cv::Vec3f kd = a.kd.at<cv::Vec3f>(y, x);
-      // glTF's diffuse weight head on, 1 - 0.04 factor, against ggx.h's 0.96.
-      const double diffuse_gain = (1.0 - brdf::Ggx::kF0) / (1.0 - brdf::Ggx::kF0 * factor);
-      bool clip = f90 > 1.0;
+      bool clip = top > 1.0;
       cv::Vec3b base, colour;
       for (int c = 0; c < 3; ++c) {
+        // glTF's diffuse weight head on, 1 - F0 (absolute: F0 scale, as the
+        // specular textures say it), against ggx.h's 1 - F0 / F90.
+        const double ratio = f0[i][c] > 0.0 ? f90[i][c] / f0[i][c] : brdf::Ggx::kDielectricRatio;
+        const double gltf_weight = 1.0 - std::min(1.0, kIorF0 * colour_of(i, c)) * factor;
+        const double diffuse_gain = gltf_weight > 0.0 ? (1.0 - 1.0 / ratio) / gltf_weight : 0.0;
         const double b = kPi * std::max(0.0f, kd[c]) * t.scale * diffuse_gain;
         clip |= b > 1.0;
         base[2 - c] = Srgb8(b);
-        colour[2 - c] = Srgb8(f90 > 0.0 ? f0[i][c] * t.scale / (brdf::Ggx::kF0 * f90) : 0.0);
+        colour[2 - c] = Srgb8(colour_of(i, c) / t.colour_factor);
       }
       if (clip && a.confidence.at<float>(y, x) > 0.0f) ++clipped;
       t.base_color.at<cv::Vec3b>(y, x) = base;
@@ -364,9 +388,14 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
   material.pbrMetallicRoughness.metallicRoughnessTexture.index = metallic_roughness;
   material.pbrMetallicRoughness.metallicFactor = 1.0;  // x the texture's B = 0
   material.pbrMetallicRoughness.roughnessFactor = 1.0;
-  material.extensions["KHR_materials_specular"] =
-      Object({{"specularTexture", Object({{"index", tinygltf::Value(specular)}})},
-              {"specularColorTexture", Object({{"index", tinygltf::Value(specular)}})}});
+  tinygltf::Value::Object specular_extension = {
+      {"specularTexture", Object({{"index", tinygltf::Value(specular)}})},
+      {"specularColorTexture", Object({{"index", tinygltf::Value(specular)}})}};
+  if (textures.colour_factor > 1.0) {  // lobes flatter than a dielectric's (ggx.h's f90_ratio below 25)
+    const tinygltf::Value k(textures.colour_factor);
+    specular_extension["specularColorFactor"] = tinygltf::Value(tinygltf::Value::Array{k, k, k});
+  }
+  material.extensions["KHR_materials_specular"] = tinygltf::Value(specular_extension);
   material.extras = Object({{"mvbrdf", Object({{"confidenceTexture", tinygltf::Value(confidence)},
                                                {"brdf", tinygltf::Value(run.brdf().empty() ? "phong" : run.brdf())}})}});
   model.materials.push_back(material);

@@ -49,7 +49,7 @@ absl::StatusOr<ObjExportSummary> ExportObj(const std::filesystem::path& run_dir,
       const cv::Vec3f p1 = a.p1.at<cv::Vec3f>(y, x), p2 = a.p2.at<cv::Vec3f>(y, x), kd = a.kd.at<cv::Vec3f>(y, x);
       double ks_top = 0.0;
       for (int c = 0; c < 3; ++c) {
-        const std::array<double, 2> p = brdf::PhongEquivalent(model, {p1[c], p2[c]});
+        const brdf::ParameterVector p = brdf::PhongEquivalent(model, {p1[c], p2[c], 0.0});
         phong[i][c] = {std::isfinite(p[0]) ? p[0] : 0.0, p[1]};
         ks_top = std::max(ks_top, phong[i][c].x);
       }

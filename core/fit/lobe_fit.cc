@@ -62,19 +62,23 @@ brdf::Geometry TermGeometry(const samples::SampleSet& set, size_t i, size_t j) {
   return geometry;
 }
 
-double ModelSpecular(BrdfModel model, const std::array<double, 2>& p, const brdf::Geometry& geometry) {
+double ModelSpecular(BrdfModel model, const brdf::ParameterVector& p, const brdf::Geometry& geometry) {
   return FunctionsOf(model).specular(p.data(), geometry, nullptr);
 }
 
-double ModelDiffuseWeight(BrdfModel model, const std::array<double, 2>& p, const brdf::Geometry& geometry) {
+double ModelDiffuseWeight(BrdfModel model, const brdf::ParameterVector& p, const brdf::Geometry& geometry) {
   return FunctionsOf(model).diffuse_weight(p.data(), geometry, nullptr);
 }
 
 namespace {
 
-// The solver's parameters x = (kd / A, s0, s1): s0 = ks / A (Phong,
+// The solver's parameters x = (kd / A, s0, s1, s2): s0 = ks / A (Phong,
 // Blinn-Phong) or F0 / A (GGX; every model's first parameter is its lobe's
-// scale, in the data's units); s1 = ln ke or the roughness.
+// scale, in the data's units); s1 = ln ke or the roughness; s2 = GGX's
+// f90_ratio (held constant for the models with two parameters).
+constexpr int kSolverParameters = 1 + brdf::kMaxParameters;
+using SolverVector = std::array<double, kSolverParameters>;
+
 struct Scaling {
   BrdfModel model;
   double albedo = 1.0;  // A
@@ -83,11 +87,12 @@ struct Scaling {
     c.kd = x[0] * albedo;
     c.p[0] = x[1] * albedo;
     c.p[1] = model == BrdfModel::kGgx ? x[2] : std::exp(x[2]);
+    c.p[2] = x[3];
     return c;
   }
-  // d(model parameter) / d(solver parameter) for p[0], p[1].
-  std::array<double, 2> Chain(const double* x) const {
-    return {albedo, model == BrdfModel::kGgx ? 1.0 : std::exp(x[2])};
+  // d(model parameter) / d(solver parameter) for p[0], p[1], p[2].
+  brdf::ParameterVector Chain(const double* x) const {
+    return {albedo, model == BrdfModel::kGgx ? 1.0 : std::exp(x[2]), 1.0};
   }
 };
 
@@ -95,9 +100,10 @@ struct Scaling {
 double ModelValue(const ModelFunctions& m, const Terms& t, const std::vector<double>& intensity, size_t s,
                   const Scaling& scaling, const double* x, double* jacobian) {
   const LobeChannel c = scaling.ToChannel(x);
-  const std::array<double, 2> chain = scaling.Chain(x);
-  double f = 0.0, d[3] = {0.0, 0.0, 0.0};
-  double js[2], jw[2];
+  const brdf::ParameterVector chain = scaling.Chain(x);
+  constexpr int kP = brdf::kMaxParameters;
+  double f = 0.0, d[kSolverParameters] = {};
+  double js[kP] = {}, jw[kP] = {};
   for (uint64_t j = t.begin[s]; j < t.begin[s + 1]; ++j) {
     const double intensity_k = intensity[t.light[j]];
     const double w = m.diffuse_weight(c.p.data(), t.geometry[j], jacobian != nullptr ? jw : nullptr);
@@ -105,25 +111,25 @@ double ModelValue(const ModelFunctions& m, const Terms& t, const std::vector<dou
     f += intensity_k * (c.kd * w * t.g[j] + t.a[j] * spec);
     if (jacobian != nullptr) {
       d[0] += intensity_k * scaling.albedo * w * t.g[j];
-      for (int q = 0; q < 2; ++q) d[1 + q] += intensity_k * (c.kd * jw[q] * t.g[j] + t.a[j] * js[q]) * chain[q];
+      for (int q = 0; q < kP; ++q) d[1 + q] += intensity_k * (c.kd * jw[q] * t.g[j] + t.a[j] * js[q]) * chain[q];
     }
   }
-  if (jacobian != nullptr) std::copy(d, d + 3, jacobian);
+  if (jacobian != nullptr) std::copy(d, d + kSolverParameters, jacobian);
   return f;
 }
 
-class LobeResidual : public ceres::SizedCostFunction<1, 3> {
+class LobeResidual : public ceres::SizedCostFunction<1, kSolverParameters> {
  public:
   LobeResidual(const ModelFunctions* m, const Terms* t, const std::vector<double>* intensity, size_t s, double r,
                const Scaling* scaling, double inverse_scale)
       : m_(m), t_(t), intensity_(intensity), s_(s), r_(r), scaling_(scaling), inverse_scale_(inverse_scale) {}
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    double d[3];
+    double d[kSolverParameters];
     const bool want = jacobians != nullptr && jacobians[0] != nullptr;
     const double f = ModelValue(*m_, *t_, *intensity_, s_, *scaling_, parameters[0], want ? d : nullptr);
     residuals[0] = (r_ - f) * inverse_scale_;
     if (want) {
-      for (int q = 0; q < 3; ++q) jacobians[0][q] = -d[q] * inverse_scale_;
+      for (int q = 0; q < kSolverParameters; ++q) jacobians[0][q] = -d[q] * inverse_scale_;
     }
     return std::isfinite(residuals[0]);
   }
@@ -138,6 +144,25 @@ class LobeResidual : public ceres::SizedCostFunction<1, 3> {
   double inverse_scale_;
 };
 
+// GGX's prior on its ratio x[3]: (ln x[3] - ln 25) / sigma.
+class RatioPrior : public ceres::SizedCostFunction<1, kSolverParameters> {
+ public:
+  explicit RatioPrior(double sigma) : sigma_(sigma) {}
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double ratio = parameters[0][3];
+    if (!(ratio > 0.0)) return false;
+    residuals[0] = (std::log(ratio) - std::log(brdf::Ggx::kDielectricRatio)) / sigma_;
+    if (jacobians != nullptr && jacobians[0] != nullptr) {
+      std::fill(jacobians[0], jacobians[0] + kSolverParameters, 0.0);
+      jacobians[0][3] = 1.0 / (ratio * sigma_);
+    }
+    return true;
+  }
+
+ private:
+  double sigma_;
+};
+
 // 0.5 sum (r - f)^2 in the data's units.
 double Cost(const ModelFunctions& m, const Terms& t, const std::vector<double>& intensity,
             const std::vector<double>& r, const Scaling& scaling, const double* x) {
@@ -149,10 +174,11 @@ double Cost(const ModelFunctions& m, const Terms& t, const std::vector<double>& 
   return cost;
 }
 
-// The best x on a grid of shapes, kd and the lobe's scale by least squares.
-std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, const Terms& t,
-                                   const std::vector<double>& intensity, const std::vector<double>& r,
-                                   const Scaling& scaling, const double* lower, const double* upper) {
+// The best x on a grid of shapes, kd and the lobe's scale by least squares;
+// s2 as given (GGX's dielectric ratio).
+SolverVector InitialGuess(BrdfModel model, const ModelFunctions& m, const Terms& t,
+                          const std::vector<double>& intensity, const std::vector<double>& r,
+                          const Scaling& scaling, const double* lower, const double* upper, double s2) {
   std::vector<double> shapes;
   if (model == BrdfModel::kGgx) {
     shapes = {0.02, 0.035, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.4, 0.55, 0.7, 0.85, 1.0};
@@ -160,13 +186,13 @@ std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, con
     const double ke_top = model == BrdfModel::kBlinnPhong ? 20000.0 : 5000.0;
     for (double ke = 2.0; ke <= ke_top; ke *= 1.6) shapes.push_back(std::log(ke));
   }
-  std::array<double, 3> best = {0.0, 0.0, shapes.front()};
+  SolverVector best = {0.0, 0.0, shapes.front(), s2};
   double best_cost = std::numeric_limits<double>::infinity();
   for (double shape : shapes) {
     shape = std::clamp(shape, lower[2], upper[2]);
     // Diffuse and specular regressors at kd = 1 and a lobe scale of 1 (every
     // model's diffuse weight is independent of that scale).
-    double x_unit[3] = {0.0, 1.0, shape};
+    double x_unit[kSolverParameters] = {0.0, 1.0, shape, s2};
     double sdd = 0, sds = 0, sss = 0, sdr = 0, ssr = 0;
     for (size_t s = 0; s < t.size(); ++s) {
       x_unit[0] = 0.0;
@@ -193,7 +219,7 @@ std::array<double, 3> InitialGuess(BrdfModel model, const ModelFunctions& m, con
       kd = 0.0;
       ks = sss > 0.0 ? std::max(0.0, ssr / sss) : 0.0;
     }
-    const std::array<double, 3> x = {std::clamp(kd, lower[0], upper[0]), std::clamp(ks, lower[1], upper[1]), shape};
+    const SolverVector x = {std::clamp(kd, lower[0], upper[0]), std::clamp(ks, lower[1], upper[1]), shape, s2};
     const double cost = Cost(m, t, intensity, r, scaling, x.data());
     if (cost < best_cost) {
       best_cost = cost;
@@ -340,21 +366,27 @@ absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet&
     if (sum_gg <= 0.0) summary.flags |= kKdNotIdentifiable;
     if (highlights < options.min_highlight_samples) summary.flags |= kKsKeNotIdentifiable;
 
-    double lower[3], upper[3];
+    double lower[kSolverParameters], upper[kSolverParameters];
     lower[0] = 0.0;
     upper[0] = options.kd_max;
     lower[1] = 0.0;
     upper[1] = options.ks_max;
+    // GGX's ratio starts at a dielectric's; the others have none (held).
+    double s2 = 0.0;
+    lower[3] = upper[3] = 0.0;
     if (model == BrdfModel::kGgx) {
       const auto& p = brdf::Ggx::Parameters();
       lower[2] = p[1].lower;
       upper[2] = p[1].upper;
+      lower[3] = p[2].lower;
+      upper[3] = p[2].upper;
+      s2 = brdf::Ggx::kDielectricRatio;
     } else {
       lower[2] = std::log(options.ke_min);
       // A half-vector exponent is ~4x the mirror one of the same lobe.
       upper[2] = std::log(model == BrdfModel::kBlinnPhong ? 4.0 * options.ke_max : options.ke_max);
     }
-    std::array<double, 3> x = InitialGuess(model, m, t, intensity, r, scaling, lower, upper);
+    SolverVector x = InitialGuess(model, m, t, intensity, r, scaling, lower, upper, s2);
     const double inverse_scale = r_rms > 0.0 ? 1.0 / r_rms : 1.0;
     summary.initial_cost = Cost(m, t, intensity, r, scaling, x.data());
 
@@ -365,9 +397,18 @@ absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet&
       problem.AddResidualBlock(new LobeResidual(&m, &t, &intensity, s, r[s], &scaling, inverse_scale), nullptr,
                                x.data());
     }
-    for (int q = 0; q < 3; ++q) {
+    const int free_parameters = 1 + brdf::NumParameters(model);
+    for (int q = 0; q < free_parameters; ++q) {
       problem.SetParameterLowerBound(x.data(), q, lower[q]);
       problem.SetParameterUpperBound(x.data(), q, upper[q]);
+    }
+    if (model == BrdfModel::kGgx && options.ratio_prior_sigma > 0.0) {
+      problem.AddResidualBlock(new RatioPrior(options.ratio_prior_sigma), nullptr, x.data());
+    }
+    if (free_parameters < kSolverParameters) {
+      std::vector<int> held;
+      for (int q = free_parameters; q < kSolverParameters; ++q) held.push_back(q);
+      problem.SetManifold(x.data(), new ceres::SubsetManifold(kSolverParameters, held));
     }
     ceres::Solver::Options solver_options;
     solver_options.minimizer_type = ceres::TRUST_REGION;
@@ -383,10 +424,14 @@ absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet&
     ceres::Solve(solver_options, &problem, &ceres_summary);
     summary.iterations = static_cast<int>(ceres_summary.iterations.size());
     if (ceres_summary.termination_type == ceres::NO_CONVERGENCE) summary.flags |= kDidNotConverge;
-    for (int q = 0; q < 3; ++q) {
+    for (int q = 0; q < free_parameters; ++q) {
       if (!std::isfinite(x[q])) x[q] = lower[q];
       const double span = upper[q] - lower[q];
-      if (q > 0 && (x[q] - lower[q] < 1e-6 * span || upper[q] - x[q] < 1e-6 * span)) summary.flags |= kAtBound;
+      // The ratio at 1 (a metal's flat curve) or 50 is a result, not a
+      // parameter the data pushed out of range.
+      if (q > 0 && q < 3 && (x[q] - lower[q] < 1e-6 * span || upper[q] - x[q] < 1e-6 * span)) {
+        summary.flags |= kAtBound;
+      }
     }
     summary.final_cost = Cost(m, t, intensity, r, scaling, x.data());
     squared_error += 2.0 * summary.final_cost;

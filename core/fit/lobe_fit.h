@@ -1,5 +1,6 @@
 // Fitting any BRDF model of core/brdf to one cluster's Samples (issue #15
-// item 3), one colour channel at a time: kd and the model's two parameters.
+// item 3), one colour channel at a time: kd and the model's parameters (two;
+// GGX three).
 //
 //   r_i  ~  sum_{k in mask} I_kc ( kd W(p; G_ik) g_ik + a_k S(p; G_ik) )
 //
@@ -15,9 +16,10 @@
 // scale A = rms(r) / rms(G) (as FitPhong), so that scaling every I_k by s
 // scales them by exactly 1/s, and the shape (ke, roughness) not at all.
 //
-// The solve: a grid over the model's shape parameter (ke or roughness) with kd
-// and the lobe's scale by linear least squares starts Ceres'
-// Levenberg-Marquardt with the models' analytic Jacobians (ke as ln ke).
+// The solve: a grid over the model's shape parameter (ke or roughness; GGX's
+// f90_ratio at a dielectric's 25) with kd and the lobe's scale by linear least
+// squares starts Ceres' Levenberg-Marquardt with the models' analytic
+// Jacobians (ke as ln ke), every parameter free.
 #ifndef MVBRDF_CORE_FIT_LOBE_FIT_H_
 #define MVBRDF_CORE_FIT_LOBE_FIT_H_
 
@@ -40,7 +42,9 @@ using BrdfModel = brdf::Model;
 
 struct LobeChannel {
   double kd = 0.0;
-  std::array<double, 2> p = {0.0, 1.0};  // the model's parameters, in brdf::ParameterNames' order
+  // The model's parameters, in brdf::ParameterNames' order (the third only
+  // for a model with three).
+  brdf::ParameterVector p = {0.0, 1.0, 0.0};
 };
 
 struct LobeFitOptions {
@@ -49,6 +53,12 @@ struct LobeFitOptions {
   // In units of the albedo scale A (see above).
   double kd_max = 10.0;
   double ks_max = 10.0;
+  // GGX's f90_ratio: a prior towards a dielectric's 25 of this standard
+  // deviation in ln(F90 / F0), one residual beside the Samples' (each in
+  // units of the data's rms), so that data that barely inform the ratio (no
+  // grazing observations: F0 and the ratio then trade along a valley) keep
+  // it near 25, and data that do move it (a metal to 1). 0: no prior.
+  double ratio_prior_sigma = 1.0;
   // ke, Phong (Blinn-Phong's upper bound is 4 ke_max: a half-vector exponent
   // is ~4x the mirror one of the same lobe).
   double ke_min = 1.0;
@@ -83,8 +93,8 @@ absl::StatusOr<LobeFitResult> FitLobe(BrdfModel model, const samples::SampleSet&
 // when the set has them, else 0).
 brdf::Geometry TermGeometry(const samples::SampleSet& set, size_t i, size_t j);
 // The model's specular term and diffuse weight (core/brdf) at `p`.
-double ModelSpecular(BrdfModel model, const std::array<double, 2>& p, const brdf::Geometry& geometry);
-double ModelDiffuseWeight(BrdfModel model, const std::array<double, 2>& p, const brdf::Geometry& geometry);
+double ModelSpecular(BrdfModel model, const brdf::ParameterVector& p, const brdf::Geometry& geometry);
+double ModelDiffuseWeight(BrdfModel model, const brdf::ParameterVector& p, const brdf::Geometry& geometry);
 
 // One observation's terms under a fitted model, per channel: the specular
 // radiance S = sum_k I_k a_k S(p; G_k) and the diffuse illumination

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -56,17 +57,22 @@ Prepared Prepare(const samples::SampleSet& set, const samples::LightSelection& s
   return p;
 }
 
-// The regressors of channel c at `shape` (texel_kd_projection.h): G with the
-// model's diffuse weight, S1 = S(1) - S(0) and S0 = S(0) at (p0, shape).
+// The regressors of channel c at the searched variable v (texel_kd_projection.h):
+// G with the model's diffuse weight, S1 = S(1) - S(0) and S0 = S(0) at the
+// parameters `at(v)` with p0 0 and 1 (the search is over the shape, or over
+// GGX's f90_ratio with the shape held).
 internal::TexelKdProblem::Regressors ModelRegressors(BrdfModel model, const Prepared& p,
-                                                     const std::vector<glm::vec3>& intensity, int c) {
-  return [model, &p, &intensity, c](double shape, std::vector<double>* g, std::vector<double>* s1,
-                                    std::vector<double>* s0) {
+                                                     const std::vector<glm::vec3>& intensity, int c,
+                                                     std::function<brdf::ParameterVector(double)> at) {
+  return [model, &p, &intensity, c, at](double v, std::vector<double>* g, std::vector<double>* s1,
+                                        std::vector<double>* s0) {
     const size_t n = p.r.size();
     g->assign(n, 0.0);
     s1->assign(n, 0.0);
     s0->assign(n, 0.0);
-    const std::array<double, 2> zero = {0.0, shape}, one = {1.0, shape};
+    brdf::ParameterVector zero = at(v), one = zero;
+    zero[0] = 0.0;
+    one[0] = 1.0;
     for (size_t i = 0; i < n; ++i) {
       for (uint64_t j = p.begin[i]; j < p.begin[i + 1]; ++j) {
         const double light = intensity[p.light[j]][c];
@@ -123,24 +129,61 @@ absl::StatusOr<LobeTexelKdResult> FitModelLobeWithTexelKd(BrdfModel model, const
     const double p0_max = options.ks_max * albedo_scale;
     std::vector<double> r(p.r.size());
     for (size_t i = 0; i < p.r.size(); ++i) r[i] = p.r[i][c];
-    internal::TexelKdProblem problem(p.texel, p.fold, p.num_texels, std::move(r), p0_max,
-                                     ModelRegressors(model, p, set.light_intensity, c));
+    // Problems over the shape at a fixed third parameter, and over the third
+    // (GGX's f90_ratio, in ln) at a fixed shape.
+    const auto over_shape = [&](double p2) {
+      return internal::TexelKdProblem(
+          p.texel, p.fold, p.num_texels, r, p0_max,
+          ModelRegressors(model, p, set.light_intensity, c,
+                          [p2](double shape) { return brdf::ParameterVector{0.0, shape, p2}; }));
+    };
+    const auto over_p2 = [&](double shape) {
+      return internal::TexelKdProblem(
+          p.texel, p.fold, p.num_texels, r, p0_max,
+          ModelRegressors(model, p, set.light_intensity, c,
+                          [shape](double p2) { return brdf::ParameterVector{0.0, shape, p2}; }));
+    };
     const double shape0 = ggx ? std::clamp(initial[c].p[1], lo, hi) : std::clamp(initial[c].p[1], std::exp(lo), std::exp(hi));
     const double p00 = std::clamp(initial[c].p[0], 0.0, p0_max);
+    internal::TexelKdProblem problem = over_shape(initial[c].p[2]);
     const internal::TexelKdProblem::Evaluation at_initial = problem.Evaluate(shape0, p00);
     const internal::TexelKdProblem::Search search =
         problem.SearchShape(lo, hi, options.grid_points, options.golden_iterations, shape_of);
-    const double best_u = search.u;
-    const internal::TexelKdProblem::Evaluation& best_e = search.at;
+    double best_shape = shape_of(search.u), best_p2 = initial[c].p[2];
+    internal::TexelKdProblem::Evaluation best_e = search.at;
+    if (brdf::NumParameters(model) > 2) {
+      // The third parameter at the best shape (the one-kd fit's was pulled by
+      // the texture, as its lobe was), then the shape again at it.
+      const brdf::Parameter& bounds = brdf::Ggx::Parameters()[2];
+      const double mean_rr = rr / static_cast<double>(p.r.size());
+      const auto prior = [&](double u) {
+        if (!(options.ratio_prior_sigma > 0.0)) return 0.0;
+        const double z = (u - std::log(brdf::Ggx::kDielectricRatio)) / options.ratio_prior_sigma;
+        return 0.5 * mean_rr * z * z;
+      };
+      const internal::TexelKdProblem::Search ratio =
+          over_p2(best_shape).SearchShape(std::log(bounds.lower), std::log(bounds.upper), options.grid_points,
+                                          options.golden_iterations, [](double u) { return std::exp(u); }, prior);
+      if (ratio.at.cost + prior(ratio.u) < best_e.cost + prior(std::log(best_p2))) {
+        best_p2 = std::exp(ratio.u);
+        best_e = ratio.at;
+        const internal::TexelKdProblem::Search again =
+            over_shape(best_p2).SearchShape(lo, hi, options.grid_points, options.golden_iterations, shape_of);
+        if (again.at.cost < best_e.cost) {
+          best_shape = shape_of(again.u);
+          best_e = again.at;
+        }
+      }
+    }
     if (best_e.information < options.min_information || !(best_e.cost <= at_initial.cost) ||
         !std::isfinite(best_e.p0)) {
       continue;
     }
     size_t count = 0;
     result.held_out_error_initial[c] = problem.HeldOutError(p00, shape0, &count);
-    result.held_out_error[c] = problem.HeldOutError(best_e.p0, shape_of(best_u), &count);
+    result.held_out_error[c] = over_shape(best_p2).HeldOutError(best_e.p0, best_shape, &count);
     if (count > 0 && !(result.held_out_error[c] <= result.held_out_error_initial[c])) continue;
-    result.params[c] = {best_e.kd, {best_e.p0, shape_of(best_u)}};
+    result.params[c] = {best_e.kd, {best_e.p0, best_shape, best_p2}};
     result.refined[c] = true;
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

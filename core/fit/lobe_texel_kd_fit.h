@@ -12,11 +12,14 @@
 //
 // with S(p0; k) the model's specular term and W its diffuse weight at
 // (p0, shape), which no model's p0 changes (W = 1 for Phong and Blinn-Phong;
-// GGX's 1 - F / F90 = 0.96 (1 - (1 - v.h)^5), ggx.h), and S(0) = 0 for every
+// GGX's 1 - F / F90 = (1 - 1 / phi) (1 - (1 - v.h)^5), ggx.h, its ratio phi
+// held at the initial lobe's), and S(0) = 0 for every
 // model of core/brdf (S0 kept for one that has a fixed part). So kd_t is
 // eliminated in closed form per texel and p0 solves one normal equation
 // (variable projection), and the shape is searched on a grid, then by golden
-// section. The refined lobe
+// section; a model with a third parameter (GGX's f90_ratio, held in S and W
+// above) has it searched the same way (in ln) at the best shape, and the
+// shape again at the best ratio. The refined lobe
 // replaces the initial one per channel only when it predicts held-out frames
 // (odd from even and back, kd per texel from the other frames) at least as
 // well.
@@ -38,6 +41,10 @@ struct LobeTexelKdOptions {
   double ke_min = 1.0;
   double ke_max = 1e4;
   double ks_max = 10.0;
+  // GGX's f90_ratio search: the prior of LobeFitOptions::ratio_prior_sigma
+  // (the same cost in the data's units: 0.5 mean(r^2) ((ln ratio - ln 25) /
+  // sigma)^2 added to the Samples' 0.5 sum of squares). 0: none.
+  double ratio_prior_sigma = 1.0;
   int grid_points = 33;
   int golden_iterations = 30;
   // The lobe is kept when the texels' own kd leave less than this fraction

@@ -215,7 +215,8 @@ int main(int argc, char** argv) {
            << ", \"fitSeconds\": " << seconds << ", \"kd\": [" << fit->params[0].kd << ", " << fit->params[1].kd
            << ", " << fit->params[2].kd << "], \"p0\": [" << fit->params[0].p[0] << ", " << fit->params[1].p[0]
            << ", " << fit->params[2].p[0] << "], \"p1\": [" << fit->params[0].p[1] << ", " << fit->params[1].p[1]
-           << ", " << fit->params[2].p[1] << "]}";
+           << ", " << fit->params[2].p[1] << "], \"p2\": [" << fit->params[0].p[2] << ", " << fit->params[1].p[2]
+           << ", " << fit->params[2].p[2] << "]}";
       first_model = false;
     }
     json << "], \"winner\": \"" << winner << "\", \"auto\": \"" << auto_choice << "\", \"autoHeldOutRmse\": "

@@ -120,6 +120,7 @@ absl::StatusOr<ModelSelection> SelectModel(const samples::SampleSet& set, const 
   texel_kd.ke_min = options.fit.ke_min;
   texel_kd.ke_max = options.fit.ke_max;
   texel_kd.ks_max = options.fit.ks_max;
+  texel_kd.ratio_prior_sigma = options.fit.ratio_prior_sigma;
   for (brdf::Model model : brdf::kModels) {
     const auto t0 = std::chrono::steady_clock::now();
     absl::StatusOr<LobeFitResult> fit = FitLobe(model, training_set, {}, lights, options.fit);

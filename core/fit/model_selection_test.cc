@@ -19,8 +19,8 @@ TEST(ModelSelectionTest, PicksTheModelTheDataCameFrom) {
   const std::vector<LobeTruth> truths = {
       {BrdfModel::kPhong, {{{0.5, {0.3, 20.0}}, {0.3, {0.3, 25.0}}, {0.2, {0.2, 15.0}}}}},
       {BrdfModel::kBlinnPhong, {{{0.5, {0.4, 80.0}}, {0.3, {0.4, 100.0}}, {0.2, {0.3, 60.0}}}}},
-      {BrdfModel::kGgx, {{{0.25, {0.04, 0.3}}, {0.2, {0.04, 0.3}}, {0.15, {0.04, 0.3}}}}},
-      {BrdfModel::kGgx, {{{0.0, {0.9, 0.15}}, {0.0, {0.7, 0.15}}, {0.0, {0.4, 0.15}}}}},
+      {BrdfModel::kGgx, {{{0.25, {0.04, 0.3, 25.0}}, {0.2, {0.04, 0.3, 25.0}}, {0.15, {0.04, 0.3, 25.0}}}}},
+      {BrdfModel::kGgx, {{{0.0, {0.9, 0.15, 1.1}}, {0.0, {0.7, 0.15, 1.3}}, {0.0, {0.4, 0.15, 1.6}}}}},
   };
   for (const LobeTruth& truth : truths) {
     SCOPED_TRACE(brdf::ModelName(truth.model));
@@ -40,7 +40,7 @@ TEST(ModelSelectionTest, PicksTheModelTheDataCameFrom) {
 // Another model must beat Phong by more than the margin: with a margin of
 // 100 % Phong is always kept, and the reason says why.
 TEST(ModelSelectionTest, MarginKeepsPhongAndSaysWhy) {
-  const LobeTruth ggx = {BrdfModel::kGgx, {{{0.25, {0.04, 0.3}}, {0.2, {0.04, 0.3}}, {0.15, {0.04, 0.3}}}}};
+  const LobeTruth ggx = {BrdfModel::kGgx, {{{0.25, {0.04, 0.3, 25.0}}, {0.2, {0.04, 0.3, 25.0}}, {0.15, {0.04, 0.3, 25.0}}}}};
   const samples::SampleSet set = RenderLobeSamples(ggx, 3000, 0.02, 12, 1.0, 100, 0.3);
   ModelSelectionOptions options;
   options.margin = 1.0;
@@ -51,7 +51,7 @@ TEST(ModelSelectionTest, MarginKeepsPhongAndSaysWhy) {
 }
 
 TEST(ModelSelectionTest, TooFewSamplesOrNoHalfVectorGeometry) {
-  const LobeTruth ggx = {BrdfModel::kGgx, {{{0.25, {0.04, 0.3}}, {0.2, {0.04, 0.3}}, {0.15, {0.04, 0.3}}}}};
+  const LobeTruth ggx = {BrdfModel::kGgx, {{{0.25, {0.04, 0.3, 25.0}}, {0.2, {0.04, 0.3, 25.0}}, {0.15, {0.04, 0.3, 25.0}}}}};
   samples::SampleSet set = RenderLobeSamples(ggx, 30, 0.0, 13);
   auto few = SelectModel(set, samples::LightMask::FirstN(6), {});
   ASSERT_TRUE(few.ok()) << few.status();

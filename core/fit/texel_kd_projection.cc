@@ -90,38 +90,46 @@ double TexelKdProblem::HeldOutError(double p0, double shape, size_t* count) {
 }
 
 TexelKdProblem::Search TexelKdProblem::SearchShape(double lo, double hi, int grid_points, int golden_iterations,
-                                                   const std::function<double(double)>& shape_of) {
+                                                   const std::function<double(double)>& shape_of,
+                                                   const std::function<double(double)>& penalty) {
+  // The cost compared: the Evaluation's plus the penalty at u.
+  const auto at = [&](double u) {
+    Evaluation e = Evaluate(shape_of(u));
+    if (penalty) e.cost += penalty(u);
+    return e;
+  };
   Search best;
   const size_t n = static_cast<size_t>(std::max(grid_points, 2));
   std::vector<double> u(n);
   size_t best_j = 0;
   for (size_t j = 0; j < n; ++j) {
     u[j] = lo + (hi - lo) * static_cast<double>(j) / static_cast<double>(n - 1);
-    const Evaluation e = Evaluate(shape_of(u[j]));
+    const Evaluation e = at(u[j]);
     if (j == 0 || e.cost < best.at.cost) best_j = j, best.at = e;
   }
   best.u = u[best_j];
   double a = u[best_j == 0 ? 0 : best_j - 1], b = u[std::min(best_j + 1, n - 1)];
   const double phi = 0.5 * (std::sqrt(5.0) - 1.0);
   double x1 = b - phi * (b - a), x2 = a + phi * (b - a);
-  Evaluation f1 = Evaluate(shape_of(x1)), f2 = Evaluate(shape_of(x2));
+  Evaluation f1 = at(x1), f2 = at(x2);
   for (int it = 0; it < golden_iterations; ++it) {
     if (f1.cost < f2.cost) {
       b = x2;
       x2 = x1;
       f2 = f1;
       x1 = b - phi * (b - a);
-      f1 = Evaluate(shape_of(x1));
+      f1 = at(x1);
     } else {
       a = x1;
       x1 = x2;
       f1 = f2;
       x2 = a + phi * (b - a);
-      f2 = Evaluate(shape_of(x2));
+      f2 = at(x2);
     }
   }
   if (f1.cost < best.at.cost) best.u = x1, best.at = f1;
   if (f2.cost < best.at.cost) best.u = x2, best.at = f2;
+  if (penalty) best.at.cost -= penalty(best.u);
   return best;
 }
 

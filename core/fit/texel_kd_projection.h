@@ -63,8 +63,11 @@ class TexelKdProblem {
     double u = 0.0;
     Evaluation at;
   };
+  // `penalty(u)`, when given, is added to the cost compared (not to the
+  // returned Evaluation's cost): a prior on the searched variable.
   Search SearchShape(double lo, double hi, int grid_points, int golden_iterations,
-                     const std::function<double(double)>& shape_of);
+                     const std::function<double(double)>& shape_of,
+                     const std::function<double(double)>& penalty = nullptr);
 
  private:
   struct Sums {

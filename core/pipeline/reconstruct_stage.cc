@@ -884,6 +884,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       } else if (model == brdf::Model::kGgx) {
         row->add_f0(cluster_lobe[k][c].p[0]);
         row->add_roughness(cluster_lobe[k][c].p[1]);
+        row->add_f90_ratio(cluster_lobe[k][c].p[2]);
       } else {
         row->add_ks(cluster_lobe[k][c].p[0]);
         row->add_ke(cluster_lobe[k][c].p[1]);
@@ -1134,7 +1135,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   const std::filesystem::path atlases = out / "atlases";
   const cv::Mat kd_atlas = resample::GrowAtlas(Rgba(kd.kd, measured, atlas.size), options.grow_iterations);
   if (plan.Has(Stage::kWriteAtlases)) {
-    std::vector<glm::vec3> ks(num_texels), ke(num_texels);
+    std::vector<glm::vec3> ks(num_texels), ke(num_texels), p3(num_texels);
+    bool any_p3 = false;  // a cluster's model has a third parameter (GGX's f90_ratio)
     cv::Mat cluster_map(atlas.size, atlas.size, CV_32SC1, cv::Scalar(-1));
     cv::Mat confidence(atlas.size, atlas.size, CV_32FC1, cv::Scalar(0));
     cv::Mat texel_model(atlas.size, atlas.size, CV_8UC1, cv::Scalar(kNoModel));
@@ -1149,6 +1151,10 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       texel_model.at<uint8_t>(y, x) = static_cast<uint8_t>(cluster_model[k]);
       ks[i] = phong ? glm::vec3(p[0].ks, p[1].ks, p[2].ks) : glm::vec3(q[0].p[0], q[1].p[0], q[2].p[0]);
       ke[i] = phong ? glm::vec3(p[0].ke, p[1].ke, p[2].ke) : glm::vec3(q[0].p[1], q[1].p[1], q[2].p[1]);
+      if (brdf::NumParameters(cluster_model[k]) > 2) {
+        p3[i] = glm::vec3(q[0].p[2], q[1].p[2], q[2].p[2]);
+        any_p3 = true;
+      }
       cluster_map.at<int32_t>(y, x) = texel_cluster[i];
     }
     MVBRDF_RETURN_IF_ERROR(WriteRgbAtlas(atlases / "kd", kd_atlas, 1.0f));
@@ -1165,6 +1171,14 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(
         atlases / absl::StrCat(names[1], ".png"), ke_atlas,
         !options.brdf_auto && options.brdf_model == brdf::Model::kGgx ? 1.0f : 1.0f / 100.0f));
+    // The third parameter (GGX's f90_ratio), where a cluster's model has one:
+    // f90_ratio.exr, or parameter_3.exr beside the model atlas.
+    if (any_p3) {
+      const std::string name =
+          options.brdf_auto ? "parameter_3" : std::string(brdf::ParameterNames(options.brdf_model)[2]);
+      MVBRDF_RETURN_IF_ERROR(WriteRgbAtlas(
+          atlases / name, resample::GrowAtlas(Rgba(p3, measured, atlas.size), options.grow_iterations), 1.0f / 25.0f));
+    }
     if (options.brdf_auto) {
       // Grown like the parameters, so that filtering at chart edges reads
       // the texel's own model.

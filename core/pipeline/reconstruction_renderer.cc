@@ -90,6 +90,7 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   r->kd_ = atlases.kd;
   r->ks_ = atlases.p1;
   r->ke_ = atlases.p2;
+  r->p3_ = atlases.p3;
   r->model_ = atlases.model_atlas;
   r->confidence_ = atlases.confidence;
   render::RenderMesh& mesh = r->mesh_;
@@ -101,7 +102,7 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   // The scene's light fall-off, as the fit assumed it (scene.lighting).
   renderer_options.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   MVBRDF_ASSIGN_OR_RETURN(r->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
-  MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_, r->model_));
+  MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_, r->model_, r->p3_));
   return r;
 }
 
@@ -122,10 +123,10 @@ absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel&
     std::snprintf(name, sizeof(name), "%04d.exr", sequence_.AbsoluteFrame(frame));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat c, ReadRgb(run_dir_ / "atlases" / "correction" / name));
     corrected_kd_ = kd_ + c;
-    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(corrected_kd_, ks_, ke_, model_));  // render with kd + c
+    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(corrected_kd_, ks_, ke_, model_, p3_));  // render with kd + c
     with_correction_ = true;
   } else if (with_correction_) {
-    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_, ks_, ke_, model_));
+    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_, ks_, ke_, model_, p3_));
     with_correction_ = false;
   }
   MVBRDF_RETURN_IF_ERROR(renderer_->SetLights(lights));

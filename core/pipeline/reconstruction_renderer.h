@@ -58,6 +58,7 @@ class ReconstructionRenderer {
   const scene::Sequence& sequence_;
   const atlas::Atlas atlas_;
   cv::Mat kd_, ks_, ke_;
+  cv::Mat p3_;  // GGX's f90_ratio atlas (empty: none, a dielectric's 25)
   cv::Mat confidence_;
   cv::Mat model_;  // --brdf auto: the per-texel model (CV_8UC1), else empty
   cv::Mat corrected_kd_;  // kd + the last correction atlas rendered

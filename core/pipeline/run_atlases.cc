@@ -54,6 +54,18 @@ absl::StatusOr<RunAtlases> ReadRunAtlases(const std::filesystem::path& run_dir, 
           : std::array<std::string, 2>{brdf::ParameterNames(a.model)[0], brdf::ParameterNames(a.model)[1]};
   MVBRDF_ASSIGN_OR_RETURN(a.p1, ReadAtlasExr(dir / absl::StrCat(names[0], ".exr"), CV_32FC3, "RGB"));
   MVBRDF_ASSIGN_OR_RETURN(a.p2, ReadAtlasExr(dir / absl::StrCat(names[1], ".exr"), CV_32FC3, "RGB"));
+  const std::filesystem::path p3_file =
+      dir / (a.per_texel_model ? std::string("parameter_3.exr")
+                               : absl::StrCat(brdf::ParameterNames(a.model)[2], ".exr"));
+  if (brdf::NumParameters(a.model) > 2 || a.per_texel_model) {
+    std::error_code error;
+    if (std::filesystem::exists(p3_file, error)) {
+      MVBRDF_ASSIGN_OR_RETURN(a.p3, ReadAtlasExr(p3_file, CV_32FC3, "RGB"));
+      if (a.p3.size() != a.kd.size()) {
+        return absl::InvalidArgumentError(absl::StrCat(p3_file.string(), ": not the kd atlas's size"));
+      }
+    }
+  }
   MVBRDF_ASSIGN_OR_RETURN(a.confidence, ReadAtlasExr(dir / "confidence.exr", CV_32FC1, "one channel"));
   if (a.p1.size() != a.kd.size() || a.p2.size() != a.kd.size() || a.confidence.size() != a.kd.size()) {
     return absl::InvalidArgumentError(absl::StrCat(dir.string(), ": the atlases differ in size"));

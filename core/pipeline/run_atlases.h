@@ -31,6 +31,10 @@ struct RunAtlases {
   bool per_texel_model = false;
   cv::Mat kd;              // CV_32FC3
   cv::Mat p1, p2;          // CV_32FC3: the model's two parameters (ks, ke; f0, roughness; parameter_1, _2)
+  // CV_32FC3, the third parameter where the run's model has one (GGX's
+  // f90_ratio.exr; parameter_3.exr under auto when a cluster picked GGX);
+  // empty when absent (a run before it: a dielectric's ratio, 25).
+  cv::Mat p3;
   cv::Mat model_atlas;     // CV_8UC1 with per_texel_model: brdf::Model values (texels of no cluster: Phong)
   cv::Mat confidence;      // CV_32FC1: observations per texel (0: never observed)
 

@@ -12,6 +12,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
+#include "core/brdf/ggx.h"
 #include "core/gl/gl_api.h"
 #include "core/gl/gl_objects.h"
 #include "core/gl/shader_program.h"
@@ -45,8 +46,9 @@ struct GpuMaterial {
   glm::vec4 offset_frequency;
   glm::vec4 ks_kd_from_texture;
   glm::vec4 ke;
+  glm::vec4 p3;  // rgb: the model's third parameter (GGX's f90_ratio)
 };
-static_assert(sizeof(GpuMaterial) == 64, "std430 layout of GpuMaterial");
+static_assert(sizeof(GpuMaterial) == 80, "std430 layout of GpuMaterial");
 
 // Texture units and buffer bindings, as declared in shaders/phong.frag.
 enum TextureUnit : GLuint {
@@ -57,6 +59,7 @@ enum TextureUnit : GLuint {
   kPointShadowUnit = 4,
   kDirectionalShadowUnit = 5,
   kAtlasModelUnit = 6,
+  kAtlasP3Unit = 7,
 };
 constexpr GLuint kLightBlockBinding = 0;
 constexpr GLuint kMaterialBlockBinding = 1;
@@ -163,6 +166,7 @@ struct PhongRenderer::Impl {
   gl::Texture kd_texture;
   gl::Texture atlas_kd, atlas_ks, atlas_ke;
   gl::Texture atlas_model;  // per-texel model (empty: options.brdf_model everywhere)
+  gl::Texture atlas_p3;     // the third parameter (1x1 of GGX's dielectric ratio when none was given)
 
   enum class Mode { kNone, kProcedural, kAtlas };
   Mode mode = Mode::kNone;
@@ -342,6 +346,7 @@ absl::Status PhongRenderer::SetProceduralMaterials(const std::vector<ProceduralM
     gpu[i].ks_kd_from_texture =
         glm::vec4(m.measured >= 0 ? glm::vec3(m.measured_gain) : m.ks, m.kd_from_texture ? 1.0f : 0.0f);
     gpu[i].ke = glm::vec4(m.ke, m.measured >= 0 ? static_cast<float>(m.measured) : -1.0f);
+    gpu[i].p3 = glm::vec4(m.p3, 0.0f);
   }
   glNamedBufferSubData(impl_->material_buffer.id(), 0, static_cast<GLsizeiptr>(gpu.size() * sizeof(GpuMaterial)),
                        gpu.data());
@@ -370,7 +375,7 @@ absl::Status PhongRenderer::SetKdTexture(const cv::Mat& kd_linear) {
 }
 
 absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke,
-                                             const cv::Mat& model) {
+                                             const cv::Mat& model, const cv::Mat& p3) {
   if (!impl_->has_uvs) return absl::FailedPreconditionError("atlas materials: the mesh has no uvs");
   gl::Texture model_texture;
   if (!model.empty()) {
@@ -388,10 +393,15 @@ absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& 
   MVBRDF_ASSIGN_OR_RETURN(gl::Texture kd_texture, UploadUvImage(kd, "kd atlas"));
   MVBRDF_ASSIGN_OR_RETURN(gl::Texture ks_texture, UploadUvImage(ks, "ks atlas"));
   MVBRDF_ASSIGN_OR_RETURN(gl::Texture ke_texture, UploadUvImage(ke, "ke atlas"));
+  // No third parameter's atlas: GGX's dielectric ratio everywhere (the
+  // models with two parameters do not read it).
+  const cv::Mat dielectric(1, 1, CV_32FC3, cv::Scalar::all(brdf::Ggx::kDielectricRatio));
+  MVBRDF_ASSIGN_OR_RETURN(gl::Texture p3_texture, UploadUvImage(p3.empty() ? dielectric : p3, "third parameter atlas"));
   impl_->atlas_kd = std::move(kd_texture);
   impl_->atlas_ks = std::move(ks_texture);
   impl_->atlas_ke = std::move(ke_texture);
   impl_->atlas_model = std::move(model_texture);
+  impl_->atlas_p3 = std::move(p3_texture);
   impl_->mode = Impl::Mode::kAtlas;
   return absl::OkStatus();
 }
@@ -503,6 +513,7 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   glBindTextureUnit(kPointShadowUnit, shadow_maps->point_maps().id());
   glBindTextureUnit(kDirectionalShadowUnit, shadow_maps->directional_maps().id());
   glBindTextureUnit(kAtlasModelUnit, per_texel_model ? atlas_model.id() : placeholder);
+  glBindTextureUnit(kAtlasP3Unit, atlas ? atlas_p3.id() : placeholder);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kNbrdfWeightsBinding, nbrdf_buffer.id());
   glBindBufferBase(GL_UNIFORM_BUFFER, kLightBlockBinding, light_buffer.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMaterialBlockBinding, material_buffer.id());

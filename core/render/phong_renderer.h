@@ -39,6 +39,9 @@ struct ProceduralMaterial {
   bool kd_from_texture = false;
   glm::vec3 ks{0.0f};
   glm::vec3 ke{1.0f};
+  // The model's third parameter (GGX's f90_ratio; a dielectric's 25 unless
+  // set; the two-parameter models do not read it).
+  glm::vec3 p3{25.0f};
   // >= 0: the material is measured BRDF number `measured` of
   // SetMeasuredBrdfs' list (issue #15), drawn as rho(l, v) n.l I (rho in 1/sr,
   // core/brdf/nbrdf.h; the analytic models' specular term has the same
@@ -95,9 +98,11 @@ class PhongRenderer {
   // Atlas mode: kd, ks, ke as CV_32FC3 images in UV space (row 0 = v = 1),
   // ks and ke the two parameters of RendererOptions::brdf_model; or, with
   // `model` (CV_8UC1, the atlases' size: brdf::Model's value per texel, read
-  // without filtering), of each texel's own model (`--brdf auto`).
+  // without filtering), of each texel's own model (`--brdf auto`). `p3`
+  // (CV_32FC3 like ks, may be empty: GGX's dielectric ratio 25) holds the
+  // third parameter of the models that have one (GGX's f90_ratio).
   absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke,
-                                 const cv::Mat& model = cv::Mat());
+                                 const cv::Mat& model = cv::Mat(), const cv::Mat& p3 = cv::Mat());
 
   // Any number of lights, drawn in passes of 16 whose radiance is summed;
   // each light gets a shadow map. With at most 16 lights the maps are

@@ -1009,9 +1009,11 @@ TEST_F(PhongRendererTest, EveryModelsAtlasTexelsMatchTheCpuModel) {
   struct Case {
     brdf::Model model;
     glm::vec3 p0, p1;
+    glm::vec3 p2{25.0f};  // GGX's f90_ratio
   };
   const Case cases[] = {{brdf::Model::kBlinnPhong, {0.3f, 0.35f, 0.4f}, {30.0f, 60.0f, 120.0f}},
-                        {brdf::Model::kGgx, {0.04f, 0.5f, 0.9f}, {0.2f, 0.35f, 0.5f}}};
+                        {brdf::Model::kGgx, {0.04f, 0.5f, 0.9f}, {0.2f, 0.35f, 0.5f}},
+                        {brdf::Model::kGgx, {0.04f, 0.5f, 0.9f}, {0.2f, 0.35f, 0.5f}, {1.0f, 4.0f, 40.0f}}};
   const std::vector<scene::Light> lights = {PointLight({0.6f, 0.3f, 1.5f}, {1.0f, 0.9f, 0.8f}),
                                             PointLight({-0.8f, 0.5f, 1.0f}, {0.5f, 0.6f, 0.7f})};
   const glm::vec3 camera_center(-0.4f, -0.2f, 1.8f);  // near the mirror direction of the first light
@@ -1028,6 +1030,7 @@ TEST_F(PhongRendererTest, EveryModelsAtlasTexelsMatchTheCpuModel) {
     material.kd.base = {0.5f, 0.4f, 0.3f};
     material.ks = c.p0;
     material.ke = c.p1;
+    material.p3 = c.p2;
     ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
     ASSERT_TRUE(renderer->SetLights(lights).ok());
     absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(pose, camera_center, kSize);
@@ -1049,7 +1052,7 @@ TEST_F(PhongRendererTest, EveryModelsAtlasTexelsMatchTheCpuModel) {
           const brdf::Geometry geometry = brdf::GeometryOf(n, glm::normalize(to_light), v);
           if (!(geometry.n_dot_l > 0.0)) continue;
           for (int ch = 0; ch < 3; ++ch) {
-            const double p[2] = {c.p0[ch], c.p1[ch]};
+            const double p[3] = {c.p0[ch], c.p1[ch], c.p2[ch]};
             const double specular = c.model == brdf::Model::kGgx ? brdf::Ggx::Specular(p, geometry, nullptr)
                                                                  : brdf::BlinnPhong::Specular(p, geometry, nullptr);
             const double weight = c.model == brdf::Model::kGgx ? brdf::Ggx::DiffuseWeight(p, geometry, nullptr) : 1.0;
@@ -1143,17 +1146,31 @@ TEST_F(PhongRendererTest, MeasuredMaterialsTexelsMatchTheCpuNetwork) {
   std::printf("measured: atlas vs CPU network, max error %.2g of the maximum %.3g\n", max_error / scale, scale);
 }
 
+// A unit grid whose UVs fill the atlas, and uniform kd and parameter atlases
+// of `size` texels a side (the atlas-mode tests' scene).
+struct UniformAtlasScene {
+  RenderMesh mesh;
+  Pose pose;
+  cv::Mat kd, p0, p1;
+};
+UniformAtlasScene MakeUniformAtlasScene(int size) {
+  UniformAtlasScene s;
+  AppendGridWithUvs(8, 1.0, 0.0, 0, {0.0f, 0.0f}, {1.0f, 1.0f}, &s.mesh, &s.pose);
+  s.kd = cv::Mat(size, size, CV_32FC3, cv::Scalar(0.5, 0.4, 0.3));
+  s.p0 = cv::Mat(size, size, CV_32FC3, cv::Scalar(0.3, 0.2, 0.1));
+  s.p1 = cv::Mat(size, size, CV_32FC3, cv::Scalar(0.3, 0.4, 0.5));
+  return s;
+}
+
 // `--brdf auto` (issue #15): with a model atlas every texel is shaded by its
 // own model: the left half of the atlas GGX, the right half Blinn-Phong, each
 // equal to the single-model render of the same parameter atlases there.
 TEST_F(PhongRendererTest, ModelAtlasShadesEachTexelByItsModel) {
-  RenderMesh mesh;
-  Pose pose;
-  AppendGridWithUvs(8, 1.0, 0.0, 0, {0.0f, 0.0f}, {1.0f, 1.0f}, &mesh, &pose);
   constexpr int kSize = 32;
-  const cv::Mat kd(kSize, kSize, CV_32FC3, cv::Scalar(0.5, 0.4, 0.3));
-  const cv::Mat p0(kSize, kSize, CV_32FC3, cv::Scalar(0.3, 0.2, 0.1));
-  const cv::Mat p1(kSize, kSize, CV_32FC3, cv::Scalar(0.3, 0.4, 0.5));
+  const UniformAtlasScene scene = MakeUniformAtlasScene(kSize);
+  const RenderMesh& mesh = scene.mesh;
+  const Pose& pose = scene.pose;
+  const cv::Mat &kd = scene.kd, &p0 = scene.p0, &p1 = scene.p1;
   cv::Mat model(kSize, kSize, CV_8UC1, cv::Scalar(static_cast<int>(brdf::Model::kBlinnPhong)));
   model.colRange(0, kSize / 2).setTo(cv::Scalar(static_cast<int>(brdf::Model::kGgx)));
   const std::vector<scene::Light> lights = {PointLight({0.6f, 0.3f, 1.5f}, {1.0f, 0.9f, 0.8f})};
@@ -1189,6 +1206,59 @@ TEST_F(PhongRendererTest, ModelAtlasShadesEachTexelByItsModel) {
     }
   }
   EXPECT_GT(compared, (kSize - 2) * (kSize - 2) / 2);  // the models differ over most texels
+}
+
+// GGX's third parameter in atlas mode: an f90_ratio atlas draws as the
+// procedural material with that ratio, and no atlas as a dielectric's 25.
+TEST_F(PhongRendererTest, GgxRatioAtlasIsRead) {
+  constexpr int kSize = 32;
+  const UniformAtlasScene scene = MakeUniformAtlasScene(kSize);
+  const RenderMesh& mesh = scene.mesh;
+  const Pose& pose = scene.pose;
+  const cv::Mat &kd = scene.kd, &p0 = scene.p0, &p1 = scene.p1;
+  const cv::Mat p2(kSize, kSize, CV_32FC3, cv::Scalar(1.5, 4.0, 40.0));
+  const std::vector<scene::Light> lights = {PointLight({0.6f, 0.3f, 1.5f}, {1.0f, 0.9f, 0.8f})};
+  const glm::vec3 camera_center(-0.4f, -0.2f, 1.8f);
+  RendererOptions options;
+  options.shadow_map_size = 256;
+  options.brdf_model = brdf::Model::kGgx;
+  auto renderer = MakeRenderer(mesh, options);
+  ASSERT_NE(renderer, nullptr);
+  ASSERT_TRUE(renderer->SetLights(lights).ok());
+  const auto draw = [&]() {
+    absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(pose, camera_center, kSize);
+    EXPECT_TRUE(atlas.ok()) << atlas.status();
+    return atlas.ok() ? *atlas : cv::Mat();
+  };
+  ASSERT_TRUE(renderer->SetAtlasMaterials(kd, p0, p1, cv::Mat(), p2).ok());
+  const cv::Mat with_atlas = draw();
+  ASSERT_TRUE(renderer->SetAtlasMaterials(kd, p0, p1).ok());
+  const cv::Mat dielectric_atlas = draw();
+  ProceduralMaterial material;
+  material.kd.base = {0.5f, 0.4f, 0.3f};
+  material.ks = {0.3f, 0.2f, 0.1f};
+  material.ke = {0.3f, 0.4f, 0.5f};
+  material.p3 = {1.5f, 4.0f, 40.0f};
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+  const cv::Mat procedural = draw();
+  material.p3 = glm::vec3(25.0f);
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+  const cv::Mat dielectric = draw();
+  const float scale = MaxValue(with_atlas);
+  ASSERT_GT(scale, 0.0f);
+  int differ = 0;
+  for (int j = 1; j < kSize - 1; ++j) {
+    for (int i = 1; i < kSize - 1; ++i) {
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_NEAR(with_atlas.at<cv::Vec4f>(j, i)[c], procedural.at<cv::Vec4f>(j, i)[c], 1e-5f * scale);
+        EXPECT_NEAR(dielectric_atlas.at<cv::Vec4f>(j, i)[c], dielectric.at<cv::Vec4f>(j, i)[c], 1e-5f * scale);
+      }
+      if (std::abs(with_atlas.at<cv::Vec4f>(j, i)[0] - dielectric_atlas.at<cv::Vec4f>(j, i)[0]) > 1e-3f * scale) {
+        ++differ;
+      }
+    }
+  }
+  EXPECT_GT(differ, (kSize - 2) * (kSize - 2) / 2);  // the ratio changes the drawing
 }
 
 // Flat ground (UVs on the left of the atlas) under a small square occluder

@@ -153,8 +153,10 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
            {"ke", "ke (exponent, /100)"},
            {"f0", "f0 (GGX)"},
            {"roughness", "roughness (GGX)"},
+           {"f90_ratio", "F90 / F0 (GGX, /25)"},
            {"parameter_1", "each texel's model's first parameter (--brdf auto: ks or f0)"},
            {"parameter_2", "each texel's model's second parameter, /100 (--brdf auto: ke or roughness)"},
+           {"parameter_3", "each texel's model's third parameter, /25 (--brdf auto: GGX's F90 / F0)"},
            {"cluster", "clusters"}}) {
     const fs::path file = run_dir / "atlases" / (name + ".png");
     if (!fs::exists(file)) continue;

@@ -102,7 +102,9 @@ constexpr char kF0[] =
     "F0 (--brdf ggx): specular reflectance at normal incidence per colour channel (glTF's metallic-roughness model; "
     "0.04 for most dielectrics), in the scene's units.";
 constexpr char kRoughness[] =
-    "roughness (--brdf ggx): glTF's perceptual roughness in [0.02, 1]; higher: a broader highlight.";
+    "roughness (--brdf ggx): glTF's perceptual roughness in [0.02, 1]; higher: a broader highlight. After it "
+    "F90/F0, the Fresnel curve's rise from normal incidence to grazing (25: a dielectric of index 1.5; 1: a "
+    "metal's flat curve).";
 constexpr char kSamples[] =
     "Samples: one observation of a surface point: its radiance in one camera and frame with the light and view "
     "cosines (per triangle for the light sweep, per texel for the fits).";
@@ -278,6 +280,8 @@ std::string ClustersTable(const v1::RunReport& run) {
     const bool row_ggx = per_cluster ? c.brdf() == "ggx" : ggx;
     std::string p0 = Rgb(row_ggx ? c.f0() : c.ks());
     std::string p1 = Rgb(row_ggx ? c.roughness() : c.ke(), row_ggx ? "%.3f" : "%.1f");
+    // GGX's third parameter beside its roughness: F90 / F0 (25 a dielectric).
+    if (row_ggx && c.f90_ratio_size() > 0) p1 += "; F90/F0 " + Rgb(c.f90_ratio(), "%.1f");
     std::vector<std::string> row = {c.name(), absl::StrCat(c.texels()), Rgb(c.centre())};
     if (per_cluster) {
       row.push_back(c.brdf().empty() ? "-" : c.brdf());
