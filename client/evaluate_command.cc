@@ -1,7 +1,10 @@
 // `mvbrdf evaluate DIR --truth TRUTH_DIR`: a reconstruction against the truth.
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "client/commands.h"
 #include "client/flags.h"
@@ -10,6 +13,7 @@
 #include "core/base/status_macros.h"
 #include "core/evaluate/reconstruction_evaluator.h"
 #include "core/gl/egl_context.h"
+#include "core/image/exr.h"
 #include "core/pipeline/relighting_evaluation.h"
 #include "core/scene/sequence.h"
 #include "core/synth/ground_truth.h"
@@ -37,11 +41,43 @@ absl::StatusOr<v1::RelightingEvaluation> Relighting(const std::filesystem::path&
   return pipeline::EvaluateRelighting(run_dir, truth, sequence, *context, options);
 }
 
+// `--relight-images DIR`: per row NNN of relighting.rows, the truth and the
+// reconstruction as drawn (linear EXR), side by side as a PNG preview, the
+// pixels the row's RMSE counts (PNG), and the view and light as `mvbrdf
+// render --camera --lights` take them (drawn at the row's frame, `render`
+// gives the reconstruction image again).
+absl::Status WriteRowImages(const std::filesystem::path& dir, const pipeline::RelightingRowImages& row) {
+  char stem[16];
+  std::snprintf(stem, sizeof(stem), "%03d", row.row);
+  const std::filesystem::path base = dir / stem;
+  MVBRDF_RETURN_IF_ERROR(image::WriteExr(base.string() + "_truth.exr", *row.truth));
+  MVBRDF_RETURN_IF_ERROR(image::WriteExr(base.string() + "_reconstruction.exr", *row.reconstruction));
+  cv::Mat both;
+  cv::hconcat(*row.truth, *row.reconstruction, both);
+  MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(base.string() + ".png", both));
+  cv::Mat counted;
+  cv::merge(std::vector<cv::Mat>{*row.counted, *row.counted, *row.counted}, counted);
+  counted.convertTo(counted, CV_32FC3, 1.0 / 255.0);
+  MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(base.string() + "_counted.png", counted));
+  v1::Camera camera;
+  scene::CameraModelToProto(*row.view, &camera);
+  MVBRDF_RETURN_IF_ERROR(WriteJsonFile(base.string() + "_camera.json", camera));
+  v1::LightList lights;
+  v1::Light* light = lights.add_lights();
+  light->set_name(row.light->name);
+  const glm::vec3& where = row.light->directional ? row.light->direction : row.light->position;
+  for (int i = 0; i < 3; ++i) {
+    (row.light->directional ? light->add_direction(where[i]) : light->add_position(where[i]));
+    light->add_intensity(row.light->intensity[i]);
+  }
+  return WriteJsonFile(base.string() + "_lights.json", lights);
+}
+
 }  // namespace
 
 int RunEvaluate(const std::vector<std::string>& args) {
-  std::string dir, truth, error_atlas, egl = "auto";
-  bool no_relighting = false;
+  std::string dir, truth, error_atlas, relight_images, egl = "auto";
+  bool no_relighting = false, force = false;
   pipeline::RelightingOptions relighting;
   FlagParser flags("evaluate",
                    "Compares a reconstruction (the output directory of 'mvbrdf run') with the synthetic\n"
@@ -60,6 +96,13 @@ int RunEvaluate(const std::vector<std::string>& args) {
   flags.AddInt("--relight-views N", &relighting.views, "held-out views for the relighting error (default 4)");
   flags.AddInt("--relight-lights N", &relighting.lights, "held-out lights, each alone (default 3)");
   flags.AddInt("--relight-frame T", &relighting.frame, "the frame drawn (default: the middle one)");
+  flags.AddString("--relight-images DIR",
+                  &relight_images,
+                  "also write each relighting row's images to DIR (new or empty): NNN_truth.exr, "
+                  "NNN_reconstruction.exr, NNN.png (both side by side), NNN_counted.png (the pixels its RMSE "
+                  "counts), NNN_camera.json and NNN_lights.json (render --camera --lights at the row's frame draws "
+                  "the reconstruction again); NNN is the row's index in relighting.rows");
+  flags.AddBool("--force", &force, std::string(kForceHelp) + " (--relight-images)");
   flags.AddString("--egl PLATFORM", &egl, "EGL platform: auto, surfaceless (Mesa) or device (GPU)");
   if (absl::Status s = flags.Parse(args); !s.ok()) {
     std::fprintf(stderr, "mvbrdf evaluate: %s\n", std::string(s.message()).c_str());
@@ -96,6 +139,25 @@ int RunEvaluate(const std::vector<std::string>& args) {
   if (relighting.views < 1 || relighting.lights < 1) {
     std::fprintf(stderr, "mvbrdf evaluate: --relight-views and --relight-lights: must be >= 1\n");
     return kExitUsage;
+  }
+  std::optional<OutputDirLock> images_lock;
+  if (!relight_images.empty()) {
+    if (no_relighting) {
+      std::fprintf(stderr, "mvbrdf evaluate: --relight-images: leave out --no-relighting (there are no rows)\n");
+      return kExitUsage;
+    }
+    std::vector<InputPath> inputs = RunInputs(dir);
+    inputs.push_back({"--truth", std::filesystem::path(truth) / "truth.json", false});
+    inputs.push_back({"--truth", std::filesystem::path(truth) / "ground_truth" / "truth.json", false});
+    if (absl::Status s = CheckOutputDirSparesInputs("--relight-images", relight_images, inputs); !s.ok()) {
+      return ReportFailure(s);
+    }
+    absl::StatusOr<OutputDirLock> lock = PrepareOutputDir("--relight-images", relight_images, force);
+    if (!lock.ok()) return ReportFailure(lock.status());
+    images_lock.emplace(std::move(*lock));
+    relighting.on_row = [&relight_images](const pipeline::RelightingRowImages& row) {
+      return WriteRowImages(relight_images, row);
+    };
   }
   auto report = evaluate::EvaluateReconstruction(dir, truth, error_atlas);
   if (!report.ok()) return ReportFailure(report.status());

@@ -107,6 +107,22 @@ expect "--relight-views, --relight-lights and --relight-frame choose the rows an
   "(2, 2, True)"
 check "--relight-views 0 is a usage error" 2 "--relight-views" -- "$bin" evaluate "$work/ggx" --truth "$work/b" \
   --relight-views 0
+# --relight-images: each row's images, and the view and light that `render`
+# draws the row's reconstruction from again, byte for byte.
+check "evaluate --relight-images writes each row's images" 0 "" -- "$bin" evaluate "$work/ggx" --truth "$work/b" \
+  --relight-views 2 --relight-lights 1 --relight-frame 2 --relight-images "$work/relit"
+expect "one set of images per relighting row" test \
+  "$(ls "$work/relit" | grep -c -E '^00[01](_truth.exr|_reconstruction.exr|_counted.png|_camera.json|_lights.json|.png)$')" = 12
+check "render draws row 1's view and light at the row's frame" 0 "wrote" -- "$bin" render "$work/ggx" \
+  --camera "$work/relit/001_camera.json" --lights "$work/relit/001_lights.json" --frame 2 --out "$work/relit1.exr"
+expect "render's image is the row's reconstruction, byte for byte" cmp "$work/relit1.exr" \
+  "$work/relit/001_reconstruction.exr"
+expect "the row's truth is not its reconstruction" test "$(cmp -s "$work/relit/001_truth.exr" \
+  "$work/relit/001_reconstruction.exr"; echo $?)" = 1
+check "--relight-images into a non-empty directory is refused" 3 "not empty" -- "$bin" evaluate "$work/ggx" \
+  --truth "$work/b" --relight-views 1 --relight-lights 1 --relight-images "$work/relit"
+check "--relight-images with --no-relighting is a usage error" 2 "--relight-images" -- "$bin" evaluate "$work/ggx" \
+  --truth "$work/b" --no-relighting --relight-images "$work/relit2"
 
 # render and the report follow the model: the GGX reconstruction drawn by
 # `render` is closer to the GGX truth's frame than the other models'.

@@ -191,6 +191,8 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
       MVBRDF_ASSIGN_OR_RETURN(const cv::Mat r, reconstruction->Render(view, {light}, frame, false, extras));
       double sq = 0.0, truth_sq = 0.0;
       uint64_t n = 0;
+      cv::Mat counted;
+      if (options.on_row) counted = cv::Mat::zeros(r.rows, r.cols, CV_8UC1);
       for (int y = 0; y < r.rows; ++y) {
         for (int x = 0; x < r.cols; ++x) {
           const int id = ids.at<int32_t>(y, x);
@@ -199,6 +201,7 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
             ++unobserved;
             continue;
           }
+          if (!counted.empty()) counted.at<uint8_t>(y, x) = 255;
           const cv::Vec3f& a = r.at<cv::Vec3f>(y, x);
           const cv::Vec3f b = gain * t.radiance.at<cv::Vec3f>(y, x);
           double e = 0.0, m = 0.0;
@@ -224,6 +227,18 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
       all_sq += sq;
       all_truth_sq += truth_sq;
       all_n += n;
+      if (options.on_row) {
+        const cv::Mat truth_image = gain * t.radiance;
+        RelightingRowImages images;
+        images.row = out.rows_size() - 1;
+        images.frame = frame;
+        images.view = &view;
+        images.light = &light;
+        images.truth = &truth_image;
+        images.reconstruction = &r;
+        images.counted = &counted;
+        MVBRDF_RETURN_IF_ERROR(options.on_row(images));
+      }
     }
   }
   if (all_n == 0) {

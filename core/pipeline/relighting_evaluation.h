@@ -17,7 +17,10 @@
 #define MVBRDF_CORE_PIPELINE_RELIGHTING_EVALUATION_H_
 
 #include <filesystem>
+#include <functional>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
 #include "core/gl/egl_context.h"
@@ -29,10 +32,26 @@
 
 namespace mvbrdf::pipeline {
 
+// One row's images, for a caller that keeps them (`evaluate --relight-images`):
+// the view and light drawn, the truth (times the exposure gain) and the
+// reconstruction (CV_32FC3, linear), and the pixels the row's RMSE counts
+// (CV_8UC1, 255 where counted).
+struct RelightingRowImages {
+  int row = 0;  // RelightingEvaluation.rows' index
+  int frame = 0;
+  const scene::CameraModel* view = nullptr;
+  const scene::Light* light = nullptr;
+  const cv::Mat* truth = nullptr;
+  const cv::Mat* reconstruction = nullptr;
+  const cv::Mat* counted = nullptr;
+};
+
 struct RelightingOptions {
   int views = 4;    // held-out views, >= 1
   int lights = 3;   // held-out lights, >= 1, each drawn alone
   int frame = -1;   // the pose drawn, relative to the scene's first frame; -1: the middle one
+  // Called once per row after it is scored; an error stops the evaluation.
+  std::function<absl::Status(const RelightingRowImages&)> on_row;
 };
 
 // The held-out views and lights for a sequence whose capture used
