@@ -60,9 +60,9 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
                   "held-out (kd fitted on some frames, error measured on the others) or e-d (the thesis's E_d)");
   flags.AddString("--brdf MODEL", &job->brdf,
                   "reflectance model fitted per cluster: phong (the thesis's mirror lobe), blinn-phong "
-                  "(energy-normalised half-vector lobe), ggx (glTF's metallic-roughness: atlases f0, roughness) or "
-                  "auto (per cluster the model with the lowest error on held-out frames and a held-out camera; "
-                  "atlases model.png, parameter_1, parameter_2)");
+                  "(energy-normalised half-vector lobe), ggx (glTF's metallic-roughness: atlases f0, roughness, "
+                  "f90_ratio) or auto (per cluster the model with the lowest error on held-out frames and a held-out "
+                  "camera; atlases model.png, parameter_1, parameter_2, and parameter_3 where GGX was picked)");
   flags.AddString("--cluster-smoothness X", &job->cluster_smoothness,
                   "spatial coherence of the clusters over the surface (0: each texel on its own)");
 }
