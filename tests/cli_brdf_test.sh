@@ -123,6 +123,9 @@ check "--relight-images into a non-empty directory is refused" 3 "not empty" -- 
   --truth "$work/b" --relight-views 1 --relight-lights 1 --relight-images "$work/relit"
 check "--relight-images with --no-relighting is a usage error" 2 "--relight-images" -- "$bin" evaluate "$work/ggx" \
   --truth "$work/b" --no-relighting --relight-images "$work/relit2"
+check "--force clears it first (a directory evaluate wrote)" 0 "" -- "$bin" evaluate "$work/ggx" --truth "$work/b" \
+  --relight-views 1 --relight-lights 1 --relight-images "$work/relit" --force
+expect "only the new run's row is left" test "$(ls "$work/relit" | grep -c -E '^[0-9]{3}')" = 6
 
 # render and the report follow the model: the GGX reconstruction drawn by
 # `render` is closer to the GGX truth's frame than the other models'.
