@@ -47,9 +47,12 @@ absl::StatusOr<ObjExportSummary> ExportObj(const std::filesystem::path& run_dir,
       const size_t i = static_cast<size_t>(y * cols + x);
       const brdf::Model model = a.ModelAt(x, y);
       const cv::Vec3f p1 = a.p1.at<cv::Vec3f>(y, x), p2 = a.p2.at<cv::Vec3f>(y, x), kd = a.kd.at<cv::Vec3f>(y, x);
+      const cv::Vec3f p3 = a.p3.empty() ? cv::Vec3f::all(0.0f) : a.p3.at<cv::Vec3f>(y, x);
       double ks_top = 0.0;
       for (int c = 0; c < 3; ++c) {
-        const brdf::ParameterVector p = brdf::PhongEquivalent(model, {p1[c], p2[c], 0.0});
+        // The third parameter (GGX's F90 / F0) does not move the head-on peak
+        // PhongEquivalent matches, but is passed as the run has it.
+        const brdf::ParameterVector p = brdf::PhongEquivalent(model, {p1[c], p2[c], p3[c]});
         phong[i][c] = {std::isfinite(p[0]) ? p[0] : 0.0, p[1]};
         ks_top = std::max(ks_top, phong[i][c].x);
       }

@@ -18,6 +18,7 @@
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/base/version.h"
+#include "core/brdf/ggx.h"
 #include "core/calibrate/refine_lights.h"
 #include "core/cluster/kmeans.h"
 #include "core/cluster/label_smoothing.h"
@@ -1177,7 +1178,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       const std::string name =
           options.brdf_auto ? "parameter_3" : std::string(brdf::ParameterNames(options.brdf_model)[2]);
       MVBRDF_RETURN_IF_ERROR(WriteRgbAtlas(
-          atlases / name, resample::GrowAtlas(Rgba(p3, measured, atlas.size), options.grow_iterations), 1.0f / 25.0f));
+          atlases / name, resample::GrowAtlas(Rgba(p3, measured, atlas.size), options.grow_iterations),
+          static_cast<float>(1.0 / brdf::Ggx::kDielectricRatio)));
     }
     if (options.brdf_auto) {
       // Grown like the parameters, so that filtering at chart edges reads

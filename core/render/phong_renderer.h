@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "core/brdf/ggx.h"
 #include "core/brdf/model.h"
 #include "core/brdf/nbrdf.h"
 #include "core/gl/egl_context.h"
@@ -41,7 +42,7 @@ struct ProceduralMaterial {
   glm::vec3 ke{1.0f};
   // The model's third parameter (GGX's f90_ratio; a dielectric's 25 unless
   // set; the two-parameter models do not read it).
-  glm::vec3 p3{25.0f};
+  glm::vec3 p3{static_cast<float>(brdf::Ggx::kDielectricRatio)};
   // >= 0: the material is measured BRDF number `measured` of
   // SetMeasuredBrdfs' list (issue #15), drawn as rho(l, v) n.l I (rho in 1/sr,
   // core/brdf/nbrdf.h; the analytic models' specular term has the same
