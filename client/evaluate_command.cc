@@ -96,6 +96,10 @@ int RunEvaluate(const std::vector<std::string>& args) {
   flags.AddInt("--relight-views N", &relighting.views, "held-out views for the relighting error (default 4)");
   flags.AddInt("--relight-lights N", &relighting.lights, "held-out lights, each alone (default 3)");
   flags.AddInt("--relight-frame T", &relighting.frame, "the frame drawn (default: the middle one)");
+  flags.AddInt("--relight-supersample N", &relighting.supersample,
+               "subpixels per pixel side, 1-8: both images drawn at N times the views' resolution and "
+               "box-averaged, as a sensor integrates a pixel (a pixel counts when all its subpixels would); "
+               "default 1: each pixel's centre, as synth draws the frames");
   flags.AddString("--relight-images DIR",
                   &relight_images,
                   "also write each relighting row's images to DIR (new or empty): NNN_truth.exr, "
@@ -138,6 +142,10 @@ int RunEvaluate(const std::vector<std::string>& args) {
   }
   if (relighting.views < 1 || relighting.lights < 1) {
     std::fprintf(stderr, "mvbrdf evaluate: --relight-views and --relight-lights: must be >= 1\n");
+    return kExitUsage;
+  }
+  if (relighting.supersample < 1 || relighting.supersample > 8) {
+    std::fprintf(stderr, "mvbrdf evaluate: --relight-supersample: expected 1 to 8, got %d\n", relighting.supersample);
     return kExitUsage;
   }
   std::optional<OutputDirLock> images_lock;

@@ -71,6 +71,7 @@ struct RenderFlags {
   bool alpha = false;   // RGBA with the coverage in alpha
   std::string frames;   // "A:B" or "A:B:STEP" or empty: --frame
   std::string ambient;  // "R,G,B" or empty
+  int supersample = 1;  // subpixels per pixel side, box-averaged
 };
 
 absl::Status BadValue(const char* flag, const std::string& value, const char* expected) {
@@ -203,13 +204,25 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
     camera = scene::CameraModelFromProto(message);
   }
   if (!options.size.empty()) MVBRDF_RETURN_IF_ERROR(ResizeCamera(options.size, &camera));
+  if (options.supersample < 1 || options.supersample > 8) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--supersample: expected 1 to 8 subpixels per pixel side, got ", options.supersample));
+  }
+  // Drawn at N x N subpixels per pixel and box-averaged (as evaluate's
+  // --relight-supersample): what a sensor integrating each pixel records.
+  const scene::CameraModel fine = scene::Supersampled(camera, options.supersample);
   MVBRDF_ASSIGN_OR_RETURN(const std::vector<scene::Light> lights, ReadLights(lights_file));
   MVBRDF_ASSIGN_OR_RETURN(auto context, gl::EglContext::Create(platform));
   MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *context));
   cv::Mat coverage;
   if (options.alpha) extras.coverage = &coverage;
   for (int t : frames) {
-    MVBRDF_ASSIGN_OR_RETURN(cv::Mat radiance, renderer->Render(camera, lights, t, correction, extras));
+    MVBRDF_ASSIGN_OR_RETURN(cv::Mat radiance, renderer->Render(fine, lights, t, correction, extras));
+    if (options.supersample > 1) {
+      const cv::Size size(camera.width, camera.height);
+      cv::resize(cv::Mat(radiance), radiance, size, 0, 0, cv::INTER_AREA);
+      if (options.alpha) cv::resize(cv::Mat(coverage), coverage, size, 0, 0, cv::INTER_AREA);
+    }
     if (options.alpha) {
       // RGBA: the coverage in alpha (straight, not premultiplied; the background's RGB is 0).
       cv::Mat rgba;
@@ -251,7 +264,11 @@ int RunRender(const std::vector<std::string>& args) {
                   "render at another resolution with the camera's field of view (intrinsics scaled; W:H as the "
                   "camera's; default: the camera's size)");
   flags.AddBool("--alpha", &options.alpha,
-                "write RGBA: alpha is the mesh's coverage of the pixel (0 where it does not cover the pixel centre)");
+                "write RGBA: alpha is the mesh's coverage of the pixel (0 where it does not cover the pixel centre; "
+                "with --supersample the fraction of subpixels covered)");
+  flags.AddInt("--supersample N", &options.supersample,
+               "anti-aliasing: draw N x N subpixels per pixel (1-8) and average them, as a sensor integrates a "
+               "pixel (default 1: each pixel's centre)");
   flags.AddString("--frames A:B[:STEP]", &options.frames,
                   "one image per frame A, A + STEP, ... below B (0-based, as --frame; instead of --frame)");
   flags.AddString("--ambient R,G,B", &options.ambient,

@@ -126,6 +126,25 @@ check "--relight-images with --no-relighting is a usage error" 2 "--relight-imag
 check "--force clears it first (a directory evaluate wrote)" 0 "" -- "$bin" evaluate "$work/ggx" --truth "$work/b" \
   --relight-views 1 --relight-lights 1 --relight-images "$work/relit" --force
 expect "only the new run's row is left" test "$(ls "$work/relit" | grep -c -E '^[0-9]{3}')" = 6
+# --relight-supersample N: each pixel the average of N x N subpixels (what a
+# sensor's pixel integrates); only pixels covered whole count; render
+# --supersample N draws the same image.
+"$bin" evaluate "$work/ggx" --truth "$work/b" --relight-views 2 --relight-lights 1 --relight-frame 2 \
+  --relight-supersample 3 --relight-images "$work/relit3" > "$work/ggx.relight3.json" ||
+  echo "evaluate --relight-supersample failed"
+expect "--relight-supersample 3 is recorded, counts fewer pixels (those covered whole) and changes the error" test \
+  "$(json "$work/ggx.relight3.json" 'd["relighting"]["supersample"], all(a["pixels"] < b["pixels"] for a, b in zip(d["relighting"]["rows"], json.load(open("'"$work"'/ggx.relight.json"))["relighting"]["rows"])), d["relighting"]["rmse"] != json.load(open("'"$work"'/ggx.relight.json"))["relighting"]["rmse"]')" = \
+  "(3, True, True)"
+check "render --supersample 3 draws row 1's view and light" 0 "wrote" -- "$bin" render "$work/ggx" \
+  --camera "$work/relit3/001_camera.json" --lights "$work/relit3/001_lights.json" --frame 2 --supersample 3 \
+  --out "$work/relit3_1.exr"
+expect "render --supersample 3's image is the supersampled row's reconstruction, byte for byte" cmp \
+  "$work/relit3_1.exr" "$work/relit3/001_reconstruction.exr"
+expect "and not the point-sampled one" test "$(cmp -s "$work/relit3_1.exr" "$work/relit1.exr"; echo $?)" = 1
+check "--relight-supersample 0 is a usage error" 2 "--relight-supersample" -- "$bin" evaluate "$work/ggx" \
+  --truth "$work/b" --relight-supersample 0
+check "render --supersample 9 is refused" 3 "--supersample" -- "$bin" render "$work/ggx" --camera cam1 \
+  --lights "$work/relit3/001_lights.json" --supersample 9 --out "$work/ss9.exr"
 
 # render and the report follow the model: the GGX reconstruction drawn by
 # `render` is closer to the GGX truth's frame than the other models'.

@@ -5,6 +5,8 @@
 #include <map>
 #include <set>
 
+#include <opencv2/imgproc.hpp>
+
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/pipeline/reconstruction_renderer.h"
@@ -131,6 +133,10 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
     return absl::InvalidArgumentError(
         absl::StrCat("relighting: views and lights must be >= 1, got ", options.views, " and ", options.lights));
   }
+  if (options.supersample < 1 || options.supersample > 8) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("relighting: supersample must be in [1, 8], got ", options.supersample));
+  }
   const int frame = options.frame >= 0 ? options.frame : sequence.num_frames / 2;
   if (frame >= sequence.num_frames) {
     return absl::InvalidArgumentError(
@@ -172,38 +178,57 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
   const std::vector<scene::Light> lights = HeldOutLights(sequence, truth.ActiveLights(), pose.positions, options.lights);
   v1::RelightingEvaluation out;
   out.set_frame(static_cast<uint32_t>(frame));
+  out.set_supersample(static_cast<uint32_t>(options.supersample));
   const int num_materials = message.materials_size();
   std::vector<double> material_sq(static_cast<size_t>(num_materials), 0.0),
       material_truth_sq(static_cast<size_t>(num_materials), 0.0);
   std::vector<uint64_t> material_n(static_cast<size_t>(num_materials), 0);
   double all_sq = 0.0, all_truth_sq = 0.0;
   uint64_t all_n = 0, unobserved = 0;
+  const int ss = options.supersample;
   for (const scene::CameraModel& view : views) {
-    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ids, renderer->RenderTriangleIds(pose, view, 1));
+    // Drawn at ss x ss subpixels per pixel and box-averaged: a pixel records
+    // the radiance over its area, as a sensor does (a lobe narrower than a
+    // pixel's footprint is otherwise judged by where one ray happens to land).
+    const scene::CameraModel fine = scene::Supersampled(view, ss);
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat ids, renderer->RenderTriangleIds(pose, fine, 1));
     cv::Mat observed;  // depends on the view only: found with its first light
     for (const scene::Light& light : lights) {
       MVBRDF_RETURN_IF_ERROR(renderer->SetLights({light}));
-      MVBRDF_ASSIGN_OR_RETURN(const render::RenderOutput t, renderer->Render(pose, view));
+      MVBRDF_ASSIGN_OR_RETURN(const render::RenderOutput t, renderer->Render(pose, fine));
       cv::Mat coverage;
       ReconstructionRenderer::Extras extras;
       extras.coverage = &coverage;
       if (observed.empty()) extras.observed = &observed;
-      MVBRDF_ASSIGN_OR_RETURN(const cv::Mat r, reconstruction->Render(view, {light}, frame, false, extras));
+      MVBRDF_ASSIGN_OR_RETURN(const cv::Mat r_fine, reconstruction->Render(fine, {light}, frame, false, extras));
+      cv::Mat r, t_radiance;
+      cv::resize(r_fine, r, cv::Size(view.width, view.height), 0, 0, cv::INTER_AREA);
+      cv::resize(t.radiance, t_radiance, cv::Size(view.width, view.height), 0, 0, cv::INTER_AREA);
       double sq = 0.0, truth_sq = 0.0;
       uint64_t n = 0;
       cv::Mat counted;
       if (options.on_row) counted = cv::Mat::zeros(r.rows, r.cols, CV_8UC1);
       for (int y = 0; y < r.rows; ++y) {
         for (int x = 0; x < r.cols; ++x) {
-          const int id = ids.at<int32_t>(y, x);
-          if (id < 0 || t.coverage.at<uint8_t>(y, x) == 0 || coverage.at<float>(y, x) < 0.999f) continue;
-          if (observed.at<uint8_t>(y, x) == 0) {
+          // A pixel counts when every subpixel shows the mesh in both images
+          // and a texel the run observed.
+          bool covered = true, seen = true;
+          for (int j = y * ss; j < (y + 1) * ss && covered; ++j) {
+            for (int i = x * ss; i < (x + 1) * ss && covered; ++i) {
+              covered = ids.at<int32_t>(j, i) >= 0 && t.coverage.at<uint8_t>(j, i) != 0 &&
+                        coverage.at<float>(j, i) >= 0.999f;
+              seen = seen && observed.at<uint8_t>(j, i) != 0;
+            }
+          }
+          if (!covered) continue;
+          if (!seen) {
             ++unobserved;
             continue;
           }
+          const int id = ids.at<int32_t>(y * ss + ss / 2, x * ss + ss / 2);  // the material: the centre subpixel's
           if (!counted.empty()) counted.at<uint8_t>(y, x) = 255;
           const cv::Vec3f& a = r.at<cv::Vec3f>(y, x);
-          const cv::Vec3f b = gain * t.radiance.at<cv::Vec3f>(y, x);
+          const cv::Vec3f b = gain * t_radiance.at<cv::Vec3f>(y, x);
           double e = 0.0, m = 0.0;
           for (int c = 0; c < 3; ++c) {
             e += (a[c] - b[c]) * (a[c] - b[c]);
@@ -228,7 +253,7 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
       all_truth_sq += truth_sq;
       all_n += n;
       if (options.on_row) {
-        const cv::Mat truth_image = gain * t.radiance;
+        const cv::Mat truth_image = gain * t_radiance;
         RelightingRowImages images;
         images.row = out.rows_size() - 1;
         images.frame = frame;

@@ -12,7 +12,8 @@
 // else (an OLAT capture used them all) the capture's lights turned by 45
 // degrees about the up axis. The pose: one
 // frame (the middle one by default). Pixels count where both images cover the
-// mesh and the surface point's texel was observed by the run.
+// mesh and the surface point's texel was observed by the run (with
+// `supersample` > 1: at every subpixel of the pixel).
 #ifndef MVBRDF_CORE_PIPELINE_RELIGHTING_EVALUATION_H_
 #define MVBRDF_CORE_PIPELINE_RELIGHTING_EVALUATION_H_
 
@@ -50,6 +51,11 @@ struct RelightingOptions {
   int views = 4;    // held-out views, >= 1
   int lights = 3;   // held-out lights, >= 1, each drawn alone
   int frame = -1;   // the pose drawn, relative to the scene's first frame; -1: the middle one
+  // Subpixels per pixel side, in [1, 8]: both images are drawn at this many
+  // times the view's resolution and box-averaged, as a sensor integrates a
+  // pixel's area, and a pixel counts when all its subpixels would. 1 (the
+  // default) samples each pixel's centre, as synth draws the capture's frames.
+  int supersample = 1;
   // Called once per row after it is scored; an error stops the evaluation.
   std::function<absl::Status(const RelightingRowImages&)> on_row;
 };

@@ -651,17 +651,7 @@ absl::StatusOr<cv::Mat> PhongRenderer::RenderTriangleIds(const Pose& pose, const
                                                    " pixels a side; got ", supersample, " for camera \"", camera.name,
                                                    "\" of ", camera.width, "x", camera.height));
   }
-  // Pixel centre x of the camera image sits at x' = (x + 0.5) s - 0.5 of the
-  // scaled one, so the pinhole u = f X/Z + c becomes u' = (f s) X/Z + (c + 0.5) s - 0.5.
-  scene::CameraModel scaled = camera;
-  const double s = supersample;
-  scaled.width = camera.width * supersample;
-  scaled.height = camera.height * supersample;
-  scaled.fx = camera.fx * s;
-  scaled.fy = camera.fy * s;
-  scaled.pixel_size = camera.pixel_size / s;  // orthographic: u = X / pixel_size + c likewise
-  scaled.cx = (camera.cx + 0.5) * s - 0.5;
-  scaled.cy = (camera.cy + 0.5) * s - 0.5;
+  const scene::CameraModel scaled = scene::Supersampled(camera, supersample);
 
   glNamedBufferSubData(r.position_buffer.id(), 0, static_cast<GLsizeiptr>(r.num_vertices * sizeof(glm::vec3)),
                        pose.positions.data());

@@ -12,6 +12,19 @@ bool CameraModel::has_distortion() const {
   return false;
 }
 
+CameraModel Supersampled(const CameraModel& camera, int s) {
+  CameraModel scaled = camera;
+  const double f = s;
+  scaled.width = camera.width * s;
+  scaled.height = camera.height * s;
+  scaled.fx = camera.fx * f;
+  scaled.fy = camera.fy * f;
+  scaled.pixel_size = camera.pixel_size / f;  // orthographic: u = X / pixel_size + c likewise
+  scaled.cx = (camera.cx + 0.5) * f - 0.5;
+  scaled.cy = (camera.cy + 0.5) * f - 0.5;
+  return scaled;
+}
+
 glm::dvec3 CameraModel::CenterInWorld() const {
   return -(glm::transpose(cam_from_world_rotation) * cam_from_world_translation);
 }

@@ -71,6 +71,13 @@ inline glm::vec3 ViewDirection(const glm::vec4& view_origin, const glm::vec3& po
   return glm::normalize(glm::vec3(view_origin) - view_origin.w * point);
 }
 
+// The same view at `s` times the resolution (s >= 1; the lens distortion,
+// in normalised coordinates, is kept): pixel (x, y) of `camera` covers
+// pixels [x s, (x + 1) s) x [y s, (y + 1) s) of the result, and their box
+// average is what a sensor pixel integrating its area records. Pixel centre
+// x sits at (x + 0.5) s - 0.5, so u = f X/Z + c becomes (f s) X/Z + (c + 0.5) s - 0.5.
+CameraModel Supersampled(const CameraModel& camera, int s);
+
 // Converts a camera message. Assumes the message has been validated
 // (ValidateSceneMessage in core/scene/sequence.h); the rotation is used as given.
 CameraModel CameraModelFromProto(const v1::Camera& camera);

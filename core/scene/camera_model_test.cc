@@ -54,6 +54,30 @@ TEST(CameraModelTest, OrthographicProjectionIsAffineInCameraXY) {
   EXPECT_NEAR(pinhole.Project(p).x, 79.5 - 200.0 * 0.3 / 2.0, 1e-9);
 }
 
+// Supersampled(c, s): a point that projects to (u, v) in c projects to
+// ((u + 0.5) s - 0.5, (v + 0.5) s - 0.5), so pixel (x, y)'s area is exactly
+// subpixels [x s, (x + 1) s) x [y s, (y + 1) s); the lens (normalised
+// coordinates) and the pose are the same.
+TEST(CameraModelTest, SupersampledSplitsEachPixelIntoSBySSubpixels) {
+  for (Projection projection : {Projection::kPinhole, Projection::kOrthographic}) {
+    CameraModel c = TiltedCamera(projection);
+    c.distortion[0] = -0.05;
+    const CameraModel fine = Supersampled(c, 3);
+    EXPECT_EQ(fine.width, 480);
+    EXPECT_EQ(fine.height, 360);
+    EXPECT_EQ(fine.distortion, c.distortion);
+    EXPECT_EQ(fine.CenterInWorld(), c.CenterInWorld());
+    const glm::dmat3 world_from_cam = glm::transpose(c.cam_from_world_rotation);
+    for (const glm::dvec3& q : {glm::dvec3(-0.3, 0.4, 2.0), glm::dvec3(0.5, -0.2, 4.0), glm::dvec3(0.0, 0.0, 1.0)}) {
+      const glm::dvec3 p = world_from_cam * q + glm::dvec3(0.0, 0.0, -5.0);
+      const glm::dvec2 coarse = c.Project(p), subpixel = fine.Project(p);
+      EXPECT_NEAR(subpixel.x, (coarse.x + 0.5) * 3.0 - 0.5, 1e-9);
+      EXPECT_NEAR(subpixel.y, (coarse.y + 0.5) * 3.0 - 0.5, 1e-9);
+    }
+    EXPECT_EQ(Supersampled(c, 1).cx, c.cx);
+  }
+}
+
 // shared/NOTES.md's v (surface -> camera): towards the centre for a pinhole,
 // the constant -z axis for an orthographic camera.
 TEST(CameraModelTest, ViewDirectionIsConstantForAnOrthographicCamera) {
