@@ -110,13 +110,18 @@ class JobWatch final : public grpc::ServerWriteReactor<v1::JobEvent> {
   }
 
   void OnWriteDone(bool ok) override {
-    if (!ok) {
-      FinishNow(grpc::Status(grpc::StatusCode::CANCELLED, "the watch ended"));
-      return;
-    }
+    bool cancelled = false;
     {
       std::lock_guard<std::mutex> lock(mu_);
       writing_ = false;
+      cancelled = cancelled_;
+    }
+    // A write in flight when the client cancelled may still complete (ok):
+    // OnCancel left the finishing to this call, so it finishes either way
+    // (the stream never ended and the server's shutdown waited for it).
+    if (!ok || cancelled) {
+      FinishNow(grpc::Status(grpc::StatusCode::CANCELLED, "the watch ended"));
+      return;
     }
     WriteNext();
   }
@@ -125,7 +130,8 @@ class JobWatch final : public grpc::ServerWriteReactor<v1::JobEvent> {
     bool finish = false;
     {
       std::lock_guard<std::mutex> lock(mu_);
-      // A pending write fails and OnWriteDone finishes.
+      cancelled_ = true;
+      // With a write in flight, OnWriteDone finishes (ok or not).
       finish = !writing_ && !finished_;
       if (finish) finished_ = true;
     }
@@ -141,11 +147,14 @@ class JobWatch final : public grpc::ServerWriteReactor<v1::JobEvent> {
   // Starts the next write, or finishes when the queue is drained after the
   // last event.
   void WriteNext() {
-    bool finish = false;
+    bool finish = false, cancelled = false;
     {
       std::lock_guard<std::mutex> lock(mu_);
       if (writing_ || finished_) return;
-      if (queue_.empty()) {
+      if (cancelled_) {
+        finished_ = true;
+        cancelled = true;
+      } else if (queue_.empty()) {
         if (!finish_after_queue_) return;
         finished_ = finish = true;
       } else {
@@ -154,7 +163,9 @@ class JobWatch final : public grpc::ServerWriteReactor<v1::JobEvent> {
         writing_ = true;
       }
     }
-    if (finish) {
+    if (cancelled) {
+      Finish(grpc::Status::CANCELLED);
+    } else if (finish) {
       Finish(grpc::Status::OK);
     } else {
       StartWrite(&current_);
@@ -171,6 +182,7 @@ class JobWatch final : public grpc::ServerWriteReactor<v1::JobEvent> {
   bool writing_ = false;             // guarded by mu_
   bool finish_after_queue_ = false;  // guarded by mu_
   bool finished_ = false;            // Finish was called; guarded by mu_
+  bool cancelled_ = false;           // OnCancel ran; guarded by mu_
 };
 
 JobWatchers::JobWatchers(store::JobStore& jobs, std::function<int64_t()> clock,
@@ -190,6 +202,10 @@ JobWatchers::~JobWatchers() {
 
 grpc::ServerWriteReactor<v1::JobEvent>* JobWatchers::Watch(const std::string& job_id) {
   auto* watch = new JobWatch(this, job_id);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    ++active_;
+  }
   absl::StatusOr<Snapshot> snapshot = TakeSnapshot(jobs_, job_id);
   if (!snapshot.ok()) {
     watch->FinishNow(ToGrpc(snapshot.status()));
@@ -222,8 +238,14 @@ void JobWatchers::Push(const v1::JobEvent& event) {
   }
 }
 
+size_t JobWatchers::ActiveWatches() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return active_;
+}
+
 void JobWatchers::Remove(JobWatch* watch) {
   std::lock_guard<std::mutex> lock(mu_);
+  --active_;
   auto it = watches_.find(watch->job_id());
   if (it == watches_.end()) return;
   it->second.erase(watch);

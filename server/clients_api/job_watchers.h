@@ -52,6 +52,9 @@ class JobWatchers {
   grpc::ServerWriteReactor<v1::JobEvent>* Watch(const std::string& job_id);
   // Sends `event` to the current watchers of event.job_id.
   void Push(const v1::JobEvent& event);
+  // Watch streams gRPC has not yet released (OnDone not yet run): every one
+  // ends once its client cancels or its job reaches a final state.
+  size_t ActiveWatches() const;
 
  private:
   friend class JobWatch;
@@ -63,9 +66,10 @@ class JobWatchers {
   const std::function<int64_t()> clock_;
   const std::chrono::milliseconds poll_interval_;
 
-  std::mutex mu_;
+  mutable std::mutex mu_;
   std::condition_variable wake_;
   bool stop_ = false;                                  // guarded by mu_
+  size_t active_ = 0;                                  // guarded by mu_
   std::map<std::string, std::set<JobWatch*>> watches_;  // by job id; guarded by mu_
   std::thread poller_;
 };

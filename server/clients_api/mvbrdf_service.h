@@ -72,6 +72,7 @@ class MvbrdfService final : public v1::Mvbrdf::CallbackService {
   // metrics, artifact ready) to the current watchers of event.job_id. Any
   // thread.
   void PushEvent(const v1::JobEvent& event) { watchers_.Push(event); }
+  size_t ActiveWatches() const { return watchers_.ActiveWatches(); }
 
   grpc::ServerReadReactor<v1::UploadChunk>* UploadBundle(grpc::CallbackServerContext* context,
                                                          v1::UploadStatus* response) override;
