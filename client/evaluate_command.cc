@@ -76,7 +76,7 @@ absl::Status WriteRowImages(const std::filesystem::path& dir, const pipeline::Re
 }  // namespace
 
 int RunEvaluate(const std::vector<std::string>& args) {
-  std::string dir, truth, error_atlas, relight_images, egl = "auto";
+  std::string dir, truth, error_atlas, relight_images, kd_texels_of, egl = "auto";
   bool no_relighting = false, force = false;
   pipeline::RelightingOptions relighting;
   FlagParser flags("evaluate",
@@ -92,6 +92,10 @@ int RunEvaluate(const std::vector<std::string>& args) {
   flags.AddPositional("DIR", &dir, true, "the output directory of 'mvbrdf run'");
   flags.AddString("--truth DIR", &truth, "the synthetic bundle (or its ground_truth/ directory)");
   flags.AddString("--error-atlas FILE", &error_atlas, "also write the per-texel kd error (.png, x10, or .exr)");
+  flags.AddString("--kd-texels-of RUN", &kd_texels_of,
+                  "take kdRmse (and the kd medians and the clusters' kdRmse) over the texels another run of the same "
+                  "scene saw at least 10 times, with this run's kd there: two runs compared on the same texels "
+                  "(a run that rejects observations otherwise counts fewer, easier texels)");
   flags.AddBool("--no-relighting", &no_relighting, "leave out the relighting error (it renders; needs EGL)");
   flags.AddInt("--relight-views N", &relighting.views, "held-out views for the relighting error (default 4)");
   flags.AddInt("--relight-lights N", &relighting.lights, "held-out lights, each alone (default 3)");
@@ -167,7 +171,7 @@ int RunEvaluate(const std::vector<std::string>& args) {
       return WriteRowImages(relight_images, row);
     };
   }
-  auto report = evaluate::EvaluateReconstruction(dir, truth, error_atlas);
+  auto report = evaluate::EvaluateReconstruction(dir, truth, error_atlas, {}, kd_texels_of);
   if (!report.ok()) return ReportFailure(report.status());
   if (!no_relighting && report->clusters_size() > 0) {
     auto relit = Relighting(dir, truth, relighting, *platform);

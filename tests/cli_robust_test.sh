@@ -60,6 +60,30 @@ expect "--edge-margin 1: observations rejected near edges" python3 -c "import sy
 # default; what it must do is change the result.
 expect "--edge-margin 1: kd changed (misregistered cameras)" \
   python3 -c "import sys; sys.exit(not $(kd edge) != $(kd on))"
+# evaluate --kd-texels-of: a run that rejects observations counts fewer
+# texels as seen >= 10 times; scored on the other run's texels instead, both
+# are compared on the same ones (measured on the actor, 8 x 30: --edge-margin
+# 1.5 gave 0.0099 against 0.0122 on its own texels, 0.0173 on the plain run's).
+"$bin" evaluate "$work/edge" --truth "$work/scene" --kd-texels-of "$work/on" --no-relighting \
+  > "$work/edge_on.eval.json" 2>/dev/null
+"$bin" evaluate "$work/on" --truth "$work/scene" --kd-texels-of "$work/on" --no-relighting \
+  > "$work/on_on.eval.json" 2>/dev/null
+expect "evaluate --kd-texels-of: the edge run scored on the plain run's texels (its count, a different kd RMSE)" \
+  python3 - "$work" <<'EOF_PY'
+import json, sys
+w = sys.argv[1]
+e = {n: json.load(open("%s/%s.eval.json" % (w, n))) for n in ("on", "edge", "edge_on", "on_on")}
+print("      kdTexels on %d, edge %d, edge on on's %d; kdRmse edge %.5f, edge on on's %.5f" % (
+    e["on"]["kdTexels"], e["edge"]["kdTexels"], e["edge_on"]["kdTexels"], e["edge"]["kdRmse"], e["edge_on"]["kdRmse"]))
+ok = (e["edge_on"]["kdTexels"] == e["on"]["kdTexels"] != e["edge"]["kdTexels"]
+      and e["edge_on"]["kdRmse"] != e["edge"]["kdRmse"] and e["edge_on"]["kdTexelsOf"].endswith("/on")
+      and e["edge_on"]["clusterAccuracy"] == e["edge"]["clusterAccuracy"]
+      # a run scored on its own texels: its own figures
+      and e["on_on"]["kdRmse"] == e["on"]["kdRmse"] and e["on_on"]["kdTexels"] == e["on"]["kdTexels"])
+sys.exit(0 if ok else 1)
+EOF_PY
+check "--kd-texels-of a directory that is no run" 3 "confidence.exr\|triangle_id.exr" -- "$bin" evaluate "$work/on" \
+  --truth "$work/scene" --kd-texels-of "$work/scene" --no-relighting
 expect "--gradient-rejection 1: observations rejected on steep gradients, kd changed" \
   python3 -c "import sys; sys.exit(not ($(rel gradient rejectedGradient) > 0 and $(kd gradient) != $(kd on)))"
 expect "evaluate: truthGain is the synthesizer's exposure (1.5): truth kd and ks in the images' units" \

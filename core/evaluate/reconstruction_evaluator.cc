@@ -92,7 +92,8 @@ double RelativeError(double value, double truth) {
 absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
                                                             const std::filesystem::path& truth_path,
                                                             const std::filesystem::path& error_atlas,
-                                                            const std::filesystem::path& scene) {
+                                                            const std::filesystem::path& scene,
+                                                            const std::filesystem::path& kd_texels_of) {
   if (!error_atlas.empty()) MVBRDF_RETURN_IF_ERROR(CheckErrorAtlasPath(error_atlas));
   const std::filesystem::path truth_file = TruthFileOf(truth_path);
   MVBRDF_ASSIGN_OR_RETURN(const synth::GroundTruth truth, synth::GroundTruth::Load(truth_file));
@@ -132,6 +133,18 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   MVBRDF_ASSIGN_OR_RETURN(const cv::Mat kd, ReadImage(run_dir / "atlases" / "kd.exr", CV_32FC3, size));
   MVBRDF_ASSIGN_OR_RETURN(const cv::Mat confidence, ReadImage(run_dir / "atlases" / "confidence.exr", CV_32FC1, size));
   MVBRDF_ASSIGN_OR_RETURN(const cv::Mat cluster, ReadImage(run_dir / "atlases" / "cluster.exr", CV_32SC1, size));
+  // The texels the kd figures are taken over: this run's seen >= 10 times, or
+  // another run's (the same atlas: its triangle ids must match).
+  cv::Mat kd_counts = confidence;
+  if (!kd_texels_of.empty()) {
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat other_ids, ReadImage(kd_texels_of / "atlas" / "triangle_id.exr", CV_32SC1, 0));
+    if (other_ids.rows != size || cv::countNonZero(other_ids != triangle_id) != 0) {
+      return absl::InvalidArgumentError(absl::StrCat("--kd-texels-of ", kd_texels_of.string(),
+                                                     ": not the same atlas as the run's (atlas/triangle_id.exr differs)"));
+    }
+    MVBRDF_ASSIGN_OR_RETURN(kd_counts, ReadImage(kd_texels_of / "atlases" / "confidence.exr", CV_32FC1, size));
+    report.set_kd_texels_of(kd_texels_of.string());
+  }
 
   const int num_clusters = run.clusters_size();
   const int num_materials = truth.message().materials_size();
@@ -150,20 +163,21 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     for (int x = 0; x < size; ++x) {
       const int32_t tri = triangle_id.at<int32_t>(y, x);
       const float count = confidence.at<float>(y, x);
+      const float kd_count = kd_counts.at<float>(y, x);
       const cv::Vec4f& p = rest.at<cv::Vec4f>(y, x);
-      if (tri < 0 || count <= 0.0f || p[3] < 0.5f) continue;
+      if (tri < 0 || (count <= 0.0f && kd_count < kMinObservationsForKd) || p[3] < 0.5f) continue;
       if (tri >= truth.message().triangle_materials_size()) {
         return absl::InvalidArgumentError(absl::StrCat("--truth: the run's atlas names triangle ", tri,
                                                        ", the truth has ", truth.message().triangle_materials_size(),
                                                        " triangles (not the same mesh)"));
       }
       const uint32_t material = truth.message().triangle_materials(tri);
-      texel_material[static_cast<size_t>(y) * size + x] = static_cast<int32_t>(material);
+      if (count > 0.0f) texel_material[static_cast<size_t>(y) * size + x] = static_cast<int32_t>(material);
       const int32_t k_cluster = cluster.at<int32_t>(y, x);
-      if (k_cluster >= 0 && k_cluster < num_clusters) ++votes[static_cast<size_t>(k_cluster)][material];
+      if (count > 0.0f && k_cluster >= 0 && k_cluster < num_clusters) ++votes[static_cast<size_t>(k_cluster)][material];
       // A measured material has no kd to compare with (issue #15).
       if (truth.IsMeasured(static_cast<int>(material))) {
-        ++measured_texels;
+        if (count > 0.0f) ++measured_texels;
         continue;
       }
       const glm::vec2 uv((x + 0.5f) / size, 1.0f - (y + 0.5f) / size);
@@ -172,13 +186,15 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
       const cv::Vec3f& k = kd.at<cv::Vec3f>(y, x);
       double sq = 0.0;
       for (int c = 0; c < 3; ++c) sq += (k[c] - t.kd[c]) * (k[c] - t.kd[c]);
-      truth_image.at<cv::Vec4f>(y, x) = {t.kd[0], t.kd[1], t.kd[2], 1.0f};
-      error_image.at<cv::Vec4f>(y, x) = {std::abs(k[0] - t.kd[0]), std::abs(k[1] - t.kd[1]), std::abs(k[2] - t.kd[2]),
-                                         1.0f};
-      sq_all += sq;
-      ++n_all;
+      if (count > 0.0f) {  // seen by this run
+        truth_image.at<cv::Vec4f>(y, x) = {t.kd[0], t.kd[1], t.kd[2], 1.0f};
+        error_image.at<cv::Vec4f>(y, x) = {std::abs(k[0] - t.kd[0]), std::abs(k[1] - t.kd[1]),
+                                           std::abs(k[2] - t.kd[2]), 1.0f};
+        sq_all += sq;
+        ++n_all;
+      }
       const int32_t texel_cluster = cluster.at<int32_t>(y, x);
-      if (count >= kMinObservationsForKd) {
+      if (kd_count >= kMinObservationsForKd) {
         sq10 += sq;
         ++n10;
         if (texel_cluster >= 0 && texel_cluster < num_clusters) {

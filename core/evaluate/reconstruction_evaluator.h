@@ -25,10 +25,17 @@ constexpr float kMinObservationsForKd = 10.0f;
 // (core/evaluate/calibration_truth.h) from the run's scene: `scene` when
 // given, else result.json's, else the truth bundle's scene.json (no rows when
 // none is found).
+// `kd_texels_of` (optional): another run of the same scene and atlas; the kd
+// figures over ">= 10 times" are then taken over the texels that run saw
+// >= 10 times, with this run's kd there even where this run saw a texel less
+// often or never (EvaluationReport.kd_texels_of). Rejecting observations
+// changes which texels a run counts: a run that drops its hardest texels
+// below 10 observations otherwise scores better without being better.
 absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesystem::path& run_dir,
                                                             const std::filesystem::path& truth,
                                                             const std::filesystem::path& error_atlas = {},
-                                                            const std::filesystem::path& scene = {});
+                                                            const std::filesystem::path& scene = {},
+                                                            const std::filesystem::path& kd_texels_of = {});
 
 // The truth.json of `truth` (a bundle or its ground_truth directory).
 std::filesystem::path TruthFileOf(const std::filesystem::path& truth);
