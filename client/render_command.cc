@@ -80,8 +80,7 @@ absl::Status BadValue(const char* flag, const std::string& value, const char* ex
 }
 
 // "--size WxH": the camera drawn at another resolution with the same field
-// of view: intrinsics scaled by W / width and H / height (pixel centres:
-// c' = (c + 0.5) s - 0.5), so W:H must keep the camera's aspect ratio (to a
+// of view (scene::Rescaled), so W:H must keep the camera's aspect ratio (to a
 // pixel). Lens distortion acts on normalised coordinates and stays.
 absl::Status ResizeCamera(const std::string& size, scene::CameraModel* camera) {
   int w = 0, h = 0;
@@ -90,23 +89,13 @@ absl::Status ResizeCamera(const std::string& size, scene::CameraModel* camera) {
       w > 16384 || h > 16384) {
     return BadValue("--size", size, "WIDTHxHEIGHT in pixels, each in 1..16384 (e.g. 640x480)");
   }
-  const double sx = static_cast<double>(w) / camera->width, sy = static_cast<double>(h) / camera->height;
   if (std::abs(static_cast<double>(w) * camera->height - static_cast<double>(h) * camera->width) >
       std::max(camera->width, camera->height)) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--size: ", w, "x", h, " does not keep camera \"", scene::ShownName(camera->name), "\"'s aspect ratio (",
         camera->width, "x", camera->height, "); the field of view is kept, so W:H must match"));
   }
-  camera->width = w;
-  camera->height = h;
-  if (camera->orthographic()) {
-    camera->pixel_size /= sx;
-  } else {
-    camera->fx *= sx;
-    camera->fy *= sy;
-  }
-  camera->cx = (camera->cx + 0.5) * sx - 0.5;
-  camera->cy = (camera->cy + 0.5) * sy - 0.5;
+  *camera = scene::Rescaled(*camera, w, h);
   return absl::OkStatus();
 }
 

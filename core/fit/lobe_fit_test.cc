@@ -232,7 +232,9 @@ TEST(ModelLobeWithTexelKdTest, TexturedClusterRecoversTheLobe) {
                                                 LobeTexelKdOptions{});
       ASSERT_TRUE(with_prior.ok()) << with_prior.status();
       for (int c = 0; c < 3; ++c) {
-        if (truth.params[c].p[2] < 20.0) EXPECT_GT(with_prior->params[c].p[2], per_texel->params[c].p[2]) << c;
+        if (truth.params[c].p[2] < 20.0) {
+          EXPECT_GT(with_prior->params[c].p[2], per_texel->params[c].p[2]) << c;
+        }
         EXPECT_NEAR(with_prior->params[c].p[2], truth.params[c].p[2], 0.05 * truth.params[c].p[2]) << c;
       }
     }

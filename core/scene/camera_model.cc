@@ -12,17 +12,21 @@ bool CameraModel::has_distortion() const {
   return false;
 }
 
-CameraModel Supersampled(const CameraModel& camera, int s) {
+CameraModel Rescaled(const CameraModel& camera, int width, int height) {
   CameraModel scaled = camera;
-  const double f = s;
-  scaled.width = camera.width * s;
-  scaled.height = camera.height * s;
-  scaled.fx = camera.fx * f;
-  scaled.fy = camera.fy * f;
-  scaled.pixel_size = camera.pixel_size / f;  // orthographic: u = X / pixel_size + c likewise
-  scaled.cx = (camera.cx + 0.5) * f - 0.5;
-  scaled.cy = (camera.cy + 0.5) * f - 0.5;
+  const double sx = static_cast<double>(width) / camera.width, sy = static_cast<double>(height) / camera.height;
+  scaled.width = width;
+  scaled.height = height;
+  scaled.fx = camera.fx * sx;
+  scaled.fy = camera.fy * sy;
+  scaled.pixel_size = camera.pixel_size / sx;  // orthographic (square pixels): u = X / pixel_size + c likewise
+  scaled.cx = (camera.cx + 0.5) * sx - 0.5;
+  scaled.cy = (camera.cy + 0.5) * sy - 0.5;
   return scaled;
+}
+
+CameraModel Supersampled(const CameraModel& camera, int s) {
+  return Rescaled(camera, camera.width * s, camera.height * s);
 }
 
 glm::dvec3 CameraModel::CenterInWorld() const {

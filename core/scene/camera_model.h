@@ -71,11 +71,17 @@ inline glm::vec3 ViewDirection(const glm::vec4& view_origin, const glm::vec3& po
   return glm::normalize(glm::vec3(view_origin) - view_origin.w * point);
 }
 
-// The same view at `s` times the resolution (s >= 1; the lens distortion,
+// The same view (field of view, pose, lens) drawn at width x height pixels:
+// the intrinsics scaled by sx = width / camera.width and sy likewise, with
+// pixel centres kept: x' = (x + 0.5) s - 0.5, so u = f X/Z + c becomes
+// (f s) X/Z + (c + 0.5) s - 0.5 (an orthographic camera's pixel_size / sx;
+// its pixels stay square only when sx = sy). `render --size` uses it.
+CameraModel Rescaled(const CameraModel& camera, int width, int height);
+
+// Rescaled to `s` times the resolution (s >= 1; the lens distortion,
 // in normalised coordinates, is kept): pixel (x, y) of `camera` covers
 // pixels [x s, (x + 1) s) x [y s, (y + 1) s) of the result, and their box
-// average is what a sensor pixel integrating its area records. Pixel centre
-// x sits at (x + 0.5) s - 0.5, so u = f X/Z + c becomes (f s) X/Z + (c + 0.5) s - 0.5.
+// average is what a sensor pixel integrating its area records.
 CameraModel Supersampled(const CameraModel& camera, int s);
 
 // Converts a camera message. Assumes the message has been validated
