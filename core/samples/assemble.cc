@@ -19,6 +19,32 @@ void Check(bool condition, const char* message) {
   std::abort();
 }
 
+void SurfaceBetween(const resample::CameraSurface& surface, double px, double py, glm::vec3* point,
+                    glm::vec3* normal) {
+  const int x0 = static_cast<int>(std::floor(px)), y0 = static_cast<int>(std::floor(py));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= surface.position_texel.cols || y0 + 1 >= surface.position_texel.rows) return;
+  const float fx = static_cast<float>(px - x0), fy = static_cast<float>(py - y0);
+  if (!(glm::length(*normal) > 0.0f)) return;
+  const glm::vec3 reference = *point, reference_normal = glm::normalize(*normal);
+  glm::vec3 p(0.0f), n(0.0f);
+  for (int dy = 0; dy < 2; ++dy) {
+    for (int dx = 0; dx < 2; ++dx) {
+      const cv::Vec4f& q = surface.position_texel.at<cv::Vec4f>(y0 + dy, x0 + dx);
+      if (!(q[3] > 0.5f)) return;
+      const glm::vec3 at(q[0], q[1], q[2]);
+      const glm::vec3 d = at - reference;
+      if (std::fabs(glm::dot(reference_normal, d)) > kSmoothSurfaceSlope * glm::length(d)) return;
+      const cv::Vec4f& m = surface.normal.at<cv::Vec4f>(y0 + dy, x0 + dx);
+      const float w = (dx ? fx : 1.0f - fx) * (dy ? fy : 1.0f - fy);
+      p += w * at;
+      n += w * glm::vec3(m[0], m[1], m[2]);
+    }
+  }
+  if (!(glm::length(n) > 0.0f) || !std::isfinite(p.x + p.y + p.z)) return;
+  *point = p;
+  *normal = n;
+}
+
 }  // namespace assemble_internal
 
 using assemble_internal::Check;

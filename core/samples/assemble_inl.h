@@ -17,6 +17,17 @@ namespace assemble_internal {
 // types or sizes).
 void Check(bool condition, const char* message);
 
+// The surface at subpixel (px, py) of a camera's surface maps (pixel centres
+// at integers): position and normal bilinear between the four map pixels
+// around it, when all four show the mesh on one smooth piece of it (each
+// within kSmoothSurfaceSlope, as |n . d| / |d|, of the tangent plane of
+// `*point`, `*normal`: the nearest pixel's); otherwise both are left as they
+// are. A distorted pixel's ray meets the pinhole map up to half a pixel
+// from the nearest centre: a sharp lobe read there looks broader.
+inline constexpr float kSmoothSurfaceSlope = 0.25f;
+void SurfaceBetween(const resample::CameraSurface& surface, double px, double py, glm::vec3* point,
+                    glm::vec3* normal);
+
 // The terms of one surface point, as SampleSet stores them: for every light
 // k visible in the shadow atlas texel `bits` (ShadowChannels(lights.size())
 // values; bit k % 16 of bits[k / 16]) that faces the point (g > 0):
@@ -165,8 +176,13 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
       }
       const cv::Vec4f& p = surface.position_texel.at<cv::Vec4f>(my, mx);
       const cv::Vec4f& nv = surface.normal.at<cv::Vec4f>(my, mx);
-      const glm::vec3 point(p[0], p[1], p[2]);
+      glm::vec3 point(p[0], p[1], p[2]);
       glm::vec3 n(nv[0], nv[1], nv[2]);
+      if (distorted) {
+        // The pixel's ray meets the map between its pixel centres: the
+        // surface there, interpolated (assemble_internal::SurfaceBetween).
+        assemble_internal::SurfaceBetween(surface, px, py, &point, &n);
+      }
       const float length = glm::length(n);
       if (!(length > 0.0f) || !std::isfinite(length)) continue;
       n /= length;

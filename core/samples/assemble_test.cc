@@ -560,5 +560,68 @@ TEST(ForEachPixelSample, LightsBeyondSixteenFromChannels) {
   EXPECT_EQ(texels.size(), 16u);
 }
 
+// A distorted pixel's ray meets the pinhole surface maps between their
+// centres: the surface there is interpolated on a smooth piece (closer than
+// the nearest centre's), and left at the nearest across a depth step.
+TEST(SurfaceBetween, InterpolatesSmoothSurfacesAndKeepsTheNearestAcrossSteps) {
+  constexpr int kMap = 8;
+  resample::CameraSurface surface;
+  surface.position_texel = cv::Mat(kMap, kMap, CV_32FC4, cv::Scalar::all(0));
+  surface.normal = cv::Mat(kMap, kMap, CV_32FC4, cv::Scalar::all(0));
+  // A sphere of radius 1 seen from +z, 0.1 units per pixel: position and
+  // normal as functions of the (sub)pixel.
+  const auto position_at = [](double x, double y) {
+    const double wx = 0.1 * (x - 3.5), wy = 0.1 * (y - 3.5);
+    return glm::dvec3(wx, wy, std::sqrt(1.0 - wx * wx - wy * wy));
+  };
+  for (int y = 0; y < kMap; ++y) {
+    for (int x = 0; x < kMap; ++x) {
+      const glm::dvec3 p = position_at(x, y);
+      surface.position_texel.at<cv::Vec4f>(y, x) = {static_cast<float>(p.x), static_cast<float>(p.y),
+                                                    static_cast<float>(p.z), 1.0f};
+      surface.normal.at<cv::Vec4f>(y, x) = {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z),
+                                            0.0f};
+    }
+  }
+  const auto nearest = [&](double px, double py, glm::vec3* point, glm::vec3* normal) {
+    const cv::Vec4f& q = surface.position_texel.at<cv::Vec4f>(static_cast<int>(std::lround(py)),
+                                                             static_cast<int>(std::lround(px)));
+    *point = glm::vec3(q[0], q[1], q[2]);
+    *normal = *point;  // a unit sphere's normal is its position
+  };
+  for (const auto& [px, py] : {std::pair{3.3, 4.45}, std::pair{2.5, 2.5}, std::pair{5.1, 1.9}}) {
+    glm::vec3 point, normal;
+    nearest(px, py, &point, &normal);
+    const glm::dvec3 truth = position_at(px, py);
+    const double before = glm::length(glm::dvec3(point) - truth);
+    assemble_internal::SurfaceBetween(surface, px, py, &point, &normal);
+    const double after = glm::length(glm::dvec3(point) - truth);
+    // Bilinear on a curved surface: second order in the spacing (0.003
+    // here), against the nearest centre's first-order 0.01-0.05.
+    EXPECT_GT(before, 0.01) << px << ", " << py;
+    EXPECT_LT(after, 0.003) << px << ", " << py;
+    EXPECT_LT(after, before / 4.0) << px << ", " << py;
+    EXPECT_LT(glm::length(glm::dvec3(glm::normalize(normal)) - truth), 0.003) << px << ", " << py;
+  }
+  // A step: the right half of the map 0.5 units further away (another
+  // surface behind the silhouette of the first).
+  for (int y = 0; y < kMap; ++y) {
+    for (int x = 4; x < kMap; ++x) surface.position_texel.at<cv::Vec4f>(y, x)[2] -= 0.5f;
+  }
+  glm::vec3 point, normal;
+  nearest(3.4, 2.2, &point, &normal);
+  const glm::vec3 kept = point;
+  assemble_internal::SurfaceBetween(surface, 3.4, 2.2, &point, &normal);
+  EXPECT_EQ(point, kept);
+  // Off the map or on a pixel without surface: kept as well.
+  surface.position_texel.at<cv::Vec4f>(1, 1)[3] = 0.0f;
+  nearest(1.2, 1.3, &point, &normal);
+  const glm::vec3 kept2 = point;
+  assemble_internal::SurfaceBetween(surface, 1.2, 1.3, &point, &normal);
+  EXPECT_EQ(point, kept2);
+  assemble_internal::SurfaceBetween(surface, 7.2, 1.3, &point, &normal);
+  EXPECT_EQ(point, kept2);
+}
+
 }  // namespace
 }  // namespace mvbrdf::samples

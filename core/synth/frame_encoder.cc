@@ -10,16 +10,19 @@
 
 namespace mvbrdf::synth {
 
-cv::Mat ApplyDistortion(const cv::Mat& undistorted, const scene::CameraModel& camera) {
-  if (!camera.has_distortion()) return undistorted;
-  cv::Mat map_x(undistorted.rows, undistorted.cols, CV_32FC1);
-  cv::Mat map_y(undistorted.rows, undistorted.cols, CV_32FC1);
-  for (int y = 0; y < undistorted.rows; ++y) {
-    for (int x = 0; x < undistorted.cols; ++x) {
+cv::Mat ApplyDistortion(const cv::Mat& undistorted, const scene::CameraModel& camera, int oversampling) {
+  CV_Assert(oversampling >= 1);
+  if (!camera.has_distortion() && oversampling == 1) return undistorted;
+  const scene::CameraModel pinhole = scene::Supersampled(camera, oversampling);
+  CV_Assert(undistorted.cols == pinhole.width && undistorted.rows == pinhole.height);
+  cv::Mat map_x(camera.height, camera.width, CV_32FC1);
+  cv::Mat map_y(camera.height, camera.width, CV_32FC1);
+  for (int y = 0; y < camera.height; ++y) {
+    for (int x = 0; x < camera.width; ++x) {
       const glm::dvec2 d((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy);
       const glm::dvec2 u = camera.Undistort(d);
-      map_x.at<float>(y, x) = static_cast<float>(camera.fx * u.x + camera.cx);
-      map_y.at<float>(y, x) = static_cast<float>(camera.fy * u.y + camera.cy);
+      map_x.at<float>(y, x) = static_cast<float>(pinhole.fx * u.x + pinhole.cx);
+      map_y.at<float>(y, x) = static_cast<float>(pinhole.fy * u.y + pinhole.cy);
     }
   }
   cv::Mat out;

@@ -92,25 +92,21 @@ scene::Light PerturbLight(const scene::Light& light, double distance, double deg
 // One camera image as a sensor records it: `samples` x `samples` renders
 // per pixel (the camera scaled so that each pixel's block of samples covers
 // it), distorted at that resolution and averaged in linear light, so that a
-// pixel the silhouette crosses holds the mean of what it sees.
+// pixel the silhouette crosses holds the mean of what it sees. A distorted
+// camera's pinhole image is rendered at kDistortionOversampling or more
+// subpixels per sample, so that the warp does not blur what one sample sees.
 absl::StatusOr<cv::Mat> RenderPixelAreas(render::PhongRenderer& renderer, const render::Pose& pose,
                                          const scene::CameraModel& camera, int samples) {
-  if (samples <= 1) {
-    MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer.Render(pose, camera));
-    return ApplyDistortion(image.radiance, camera);
-  }
-  scene::CameraModel fine = camera;
-  fine.width *= samples;
-  fine.height *= samples;
-  fine.fx *= samples;
-  fine.fy *= samples;
-  fine.pixel_size /= samples;
-  // Pixel centres: camera pixel x covers fine pixels [s x, s x + s).
-  fine.cx = (camera.cx + 0.5) * samples - 0.5;
-  fine.cy = (camera.cy + 0.5) * samples - 0.5;
-  MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image, renderer.Render(pose, fine));
+  samples = std::max(samples, 1);
+  const int oversampling =
+      camera.has_distortion() ? (kDistortionOversampling + samples - 1) / samples : 1;
+  const scene::CameraModel sampled = scene::Supersampled(camera, samples);
+  MVBRDF_ASSIGN_OR_RETURN(render::RenderOutput image,
+                          renderer.Render(pose, scene::Supersampled(sampled, oversampling)));
+  cv::Mat distorted = ApplyDistortion(image.radiance, sampled, oversampling);
+  if (samples == 1) return distorted;
   cv::Mat out;
-  cv::resize(ApplyDistortion(image.radiance, fine), out, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_AREA);
+  cv::resize(distorted, out, cv::Size(camera.width, camera.height), 0, 0, cv::INTER_AREA);
   return out;
 }
 
