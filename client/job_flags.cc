@@ -63,6 +63,9 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
                   "(energy-normalised half-vector lobe), ggx (glTF's metallic-roughness: atlases f0, roughness, "
                   "f90_ratio) or auto (per cluster the model with the lowest error on held-out frames and a held-out "
                   "camera; atlases model.png, parameter_1, parameter_2, and parameter_3 where GGX was picked)");
+  flags.AddString("--pixel-footprint N", &job->pixel_footprint,
+                  "the cluster fits model each video pixel as the mean over N x N subpixels of its area, as a "
+                  "sensor records it (1-4; default 1: the pixel centre, as synth's frames without --pixel-samples)");
   flags.AddString("--cluster-smoothness X", &job->cluster_smoothness,
                   "spatial coherence of the clusters over the surface (0: each texel on its own)");
 }
@@ -132,6 +135,14 @@ absl::Status SetRobustnessOptions(const JobFlags& job, v1::FittingOptions* o) {
   if (set) o->set_gradient_rejection(v);
   MVBRDF_RETURN_IF_ERROR(ParseNonNegative("--cluster-smoothness", job.cluster_smoothness, "relative", &v, &set));
   if (set) o->set_cluster_smoothness(v);
+  if (!job.pixel_footprint.empty()) {
+    uint32_t n = 0;
+    if (!absl::SimpleAtoi(job.pixel_footprint, &n) || n < 1 || n > 4) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("--pixel-footprint: must be an integer in [1, 4], got \"", job.pixel_footprint, "\""));
+    }
+    o->set_pixel_footprint(n);
+  }
   return absl::OkStatus();
 }
 

@@ -38,6 +38,7 @@ struct JobFlags {
   std::string refine_lights = "auto";   // auto|on|off
   std::string robust = "on";            // on|off
   std::string edge_margin;
+  std::string pixel_footprint;
   std::string gradient_rejection;
   std::string sweep_criterion = "held-out";  // held-out|e-d
   std::string brdf = "phong";                 // phong|blinn-phong|ggx

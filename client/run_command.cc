@@ -360,7 +360,8 @@ int RunRun(const std::vector<std::string>& args) {
   const int reservoir_slots =
       plan->Has(pipeline::Stage::kTexelPass) ? options->reservoir_uniform + options->reservoir_highlight : 0;
   if (absl::Status fits =
-          pipeline::CheckAtlasFitsInMemory(options->atlas.size, pipeline::LightLoadOf(*sequence, reservoir_slots));
+          pipeline::CheckAtlasFitsInMemory(options->atlas.size, pipeline::LightLoadOf(*sequence, reservoir_slots,
+                                                                                    options->pixel_footprint));
       !fits.ok()) {
     return ReportFailure(fits, "mvbrdf run");
   }

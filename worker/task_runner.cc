@@ -289,7 +289,8 @@ absl::StatusOr<TaskOutput> RunTask(const v1::Task& task, const scene::Sequence& 
     const pipeline::ReconstructOptions defaults;
     const bool texel_pass = task.kind() == "reflectance" || environment.gather_texel_statistics;
     const pipeline::LightLoad lights =
-        pipeline::LightLoadOf(sequence, texel_pass ? defaults.reservoir_uniform + defaults.reservoir_highlight : 0);
+        pipeline::LightLoadOf(sequence, texel_pass ? defaults.reservoir_uniform + defaults.reservoir_highlight : 0,
+                              static_cast<int>(std::max<uint32_t>(task.request().options().pixel_footprint(), 1)));
     if (absl::Status fits = pipeline::CheckAtlasFitsInMemory(atlas_size, lights); !fits.ok()) {
       return WorkerFault(absl::ResourceExhaustedError(absl::StrCat("task ", task.kind(), ": ", fits.message())));
     }

@@ -38,11 +38,13 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
     g.texels->illumination = TexelIllumination(num_texels, g.triangle_samples.light_intensity, std::move(masks));
     // A Sample holds only the lights on in its frame: the reservoir's rows
     // are that long, not as long as the candidate list.
-    const size_t max_terms = samples::MaxLightsOn(samples::FrameLightMasks(sequence), num_lights);
-    g.texels->reservoir = std::make_unique<TexelReservoir>(num_texels, static_cast<int>(num_lights),
-                                                           options.reservoir_uniform, options.reservoir_highlight,
-                                                           assemble.inverse_square_falloff, max_terms,
-                                                           options.GathersHalfVector());
+    // With a pixel footprint each light has one copy per subpixel
+    // (samples::FootprintLights), and every term its a (the subpixel's share).
+    const size_t copies = static_cast<size_t>(options.pixel_footprint) * static_cast<size_t>(options.pixel_footprint);
+    const size_t max_terms = copies * samples::MaxLightsOn(samples::FrameLightMasks(sequence), num_lights);
+    g.texels->reservoir = std::make_unique<TexelReservoir>(
+        num_texels, static_cast<int>(num_lights * copies), options.reservoir_uniform, options.reservoir_highlight,
+        assemble.inverse_square_falloff || copies > 1, max_terms, options.GathersHalfVector());
   }
   TexelStatistics* st = g.texels.get();
   const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
@@ -84,7 +86,8 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                                   sequence.lights, assemble, min_cos_view,
                                   [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
                                     st->reservoir->Offer(texel, t, c, rgb, terms);
-                                  });
+                                  },
+                                  options.pixel_footprint);
     }
   }
   if (options.progress) options.progress("gather_samples", sequence.num_frames, sequence.num_frames);

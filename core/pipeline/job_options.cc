@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
+#include "core/samples/assemble.h"
 
 namespace mvbrdf::pipeline {
 namespace {
@@ -169,6 +170,12 @@ absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequ
     }
     o.brdf_model = *model;
   }
+  if (f.has_pixel_footprint()) {
+    if (f.pixel_footprint() < 1 || f.pixel_footprint() > static_cast<uint32_t>(samples::kMaxPixelFootprint)) {
+      return OutOfRange("options.pixel_footprint", f.pixel_footprint(), 1, samples::kMaxPixelFootprint);
+    }
+    o.pixel_footprint = static_cast<int>(f.pixel_footprint());
+  }
   if (f.has_cluster_smoothness()) {
     MVBRDF_RETURN_IF_ERROR(
         CheckFiniteNonNegative("options.cluster_smoothness", f.cluster_smoothness(), "a finite number >= 0"));
@@ -207,6 +214,7 @@ absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequ
   fit.set_gradient_rejection(o.gradient_rejection);
   fit.set_sweep_criterion(o.sweep_criterion);
   fit.set_cluster_smoothness(o.cluster_smoothness);
+  fit.set_pixel_footprint(static_cast<uint32_t>(o.pixel_footprint));
   fit.set_brdf(o.brdf_auto ? "auto" : brdf::ModelName(o.brdf_model));
   return o;
 }

@@ -23,13 +23,14 @@ bool IsUnnamedOutOfMemory(const absl::Status& status) {
 }
 }  // namespace internal
 
-LightLoad LightLoadOf(const scene::Sequence& sequence, int reservoir_slots) {
+LightLoad LightLoadOf(const scene::Sequence& sequence, int reservoir_slots, int pixel_footprint) {
   LightLoad load;
   load.num_lights = sequence.lights.size();
   load.max_lights_on = samples::MaxLightsOn(samples::FrameLightMasks(sequence), load.num_lights);
   load.num_configurations = 1 + static_cast<size_t>(sequence.scene.light_configurations_size());
   load.reservoir_slots = reservoir_slots;
   load.falloff = sequence.scene.lighting().inverse_square_falloff();
+  load.pixel_footprint = pixel_footprint;
   return load;
 }
 
@@ -41,8 +42,11 @@ uint64_t LightBytesPerTexel(const LightLoad& lights) {
   const size_t configurations = std::max<size_t>(lights.num_configurations, 1);
   bytes += TexelIllumination::BytesPerTexel(TexelIllumination::ChooseLayout(lights.num_lights, configurations),
                                             lights.num_lights, configurations);
-  const uint64_t terms = lights.max_lights_on > 0 ? lights.max_lights_on : std::max<uint64_t>(lights.num_lights, 1);
-  const uint64_t per_term = 2 * sizeof(float) + sizeof(uint16_t) + (lights.falloff ? sizeof(float) : 0);
+  const uint64_t footprint = static_cast<uint64_t>(std::max(lights.pixel_footprint, 1));
+  const uint64_t terms = footprint * footprint *
+                         (lights.max_lights_on > 0 ? lights.max_lights_on : std::max<uint64_t>(lights.num_lights, 1));
+  const bool falloff = lights.falloff || footprint > 1;
+  const uint64_t per_term = 2 * sizeof(float) + sizeof(uint16_t) + (falloff ? sizeof(float) : 0);
   // Per texel its observation count, per slot a 12-byte header and the row.
   bytes +=
       sizeof(uint32_t) + static_cast<uint64_t>(lights.reservoir_slots) * (12 + 3 * sizeof(float) + terms * per_term);

@@ -37,18 +37,20 @@ inline constexpr uint64_t kBytesPerAtlasTexel = 160;
 //  - with the texel pass (run, the gather task): pass 1's illumination sums
 //    (TexelIllumination::BytesPerTexel of the layout it chooses) and the
 //    reservoir's kept Samples, `reservoir_slots` x (3 + 2M floats + M u16, one
-//    more float per term with fall-off), M = the most lights on in one frame.
+//    more float per term with fall-off or a pixel footprint), M = the most
+//    lights on in one frame (times pixel_footprint^2).
 struct LightLoad {
   size_t num_lights = 0;          // candidate lights
   size_t max_lights_on = 0;       // terms per Sample (0: num_lights)
   size_t num_configurations = 1;  // the scene's light configurations + "all lights"
   int reservoir_slots = 0;        // 0: no texel pass (resample)
   bool falloff = false;           // inverse-square fall-off (a_k kept per term)
+  int pixel_footprint = 1;        // ReconstructOptions::pixel_footprint: footprint^2 terms per light
 };
 
 // The load of `sequence` as a run with `reservoir_slots` reservoir slots per
 // texel (0: resampling only) gathers it.
-LightLoad LightLoadOf(const scene::Sequence& sequence, int reservoir_slots);
+LightLoad LightLoadOf(const scene::Sequence& sequence, int reservoir_slots, int pixel_footprint = 1);
 
 // Bytes per atlas texel for `lights` beyond kBytesPerAtlasTexel.
 uint64_t LightBytesPerTexel(const LightLoad& lights);

@@ -758,6 +758,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   report.set_brdf(options.brdf_auto ? "auto" : brdf::ModelName(options.brdf_model));
   // Robust fits: per cluster the residual scale of per-texel kd (pass 2).
   std::vector<glm::dvec3> texel_sigma(num_clusters, glm::dvec3(0.0));
+  // The cluster fits' Samples are per-pixel ones, whose lights are copies
+  // per subpixel with a pixel footprint (samples::FootprintLights).
+  const samples::LightSelection pixel_selection = samples::FootprintSelection(selection, options.pixel_footprint);
   for (size_t k = 0; k < num_clusters; ++k) {
     if (!has_data[k] || tiny[k]) {  // its texels joined another cluster (above)
       v1::ClusterRow* row = report.add_clusters();
@@ -767,7 +770,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       row->add_flags(tiny[k] ? "tiny" : "no_samples");
       continue;
     }
-    samples::SampleSet set = samples::MakeSampleSet(sequence.lights, options.GathersHalfVector());
+    samples::SampleSet set = samples::MakeSampleSet(samples::FootprintLights(sequence.lights, options.pixel_footprint),
+                                                    options.GathersHalfVector());
     // Spread the cap over the cluster's kept Samples, not its texels (most
     // texels keep fewer Samples than they have slots).
     const TexelReservoir& reservoir = *g.texels->reservoir;
@@ -782,7 +786,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     // error 0.68 -> 0.77, kd RMSE 0.084 -> 0.101; 30 frames, cameras 0.3 deg
     // off: 0.75 -> 0.81). So ReconstructOptions::robust does not reach them.
     lm.robust = fit::RobustOptions();
-    MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, selection, lm));
+    MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult lm_result, fit::FitPhong(set, {}, pixel_selection, lm));
     v1::ClusterRow* row = report.add_clusters();
     if (options.brdf_auto) {
       fit::ModelSelectionOptions choose;
@@ -791,7 +795,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       choose.fit.ks_max = lm.ks_max;
       choose.fit.ke_min = lm.ke_min;
       choose.fit.ke_max = lm.ke_max;
-      MVBRDF_ASSIGN_OR_RETURN(const fit::ModelSelection chosen, fit::SelectModel(set, selection, choose));
+      MVBRDF_ASSIGN_OR_RETURN(const fit::ModelSelection chosen, fit::SelectModel(set, pixel_selection, choose));
       cluster_model[k] = chosen.model;
       for (brdf::Model m : brdf::kModels) {
         v1::ModelChoice* choice = row->add_model_choices();
@@ -838,7 +842,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       lobe_fit.kd_max = lm.kd_max;
       lobe_fit.ks_max = lm.ks_max;
       MVBRDF_ASSIGN_OR_RETURN(const fit::LobeFitResult model_fit,
-                              fit::FitLobe(model, set, {}, selection, lobe_fit));
+                              fit::FitLobe(model, set, {}, pixel_selection, lobe_fit));
       cluster_lobe[k] = model_fit.params;
       flags = model_fit.flags();
       // Again with kd free per texel, as the Phong path's FitLobeWithTexelKd
@@ -849,24 +853,24 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         texel_kd.ke_max = lm.ke_max;
         texel_kd.ks_max = lm.ks_max;
         MVBRDF_ASSIGN_OR_RETURN(const fit::LobeTexelKdResult refined,
-                                fit::FitModelLobeWithTexelKd(model, set, selection, model_fit.params, texel_kd));
+                                fit::FitModelLobeWithTexelKd(model, set, pixel_selection, model_fit.params, texel_kd));
         cluster_lobe[k] = refined.params;
         for (bool r : refined.refined) lobe_per_texel_kd |= r;
       }
       for (int c = 0; c < 3; ++c) cluster_brdf[k][c].kd = cluster_lobe[k][c].kd;
     } else if (!(lm_result.flags() & fit::kKsKeNotIdentifiable)) {
       MVBRDF_ASSIGN_OR_RETURN(const fit::TexelKdFitResult lobe,
-                              fit::FitLobeWithTexelKd(set, selection, lm_result.params, lobe_options));
+                              fit::FitLobeWithTexelKd(set, pixel_selection, lm_result.params, lobe_options));
       cluster_brdf[k] = lobe.params;
       for (const fit::TexelKdChannel& c : lobe.channels) lobe_per_texel_kd |= c.refined;
     }
     if (options.diffuse.robust.enabled()) {
-      texel_sigma[k] = TexelResidualScale(set, selection, cluster_brdf[k], options.diffuse);
+      texel_sigma[k] = TexelResidualScale(set, pixel_selection, cluster_brdf[k], options.diffuse);
     }
     if (plan.Has(Stage::kSolverComparison)) {
       fit::PhongFitOptions powell = options.fit;
       powell.solver = fit::Solver::kPowell;
-      MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult p_result, fit::FitPhong(set, {}, selection, powell));
+      MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult p_result, fit::FitPhong(set, {}, pixel_selection, powell));
       SolverRowFrom(clusters.names[k], p_result, report.add_solvers());
     }
     row->set_name(clusters.names[k]);

@@ -93,6 +93,11 @@ struct ReconstructOptions {
   // Samples kept per texel for the cluster fits (TexelReservoir).
   int reservoir_uniform = 2;
   int reservoir_highlight = 2;
+  // The cluster fits' per-pixel Samples model each pixel as the mean over
+  // pixel_footprint x pixel_footprint subpixels of its area (what a sensor
+  // records; samples::ForEachPixelSample); 1: the pixel centre, the thesis's
+  // point sample. In [1, samples::kMaxPixelFootprint].
+  int pixel_footprint = 1;
   // Samples per cluster fit, at most (error against run time: more costs
   // fitting time, fewer loses precision on ks and ke).
   size_t max_cluster_samples = 100000;

@@ -49,6 +49,24 @@ void SurfaceBetween(const resample::CameraSurface& surface, double px, double py
 
 using assemble_internal::Check;
 
+std::vector<scene::Light> FootprintLights(const std::vector<scene::Light>& lights, int footprint) {
+  const int copies = footprint * footprint;
+  std::vector<scene::Light> out;
+  out.reserve(lights.size() * static_cast<size_t>(copies));
+  for (const scene::Light& light : lights) out.insert(out.end(), static_cast<size_t>(copies), light);
+  return out;
+}
+
+LightSelection FootprintSelection(const LightSelection& selection, int footprint) {
+  const size_t copies = static_cast<size_t>(footprint) * static_cast<size_t>(footprint);
+  if (copies == 1) return selection;
+  LightMask widened;
+  selection.config.ForEach([&](size_t k) {
+    for (size_t s = 0; s < copies; ++s) widened.Set(k * copies + s);
+  });
+  return LightSelection(std::move(widened), selection.own);
+}
+
 int ShadowChannels(size_t num_lights) { return std::max(1, static_cast<int>((num_lights + 15) / 16)); }
 
 int ShadowAtlasType(size_t num_lights) { return CV_16UC(ShadowChannels(num_lights)); }

@@ -117,10 +117,26 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
 // and normal under it (Resampler::Surface) and its atlas texel; calls
 // visit(texel, rgb, const LightTerms& terms). Unlike texel Samples these
 // carry no resampling blur, which matters for highlights (ks, ke).
+//
+// `footprint` > 1 models what a sensor pixel records, the mean over its area:
+// the pixel's terms are those of footprint x footprint subpixels (the surface
+// under each interpolated from the maps, assemble_internal::SurfaceBetween),
+// subpixel s of light k as light k * footprint^2 + s of FootprintLights(lights,
+// footprint), its g and a divided by footprint^2 (so a model's sum over the
+// terms is the mean of its value over the subpixels); n.v is their mean. The
+// visitor's set must then be made with FootprintLights and its selection
+// widened by FootprintSelection. 1: the pixel centre, the lights as they are.
+inline constexpr int kMaxPixelFootprint = 4;
 template <typename Visit>
 void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& surface, const cv::Mat& shadows,
                         const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
-                        const AssembleOptions& options, double min_cos_view, Visit&& visit);
+                        const AssembleOptions& options, double min_cos_view, Visit&& visit, int footprint = 1);
+
+// `lights`, each listed footprint^2 times in a row (light k's copies are k *
+// footprint^2 + s), for the Samples of ForEachPixelSample with `footprint`.
+std::vector<scene::Light> FootprintLights(const std::vector<scene::Light>& lights, int footprint);
+// A selection of the original lights as the same selection of their copies.
+LightSelection FootprintSelection(const LightSelection& selection, int footprint);
 
 }  // namespace mvbrdf::samples
 

@@ -2,11 +2,13 @@
 #ifndef MVBRDF_CORE_SAMPLES_ASSEMBLE_INL_H_
 #define MVBRDF_CORE_SAMPLES_ASSEMBLE_INL_H_
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 #include "core/render/phong_model.h"
 
@@ -87,6 +89,65 @@ struct TermBuffers {
   }
 };
 
+// The terms of a pixel's footprint (ForEachPixelSample with footprint > 1):
+// subpixel s's term of light k becomes light k * count + s (FootprintLights
+// lists each light `count` times), with g and a divided by `count`, so that
+// the model's sum over terms is the mean over the subpixels. Lights ascend.
+struct FootprintTerms {
+  struct Term {
+    uint16_t light;
+    float g, h, falloff, n_dot_h, v_dot_h;
+  };
+  std::vector<Term> terms;
+  double n_dot_v_sum = 0.0;
+  bool any_falloff = false, half_vector = false;
+  uint16_t light[kMaxLights];
+  float g[kMaxLights], h[kMaxLights], falloff[kMaxLights], n_dot_h[kMaxLights], v_dot_h[kMaxLights];
+
+  void Clear() {
+    terms.clear();
+    n_dot_v_sum = 0.0;
+    any_falloff = false;
+    half_vector = false;
+  }
+  void Add(int s, int count, const LightTerms& t) {
+    const float w = 1.0f / static_cast<float>(count);
+    for (size_t j = 0; j < t.count; ++j) {
+      const bool hv = t.n_dot_h != nullptr;
+      terms.push_back({static_cast<uint16_t>(t.light[j] * count + s), t.g[j] * w, t.h[j],
+                       (t.falloff != nullptr ? t.falloff[j] : 1.0f) * w, hv ? t.n_dot_h[j] : 0.0f,
+                       hv ? t.v_dot_h[j] : 0.0f});
+    }
+    half_vector |= t.n_dot_h != nullptr;
+    n_dot_v_sum += t.n_dot_v;
+  }
+  LightTerms Terms(int count) {
+    std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) { return a.light < b.light; });
+    LightTerms t;
+    t.count = terms.size();
+    for (size_t j = 0; j < terms.size(); ++j) {
+      light[j] = terms[j].light;
+      g[j] = terms[j].g;
+      h[j] = terms[j].h;
+      falloff[j] = terms[j].falloff;
+      n_dot_h[j] = terms[j].n_dot_h;
+      v_dot_h[j] = terms[j].v_dot_h;
+    }
+    t.light = light;
+    t.g = g;
+    t.h = h;
+    t.falloff = falloff;
+    t.any_falloff = true;  // every a is divided by the count
+    // n.v is one per Sample: the subpixels' mean.
+    t.n_dot_v = static_cast<float>(n_dot_v_sum / count);
+    if (half_vector) {
+      t.n_dot_h = n_dot_h;
+      t.v_dot_h = v_dot_h;
+    }
+    return t;
+  }
+};
+
 }  // namespace assemble_internal
 
 template <typename Visit>
@@ -138,7 +199,7 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
 template <typename Visit>
 void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& surface, const cv::Mat& shadows,
                         const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
-                        const AssembleOptions& options, double min_cos_view, Visit&& visit) {
+                        const AssembleOptions& options, double min_cos_view, Visit&& visit, int footprint) {
   using assemble_internal::Check;
   Check(frame.type() == CV_32FC3 && frame.cols == camera.width && frame.rows == camera.height,
         "ForEachPixelSample: frame must be CV_32FC3 of the camera's size");
@@ -147,27 +208,32 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
   Check(lights.size() <= static_cast<size_t>(kMaxLights), "ForEachPixelSample: more than kMaxLights lights");
   Check(shadows.type() == ShadowAtlasType(lights.size()) && shadows.rows == shadows.cols,
         "ForEachPixelSample: shadows must be CV_16UC(ShadowChannels)");
+  Check(footprint >= 1 && footprint <= kMaxPixelFootprint &&
+            lights.size() * static_cast<size_t>(footprint * footprint) <= static_cast<size_t>(kMaxLights),
+        "ForEachPixelSample: footprint out of [1, kMaxPixelFootprint] or too many lights for it");
   const glm::vec4 view(camera.ViewOrigin());  // v: scene::ViewDirection (pinhole or orthographic)
   const int size = shadows.cols;
   const int map_w = surface.position_texel.cols, map_h = surface.position_texel.rows;
   const bool distorted = camera.has_distortion();
   const int channels = ShadowChannels(lights.size());
+  const int subpoints = footprint * footprint;
   auto buffers = std::make_unique<assemble_internal::TermBuffers>();
+  auto merged = footprint > 1 ? std::make_unique<assemble_internal::FootprintTerms>() : nullptr;
   const auto covered = [&](int mx, int my) {
     return mx >= 0 && my >= 0 && mx < map_w && my < map_h && surface.position_texel.at<cv::Vec4f>(my, mx)[3] > 0.5f;
   };
+  // The pinhole map's (sub)pixel showing the video's (sub)pixel (x, y).
+  const auto map_at = [&](double x, double y) {
+    if (!distorted) return glm::dvec2(x - camera.cx + surface.cx, y - camera.cy + surface.cy);
+    const glm::dvec2 u = camera.Undistort({(x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy});
+    return glm::dvec2(camera.fx * u.x + surface.cx, camera.fy * u.y + surface.cy);
+  };
   for (int y = 0; y < frame.rows; ++y) {
     for (int x = 0; x < frame.cols; ++x) {
-      // The pinhole pixel of the surface map showing this video pixel's centre.
-      double px = x - camera.cx + surface.cx, py = y - camera.cy + surface.cy;
-      if (distorted) {
-        const glm::dvec2 u = camera.Undistort({(x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy});
-        px = camera.fx * u.x + surface.cx;
-        py = camera.fy * u.y + surface.cy;
-      }
+      const glm::dvec2 centre = map_at(x, y);
       // Masked or saturated (marked negative by scene::VideoSource): never a Sample.
       if (frame.at<cv::Vec3f>(y, x)[0] < 0.0f) continue;
-      const int mx = static_cast<int>(std::lround(px)), my = static_cast<int>(std::lround(py));
+      const int mx = static_cast<int>(std::lround(centre.x)), my = static_cast<int>(std::lround(centre.y));
       // Pixels at silhouettes integrate background in a real camera: only
       // pixels whose four neighbours show the mesh too.
       if (!covered(mx, my) || !covered(mx - 1, my) || !covered(mx + 1, my) || !covered(mx, my - 1) ||
@@ -176,26 +242,47 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
       }
       const cv::Vec4f& p = surface.position_texel.at<cv::Vec4f>(my, mx);
       const cv::Vec4f& nv = surface.normal.at<cv::Vec4f>(my, mx);
-      glm::vec3 point(p[0], p[1], p[2]);
-      glm::vec3 n(nv[0], nv[1], nv[2]);
-      if (distorted) {
-        // The pixel's ray meets the map between its pixel centres: the
-        // surface there, interpolated (assemble_internal::SurfaceBetween).
-        assemble_internal::SurfaceBetween(surface, px, py, &point, &n);
-      }
-      const float length = glm::length(n);
-      if (!(length > 0.0f) || !std::isfinite(length)) continue;
-      n /= length;
-      const glm::vec3 v = scene::ViewDirection(view, point);
-      if (!(glm::dot(n, v) > static_cast<float>(min_cos_view))) continue;
+      const glm::vec3 nearest_point(p[0], p[1], p[2]);
+      const glm::vec3 nearest_normal(nv[0], nv[1], nv[2]);
       const int64_t texel = static_cast<int64_t>(p[3]) - 1;
       if (texel < 0 || texel >= static_cast<int64_t>(size) * size) continue;
       const uint16_t* bits = shadows.ptr<uint16_t>(static_cast<int>(texel / size)) +
                              static_cast<size_t>(texel % size) * static_cast<size_t>(channels);
-      const LightTerms terms = buffers->Fill(lights, point, n, view, bits, options.inverse_square_falloff,
-                                             options.half_vector_geometry);
+      // The surface at one (sub)pixel of the video: false when it faces away.
+      const auto surface_at = [&](const glm::dvec2& at, bool exact, glm::vec3* point, glm::vec3* n) {
+        *point = nearest_point;
+        *n = nearest_normal;
+        // A distorted pixel's ray, or a subpixel's, meets the pinhole map
+        // between its pixel centres: the surface there, interpolated.
+        if (!exact) assemble_internal::SurfaceBetween(surface, at.x, at.y, point, n);
+        const float length = glm::length(*n);
+        if (!(length > 0.0f) || !std::isfinite(length)) return false;
+        *n /= length;
+        return glm::dot(*n, scene::ViewDirection(view, *point)) > static_cast<float>(min_cos_view);
+      };
+      glm::vec3 point, n;
+      if (!surface_at(centre, !distorted, &point, &n)) continue;
       const cv::Vec3f& rgb = frame.at<cv::Vec3f>(y, x);
-      visit(static_cast<uint32_t>(texel), glm::vec3(rgb[0], rgb[1], rgb[2]), terms);
+      if (footprint == 1) {
+        const LightTerms terms = buffers->Fill(lights, point, n, view, bits, options.inverse_square_falloff,
+                                               options.half_vector_geometry);
+        visit(static_cast<uint32_t>(texel), glm::vec3(rgb[0], rgb[1], rgb[2]), terms);
+        continue;
+      }
+      // The pixel's footprint: footprint x footprint subpixels, each a
+      // light's copy (FootprintLights) with g and a divided by their count.
+      merged->Clear();
+      for (int s = 0; s < subpoints; ++s) {
+        const double dx = (s % footprint + 0.5) / footprint - 0.5, dy = (s / footprint + 0.5) / footprint - 0.5;
+        glm::vec3 sub_point, sub_n;
+        if (!surface_at(map_at(x + dx, y + dy), false, &sub_point, &sub_n)) {
+          sub_point = point;  // a subpixel facing away: the centre's surface stands in
+          sub_n = n;
+        }
+        merged->Add(s, subpoints, buffers->Fill(lights, sub_point, sub_n, view, bits, options.inverse_square_falloff,
+                                                options.half_vector_geometry));
+      }
+      visit(static_cast<uint32_t>(texel), glm::vec3(rgb[0], rgb[1], rgb[2]), merged->Terms(subpoints));
     }
   }
 }

@@ -558,6 +558,38 @@ TEST(ForEachPixelSample, LightsBeyondSixteenFromChannels) {
                      });
   EXPECT_GT(pixels, 100);
   EXPECT_EQ(texels.size(), 16u);
+
+  // With a 2 x 2 footprint the same pixels, each light as four copies
+  // (FootprintLights: light k's are 4k..4k+3, ascending) whose g and a are a
+  // quarter of the subpixel's, so that they sum to about the centre's (the
+  // plane's g varies little over a pixel) and a's to 1; h per subpixel.
+  const std::vector<scene::Light> copies = FootprintLights(lights, 2);
+  ASSERT_EQ(copies.size(), 4u * kLights);
+  EXPECT_EQ(copies[4 * 7 + 3].name, lights[7].name);
+  int footprint_pixels = 0;
+  ForEachPixelSample(
+      frame, surface, shadows, f.camera, lights, AssembleOptions{}, 0.0,
+      [&](uint32_t texel, const glm::vec3&, const LightTerms& t) {
+        ++footprint_pixels;
+        const std::vector<size_t> expected = VisibleAt(static_cast<int>(texel), kLights);
+        ASSERT_EQ(t.count, 4 * expected.size()) << "texel " << texel;
+        for (size_t j = 0; j < t.count; ++j) {
+          EXPECT_EQ(t.light[j], 4 * expected[j / 4] + j % 4);
+          EXPECT_FLOAT_EQ(t.falloff[j], 0.25f);
+        }
+        for (size_t i = 0; i + 3 < t.count; i += 4) {
+          const float g = t.g[i] + t.g[i + 1] + t.g[i + 2] + t.g[i + 3];
+          EXPECT_NEAR(g, 4.0f * t.g[i], 0.05f * g);
+          EXPECT_NE(t.h[i], t.h[i + 3]);  // the subpixels see the light's mirror direction differently
+        }
+      },
+      2);
+  EXPECT_EQ(footprint_pixels, pixels);
+  // The selection of light 5 is that of its four copies.
+  LightMask five;
+  five.Set(5);
+  const LightSelection widened = FootprintSelection(LightSelection(five), 2);
+  for (size_t k = 0; k < 4u * kLights; ++k) EXPECT_EQ(widened.config.Test(k), k >= 20 && k < 24) << k;
 }
 
 // A distorted pixel's ray meets the pinhole surface maps between their
