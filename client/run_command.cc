@@ -26,6 +26,7 @@
 #include "core/base/proto_json.h"
 #include "core/bundle/bundle.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/gather_stage.h"
 #include "core/pipeline/job_options.h"
 #include "core/pipeline/memory_estimate.h"
 #include "core/pipeline/reconstruct_stage.h"
@@ -356,6 +357,10 @@ int RunRun(const std::vector<std::string>& args) {
   // One command at a time writes DIR (held to the end, the report included).
   absl::StatusOr<OutputDirLock> lock = PrepareOutputDir("--out", out, force);
   if (!lock.ok()) return ReportFailure(lock.status(), "mvbrdf run");
+  if (absl::Status footprint = pipeline::CheckPixelFootprint(options->pixel_footprint, sequence->lights.size());
+      !footprint.ok()) {
+    return ReportFailure(footprint, "mvbrdf run");
+  }
   // Direct or through the in-process workers, the atlas is allocated here.
   const int reservoir_slots =
       plan->Has(pipeline::Stage::kTexelPass) ? options->reservoir_uniform + options->reservoir_highlight : 0;

@@ -42,4 +42,11 @@ for bad in 0 5 x; do
   check "--pixel-footprint $bad refused" 2 "--pixel-footprint: must be an integer in \[1, 4\]" -- \
     "$bin" run "$work/scene/scene.json" "${run_opts[@]}" --pixel-footprint "$bad" --out "$work/bad"
 done
+# 65 dome lights x 16 copies (footprint 4) exceed the 1024 lights a Sample
+# can name: refused up front with the most this scene allows (3).
+check "synth a 65-light dome" 0 "wrote" -- "$bin" synth --frames 2 --cameras 2 --width 64 --height 48 --dome 65 \
+  --config all --out "$work/dome"
+check "--pixel-footprint 4 with 65 lights refused (invalid input), naming the most it allows" 3 \
+  "pixel_footprint (--pixel-footprint): 4 models each pixel with 16 copies of each of the scene's 65 lights.*at most 3" -- \
+  "$bin" run "$work/dome/scene.json" --direct --atlas 64 --pixel-footprint 4 --out "$work/dome_run"
 summary

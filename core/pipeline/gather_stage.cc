@@ -11,9 +11,21 @@
 
 namespace mvbrdf::pipeline {
 
+absl::Status CheckPixelFootprint(int pixel_footprint, size_t num_lights) {
+  const size_t copies = static_cast<size_t>(std::max(pixel_footprint, 1)) * static_cast<size_t>(std::max(pixel_footprint, 1));
+  if (copies * num_lights <= static_cast<size_t>(samples::kMaxLights)) return absl::OkStatus();
+  int most = 1;
+  while (static_cast<size_t>((most + 1) * (most + 1)) * num_lights <= static_cast<size_t>(samples::kMaxLights)) ++most;
+  return absl::InvalidArgumentError(absl::StrCat(
+      "options.pixel_footprint (--pixel-footprint): ", pixel_footprint, " models each pixel with ", copies,
+      " copies of each of the scene's ", num_lights, " lights, more than ", samples::kMaxLights,
+      " in all; at most ", most, " for this scene"));
+}
+
 absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglContext& context,
                                     const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
                                     bool texels) {
+  if (texels) MVBRDF_RETURN_IF_ERROR(CheckPixelFootprint(options.pixel_footprint, sequence.lights.size()));
   samples::AssembleOptions assemble = options.assemble;
   assemble.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   // The kept texel Samples of a half-vector model need the geometry.

@@ -32,6 +32,11 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                                     const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
                                     bool texels);
 
+// INVALID_ARGUMENT naming options.pixel_footprint when its copies of the
+// scene's `num_lights` lights (footprint^2 each, samples::FootprintLights)
+// would exceed samples::kMaxLights. GatherPass and RunReconstruction check it.
+absl::Status CheckPixelFootprint(int pixel_footprint, size_t num_lights);
+
 // Appends to the plan's light_sweep stage which frames it uses, when not all.
 void NoteSweepFrames(const ReconstructOptions& options, int num_frames, v1::Plan* plan);
 

@@ -414,6 +414,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   // The fits' robust loss and the resampler's reliability criteria follow
   // options.robust, edge_margin_pixels and gradient_rejection (issue #14).
   ReconstructOptions options = requested;
+  MVBRDF_RETURN_IF_ERROR(CheckPixelFootprint(options.pixel_footprint, scene_sequence.lights.size()));
   options.fit.robust = options.diffuse.robust = RobustFitOf(options.robust);
   options.resampler.edge_margin_pixels = options.edge_margin_pixels;
   options.resampler.gradient_rejection = options.gradient_rejection;
