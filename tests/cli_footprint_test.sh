@@ -38,6 +38,10 @@ expect "result.json records the footprint (options.fitting.pixelFootprint 3, and
 import json, sys
 f = lambda d: json.load(open('$work/' + d + '/result.json'))['options']['fitting'].get('pixelFootprint')
 sys.exit(0 if (f('f3'), f('f1')) == (3, 1) else 1)"
+expect "the plan's cluster_fit line says so (3 x 3 subpixels), and not without it" python3 -c "
+import json, sys
+why = lambda d: [s['why'] for s in json.load(open('$work/' + d + '/result.json'))['plan']['stages'] if s['name'] == 'cluster_fit'][0]
+sys.exit(0 if '3 x 3 subpixels' in why('f3') and 'subpixels' not in why('f1') else 1)"
 for bad in 0 5 x; do
   check "--pixel-footprint $bad refused" 2 "--pixel-footprint: must be an integer in \[1, 4\]" -- \
     "$bin" run "$work/scene/scene.json" "${run_opts[@]}" --pixel-footprint "$bad" --out "$work/bad"

@@ -179,7 +179,13 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   run(Stage::kClustering, scene.material_seeds_size() > 0
                               ? absl::StrCat(scene.material_seeds_size(), " material seeds from the scene")
                               : std::string("no material seeds: k chosen automatically"));
-  run(Stage::kClusterFit, "one Phong BRDF per cluster");
+  run(Stage::kClusterFit,
+      absl::StrCat(request.brdf == "auto" ? "per cluster the model that predicts held-out data best"
+                                          : absl::StrCat("one ", request.brdf, " BRDF per cluster"),
+                   request.pixel_footprint > 1
+                       ? absl::StrCat(", each pixel the mean over ", request.pixel_footprint, " x ",
+                                      request.pixel_footprint, " subpixels (--pixel-footprint)")
+                       : ""));
   if (request.compare_solvers) {
     run(Stage::kSolverComparison, "Table 6.2: Powell's method beside Levenberg-Marquardt");
   } else {

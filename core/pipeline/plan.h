@@ -29,6 +29,10 @@ struct RunRequest {
   // Issue #14: the refinement stages (v1::FittingOptions.refine_*).
   v1::Refinement refine_cameras = v1::REFINEMENT_AUTO;
   v1::Refinement refine_lights = v1::REFINEMENT_AUTO;
+  // For the cluster_fit stage's line: the model fitted ("phong", "ggx",
+  // "auto", ...) and ReconstructOptions::pixel_footprint.
+  std::string brdf = "phong";
+  int pixel_footprint = 1;
 };
 
 enum class Stage {
