@@ -9,6 +9,7 @@
 #include "absl/strings/str_split.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/model.h"
+#include "core/samples/assemble.h"
 
 namespace mvbrdf::client {
 
@@ -137,9 +138,10 @@ absl::Status SetRobustnessOptions(const JobFlags& job, v1::FittingOptions* o) {
   if (set) o->set_cluster_smoothness(v);
   if (!job.pixel_footprint.empty()) {
     uint32_t n = 0;
-    if (!absl::SimpleAtoi(job.pixel_footprint, &n) || n < 1 || n > 4) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("--pixel-footprint: must be an integer in [1, 4], got \"", job.pixel_footprint, "\""));
+    if (!absl::SimpleAtoi(job.pixel_footprint, &n) || n < 1 || n > static_cast<uint32_t>(samples::kMaxPixelFootprint)) {
+      return absl::InvalidArgumentError(absl::StrCat("--pixel-footprint: must be an integer in [1, ",
+                                                     samples::kMaxPixelFootprint, "], got \"", job.pixel_footprint,
+                                                     "\""));
     }
     o->set_pixel_footprint(n);
   }

@@ -215,9 +215,9 @@ absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequ
   fit.set_sweep_criterion(o.sweep_criterion);
   fit.set_cluster_smoothness(o.cluster_smoothness);
   fit.set_pixel_footprint(static_cast<uint32_t>(o.pixel_footprint));
-  run.brdf = o.brdf_auto ? "auto" : brdf::ModelName(o.brdf_model);
   run.pixel_footprint = o.pixel_footprint;
   fit.set_brdf(o.brdf_auto ? "auto" : brdf::ModelName(o.brdf_model));
+  run.brdf = fit.brdf();
   return o;
 }
 

@@ -100,14 +100,12 @@ struct FootprintTerms {
   };
   std::vector<Term> terms;
   double n_dot_v_sum = 0.0;
-  bool any_falloff = false, half_vector = false;
-  uint16_t light[kMaxLights];
-  float g[kMaxLights], h[kMaxLights], falloff[kMaxLights], n_dot_h[kMaxLights], v_dot_h[kMaxLights];
+  bool half_vector = false;
+  TermBuffers out;  // what Terms() hands out
 
   void Clear() {
     terms.clear();
     n_dot_v_sum = 0.0;
-    any_falloff = false;
     half_vector = false;
   }
   void Add(int s, int count, const LightTerms& t) {
@@ -126,23 +124,23 @@ struct FootprintTerms {
     LightTerms t;
     t.count = terms.size();
     for (size_t j = 0; j < terms.size(); ++j) {
-      light[j] = terms[j].light;
-      g[j] = terms[j].g;
-      h[j] = terms[j].h;
-      falloff[j] = terms[j].falloff;
-      n_dot_h[j] = terms[j].n_dot_h;
-      v_dot_h[j] = terms[j].v_dot_h;
+      out.light[j] = terms[j].light;
+      out.g[j] = terms[j].g;
+      out.h[j] = terms[j].h;
+      out.falloff[j] = terms[j].falloff;
+      out.n_dot_h[j] = terms[j].n_dot_h;
+      out.v_dot_h[j] = terms[j].v_dot_h;
     }
-    t.light = light;
-    t.g = g;
-    t.h = h;
-    t.falloff = falloff;
+    t.light = out.light;
+    t.g = out.g;
+    t.h = out.h;
+    t.falloff = out.falloff;
     t.any_falloff = true;  // every a is divided by the count
     // n.v is one per Sample: the subpixels' mean.
     t.n_dot_v = static_cast<float>(n_dot_v_sum / count);
     if (half_vector) {
-      t.n_dot_h = n_dot_h;
-      t.v_dot_h = v_dot_h;
+      t.n_dot_h = out.n_dot_h;
+      t.v_dot_h = out.v_dot_h;
     }
     return t;
   }

@@ -65,13 +65,20 @@ TEST(FrameEncoderTest, SixteenBitsKeepDarkValues) {
   EXPECT_NEAR(stddev[0], 2.0 * 257.0, 0.1 * 257.0);
 }
 
-TEST(FrameEncoderTest, DistortionMovesPixelsWhereTheCameraModelSays) {
+// A width x height pinhole camera with focal length f, principal point at
+// the image centre, at the world origin looking down +z.
+scene::CameraModel CentredCamera(int width, int height, double f) {
   scene::CameraModel cam;
-  cam.width = 160;
-  cam.height = 120;
-  cam.fx = cam.fy = 150.0;
-  cam.cx = 79.5;
-  cam.cy = 59.5;
+  cam.width = width;
+  cam.height = height;
+  cam.fx = cam.fy = f;
+  cam.cx = 0.5 * (width - 1);
+  cam.cy = 0.5 * (height - 1);
+  return cam;
+}
+
+TEST(FrameEncoderTest, DistortionMovesPixelsWhereTheCameraModelSays) {
+  scene::CameraModel cam = CentredCamera(160, 120, 150.0);
   // No distortion: the same image.
   cv::Mat img(cam.height, cam.width, CV_32FC1, cv::Scalar(0));
   EXPECT_EQ(ApplyDistortion(img, cam).data, img.data);
@@ -97,15 +104,10 @@ TEST(FrameEncoderTest, DistortionMovesPixelsWhereTheCameraModelSays) {
 // ramp is reproduced where the camera model puts it; at 1x the same warp
 // blurs it by a pixel.
 TEST(FrameEncoderTest, OversampledPinholeImageWarpsLikePointSamples) {
-  scene::CameraModel cam;
-  cam.width = 80;
-  cam.height = 60;
-  cam.fx = cam.fy = 70.0;
-  cam.cx = 39.5;
-  cam.cy = 29.5;
+  scene::CameraModel cam = CentredCamera(80, 60, 70.0);
   cam.distortion[0] = -0.2;
   // f(normalised x) = a steep periodic ramp in the undistorted plane: a
-  // value that changes by ~0.9 per pixel, like a highlight's flank.
+  // value that changes by up to ~0.6 per pixel, like a highlight's flank.
   const auto f = [](double xn, double yn) { return 0.5 + 0.5 * std::sin(80.0 * xn + 7.0 * yn); };
   const auto pinhole_image = [&](int oversampling) {
     const scene::CameraModel fine = scene::Supersampled(cam, oversampling);
