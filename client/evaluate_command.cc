@@ -104,6 +104,11 @@ int RunEvaluate(const std::vector<std::string>& args) {
                "subpixels per pixel side, 1-8: both images drawn at N times the views' resolution and "
                "box-averaged, as a sensor integrates a pixel (a pixel counts when all its subpixels would); "
                "default 1: each pixel's centre, as synth draws the frames");
+  bool no_grazing_support = false;
+  flags.AddBool("--no-grazing-support", &no_grazing_support,
+                "draw the reconstruction's GGX lobes as glTF viewers draw the export, extrapolated towards grazing "
+                "past where the capture observed them (default: held at result.json's ggxGrazingSupport, as "
+                "mvbrdf render and the report draw them)");
   flags.AddString("--relight-images DIR",
                   &relight_images,
                   "also write each relighting row's images to DIR (new or empty): NNN_truth.exr, "
@@ -120,6 +125,7 @@ int RunEvaluate(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
+  relighting.grazing_support = !no_grazing_support;
   if (truth.empty()) {
     std::fprintf(stderr, "mvbrdf evaluate: --truth: required\n");
     return kExitUsage;

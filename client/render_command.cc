@@ -72,6 +72,7 @@ struct RenderFlags {
   std::string frames;   // "A:B" or "A:B:STEP" or empty: --frame
   std::string ambient;  // "R,G,B" or empty
   int supersample = 1;  // subpixels per pixel side, box-averaged
+  bool no_grazing_support = false;  // GGX extrapolated past the run's grazing support
 };
 
 absl::Status BadValue(const char* flag, const std::string& value, const char* expected) {
@@ -202,7 +203,7 @@ absl::Status Render(const std::string& dir, const std::string& camera_arg, const
   const scene::CameraModel fine = scene::Supersampled(camera, options.supersample);
   MVBRDF_ASSIGN_OR_RETURN(const std::vector<scene::Light> lights, ReadLights(lights_file));
   MVBRDF_ASSIGN_OR_RETURN(auto context, gl::EglContext::Create(platform));
-  MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *context));
+  MVBRDF_ASSIGN_OR_RETURN(auto renderer, pipeline::ReconstructionRenderer::Open(run_dir, sequence, *context, !options.no_grazing_support));
   cv::Mat coverage;
   if (options.alpha) extras.coverage = &coverage;
   for (int t : frames) {
@@ -255,6 +256,9 @@ int RunRender(const std::vector<std::string>& args) {
   flags.AddBool("--alpha", &options.alpha,
                 "write RGBA: alpha is the mesh's coverage of the pixel (0 where it does not cover the pixel centre; "
                 "with --supersample the fraction of subpixels covered)");
+  flags.AddBool("--no-grazing-support", &options.no_grazing_support,
+                "draw GGX lobes as glTF viewers draw the export: extrapolated towards grazing past where the "
+                "capture observed them (default: held at result.json's ggxGrazingSupport)");
   flags.AddInt("--supersample N", &options.supersample,
                "anti-aliasing: draw N x N subpixels per pixel (1-8) and average them, as a sensor integrates a "
                "pixel (default 1: each pixel's centre)");

@@ -38,14 +38,16 @@ float GgxFresnelShape(float ratio, BrdfGeometry g) {
   return 1.0 + (ratio - 1.0) * BrdfSchlickWeight(g);
 }
 
-// glTF's GGX lobe: n.l F D V with a = roughness^2; 0 where n.l or n.v <= 0.
-float GgxSpecular(float f0, float roughness, float ratio, BrdfGeometry g) {
+// glTF's GGX lobe: n.l F D V with a = roughness^2; 0 where n.l or n.v <= 0;
+// V's denominator held at or above `support` (Ggx::SpecularWithin; 0: the
+// plain lobe).
+float GgxSpecular(float f0, float roughness, float ratio, float support, BrdfGeometry g) {
   if (!(g.n_dot_l > 0.0) || !(g.n_dot_v > 0.0)) return 0.0;
   float nl = min(g.n_dot_l, 1.0), nv = min(g.n_dot_v, 1.0), c = clamp(g.n_dot_h, 0.0, 1.0);
   float a = roughness * roughness, a2 = a * a;
   float q = c * c * (a2 - 1.0) + 1.0;
   float d = a2 / (kBrdfPi * q * q);
-  float v = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
+  float v = 0.5 / max(nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2), support);
   float f = f0 * GgxFresnelShape(ratio, g);
   return g.n_dot_l * f * d * v;
 }

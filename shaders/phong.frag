@@ -56,6 +56,10 @@ layout(location = 3) uniform int u_inverse_square_falloff;
 // -1 in atlas mode: per texel, from u_atlas_model (brdf::Model's value in
 // its red channel, read without filtering).
 layout(location = 5) uniform int u_brdf_model;
+// GGX's grazing support (brdf::Ggx::SpecularWithin; result.json's
+// ggxGrazingSupport for a reconstruction, 0 for the truth): V's denominator
+// held at or above it.
+layout(location = 6) uniform float u_ggx_support;
 
 layout(binding = 0) uniform sampler2D u_kd_texture;
 layout(binding = 1) uniform sampler2D u_atlas_kd;
@@ -87,7 +91,7 @@ vec3 HalfVectorModelTerm(int model, vec3 kd, vec3 p0, vec3 p1, vec3 p2, vec3 l, 
   g.r_dot_v = max(0.0, dot(2.0 * g.n_dot_l * n - l, v));
   vec3 term;
   for (int c = 0; c < 3; ++c) {
-    float specular = model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], p2[c], g);
+    float specular = model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], p2[c], u_ggx_support, g);
     float weight = model == 2 ? GgxDiffuseWeight(p2[c], g) : 1.0;
     term[c] = kd[c] * weight * g.n_dot_l + specular;
   }

@@ -23,6 +23,9 @@ namespace {
 constexpr double kRelativeTolerance = 1e-4;
 constexpr double kAbsoluteTolerance = 1e-6;
 
+// Model 3 in the probe: GGX held at this grazing support (Ggx::SpecularWithin).
+constexpr double kProbeSupport = 0.3;
+
 struct Case {  // one std430 record: 9 floats
   float n_dot_l, n_dot_v, n_dot_h, v_dot_h, r_dot_v, p0, p1, p2, model;
 };
@@ -40,7 +43,8 @@ void main() {
   BrdfGeometry g = BrdfGeometry(c.n_dot_l, c.n_dot_v, c.n_dot_h, c.v_dot_h, c.r_dot_v);
   if (c.model == 0.0) results[i] = vec2(PhongSpecular(c.p0, c.p1, g), 1.0);
   else if (c.model == 1.0) results[i] = vec2(BlinnPhongSpecular(c.p0, c.p1, g), 1.0);
-  else results[i] = vec2(GgxSpecular(c.p0, c.p1, c.p2, g), GgxDiffuseWeight(c.p2, g));
+  else if (c.model == 2.0) results[i] = vec2(GgxSpecular(c.p0, c.p1, c.p2, 0.0, g), GgxDiffuseWeight(c.p2, g));
+  else results[i] = vec2(GgxSpecular(c.p0, c.p1, c.p2, 0.3, g), GgxDiffuseWeight(c.p2, g));
 }
 )";
 
@@ -58,8 +62,10 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
     return glm::normalize(d);
   };
   const glm::dvec3 n(0, 0, 1);
-  const double parameters[3][3][3] = {{{0.2, 4.0, 0.0}, {0.05, 40.0, 0.0}, {1.5, 120.0, 0.0}},
+  // Phong, Blinn-Phong, GGX, and GGX again held at kProbeSupport.
+  const double parameters[4][3][3] = {{{0.2, 4.0, 0.0}, {0.05, 40.0, 0.0}, {1.5, 120.0, 0.0}},
                                       {{0.5, 16.0, 0.0}, {0.05, 160.0, 0.0}, {1.0, 1.0, 0.0}},
+                                      {{0.04, 0.5, 25.0}, {0.9, 0.2, 1.0}, {0.5, 1.0, 6.0}},
                                       {{0.04, 0.5, 25.0}, {0.9, 0.2, 1.0}, {0.5, 1.0, 6.0}}};
   std::vector<Case> cases;
   std::vector<Geometry> geometries;
@@ -71,7 +77,7 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
     const glm::dvec3 v = i % 2 == 0 ? glm::normalize(mirror + 0.2 * glm::dvec3(normal(rng), normal(rng), normal(rng)))
                                     : glm::normalize(glm::dvec3(normal(rng), normal(rng), normal(rng)));
     const Geometry g = GeometryOf(n, l, v);
-    for (int model = 0; model < 3; ++model) {
+    for (int model = 0; model < 4; ++model) {
       for (const auto& p : parameters[model]) {
         cases.push_back({static_cast<float>(g.n_dot_l), static_cast<float>(g.n_dot_v), static_cast<float>(g.n_dot_h),
                          static_cast<float>(g.v_dot_h), static_cast<float>(g.r_dot_v), static_cast<float>(p[0]),
@@ -110,8 +116,12 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
       case 1:
         specular = BlinnPhong::Specular(p, g, nullptr);
         break;
-      default:
+      case 2:
         specular = Ggx::Specular(p, g, nullptr);
+        weight = Ggx::DiffuseWeight(p, g, nullptr);
+        break;
+      default:
+        specular = Ggx::SpecularWithin(p, g, kProbeSupport);
         weight = Ggx::DiffuseWeight(p, g, nullptr);
     }
     if (specular > 1e-3) ++nonzero;
@@ -119,7 +129,13 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
         << "case " << i << " model " << cases[i].model;
     EXPECT_NEAR(results[i].y, weight, kAbsoluteTolerance + kRelativeTolerance * std::abs(weight)) << "case " << i;
   }
-  // Most lobes were probed where they are not negligible.
+  // Most lobes were probed where they are not negligible, and the support
+  // held some of the GGX lobes (model 3 differs from model 2 there).
+  int held = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    if (cases[i].model == 3.0f && std::abs(results[i].x - results[i - 3].x) > 1e-3 * std::abs(results[i - 3].x)) ++held;
+  }
+  EXPECT_GT(held, 50);
   EXPECT_GT(nonzero, static_cast<int>(cases.size()) / 4);
 }
 

@@ -192,6 +192,42 @@ double Brdf(const double* p, const glm::dvec3& n, const glm::dvec3& l, const glm
   return M::Specular(p, g, nullptr) / g.n_dot_l;
 }
 
+// SpecularWithin (the lobe as a reconstruction draws it): the plain lobe
+// wherever V's denominator is at or above the support, and at the mirror
+// direction towards grazing no longer rising faster than its Fresnel factor
+// once below it; reciprocal like the plain lobe.
+TEST(BrdfValueTest, GgxHeldAtItsGrazingSupport) {
+  const double p[3] = {0.04, 0.1, 25.0};
+  const double support = 0.2;  // s = 2 cos^2(theta) for a sharp lobe: theta ~ 71.6 deg
+  const glm::dvec3 n(0, 0, 1);
+  const auto mirror = [&](double theta) {
+    const glm::dvec3 l(std::sin(theta), 0, std::cos(theta)), v(-std::sin(theta), 0, std::cos(theta));
+    return GeometryOf(n, l, v);
+  };
+  for (double degrees : {0.0, 30.0, 60.0, 70.0}) {
+    const Geometry g = mirror(degrees * kPi / 180.0);
+    EXPECT_DOUBLE_EQ(Ggx::SpecularWithin(p, g, support), Ggx::Specular(p, g, nullptr)) << degrees;
+    EXPECT_DOUBLE_EQ(Ggx::SpecularWithin(p, g, 0.0), Ggx::Specular(p, g, nullptr)) << degrees;
+  }
+  double previous_ratio = 0.0;
+  for (double degrees : {75.0, 80.0, 85.0, 88.0}) {
+    const Geometry g = mirror(degrees * kPi / 180.0);
+    const double held = Ggx::SpecularWithin(p, g, support), plain = Ggx::Specular(p, g, nullptr);
+    EXPECT_LT(held, plain) << degrees;
+    // Held: n.l F D 0.5 / support, so held / (n.l F) is the same at every angle.
+    const double fresnel = 1.0 + 24.0 * std::pow(1.0 - g.v_dot_h, 5.0);
+    const double ratio = held / (g.n_dot_l * fresnel);
+    if (previous_ratio > 0.0) {
+      EXPECT_NEAR(ratio, previous_ratio, 1e-9 * ratio) << degrees;
+    }
+    previous_ratio = ratio;
+  }
+  // Reciprocal: swapping l and v changes nothing.
+  const glm::dvec3 l = glm::normalize(glm::dvec3(0.9, 0.1, 0.15)), v = glm::normalize(glm::dvec3(-0.8, -0.2, 0.2));
+  EXPECT_NEAR(Ggx::SpecularWithin(p, GeometryOf(n, l, v), support) / GeometryOf(n, l, v).n_dot_l,
+              Ggx::SpecularWithin(p, GeometryOf(n, v, l), support) / GeometryOf(n, v, l).n_dot_l, 1e-12);
+}
+
 TEST(BrdfReciprocityTest, BlinnPhongAndGgxAreReciprocalPhongIsNot) {
   std::mt19937 rng(11);
   const glm::dvec3 n(0, 0, 1);

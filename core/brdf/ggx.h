@@ -50,6 +50,12 @@ struct Ggx {
   static const std::array<Parameter, kNumParameters>& Parameters();
   // g F D V and its derivatives (`jacobian` may be null).
   static double Specular(const double* parameters, const Geometry& geometry, double* jacobian);
+  // The lobe as a reconstruction draws it: V's denominator
+  //   s = n.l sqrt((n.v)^2 (1 - a^2) + a^2) + n.v sqrt((n.l)^2 (1 - a^2) + a^2)
+  // held at or above `support` (>= 0), the most grazing s at which the
+  // capture observed the lobe (core/fit/grazing_support.h), so that the
+  // peak's 1 / cos^2 growth is not extrapolated past it; 0 is Specular.
+  static double SpecularWithin(const double* parameters, const Geometry& geometry, double support);
   // The weight of the diffuse term kd g: 1 - F / F90 (the ratio's only).
   static double DiffuseWeight(const double* parameters, const Geometry& geometry, double* jacobian);
 };

@@ -23,6 +23,7 @@
 #include "core/cluster/kmeans.h"
 #include "core/cluster/label_smoothing.h"
 #include "core/fit/light_sweep.h"
+#include "core/fit/grazing_support.h"
 #include "core/fit/lobe_fit.h"
 #include "core/fit/lobe_texel_kd_fit.h"
 #include "core/fit/model_selection.h"
@@ -857,6 +858,16 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
                                 fit::FitModelLobeWithTexelKd(model, set, pixel_selection, model_fit.params, texel_kd));
         cluster_lobe[k] = refined.params;
         for (bool r : refined.refined) lobe_per_texel_kd |= r;
+      }
+      if (model == brdf::Model::kGgx) {
+        // How far towards grazing the capture saw this lobe: the renderer
+        // does not extrapolate its 1 / cos^2 peak past it (docs/models.md).
+        const fit::GrazingSupport support = fit::GgxGrazingSupport(set, pixel_selection, cluster_lobe[k]);
+        row->set_ggx_grazing_support(support.s);
+        if (support.s > 0.0) {
+          const double held = report.ggx_grazing_support();
+          report.set_ggx_grazing_support(held > 0.0 ? std::min(held, support.s) : support.s);
+        }
       }
       for (int c = 0; c < 3; ++c) cluster_brdf[k][c].kd = cluster_lobe[k][c].kd;
     } else if (!(lm_result.flags() & fit::kKsKeNotIdentifiable)) {

@@ -81,7 +81,8 @@ void ForEachPixelUv(const cv::Mat& triangle_ids, const scene::CameraModel& camer
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::Open(
-    const std::filesystem::path& run_dir, const scene::Sequence& sequence, gl::EglContext& context) {
+    const std::filesystem::path& run_dir, const scene::Sequence& sequence, gl::EglContext& context,
+    bool grazing_support) {
   MVBRDF_ASSIGN_OR_RETURN(const v1::RunReport run, ReadJsonFileAs<v1::RunReport>(run_dir / "result.json"));
   MVBRDF_ASSIGN_OR_RETURN(atlas::Atlas atlas, OpenRunAtlas(run_dir, run, sequence));
   MVBRDF_ASSIGN_OR_RETURN(RunAtlases atlases, ReadRunAtlases(run_dir, run));
@@ -99,6 +100,8 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   mesh.rest_positions = scene::ToRenderVertices(r->atlas_.topology, sequence.rest_positions);
   render::RendererOptions renderer_options;
   renderer_options.brdf_model = model;
+  // GGX's lobe not extrapolated towards grazing past what the capture saw.
+  if (grazing_support) renderer_options.ggx_support = static_cast<float>(run.ggx_grazing_support());
   // The scene's light fall-off, as the fit assumed it (scene.lighting).
   renderer_options.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   MVBRDF_ASSIGN_OR_RETURN(r->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));

@@ -25,9 +25,14 @@ class ReconstructionRenderer {
   // `sequence` (the run's scene) must outlive the renderer. The layout is
   // rebuilt (deterministically) from the scene and checked against the
   // run's atlas/triangle_id.exr (FAILED_PRECONDITION when they differ).
+  // `grazing_support`: GGX drawn held at the run's grazing support
+  // (result.json ggxGrazingSupport, brdf::Ggx::SpecularWithin), as
+  // mvbrdf draws a reconstruction; false: the plain lobe, extrapolated as a
+  // glTF viewer draws the export.
   static absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> Open(const std::filesystem::path& run_dir,
                                                                       const scene::Sequence& sequence,
-                                                                      gl::EglContext& context);
+                                                                      gl::EglContext& context,
+                                                                      bool grazing_support = true);
 
   // Linear radiance (CV_32FC3) with the camera's lens distortion applied.
   absl::StatusOr<cv::Mat> Render(const scene::CameraModel& camera, const std::vector<scene::Light>& lights,

@@ -147,7 +147,7 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
     return absl::InvalidArgumentError(absl::StrCat("relighting: the truth has ", message.triangle_materials_size(),
                                                    " triangles, the scene ", sequence.topology.triangles.size()));
   }
-  MVBRDF_ASSIGN_OR_RETURN(auto reconstruction, ReconstructionRenderer::Open(run_dir, sequence, context));
+  MVBRDF_ASSIGN_OR_RETURN(auto reconstruction, ReconstructionRenderer::Open(run_dir, sequence, context, options.grazing_support));
 
   // The truth, drawn as the generator drew it (clean mesh: the scene's).
   render::RenderMesh mesh;

@@ -73,6 +73,7 @@ constexpr GLint kAtlasModeLocation = 2;
 constexpr GLint kFalloffLocation = 3;
 constexpr GLint kUvSpaceLocation = 4;
 constexpr GLint kBrdfModelLocation = 5;
+constexpr GLint kGgxSupportLocation = 6;
 
 // Uploads an image with row 0 = v = 1 into a 2D RGB32F texture with row 0 at
 // t = 0 (GL's convention), i.e. flipped.
@@ -503,6 +504,7 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   const bool per_texel_model = mode == Mode::kAtlas && atlas_model;
   glProgramUniform1i(program, kBrdfModelLocation, per_texel_model ? -1 : static_cast<GLint>(options.brdf_model));
   glProgramUniform1i(program, kUvSpaceLocation, uv_space ? 1 : 0);
+  glProgramUniform1f(program, kGgxSupportLocation, options.ggx_support);
 
   const GLuint placeholder = placeholder_texture.id();
   const bool atlas = mode == Mode::kAtlas;

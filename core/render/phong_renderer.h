@@ -59,6 +59,10 @@ struct RendererOptions {
   // parameters (brdf::ParameterNames: Blinn-Phong's ks, ke; GGX's f0,
   // roughness), the term as core/fit/lobe_fit.h evaluates it.
   brdf::Model brdf_model = brdf::Model::kPhong;
+  // GGX's lobe held at this grazing support (brdf::Ggx::SpecularWithin): a
+  // reconstruction's (core/fit/grazing_support.h); 0, the plain lobe, for
+  // the truth.
+  float ggx_support = 0.0f;
   // No clip planes to set: near and far come from each pose's bounding
   // sphere and the camera (ClipRangeOf in camera_projection.h), so a scene of
   // any world scale draws alike.
