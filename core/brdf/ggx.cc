@@ -57,17 +57,18 @@ double Ggx::Specular(const double* p, const Geometry& geometry, double* jacobian
   return nl * f * d * v;
 }
 
+double Ggx::VisibilityDenominator(double roughness, const Geometry& geometry) {
+  const double nl = std::min(geometry.n_dot_l, 1.0), nv = std::min(geometry.n_dot_v, 1.0);
+  const double a = roughness * roughness, a2 = a * a;
+  return nl * std::sqrt(nv * nv * (1.0 - a2) + a2) + nv * std::sqrt(nl * nl * (1.0 - a2) + a2);
+}
+
 double Ggx::SpecularWithin(const double* p, const Geometry& geometry, double support) {
-  const double nl = geometry.n_dot_l, nv = geometry.n_dot_v;
-  if (!(nl > 0.0) || !(nv > 0.0)) return 0.0;
-  const double nl1 = std::min(nl, 1.0), nv1 = std::min(nv, 1.0);
-  const double c = std::clamp(geometry.n_dot_h, 0.0, 1.0);
-  const double a = p[1] * p[1], a2 = a * a;
-  const double q = c * c * (a2 - 1.0) + 1.0;
-  const double d = a2 / (kPi * q * q);
-  const double s = nl1 * std::sqrt(nv1 * nv1 * (1.0 - a2) + a2) + nv1 * std::sqrt(nl1 * nl1 * (1.0 - a2) + a2);
-  const double v = 0.5 / std::max(s, support);
-  return nl * p[0] * FresnelShape(SchlickWeight(geometry), p[2]) * d * v;
+  const double specular = Specular(p, geometry, nullptr);
+  if (!(specular > 0.0)) return specular;
+  // V = 0.5 / s becomes 0.5 / max(s, support).
+  const double s = VisibilityDenominator(p[1], geometry);
+  return s >= support ? specular : specular * (s / support);
 }
 
 double Ggx::DiffuseWeight(const double* p, const Geometry& geometry, double* jacobian) {

@@ -56,6 +56,9 @@ struct Ggx {
   // capture observed the lobe (core/fit/grazing_support.h), so that the
   // peak's 1 / cos^2 growth is not extrapolated past it; 0 is Specular.
   static double SpecularWithin(const double* parameters, const Geometry& geometry, double support);
+  // That s at the perceptual roughness (n.l, n.v clamped to 1; > 0 where
+  // both are).
+  static double VisibilityDenominator(double roughness, const Geometry& geometry);
   // The weight of the diffuse term kd g: 1 - F / F90 (the ratio's only).
   static double DiffuseWeight(const double* parameters, const Geometry& geometry, double* jacobian);
 };

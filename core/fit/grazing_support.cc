@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/brdf/geometry.h"
+#include "core/brdf/ggx.h"
 
 namespace mvbrdf::fit {
 
@@ -17,7 +18,7 @@ GrazingSupport GgxGrazingSupport(const samples::SampleSet& set, const samples::L
     if (lobe[static_cast<size_t>(c)].p[0] > lobe[static_cast<size_t>(dominant)].p[0]) dominant = c;
   }
   const double roughness = lobe[static_cast<size_t>(dominant)].p[1];
-  const double a = roughness * roughness, a2 = a * a;
+  const double a2 = std::pow(roughness, 4.0);  // (roughness^2)^2
   // D(c) / D(1) = a^4 / q^2 with q = c^2 (a^2 - 1) + 1: inside the lobe
   // where q <= a^2 / sqrt(lobe_fraction).
   const double q_max = a2 / std::sqrt(options.lobe_fraction);
@@ -29,8 +30,7 @@ GrazingSupport GgxGrazingSupport(const samples::SampleSet& set, const samples::L
       if (!(g.n_dot_l > 0.0) || !(g.n_dot_v > 0.0)) continue;
       const double c = std::clamp(g.n_dot_h, 0.0, 1.0);
       if (c * c * (a2 - 1.0) + 1.0 > q_max) continue;
-      const double nl = std::min(g.n_dot_l, 1.0), nv = std::min(g.n_dot_v, 1.0);
-      s.push_back(nl * std::sqrt(nv * nv * (1.0 - a2) + a2) + nv * std::sqrt(nl * nl * (1.0 - a2) + a2));
+      s.push_back(brdf::Ggx::VisibilityDenominator(roughness, g));
     }
   }
   support.in_lobe = s.size();
