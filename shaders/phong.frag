@@ -56,10 +56,6 @@ layout(location = 3) uniform int u_inverse_square_falloff;
 // -1 in atlas mode: per texel, from u_atlas_model (brdf::Model's value in
 // its red channel, read without filtering).
 layout(location = 5) uniform int u_brdf_model;
-// GGX's grazing support (brdf::Ggx::SpecularWithin; result.json's
-// ggxGrazingSupport for a reconstruction, 0 for the truth): V's denominator
-// held at or above it.
-layout(location = 6) uniform float u_ggx_support;
 
 layout(binding = 0) uniform sampler2D u_kd_texture;
 layout(binding = 1) uniform sampler2D u_atlas_kd;
@@ -69,6 +65,10 @@ layout(binding = 4) uniform samplerCubeArray u_point_shadows;      // distance t
 layout(binding = 5) uniform sampler2DArray u_directional_shadows;  // orthographic depth
 layout(binding = 6) uniform sampler2D u_atlas_model;
 layout(binding = 7) uniform sampler2D u_atlas_p3;  // the third parameter (GGX's f90_ratio)
+// Atlas mode: GGX's grazing support per texel, its cluster's (red channel;
+// brdf::Ggx::SpecularWithin, result.json's clusters[].ggxGrazingSupport):
+// V's denominator held at or above it; 0 draws the plain lobe.
+layout(binding = 8) uniform sampler2D u_atlas_ggx_support;
 
 in vec3 v_position;
 in vec3 v_normal;
@@ -79,7 +79,7 @@ layout(location = 0) out vec4 out_radiance;  // rgb radiance, a = 1 (coverage)
 
 // kd W g + S per unit intensity of a half-vector model (core/fit/lobe_fit.h's
 // equation; the caller multiplies by I, the fall-off and V).
-vec3 HalfVectorModelTerm(int model, vec3 kd, vec3 p0, vec3 p1, vec3 p2, vec3 l, vec3 n, vec3 v) {
+vec3 HalfVectorModelTerm(int model, vec3 kd, vec3 p0, vec3 p1, vec3 p2, float support, vec3 l, vec3 n, vec3 v) {
   BrdfGeometry g;
   g.n_dot_l = dot(n, l);
   g.n_dot_v = dot(n, v);
@@ -91,7 +91,7 @@ vec3 HalfVectorModelTerm(int model, vec3 kd, vec3 p0, vec3 p1, vec3 p2, vec3 l, 
   g.r_dot_v = max(0.0, dot(2.0 * g.n_dot_l * n - l, v));
   vec3 term;
   for (int c = 0; c < 3; ++c) {
-    float specular = model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], p2[c], u_ggx_support, g);
+    float specular = model == 1 ? BlinnPhongSpecular(p0[c], p1[c], g) : GgxSpecular(p0[c], p1[c], p2[c], support, g);
     float weight = model == 2 ? GgxDiffuseWeight(p2[c], g) : 1.0;
     term[c] = kd[c] * weight * g.n_dot_l + specular;
   }
@@ -143,6 +143,7 @@ void main() {
   vec3 ks;
   vec3 ke;
   vec3 p3;
+  float ggx_support = 0.0;  // the truth's lobes (procedural) are drawn plain
   int model = u_brdf_model;
   int measured = -1;
   if (u_atlas_mode != 0) {
@@ -150,6 +151,7 @@ void main() {
     ks = texture(u_atlas_ks, v_uv).rgb;
     ke = texture(u_atlas_ke, v_uv).rgb;
     p3 = texture(u_atlas_p3, v_uv).rgb;
+    ggx_support = texture(u_atlas_ggx_support, v_uv).r;
     if (model < 0) {
       ivec2 size = textureSize(u_atlas_model, 0);
       ivec2 texel = clamp(ivec2(floor(v_uv * vec2(size))), ivec2(0), size - 1);
@@ -192,7 +194,7 @@ void main() {
     if (!visible) continue;
     vec3 term = measured >= 0 ? ks * MeasuredTerm(measured, l, n, v)
                 : model == 0  ? PhongTerm(kd, ks, ke, cosines)
-                              : HalfVectorModelTerm(model, kd, ks, ke, p3, l, n, v);
+                              : HalfVectorModelTerm(model, kd, ks, ke, p3, ggx_support, l, n, v);
     f += light.intensity.rgb * attenuation * term;
   }
   out_radiance = vec4(f, 1.0);

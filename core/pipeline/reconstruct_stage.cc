@@ -864,10 +864,6 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         // does not extrapolate its 1 / cos^2 peak past it (docs/models.md).
         const fit::GrazingSupport support = fit::GgxGrazingSupport(set, pixel_selection, cluster_lobe[k]);
         row->set_ggx_grazing_support(support.s);
-        if (support.s > 0.0) {
-          const double held = report.ggx_grazing_support();
-          report.set_ggx_grazing_support(held > 0.0 ? std::min(held, support.s) : support.s);
-        }
       }
       for (int c = 0; c < 3; ++c) cluster_brdf[k][c].kd = cluster_lobe[k][c].kd;
     } else if (!(lm_result.flags() & fit::kKsKeNotIdentifiable)) {

@@ -94,18 +94,20 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   r->p3_ = atlases.p3;
   r->model_ = atlases.model_atlas;
   r->confidence_ = atlases.confidence;
+  // GGX's lobes not extrapolated towards grazing past what the capture saw.
+  if (grazing_support) {
+    MVBRDF_ASSIGN_OR_RETURN(r->ggx_support_, GgxSupportAtlas(run_dir, run, atlases.kd.rows));
+  }
   render::RenderMesh& mesh = r->mesh_;
   mesh.triangles = r->atlas_.topology.triangles;
   mesh.uvs = r->atlas_.topology.uvs;
   mesh.rest_positions = scene::ToRenderVertices(r->atlas_.topology, sequence.rest_positions);
   render::RendererOptions renderer_options;
   renderer_options.brdf_model = model;
-  // GGX's lobe not extrapolated towards grazing past what the capture saw.
-  if (grazing_support) renderer_options.ggx_support = static_cast<float>(run.ggx_grazing_support());
   // The scene's light fall-off, as the fit assumed it (scene.lighting).
   renderer_options.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   MVBRDF_ASSIGN_OR_RETURN(r->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
-  MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_, r->model_, r->p3_));
+  MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_, r->model_, r->p3_, r->ggx_support_));
   return r;
 }
 
@@ -126,10 +128,10 @@ absl::StatusOr<cv::Mat> ReconstructionRenderer::Render(const scene::CameraModel&
     std::snprintf(name, sizeof(name), "%04d.exr", sequence_.AbsoluteFrame(frame));
     MVBRDF_ASSIGN_OR_RETURN(const cv::Mat c, ReadRgb(run_dir_ / "atlases" / "correction" / name));
     corrected_kd_ = kd_ + c;
-    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(corrected_kd_, ks_, ke_, model_, p3_));  // render with kd + c
+    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(corrected_kd_, ks_, ke_, model_, p3_, ggx_support_));  // render with kd + c
     with_correction_ = true;
   } else if (with_correction_) {
-    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_, ks_, ke_, model_, p3_));
+    MVBRDF_RETURN_IF_ERROR(renderer_->SetAtlasMaterials(kd_, ks_, ke_, model_, p3_, ggx_support_));
     with_correction_ = false;
   }
   MVBRDF_RETURN_IF_ERROR(renderer_->SetLights(lights));

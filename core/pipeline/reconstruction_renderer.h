@@ -25,10 +25,10 @@ class ReconstructionRenderer {
   // `sequence` (the run's scene) must outlive the renderer. The layout is
   // rebuilt (deterministically) from the scene and checked against the
   // run's atlas/triangle_id.exr (FAILED_PRECONDITION when they differ).
-  // `grazing_support`: GGX drawn held at the run's grazing support
-  // (result.json ggxGrazingSupport, brdf::Ggx::SpecularWithin), as
-  // mvbrdf draws a reconstruction; false: the plain lobe, extrapolated as a
-  // glTF viewer draws the export.
+  // `grazing_support`: each GGX cluster drawn within its grazing support
+  // (result.json clusters[].ggxGrazingSupport, brdf::Ggx::SpecularWithin),
+  // as mvbrdf draws a reconstruction; false: the plain lobe, extrapolated as
+  // a glTF viewer draws the export.
   static absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> Open(const std::filesystem::path& run_dir,
                                                                       const scene::Sequence& sequence,
                                                                       gl::EglContext& context,
@@ -55,6 +55,10 @@ class ReconstructionRenderer {
   absl::StatusOr<cv::Mat> Render(const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
                                  int frame, bool correction, const Extras& extras);
 
+  // Whether GGX clusters are drawn within their grazing supports (false:
+  // not asked, or no cluster has one).
+  bool holds_grazing_support() const { return !ggx_support_.empty(); }
+
  private:
   ReconstructionRenderer(const std::filesystem::path& run_dir, const scene::Sequence& sequence, atlas::Atlas atlas)
       : run_dir_(run_dir), sequence_(sequence), atlas_(std::move(atlas)) {}
@@ -68,6 +72,7 @@ class ReconstructionRenderer {
   cv::Mat model_;  // --brdf auto: the per-texel model (CV_8UC1), else empty
   cv::Mat corrected_kd_;  // kd + the last correction atlas rendered
   render::RenderMesh mesh_;
+  cv::Mat ggx_support_;  // GgxSupportAtlas (empty: the plain lobes)
   bool with_correction_ = false;  // the renderer's kd currently includes a correction atlas
   std::unique_ptr<render::PhongRenderer> renderer_;
 };

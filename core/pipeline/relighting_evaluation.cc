@@ -179,6 +179,7 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
   v1::RelightingEvaluation out;
   out.set_frame(static_cast<uint32_t>(frame));
   out.set_supersample(static_cast<uint32_t>(options.supersample));
+  out.set_grazing_support(reconstruction->holds_grazing_support());
   const int num_materials = message.materials_size();
   std::vector<double> material_sq(static_cast<size_t>(num_materials), 0.0),
       material_truth_sq(static_cast<size_t>(num_materials), 0.0);

@@ -56,8 +56,9 @@ struct RelightingOptions {
   // pixel's area, and a pixel counts when all its subpixels would. 1 (the
   // default) samples each pixel's centre, as synth draws the capture's frames.
   int supersample = 1;
-  // The reconstruction's GGX held at its grazing support (as mvbrdf draws
-  // it; ReconstructionRenderer::Open); false: the plain glTF lobe.
+  // The reconstruction's GGX clusters drawn within their grazing supports
+  // (as mvbrdf draws them; ReconstructionRenderer::Open); false: the plain
+  // glTF lobes.
   bool grazing_support = true;
   // Called once per row after it is scored; an error stops the evaluation.
   std::function<absl::Status(const RelightingRowImages&)> on_row;

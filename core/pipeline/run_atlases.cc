@@ -1,13 +1,17 @@
 #include "core/pipeline/run_atlases.h"
 
 #include <array>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/image/exr.h"
+#include "core/resample/atlas_ops.h"
 
 namespace mvbrdf::pipeline {
 namespace {
@@ -83,6 +87,39 @@ absl::StatusOr<RunAtlases> ReadRunAtlases(const std::filesystem::path& run_dir, 
     }
   }
   return a;
+}
+
+absl::StatusOr<cv::Mat> GgxSupportAtlas(const std::filesystem::path& run_dir, const v1::RunReport& run, int size) {
+  std::vector<float> support(static_cast<size_t>(run.clusters_size()), 0.0f);
+  bool any = false;
+  for (int k = 0; k < run.clusters_size(); ++k) {
+    support[static_cast<size_t>(k)] = static_cast<float>(run.clusters(k).ggx_grazing_support());
+    any |= support[static_cast<size_t>(k)] > 0.0f;
+  }
+  if (!any) return cv::Mat();
+  const std::filesystem::path file = run_dir / "atlases" / "cluster.exr";
+  MVBRDF_ASSIGN_OR_RETURN(const cv::Mat cluster, ReadAtlasExr(file, CV_32SC1, "one integer channel"));
+  if (cluster.rows != size || cluster.cols != size) {
+    return absl::InvalidArgumentError(absl::StrCat(file.string(), ": not the kd atlas's size"));
+  }
+  cv::Mat rgba(size, size, CV_32FC4, cv::Scalar::all(0));
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const int32_t k = cluster.at<int32_t>(y, x);
+      if (k < 0) continue;
+      if (k >= run.clusters_size()) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(file.string(), ": texel (", x, ", ", y, ") names cluster ", k, " of ", run.clusters_size()));
+      }
+      const float s = support[static_cast<size_t>(k)];
+      rgba.at<cv::Vec4f>(y, x) = {s, s, s, 1.0f};
+    }
+  }
+  const v1::FittingOptions& fitting = run.options().fitting();
+  const int grow = fitting.has_grow_iterations() ? static_cast<int>(fitting.grow_iterations()) : 2;
+  cv::Mat rgb;
+  cv::cvtColor(resample::GrowAtlas(rgba, grow), rgb, cv::COLOR_RGBA2RGB);
+  return rgb;
 }
 
 }  // namespace mvbrdf::pipeline

@@ -48,6 +48,14 @@ struct RunAtlases {
 // model.png under auto, confidence.exr; errors name the file.
 absl::StatusOr<RunAtlases> ReadRunAtlases(const std::filesystem::path& run_dir, const v1::RunReport& run);
 
+// Per texel the grazing support its cluster's GGX lobe is drawn within
+// (result.json's clusters[].ggxGrazingSupport, core/fit/grazing_support.h),
+// from atlases/cluster.exr, grown into the charts' gutters as the parameter
+// atlases are (result.json's grow iterations): CV_32FC3, `size` square, the
+// value in every channel, 0 where nothing is held. Empty when no cluster has
+// a support (a run without GGX, or from before supports were recorded).
+absl::StatusOr<cv::Mat> GgxSupportAtlas(const std::filesystem::path& run_dir, const v1::RunReport& run, int size);
+
 }  // namespace mvbrdf::pipeline
 
 #endif  // MVBRDF_CORE_PIPELINE_RUN_ATLASES_H_

@@ -60,6 +60,7 @@ enum TextureUnit : GLuint {
   kDirectionalShadowUnit = 5,
   kAtlasModelUnit = 6,
   kAtlasP3Unit = 7,
+  kAtlasGgxSupportUnit = 8,
 };
 constexpr GLuint kLightBlockBinding = 0;
 constexpr GLuint kMaterialBlockBinding = 1;
@@ -73,7 +74,6 @@ constexpr GLint kAtlasModeLocation = 2;
 constexpr GLint kFalloffLocation = 3;
 constexpr GLint kUvSpaceLocation = 4;
 constexpr GLint kBrdfModelLocation = 5;
-constexpr GLint kGgxSupportLocation = 6;
 
 // Uploads an image with row 0 = v = 1 into a 2D RGB32F texture with row 0 at
 // t = 0 (GL's convention), i.e. flipped.
@@ -168,6 +168,7 @@ struct PhongRenderer::Impl {
   gl::Texture atlas_kd, atlas_ks, atlas_ke;
   gl::Texture atlas_model;  // per-texel model (empty: options.brdf_model everywhere)
   gl::Texture atlas_p3;     // the third parameter (1x1 of GGX's dielectric ratio when none was given)
+  gl::Texture atlas_ggx_support;  // GGX's grazing support per texel (empty: 0, the plain lobe)
 
   enum class Mode { kNone, kProcedural, kAtlas };
   Mode mode = Mode::kNone;
@@ -376,7 +377,8 @@ absl::Status PhongRenderer::SetKdTexture(const cv::Mat& kd_linear) {
 }
 
 absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke,
-                                             const cv::Mat& model, const cv::Mat& p3) {
+                                             const cv::Mat& model, const cv::Mat& p3,
+                                             const cv::Mat& ggx_support) {
   if (!impl_->has_uvs) return absl::FailedPreconditionError("atlas materials: the mesh has no uvs");
   gl::Texture model_texture;
   if (!model.empty()) {
@@ -398,11 +400,16 @@ absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& 
   // models with two parameters do not read it).
   const cv::Mat dielectric(1, 1, CV_32FC3, cv::Scalar::all(brdf::Ggx::kDielectricRatio));
   MVBRDF_ASSIGN_OR_RETURN(gl::Texture p3_texture, UploadUvImage(p3.empty() ? dielectric : p3, "third parameter atlas"));
+  gl::Texture support_texture;
+  if (!ggx_support.empty()) {
+    MVBRDF_ASSIGN_OR_RETURN(support_texture, UploadUvImage(ggx_support, "GGX grazing support atlas"));
+  }
   impl_->atlas_kd = std::move(kd_texture);
   impl_->atlas_ks = std::move(ks_texture);
   impl_->atlas_ke = std::move(ke_texture);
   impl_->atlas_model = std::move(model_texture);
   impl_->atlas_p3 = std::move(p3_texture);
+  impl_->atlas_ggx_support = std::move(support_texture);
   impl_->mode = Impl::Mode::kAtlas;
   return absl::OkStatus();
 }
@@ -504,7 +511,6 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   const bool per_texel_model = mode == Mode::kAtlas && atlas_model;
   glProgramUniform1i(program, kBrdfModelLocation, per_texel_model ? -1 : static_cast<GLint>(options.brdf_model));
   glProgramUniform1i(program, kUvSpaceLocation, uv_space ? 1 : 0);
-  glProgramUniform1f(program, kGgxSupportLocation, options.ggx_support);
 
   const GLuint placeholder = placeholder_texture.id();
   const bool atlas = mode == Mode::kAtlas;
@@ -516,6 +522,7 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   glBindTextureUnit(kDirectionalShadowUnit, shadow_maps->directional_maps().id());
   glBindTextureUnit(kAtlasModelUnit, per_texel_model ? atlas_model.id() : placeholder);
   glBindTextureUnit(kAtlasP3Unit, atlas ? atlas_p3.id() : placeholder);
+  glBindTextureUnit(kAtlasGgxSupportUnit, atlas && atlas_ggx_support ? atlas_ggx_support.id() : placeholder);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kNbrdfWeightsBinding, nbrdf_buffer.id());
   glBindBufferBase(GL_UNIFORM_BUFFER, kLightBlockBinding, light_buffer.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMaterialBlockBinding, material_buffer.id());

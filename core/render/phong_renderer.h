@@ -59,10 +59,6 @@ struct RendererOptions {
   // parameters (brdf::ParameterNames: Blinn-Phong's ks, ke; GGX's f0,
   // roughness), the term as core/fit/lobe_fit.h evaluates it.
   brdf::Model brdf_model = brdf::Model::kPhong;
-  // GGX's lobe held at this grazing support (brdf::Ggx::SpecularWithin): a
-  // reconstruction's (core/fit/grazing_support.h); 0, the plain lobe, for
-  // the truth.
-  float ggx_support = 0.0f;
   // No clip planes to set: near and far come from each pose's bounding
   // sphere and the camera (ClipRangeOf in camera_projection.h), so a scene of
   // any world scale draws alike.
@@ -106,8 +102,13 @@ class PhongRenderer {
   // without filtering), of each texel's own model (`--brdf auto`). `p3`
   // (CV_32FC3 like ks, may be empty: GGX's dielectric ratio 25) holds the
   // third parameter of the models that have one (GGX's f90_ratio).
+  // `ggx_support` (CV_32FC3 like ks, its red channel read; may be empty: 0
+  // everywhere) holds per texel the grazing support GGX is drawn within
+  // (brdf::Ggx::SpecularWithin, core/fit/grazing_support.h); 0 draws the
+  // plain lobe. Procedural materials (the truth) are always drawn plain.
   absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke,
-                                 const cv::Mat& model = cv::Mat(), const cv::Mat& p3 = cv::Mat());
+                                 const cv::Mat& model = cv::Mat(), const cv::Mat& p3 = cv::Mat(),
+                                 const cv::Mat& ggx_support = cv::Mat());
 
   // Any number of lights, drawn in passes of 16 whose radiance is summed;
   // each light gets a shadow map. With at most 16 lights the maps are
