@@ -107,8 +107,8 @@ int RunEvaluate(const std::vector<std::string>& args) {
   bool no_grazing_support = false;
   flags.AddBool("--no-grazing-support", &no_grazing_support,
                 "draw the reconstruction's GGX lobes as glTF viewers draw the export, extrapolated towards grazing "
-                "past where the capture observed them (default: held at result.json's ggxGrazingSupport, as "
-                "mvbrdf render and the report draw them)");
+                "past where the capture observed them (default: each cluster held at its grazing support, "
+                "result.json's clusters[].ggxGrazingSupport, as mvbrdf render and the report draw them)");
   flags.AddString("--relight-images DIR",
                   &relight_images,
                   "also write each relighting row's images to DIR (new or empty): NNN_truth.exr, "

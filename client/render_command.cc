@@ -258,7 +258,8 @@ int RunRender(const std::vector<std::string>& args) {
                 "with --supersample the fraction of subpixels covered)");
   flags.AddBool("--no-grazing-support", &options.no_grazing_support,
                 "draw GGX lobes as glTF viewers draw the export: extrapolated towards grazing past where the "
-                "capture observed them (default: held at result.json's ggxGrazingSupport)");
+                "capture observed them (default: each cluster held at its grazing support, result.json's "
+                "clusters[].ggxGrazingSupport)");
   flags.AddInt("--supersample N", &options.supersample,
                "anti-aliasing: draw N x N subpixels per pixel (1-8) and average them, as a sensor integrates a "
                "pixel (default 1: each pixel's centre)");

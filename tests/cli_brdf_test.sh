@@ -97,6 +97,15 @@ for b in bad: print("FAIL " + b)
 sys.exit(1 if bad else 0)
 PY
 expect "GGX fits its own truth (parameters, kd RMSE and relighting error below the other models')" test $? -eq 0
+expect "each relighting row says its pixels per true material, and they add up to the material rows" python3 -c '
+import json, math, sys
+r = json.load(open(sys.argv[1]))["relighting"]
+ok = all(sum(m["pixels"] for m in row["materials"]) == row["pixels"] for row in r["rows"])
+for mat in r["materials"]:
+    cells = [m for row in r["rows"] for m in row["materials"] if m["material"] == mat["material"]]
+    sq = sum(m["rmse"] ** 2 * m["pixels"] for m in cells)
+    ok &= sum(m["pixels"] for m in cells) == mat["pixels"] and math.isclose(sq / mat["pixels"], mat["rmse"] ** 2, rel_tol=1e-6)
+sys.exit(not (ok and len({m["material"] for row in r["rows"] for m in row["materials"]}) == 3))' "$work/ggx.eval.json"
 check "evaluate --no-relighting leaves it out" 0 "" -- "$bin" evaluate "$work/ggx" --truth "$work/b" --no-relighting
 expect "no relighting key with --no-relighting" test \
   "$("$bin" evaluate "$work/ggx" --truth "$work/b" --no-relighting | grep -c relighting)" = 0

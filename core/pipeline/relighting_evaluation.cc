@@ -125,6 +125,18 @@ std::vector<scene::Light> HeldOutLights(const scene::Sequence& sequence, const s
   return out;
 }
 
+// One material's figures from its sums of squared error and squared truth
+// over n pixels (three channels each).
+void AddMaterialRow(const v1::GroundTruth& message, const synth::GroundTruth& truth, int m, double sq,
+                    double truth_sq, uint64_t n, v1::RelightingMaterialRow* row) {
+  row->set_material(message.materials(m).name());
+  row->set_truth_brdf(truth.IsMeasured(m) ? absl::StrCat("measured ", message.materials(m).measured())
+                                          : std::string(brdf::ModelName(truth.Model())));
+  row->set_pixels(n);
+  row->set_rmse(std::sqrt(sq / (3.0 * static_cast<double>(n))));
+  row->set_relative_rmse(truth_sq > 0.0 ? std::sqrt(sq / truth_sq) : 0.0);
+}
+
 absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesystem::path& run_dir,
                                                             const synth::GroundTruth& truth,
                                                             const scene::Sequence& sequence, gl::EglContext& context,
@@ -207,6 +219,9 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
       cv::resize(t.radiance, t_radiance, cv::Size(view.width, view.height), 0, 0, cv::INTER_AREA);
       double sq = 0.0, truth_sq = 0.0;
       uint64_t n = 0;
+      std::vector<double> row_sq(static_cast<size_t>(num_materials), 0.0),
+          row_truth_sq(static_cast<size_t>(num_materials), 0.0);
+      std::vector<uint64_t> row_n(static_cast<size_t>(num_materials), 0);
       cv::Mat counted;
       if (options.on_row) counted = cv::Mat::zeros(r.rows, r.cols, CV_8UC1);
       for (int y = 0; y < r.rows; ++y) {
@@ -236,9 +251,9 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
             m += b[c] * b[c];
           }
           const size_t material = message.triangle_materials(id);
-          material_sq[material] += e;
-          material_truth_sq[material] += m;
-          ++material_n[material];
+          row_sq[material] += e;
+          row_truth_sq[material] += m;
+          ++row_n[material];
           sq += e;
           truth_sq += m;
           ++n;
@@ -250,6 +265,13 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
       row->set_pixels(n);
       row->set_rmse(n > 0 ? std::sqrt(sq / (3.0 * n)) : 0.0);
       row->set_truth_rms(n > 0 ? std::sqrt(truth_sq / (3.0 * n)) : 0.0);
+      for (int m = 0; m < num_materials; ++m) {
+        const size_t i = static_cast<size_t>(m);
+        material_sq[i] += row_sq[i];
+        material_truth_sq[i] += row_truth_sq[i];
+        material_n[i] += row_n[i];
+        if (row_n[i] > 0) AddMaterialRow(message, truth, m, row_sq[i], row_truth_sq[i], row_n[i], row->add_materials());
+      }
       all_sq += sq;
       all_truth_sq += truth_sq;
       all_n += n;
@@ -276,14 +298,9 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
   out.set_unobserved_pixels(unobserved);
   for (int m = 0; m < num_materials; ++m) {
     const size_t i = static_cast<size_t>(m);
-    if (material_n[i] == 0) continue;
-    v1::RelightingMaterialRow* row = out.add_materials();
-    row->set_material(message.materials(m).name());
-    row->set_truth_brdf(truth.IsMeasured(m) ? absl::StrCat("measured ", message.materials(m).measured())
-                                            : std::string(brdf::ModelName(truth.Model())));
-    row->set_pixels(material_n[i]);
-    row->set_rmse(std::sqrt(material_sq[i] / (3.0 * material_n[i])));
-    row->set_relative_rmse(material_truth_sq[i] > 0.0 ? std::sqrt(material_sq[i] / material_truth_sq[i]) : 0.0);
+    if (material_n[i] > 0) {
+      AddMaterialRow(message, truth, m, material_sq[i], material_truth_sq[i], material_n[i], out.add_materials());
+    }
   }
   return out;
 }
