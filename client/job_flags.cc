@@ -26,9 +26,9 @@ void AddJobFlags(FlagParser& flags, JobFlags* job) {
   flags.AddInt("--grow N", &job->grow, "dilation iterations of the written atlases");
   flags.AddString("--depth-tolerance-absolute DISTANCE", &job->depth_tolerance_absolute,
                   "occlusion test: a texel is hidden when it lies farther than the camera's depth map by more than "
-                  "this, in world units (default: relative 0.0001; at most one of the two)");
+                  "this, in world units (default: relative 0.001; at most one of the two)");
   flags.AddString("--depth-tolerance-relative FRACTION", &job->depth_tolerance_relative,
-                  "occlusion test as a fraction of the texel's depth (default: 0.0001)");
+                  "occlusion test as a fraction of the texel's depth (default: 0.001)");
   flags.AddDouble("--grazing-margin DEGREES", &job->grazing_margin,
                   "texels seen within this angle of edge-on are not observations, degrees in [0, 90)");
   flags.AddDouble("--kd-prior-strength X", &job->kd_prior_strength,

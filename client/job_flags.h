@@ -21,7 +21,7 @@ struct JobFlags {
   int max_iterations = 100;
   int sweep_frame_stride = 0;  // 0: automatic (pipeline::SweepFrameStride)
   int grow = 2;
-  // Resampling: empty = unset (the worker's default, relative 0.0001).
+  // Resampling: empty = unset (the worker's default, relative 0.001).
   std::string depth_tolerance_absolute;
   std::string depth_tolerance_relative;
   double grazing_margin = 5.0;

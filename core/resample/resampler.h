@@ -55,14 +55,11 @@ struct ResamplerOptions {
   double grazing_margin_deg = 5.0;
   // Depth test against the camera's depth map: a texel is occluded when it
   // lies further than this (relative to its depth) behind the map. >= 0.
-  // It need only cover the lookup's error on the texel's own surface (none
-  // on a plane; a curved surface's chord between map pixels): a wider one
-  // lets texels just behind another surface take its colour, where two
-  // parts of a mesh interpenetrate or touch (the actor's joints). Measured
-  // (actor 8 cameras x 30 frames, GGX truth, on the same texels): kd RMSE
-  // 0.0113 at 0.001, 0.0099 at 0.0002, 0.0098 at 0.0001; samba 0.0109 ->
-  // 0.0108 at 0.0001, cluster accuracy and ks / ke unchanged.
-  double relative_depth_tolerance = 0.0001;
+  // Texels just inside another part of the mesh (where parts interpenetrate)
+  // pass within it and take that part's colour; a tighter one refuses texels
+  // at a coarse mesh's concave creases (resampler_test's
+  // DepthToleranceSetsTheBandOfTexelsInsideAnotherPartThatPass says both).
+  double relative_depth_tolerance = 0.001;
   // And this much in world units (>= 0): occluded when z > (1 + relative) *
   // z_map + absolute. A job sets one of the two (FittingOptions).
   double absolute_depth_tolerance = 0.0;

@@ -464,12 +464,16 @@ TEST_F(ResamplerTest, OccludedTexelsAreInvalidAndBlackIsDistinguishable) {
 
 // Two parts of a mesh that interpenetrate (the actor's limbs at its joints, a
 // tracked body's arm in its side): a quad tilted 2 degrees through the ground
-// plane. Its texels below the ground are hidden from a camera above; the depth
-// test must not let those just below pass, or they take the ground's colour
-// (on the actor: 5x their kd). With the default tolerance (1e-4 of the
-// depth, ~0.3 mm here) none more than 1 mm below the ground is valid; with
-// 1e-3 (the default before) a 3 mm band is.
-TEST_F(ResamplerTest, TexelsJustInsideAnotherPartAreHidden) {
+// plane. Its texels below the ground are hidden from a camera above, but those
+// within the relative depth tolerance of the ground pass the depth test and
+// take the ground's colour (on the actor: cloth texels with 5x their kd, most
+// of kd's RMSE). The tolerance sets that band: at the default (1e-3 of the
+// depth, ~3 mm here) 2736 texels more than 1 mm below pass, at 1e-4 none. The
+// default stays 1e-3: a tighter one refuses texels at a coarse mesh's concave
+// creases, where the depth map's bilinear 1 / z lies in front of the surface
+// (CameraVisibilityAgreesWithShadowOfALightAtTheCamera on Spot: lit and facing
+// texels refused 159 at 1e-3, 691 at 5e-4, 2386 at 1e-4).
+TEST_F(ResamplerTest, DepthToleranceSetsTheBandOfTexelsInsideAnotherPartThatPass) {
   constexpr double kTilt = 2.0 * 3.14159265358979323846 / 180.0;
   Quad tilted;  // through the ground along y = 0, from z = -0.5 tan(tilt) to +0.5 tan(tilt)
   tilted.origin = {-0.5, -0.5 * std::cos(kTilt), -0.5 * std::sin(kTilt)};
@@ -479,8 +483,10 @@ TEST_F(ResamplerTest, TexelsJustInsideAnotherPartAreHidden) {
   tilted.uv_max = glm::dvec2(0.98, 0.66);
   const QuadScene scene = MakeQuadScene({GroundQuad(0.02, 0.66), tilted}, 512);
   const scene::CameraModel camera = LookAtCamera({0.3, -0.2, 3.0}, {0.0, 0.0, 0.0}, 640, 480, 450.0);
-  // below_mm: depth of each of the tilted quad's texels under the ground.
-  const auto hidden_but_valid = [&](const ResamplerOptions& options, double below_mm) {
+  // Valid texels of the tilted quad more than 1 mm under the ground.
+  const auto hidden_but_valid = [&](double relative_tolerance) {
+    ResamplerOptions options;
+    options.relative_depth_tolerance = relative_tolerance;
     auto resampler = Make(scene, {camera}, {}, options);
     EXPECT_NE(resampler, nullptr);
     if (resampler == nullptr) return -1;
@@ -492,16 +498,14 @@ TEST_F(ResamplerTest, TexelsJustInsideAnotherPartAreHidden) {
         const auto point = scene.TexelPoint(x, y);
         if (!point.has_value() || point->first != 1) continue;
         if (point->second.z > 0.01) above += Valid(*rgba, x, y) ? 1 : 0;
-        if (point->second.z < -below_mm / 1000.0 && Valid(*rgba, x, y)) ++count;
+        if (point->second.z < -0.001 && Valid(*rgba, x, y)) ++count;
       }
     }
     EXPECT_GT(above, 1000);  // the part above the ground is seen
     return count;
   };
-  EXPECT_EQ(hidden_but_valid(ResamplerOptions(), 1.0), 0);
-  ResamplerOptions wide;
-  wide.relative_depth_tolerance = 0.001;
-  EXPECT_GT(hidden_but_valid(wide, 1.0), 100);
+  EXPECT_EQ(hidden_but_valid(1e-4), 0);
+  EXPECT_GT(hidden_but_valid(ResamplerOptions().relative_depth_tolerance), 1000);  // measured 2736
 }
 
 // Issue #14: MarkUnreliable. With an edge margin, the plane's texels seen
