@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
 #include "core/image/exr.h"
+#include "core/pipeline/reconstruct_stage.h"
 #include "core/resample/atlas_ops.h"
 
 namespace mvbrdf::pipeline {
@@ -116,7 +117,8 @@ absl::StatusOr<cv::Mat> GgxSupportAtlas(const std::filesystem::path& run_dir, co
     }
   }
   const v1::FittingOptions& fitting = run.options().fitting();
-  const int grow = fitting.has_grow_iterations() ? static_cast<int>(fitting.grow_iterations()) : 2;
+  const int grow = fitting.has_grow_iterations() ? static_cast<int>(fitting.grow_iterations())
+                                                 : ReconstructOptions().grow_iterations;
   cv::Mat rgb;
   cv::cvtColor(resample::GrowAtlas(rgba, grow), rgb, cv::COLOR_RGBA2RGB);
   return rgb;
