@@ -37,6 +37,10 @@ int RunResample(const std::vector<std::string>& args) {
                   "occlusion test: a texel is hidden when further than this fraction of its depth behind the camera's depth map");
   flags.AddDouble("--depth-tolerance-absolute DISTANCE", &o.resampler.absolute_depth_tolerance,
                   "occlusion test: and hidden only when further than this many world units (added to the relative one)");
+  bool no_exact_occluders = false;
+  flags.AddBool("--no-exact-occluders", &no_exact_occluders,
+                "occlusion test: the depth map alone, without the exact test of the triangles seen around each texel "
+                "(texels just inside another part of the mesh then pass within the tolerance)");
   flags.AddInt("--shadow-map-size N", &o.resampler.shadow_map_size, "cube shadow map resolution per face");
   flags.AddString("--save WHICH", &save, "which frames' atlases to write: first, all or none (figures cover all)");
   flags.AddBool("--no-evaluate", &no_evaluate, "skip the comparison with ground_truth/ even when present");
@@ -49,6 +53,7 @@ int RunResample(const std::vector<std::string>& args) {
     std::fputs(flags.Usage().c_str(), stdout);
     return kExitOk;
   }
+  o.resampler.exact_occluder_test = !no_exact_occluders;
   auto platform = gl::ParseEglPlatform(egl);
   absl::Status usage = platform.status();
   if (usage.ok() && (o.atlas.size < 16 || o.atlas.size > 16384)) {

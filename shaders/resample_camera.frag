@@ -9,6 +9,12 @@ layout(binding = 0) uniform sampler2D u_position_map;  // RGBA32F: world xyz, w 
 layout(binding = 1) uniform sampler2D u_normal_map;    // RGBA32F: unit world normal
 layout(binding = 2) uniform sampler2D u_depth_map;     // R32F: 1 / eye z of the nearest surface, pinhole, row r = image row, bilinear
 layout(binding = 3) uniform sampler2D u_frame;         // RGB32F linear, row 0 = image top, bilinear
+layout(binding = 4) uniform isampler2D u_texel_triangle;  // R32I: the texel's drawn triangle (-1: none)
+layout(binding = 5) uniform isampler2D u_pixel_triangle;  // R32I, depth-map pixels: drawn triangle (-1: none)
+// The posed mesh as drawn: render-vertex positions (xyz, world units) and the
+// drawn triangles' vertex indices, indexed by gl_PrimitiveID.
+layout(std430, binding = 1) readonly buffer Positions { float u_positions[]; };
+layout(std430, binding = 2) readonly buffer Indices { uint u_indices[]; };
 
 layout(location = 0) uniform mat4 u_cam_from_world;
 // The viewpoint, homogeneous (scene::CameraModel::ViewOrigin): (centre, 1) for
@@ -23,6 +29,10 @@ layout(location = 5) uniform vec4 u_distortion_b;     // k3, k4, k5, k6
 layout(location = 6) uniform float u_min_cos_view;    // sin(grazing margin): dot(n, v) must exceed it
 layout(location = 7) uniform float u_depth_scale;     // 1 + relative depth tolerance
 layout(location = 8) uniform float u_depth_absolute;  // absolute depth tolerance, world units
+// The exact occluder test's margin, relative to depth (pinhole); < 0: no
+// exact test. Orthographic (depth from an arbitrary plane): world units.
+layout(location = 9) uniform float u_occluder_tolerance;
+layout(location = 10) uniform float u_occluder_margin_orthographic;
 layout(location = 16) uniform int u_orthographic;     // nonzero: (x, y) instead of (x/z, y/z); no distortion
 
 layout(location = 0) out vec4 out_radiance;
@@ -45,6 +55,78 @@ float OrthographicInverseDepth(vec2 pixel, float bilinear) {
   return 1.0 / z;
 }
 
+vec3 VertexPosition(uint v) {
+  return vec3(u_positions[3u * v], u_positions[3u * v + 1u], u_positions[3u * v + 2u]);
+}
+
+// Distance along the ray origin + s * direction (unit) at which it crosses
+// drawn triangle t (Moller-Trumbore); -1 when it misses.
+float RayCrossing(int t, vec3 origin, vec3 direction) {
+  uint base = 3u * uint(t);
+  vec3 a = VertexPosition(u_indices[base]);
+  vec3 e1 = VertexPosition(u_indices[base + 1u]) - a;
+  vec3 e2 = VertexPosition(u_indices[base + 2u]) - a;
+  vec3 p = cross(direction, e2);
+  float det = dot(e1, p);
+  if (abs(det) < 1e-30) return -1.0;  // the ray lies in the triangle's plane
+  vec3 o = origin - a;
+  float u = dot(o, p) / det;
+  if (u < 0.0 || u > 1.0) return -1.0;
+  vec3 q = cross(o, e1);
+  float v = dot(direction, q) / det;
+  if (v < 0.0 || u + v > 1.0) return -1.0;
+  return dot(e2, q) / det;
+}
+
+// Whether a triangle the camera sees at one of the four depth-map pixels
+// around `pinhole` (other than the texel's own) crosses the ray from `point`
+// towards the camera (`towards`, unit) further than `margin` in front of it.
+bool OccludedExactly(vec2 pinhole, int own, vec3 point, vec3 towards, float margin) {
+  ivec2 depth_max = textureSize(u_pixel_triangle, 0) - 1;
+  ivec2 base = ivec2(floor(pinhole));
+  int tested[4] = int[4](-1, -1, -1, -1);
+  for (int k = 0; k < 4; ++k) {
+    int t = texelFetch(u_pixel_triangle, clamp(base + ivec2(k & 1, k >> 1), ivec2(0), depth_max), 0).r;
+    if (t < 0 || t == own || t == tested[0] || t == tested[1] || t == tested[2]) continue;
+    tested[k] = t;
+    if (RayCrossing(t, point, towards) > margin) return true;
+  }
+  return false;
+}
+
+// Whether drawn triangle `other` belongs to the surroundings of drawn
+// triangle `own`: itself or one sharing a vertex position (across UV seams
+// too, where the render vertices are copies).
+bool Adjacent(int own, int other) {
+  if (own == other) return true;
+  uint a = 3u * uint(own), b = 3u * uint(other);
+  for (uint i = 0u; i < 3u; ++i) {
+    vec3 pa = VertexPosition(u_indices[a + i]);
+    for (uint j = 0u; j < 3u; ++j) {
+      if (pa == VertexPosition(u_indices[b + j])) return true;
+    }
+  }
+  return false;
+}
+
+// Whether depth-map pixel `d` shows another part of the mesh in front of the
+// texel's tangent plane (point `q`, normal `nc`, camera frame): its colour
+// belongs to that part (an occluder's edge, the line where two parts
+// interpenetrate). The texel's own triangle and its neighbours never count
+// (a crease's neighbour lies in front of the plane but is the same surface).
+bool ShowsAnotherPartInFront(ivec2 d, int own, vec3 q, vec3 nc, float margin) {
+  int t = texelFetch(u_pixel_triangle, d, 0).r;
+  if (t < 0 || own < 0 || Adjacent(own, t)) return false;
+  vec2 xy = (vec2(d) - u_depth_principal) / u_intrinsics.xy;
+  vec3 origin = u_orthographic != 0 ? vec3(xy, 0.0) : vec3(0.0);
+  vec3 direction = u_orthographic != 0 ? vec3(0.0, 0.0, 1.0) : vec3(xy, 1.0);
+  float slope = dot(nc, direction);
+  if (!(slope < -1e-3 * length(direction))) return false;  // the plane is edge-on there
+  float plane_z = dot(nc, q - origin) / slope;
+  float pixel_z = 1.0 / texelFetch(u_depth_map, d, 0).r;
+  return pixel_z < plane_z - margin;
+}
+
 void main() {
   out_radiance = vec4(0.0);
   ivec2 texel = ivec2(gl_FragCoord.xy);
@@ -60,7 +142,9 @@ void main() {
 
   // Visibility: the depth map (inverse depth, bilinear: exact on the point's
   // own triangle, so slanted surfaces do not occlude themselves) at the
-  // pinhole projection. Occluded when z > (1 + relative) * z_map + absolute.
+  // pinhole projection. Occluded when z > (1 + relative) * z_map + absolute;
+  // within that, when a triangle seen there crosses the texel's ray in front
+  // of it (ResamplerOptions::exact_occluder_test).
   vec2 pinhole = u_intrinsics.xy * undistorted + u_depth_principal;
   vec2 depth_size = vec2(textureSize(u_depth_map, 0));
   if (any(lessThan(pinhole, vec2(-0.5))) || any(greaterThan(pinhole, depth_size - 0.5))) {
@@ -69,6 +153,13 @@ void main() {
   float inverse_depth = textureLod(u_depth_map, (pinhole + 0.5) / depth_size, 0.0).r;
   if (u_orthographic != 0) inverse_depth = OrthographicInverseDepth(pinhole, inverse_depth);
   if (q.z * inverse_depth > u_depth_scale + u_depth_absolute * inverse_depth) return;  // occluded
+  // (Also where the bilinear map does not lie in front of the texel: at an
+  // occluder's silhouette it mixes the occluder with the surface behind.)
+  int own = texelFetch(u_texel_triangle, texel, 0).r;
+  float margin = u_orthographic != 0 ? u_occluder_margin_orthographic : u_occluder_tolerance * q.z;
+  if (u_occluder_tolerance >= 0.0 && OccludedExactly(pinhole, own, position.xyz, v, margin)) {
+    return;  // inside or behind another part, nearer than the tolerance
+  }
 
   // Sampling: the distorted pixel, inside [0, w-1] x [0, h-1] so that the
   // bilinear footprint stays inside the image.
@@ -86,6 +177,7 @@ void main() {
   vec2 f = pixel - vec2(base);
   ivec2 frame_max = ivec2(size) - 1;
   ivec2 depth_max = ivec2(depth_size) - 1;
+  vec3 nc = mat3(u_cam_from_world) * n;  // the texel's normal, camera frame
   vec3 sum = vec3(0.0);
   float weight = 0.0;
   float invalid = 0.0;  // a pixel's mark (< 0: masked or saturated, core/scene/video_source.h)
@@ -94,6 +186,7 @@ void main() {
     ivec2 p = min(base + offset, frame_max);
     ivec2 d = clamp(ivec2(round(pinhole + vec2(p) - pixel)), ivec2(0), depth_max);
     if (texelFetch(u_depth_map, d, 0).r <= 0.0) continue;
+    if (u_occluder_tolerance >= 0.0 && ShowsAnotherPartInFront(d, own, q, nc, margin)) continue;
     float w = (offset.x == 1 ? f.x : 1.0 - f.x) * (offset.y == 1 ? f.y : 1.0 - f.y);
     vec3 rgb = texelFetch(u_frame, p, 0).rgb;
     if (rgb.r < 0.0 && w > 0.0) invalid = rgb.r;

@@ -43,6 +43,8 @@ constexpr GLint kDistortionB = 5;
 constexpr GLint kMinCosView = 6;
 constexpr GLint kDepthScale = 7;
 constexpr GLint kDepthAbsolute = 8;
+constexpr GLint kOccluderTolerance = 9;
+constexpr GLint kOccluderMarginOrthographic = 10;
 constexpr GLint kOrthographic = 16;
 
 // Texture units of the full-screen passes.
@@ -50,6 +52,15 @@ constexpr GLuint kPositionMapUnit = 0;
 constexpr GLuint kNormalMapUnit = 1;
 constexpr GLuint kDepthMapUnit = 2;  // resample_camera.frag
 constexpr GLuint kFrameUnit = 3;
+constexpr GLuint kTexelTriangleUnit = 4;  // resample_camera.frag
+constexpr GLuint kPixelTriangleUnit = 5;
+constexpr GLuint kPositionsBinding = 1;  // resample_camera.frag's storage buffers
+constexpr GLuint kIndicesBinding = 2;
+// The exact occluder test's margin, relative to the texel's depth (for an
+// orthographic camera, to the pose's extent from the origin): above float
+// rounding of positions and intersections (~1e-6), far below the depth map's
+// tolerance.
+constexpr double kOccluderRelativeTolerance = 1e-4;
 constexpr GLuint kPointShadowUnit = 2;  // resample_shadow.frag
 constexpr GLuint kDirectionalShadowUnit = 3;
 constexpr GLuint kShadowLightBlockBinding = 0;
@@ -167,6 +178,7 @@ struct CameraState {
   gl::Framebuffer depth_framebuffer;
   gl::Texture surface_position;  // RGBA32F, layout size: world xyz, w = atlas texel + 1 (0: none)
   gl::Texture surface_normal;    // RGBA32F, layout size: unit world normal
+  gl::Texture surface_triangle;  // R32I, layout size: drawn triangle under the pixel centre (-1: none)
   gl::Texture frame_texture;  // RGB32F at the camera size, bilinear
   uint64_t depth_frame = 0;   // the frame number the depth map belongs to (0: none)
   Resampler::RefusedObservations refused;
@@ -199,6 +211,7 @@ struct Resampler::Impl {
   // Geometry atlas: RGBA32F textures, GL row r = atlas image row r.
   gl::Texture position_map;
   gl::Texture normal_map;
+  gl::Texture triangle_map;  // R32I: drawn triangle per texel (-1: none)
   gl::Framebuffer geometry_framebuffer;
 
   gl::Renderbuffer resample_target;  // RGBA32F
@@ -374,8 +387,10 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
   r.geometry_framebuffer = gl::CreateFramebuffer();
   glNamedFramebufferTexture(r.geometry_framebuffer.id(), GL_COLOR_ATTACHMENT0, r.position_map.id(), 0);
   glNamedFramebufferTexture(r.geometry_framebuffer.id(), GL_COLOR_ATTACHMENT1, r.normal_map.id(), 0);
-  const GLenum geometry_buffers[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
-  glNamedFramebufferDrawBuffers(r.geometry_framebuffer.id(), 2, geometry_buffers);
+  r.triangle_map = CreateTexture2D(GL_R32I, r.size, r.size, GL_NEAREST);
+  glNamedFramebufferTexture(r.geometry_framebuffer.id(), GL_COLOR_ATTACHMENT2, r.triangle_map.id(), 0);
+  const GLenum geometry_buffers[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+  glNamedFramebufferDrawBuffers(r.geometry_framebuffer.id(), 3, geometry_buffers);
   MVBRDF_RETURN_IF_ERROR(gl::CheckFramebufferComplete(r.geometry_framebuffer, "geometry atlas target"));
 
   r.resample_target = gl::CreateRenderbuffer();
@@ -422,13 +437,16 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
     state.depth_framebuffer = gl::CreateFramebuffer();
     state.surface_position = CreateTexture2D(GL_RGBA32F, state.layout.width, state.layout.height, GL_NEAREST);
     state.surface_normal = CreateTexture2D(GL_RGBA32F, state.layout.width, state.layout.height, GL_NEAREST);
+    state.surface_triangle = CreateTexture2D(GL_R32I, state.layout.width, state.layout.height, GL_NEAREST);
     glNamedFramebufferTexture(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT0, state.depth_map.id(), 0);
     glNamedFramebufferTexture(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT1, state.surface_position.id(), 0);
     glNamedFramebufferTexture(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT2, state.surface_normal.id(), 0);
+    glNamedFramebufferTexture(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT3, state.surface_triangle.id(), 0);
     glNamedFramebufferRenderbuffer(state.depth_framebuffer.id(), GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER,
                                    state.depth_buffer.id());
-    const GLenum depth_draw_buffers[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
-    glNamedFramebufferDrawBuffers(state.depth_framebuffer.id(), 3, depth_draw_buffers);
+    const GLenum depth_draw_buffers[4] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2,
+                                          GL_COLOR_ATTACHMENT3};
+    glNamedFramebufferDrawBuffers(state.depth_framebuffer.id(), 4, depth_draw_buffers);
     MVBRDF_RETURN_IF_ERROR(
         gl::CheckFramebufferComplete(state.depth_framebuffer, absl::StrCat("depth map of cameras[", c, "]")));
     r.cameras.push_back(std::move(state));
@@ -475,6 +493,8 @@ absl::Status Resampler::Impl::RenderGeometry() {
   const float zero[4] = {0.0f, 0.0f, 0.0f, 0.0f};
   glClearNamedFramebufferfv(geometry_framebuffer.id(), GL_COLOR, 0, zero);
   glClearNamedFramebufferfv(geometry_framebuffer.id(), GL_COLOR, 1, zero);
+  const GLint no_triangle[4] = {-1, -1, -1, -1};
+  glClearNamedFramebufferiv(geometry_framebuffer.id(), GL_COLOR, 2, no_triangle);
   glUseProgram(geometry_program.id());
   DrawMesh();
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -511,6 +531,8 @@ absl::Status Resampler::Impl::EnsureDepthMap(CameraState& camera) {
   glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_COLOR, 0, no_surface);
   glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_COLOR, 1, no_surface);
   glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_COLOR, 2, no_surface);
+  const GLint no_triangle[4] = {-1, -1, -1, -1};
+  glClearNamedFramebufferiv(camera.depth_framebuffer.id(), GL_COLOR, 3, no_triangle);
   glProgramUniform1i(depth_program.id(), kDepthAtlasSize, size);
   glClearNamedFramebufferfv(camera.depth_framebuffer.id(), GL_DEPTH, 0, &clear_depth);
   glUseProgram(depth_program.id());
@@ -587,11 +609,20 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
                      static_cast<float>(std::sin(r.options.grazing_margin_deg * 3.14159265358979323846 / 180.0)));
   glProgramUniform1f(program, kDepthScale, static_cast<float>(1.0 + r.options.relative_depth_tolerance));
   glProgramUniform1f(program, kDepthAbsolute, static_cast<float>(r.options.absolute_depth_tolerance));
+  glProgramUniform1f(program, kOccluderTolerance,
+                     r.options.exact_occluder_test ? static_cast<float>(kOccluderRelativeTolerance) : -1.0f);
+  glProgramUniform1f(
+      program, kOccluderMarginOrthographic,
+      static_cast<float>(kOccluderRelativeTolerance * (glm::length(glm::dvec3(r.bounds.center)) + r.bounds.radius)));
 
   glBindTextureUnit(kPositionMapUnit, r.position_map.id());
   glBindTextureUnit(kNormalMapUnit, r.normal_map.id());
   glBindTextureUnit(kDepthMapUnit, state.depth_map.id());
   glBindTextureUnit(kFrameUnit, state.frame_texture.id());
+  glBindTextureUnit(kTexelTriangleUnit, r.triangle_map.id());
+  glBindTextureUnit(kPixelTriangleUnit, state.surface_triangle.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kPositionsBinding, r.position_buffer.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kIndicesBinding, r.index_buffer.id());
   glBindFramebuffer(GL_FRAMEBUFFER, r.resample_framebuffer.id());
   glViewport(0, 0, r.size, r.size);
   glDisable(GL_DEPTH_TEST);
@@ -622,7 +653,9 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   glUseProgram(0);
   glBindVertexArray(0);
-  for (GLuint unit = 0; unit < 4; ++unit) glBindTextureUnit(unit, 0);
+  for (GLuint unit = 0; unit < 6; ++unit) glBindTextureUnit(unit, 0);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kPositionsBinding, 0);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kIndicesBinding, 0);
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ResampleCamera"));
   return out;
 }

@@ -55,14 +55,23 @@ struct ResamplerOptions {
   double grazing_margin_deg = 5.0;
   // Depth test against the camera's depth map: a texel is occluded when it
   // lies further than this (relative to its depth) behind the map. >= 0.
-  // Texels just inside another part of the mesh (where parts interpenetrate)
-  // pass within it and take that part's colour; a tighter one refuses texels
-  // at a coarse mesh's concave creases (resampler_test's
-  // DepthToleranceSetsTheBandOfTexelsInsideAnotherPartThatPass says both).
+  // The bilinear depth map lies in front of a coarse mesh's concave creases,
+  // so a tight tolerance refuses texels there.
   double relative_depth_tolerance = 0.001;
   // And this much in world units (>= 0): occluded when z > (1 + relative) *
   // z_map + absolute. A job sets one of the two (FittingOptions).
   double absolute_depth_tolerance = 0.0;
+  // Within the tolerance, the exact test: a texel is also occluded when one
+  // of the triangles the camera sees at the four depth-map pixels around its
+  // projection (other than the texel's own) crosses the ray from the texel
+  // to the camera, more than 1e-4 of the depth in front of it. A texel just
+  // inside another part of the mesh (parts interpenetrate: a tracked arm in
+  // the torso, a body's overlapping ellipsoids) lies behind that part by less
+  // than the tolerance and would take its colour; a crease's neighbouring
+  // triangle, which the ray does not cross, does not occlude. false = the
+  // depth map alone (resampler_test's
+  // DepthToleranceSetsTheBandOfTexelsInsideAnotherPartThatPass measures both).
+  bool exact_occluder_test = true;
   // Resolution of the per-light cube depth maps (texels per face; also the
   // side of a directional light's orthographic map). In [1, 8192]; GPU memory
   // is 24 * size^2 bytes per point light (24 MB at 1024).
