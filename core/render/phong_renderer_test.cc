@@ -1511,8 +1511,10 @@ TEST_F(TriangleIdTest, InvalidInputsAreStatuses) {
 
 // The 20k-triangle sphere of TimingSphere20kTriangles4PointLights in atlas
 // space (its UVs are a valid layout): the figures quoted in the report.
-// Timing is printed, not asserted.
-TEST_F(PhongRendererTest, TimingAtlasSphere20kTriangles4PointLights) {
+// Timing is printed, not asserted; disabled (35 s in Release, about 90 s
+// under the sanitizers, for figures no test checks): run it with
+// phong_renderer_test --gtest_also_run_disabled_tests --gtest_filter='*TimingAtlas*'.
+TEST_F(PhongRendererTest, DISABLED_TimingAtlasSphere20kTriangles4PointLights) {
   RenderMesh mesh;
   Pose pose;
   MakeSphere(100, 100, 0.5f, &mesh, &pose);
