@@ -8,6 +8,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/base/status_macros.h"
 #include "core/samples/half_float.h"
 
 namespace mvbrdf::samples {
@@ -399,15 +400,20 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact) {
   return out;
 }
 
-absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
-  Reader r(bytes);
+namespace {
+
+// The header of an encoding, its light table and the arrays' byte count
+// checked; `r` is left at the arrays.
+absl::StatusOr<SampleSetHeader> ReadHeader(absl::string_view bytes, Reader& r) {
   if (!r.Has(4)) return Truncated("magic", 0, 4, r.remaining());
   if (std::memcmp(bytes.data(), kMagic, 4) != 0) {
     return absl::DataLossError("sample set encoding: bad magic (expected \"MVSS\"): not a sample set");
   }
   r.Take(4);
   if (!r.Has(4)) return Truncated("header", r.position(), 4, r.remaining());
+  SampleSetHeader header;
   const uint32_t version = r.U32();
+  header.version = version;
   if (version == 1) {
     return absl::DataLossError(
         "sample set encoding: version 1 (dense rows of at most 16 lights) is no longer read; this build reads version "
@@ -423,9 +429,9 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
     return absl::DataLossError(
         absl::StrCat("sample set encoding: unknown flags 0x", absl::Hex(flags), " for version ", version));
   }
-  const bool compact = (flags & kFlagCompact) != 0;
-  const bool has_falloff = (flags & kFlagFalloff) != 0;
-  const bool hv = (flags & kFlagHalfVector) != 0;
+  header.compact = (flags & kFlagCompact) != 0;
+  header.has_falloff = (flags & kFlagFalloff) != 0;
+  header.half_vector = (flags & kFlagHalfVector) != 0;
   const uint32_t num_lights = r.U32();
   if (num_lights > static_cast<uint32_t>(kMaxLights)) {
     return absl::DataLossError(
@@ -434,9 +440,8 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   const uint64_t num_samples = r.U64();
   const uint64_t num_terms = r.U64();
 
-  SampleSet set;
-  set.light_names.reserve(num_lights);
-  set.light_intensity.reserve(num_lights);
+  header.light_names.reserve(num_lights);
+  header.light_intensity.reserve(num_lights);
   for (uint32_t k = 0; k < num_lights; ++k) {
     if (!r.Has(4)) return Truncated("light name length", r.position(), 4, r.remaining());
     const uint32_t length = r.U32();
@@ -445,17 +450,17 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
                                               " exceeds the maximum ", kMaxNameBytes));
     }
     if (!r.Has(length + size_t{12})) return Truncated("light", r.position(), length + size_t{12}, r.remaining());
-    set.light_names.emplace_back(r.Take(length));
+    header.light_names.emplace_back(r.Take(length));
     glm::vec3 intensity;
     for (int c = 0; c < 3; ++c) intensity[c] = r.F32();
-    set.light_intensity.push_back(intensity);
+    header.light_intensity.push_back(intensity);
   }
 
   // The arrays must fill the rest of the buffer exactly. Check the counts
   // against the remaining bytes before allocating anything from them.
-  const size_t real = compact ? 2 : 4;
-  const size_t per_sample = 4 + 2 + 1 + (hv ? 4 : 3) * real + 2;
-  const size_t per_term = 2 + ((has_falloff ? 3 : 2) + (hv ? 2 : 0)) * real;
+  const size_t real = header.compact ? 2 : 4;
+  const size_t per_sample = 4 + 2 + 1 + (header.half_vector ? 4 : 3) * real + 2;
+  const size_t per_term = 2 + ((header.has_falloff ? 3 : 2) + (header.half_vector ? 2 : 0)) * real;
   const size_t left = r.remaining();
   if (num_samples > left / per_sample || num_terms > left / per_term ||
       num_samples * per_sample > left - num_terms * per_term) {
@@ -463,8 +468,9 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
                                             per_sample, " bytes and ", num_terms, " terms x ", per_term, " bytes, but ",
                                             left, " bytes left"));
   }
-  const size_t n = static_cast<size_t>(num_samples);
-  const size_t terms = static_cast<size_t>(num_terms);
+  header.num_samples = static_cast<size_t>(num_samples);
+  header.num_terms = static_cast<size_t>(num_terms);
+  const size_t n = header.num_samples, terms = header.num_terms;
   if (left != n * per_sample + terms * per_term) {
     return absl::DataLossError(absl::StrCat("sample set encoding: counts inconsistent with the buffer: ", n,
                                             " samples x ", per_sample, " bytes + ", terms, " terms x ", per_term,
@@ -474,9 +480,31 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
   // EncodeSampleSet sets the flag only for a non-empty falloff array, so one
   // set has one encoding (found by tests/fuzz/sample_set_fuzz: the flag with
   // no terms decoded, and re-encoded without it).
-  if (has_falloff && terms == 0) {
+  if (header.has_falloff && terms == 0) {
     return absl::DataLossError("sample set encoding: falloff flag set but there are no terms");
   }
+  return header;
+}
+
+}  // namespace
+
+absl::StatusOr<SampleSetHeader> ReadSampleSetHeader(absl::string_view bytes) {
+  Reader r(bytes);
+  return ReadHeader(bytes, r);
+}
+
+absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes) {
+  Reader r(bytes);
+  MVBRDF_ASSIGN_OR_RETURN(SampleSetHeader header, ReadHeader(bytes, r));
+  const bool compact = header.compact;
+  const bool has_falloff = header.has_falloff;
+  const bool hv = header.half_vector;
+  const uint32_t num_lights = static_cast<uint32_t>(header.light_names.size());
+  const size_t n = header.num_samples;
+  const size_t terms = header.num_terms;
+  SampleSet set;
+  set.light_names = std::move(header.light_names);
+  set.light_intensity = std::move(header.light_intensity);
   set.element.resize(n);
   set.frame.resize(n);
   set.camera.resize(n);

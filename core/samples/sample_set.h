@@ -211,6 +211,23 @@ std::string EncodeSampleSet(const SampleSet& set, bool compact = true);
 // corrupt, foreign or outdated buffer.
 absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes);
 
+// An encoding's header: what DecodeSampleSet would read, without the arrays.
+struct SampleSetHeader {
+  uint32_t version = 0;
+  bool compact = false;
+  bool has_falloff = false;
+  bool half_vector = false;
+  std::vector<std::string> light_names;
+  std::vector<glm::vec3> light_intensity;
+  size_t num_samples = 0;
+  size_t num_terms = 0;
+};
+// The header, its light table and the arrays' total size checked (the same
+// DATA_LOSS errors as DecodeSampleSet's for those), without decoding or
+// validating the arrays themselves: what a cache hit needs to describe its
+// Samples (server/workers_api), in microseconds instead of a full decode.
+absl::StatusOr<SampleSetHeader> ReadSampleSetHeader(absl::string_view bytes);
+
 }  // namespace mvbrdf::samples
 
 #endif  // MVBRDF_CORE_SAMPLES_SAMPLE_SET_H_

@@ -557,6 +557,33 @@ TEST(SampleSetEncoding, VersionTwoIsStillRead) {
   ExpectDataLoss(missing, "samples x");
 }
 
+// The header alone (what a Sample-cache hit reports): the counts, lights and
+// flags DecodeSampleSet reads, and the same DATA_LOSS for a bad prefix.
+TEST(SampleSetEncoding, HeaderAgreesWithTheDecodedSet) {
+  for (bool compact : {false, true}) {
+    for (const SampleSet& set : {MakeSet(3, 40, 7), MakeHalfVectorSet(5, 30, 9), SampleSet{}}) {
+      const std::string bytes = EncodeSampleSet(set, compact);
+      auto header = ReadSampleSetHeader(bytes);
+      ASSERT_TRUE(header.ok()) << header.status();
+      auto decoded = DecodeSampleSet(bytes);
+      ASSERT_TRUE(decoded.ok()) << decoded.status();
+      EXPECT_EQ(header->num_samples, decoded->size());
+      EXPECT_EQ(header->num_terms, decoded->light.size());
+      EXPECT_EQ(header->light_names, decoded->light_names);
+      EXPECT_EQ(header->half_vector, decoded->half_vector);
+      EXPECT_EQ(header->has_falloff, !decoded->falloff.empty());
+      EXPECT_EQ(header->compact, compact);
+    }
+  }
+  const std::string bytes = EncodeSampleSet(MakeSet(2, 3, 5), true);
+  for (size_t n = 0; n < bytes.size(); ++n) {
+    auto header = ReadSampleSetHeader(absl::string_view(bytes.data(), n));
+    ASSERT_FALSE(header.ok()) << "prefix " << n;
+    EXPECT_EQ(header.status().code(), absl::StatusCode::kDataLoss) << header.status();
+  }
+  EXPECT_FALSE(ReadSampleSetHeader(bytes + "x").ok());  // a trailing byte
+}
+
 TEST(SampleSetEncoding, ByteFlippedCountFails) {
   const std::string good = EncodeSampleSet(MakeSet(2, 3, 5), false);
   for (int byte = 0; byte < 8; ++byte) {

@@ -102,7 +102,8 @@ absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int
   return transaction.Commit();
 }
 
-absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key, int64_t now_ms) {
+absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key, int64_t now_ms,
+                                                            std::string* sha256) {
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(
       Statement select,
@@ -145,6 +146,7 @@ absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key
   MVBRDF_RETURN_IF_ERROR(touch.BindInt64(5, now_ms));
   MVBRDF_RETURN_IF_ERROR(touch.Run());
   ++counters_.hits;
+  if (sha256 != nullptr) *sha256 = expected_sha256;
   return std::optional<std::string>(std::move(bytes));
 }
 

@@ -72,8 +72,11 @@ class SampleCache {
   absl::Status Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms,
                    absl::string_view known_sha256 = {});
   // The bytes given to Put, or nullopt on a miss. DATA_LOSS naming the key
-  // when the stored entry is corrupt; the entry is then gone.
-  absl::StatusOr<std::optional<std::string>> Get(const SampleKey& key, int64_t now_ms);
+  // when the stored entry is corrupt; the entry is then gone. On a hit,
+  // `sha256` (when given) receives the bytes' SHA-256, hex, which Get has
+  // just verified (a caller need not hash them again).
+  absl::StatusOr<std::optional<std::string>> Get(const SampleKey& key, int64_t now_ms,
+                                                 std::string* sha256 = nullptr);
   // Removes the entry if present.
   absl::Status Erase(const SampleKey& key);
 

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/samples/sample_set.h"
+#include "server/store/digest.h"
 #include "server/store/sqlite_db.h"
 #include "server/store/test_dir.h"
 
@@ -49,10 +50,12 @@ TEST(SampleCacheTest, RoundTripsAnEncodedSampleSet) {
   ASSERT_TRUE(miss.ok()) << miss.status();
   EXPECT_FALSE(miss->has_value());
   ASSERT_TRUE(cache->Put(Key("key+fill"), bytes, kT0).ok());
-  auto hit = cache->Get(Key("key+fill"), kT0 + 1);
+  std::string sha256;
+  auto hit = cache->Get(Key("key+fill"), kT0 + 1, &sha256);
   ASSERT_TRUE(hit.ok()) << hit.status();
   ASSERT_TRUE(hit->has_value());
   EXPECT_EQ(**hit, bytes);
+  EXPECT_EQ(sha256, Sha256Hex(bytes));  // the digest Get verified, handed out
   auto decoded = samples::DecodeSampleSet(**hit);
   ASSERT_TRUE(decoded.ok()) << decoded.status();
   EXPECT_EQ(decoded->size(), set.size());

@@ -719,9 +719,12 @@ absl::StatusOr<bool> WorkersService::AnswerGatherFromCache(const store::Task& ta
   const store::SampleKey key = TriangleSampleKey(job.scene_hash, request);
   // DATA_LOSS: the entry was corrupt and is gone. Any other cache error: the
   // cache is an optimisation, the worker can always resample.
-  absl::StatusOr<std::optional<std::string>> bytes = samples_.Get(key, now_ms);
+  std::string sha256;
+  absl::StatusOr<std::optional<std::string>> bytes = samples_.Get(key, now_ms, &sha256);
   if (!bytes.ok() || !bytes->has_value()) return false;
-  absl::StatusOr<samples::SampleSet> decoded = samples::DecodeSampleSet(**bytes);
+  // The header alone (its counts checked against the size): the Samples are
+  // decoded by the tasks that use them, not here on the poller thread.
+  absl::StatusOr<samples::SampleSetHeader> decoded = samples::ReadSampleSetHeader(**bytes);
   if (!decoded.ok()) {
     // Intact bytes (the checksum held) of a foreign or outdated encoding:
     // useless to every sweep, so drop them and resample.
@@ -739,8 +742,8 @@ absl::StatusOr<bool> WorkersService::AnswerGatherFromCache(const store::Task& ta
       return false;
     }
   }
-  result.set_samples_sha256(store::Sha256Hex(**bytes));
-  result.set_samples(decoded->size());
+  result.set_samples_sha256(sha256);
+  result.set_samples(decoded->num_samples);
   result.set_encoded_bytes((*bytes)->size());
   result.set_from_cache(true);
   result.set_seconds(0.0);

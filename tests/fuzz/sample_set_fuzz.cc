@@ -1,5 +1,6 @@
-// libFuzzer target: DecodeSampleSet, the Samples cache and wire format that
-// the server and the workers exchange (core/samples/sample_set.h).
+// libFuzzer target: DecodeSampleSet (and ReadSampleSetHeader), the Samples
+// cache and wire format that the server and the workers exchange
+// (core/samples/sample_set.h).
 //
 // Any input must decode or fail with a Status, never crash or allocate more
 // than the input justifies. A decoded set must be consistent (every array the
@@ -32,10 +33,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const absl::string_view bytes(reinterpret_cast<const char*>(data), size);
   absl::StatusOr<SampleSet> set = DecodeSampleSet(bytes);
   mvbrdf::fuzz::Trace("DecodeSampleSet", set.status());
+  // The header alone (a cache hit's description) never crashes either, and
+  // agrees with every set that decodes.
+  absl::StatusOr<mvbrdf::samples::SampleSetHeader> header = mvbrdf::samples::ReadSampleSetHeader(bytes);
+  Require(header.ok() || !header.status().message().empty(), "a header error without a message");
   if (!set.ok()) {
     Require(!set.status().message().empty(), "an error without a message");
     return 0;
   }
+  Require(header.ok() && header->num_samples == set->size() && header->num_terms == set->num_terms() &&
+              header->light_names == set->light_names,
+          "a set decodes but its header disagrees");
   const size_t n = set->size();
   const size_t num = static_cast<size_t>(set->num_lights());
   Require(num <= static_cast<size_t>(mvbrdf::samples::kMaxLights), "more than kMaxLights lights");
