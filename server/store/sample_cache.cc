@@ -73,7 +73,7 @@ absl::StatusOr<std::unique_ptr<SampleCache>> SampleCache::Open(const std::filesy
 }
 
 absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms,
-                              absl::string_view known_sha256) {
+                              absl::string_view known_sha256, absl::string_view pin_for_job) {
   // Hashing and compressing outside the lock: they are the slow part.
   const std::string sha256 = known_sha256.empty() ? Sha256Hex(bytes) : std::string(known_sha256);
   MVBRDF_ASSIGN_OR_RETURN(std::string stored, Compress(bytes, options_.compression_level));
@@ -98,8 +98,30 @@ absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int
   MVBRDF_RETURN_IF_ERROR(insert.BindText(8, sha256));
   MVBRDF_RETURN_IF_ERROR(insert.BindInt64(9, now_ms));
   MVBRDF_RETURN_IF_ERROR(insert.Run());
+  if (!pin_for_job.empty()) MVBRDF_RETURN_IF_ERROR(PinLocked(key, pin_for_job));
   MVBRDF_RETURN_IF_ERROR(EvictLocked(key));
   return transaction.Commit();
+}
+
+absl::Status SampleCache::Pin(const SampleKey& key, absl::string_view job_id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  return PinLocked(key, job_id);
+}
+
+absl::Status SampleCache::PinLocked(const SampleKey& key, absl::string_view job_id) {
+  if (job_id.empty()) return absl::InvalidArgumentError("SampleCache::Pin: job_id is empty");
+  MVBRDF_ASSIGN_OR_RETURN(Statement pin, Statement::Prepare(*db_,
+                                                            "INSERT OR IGNORE INTO sample_cache_pins (sequence_hash, "
+                                                            "configuration, sample_level, options_hash, job_id) "
+                                                            "VALUES (?1, ?2, ?3, ?4, ?5)"));
+  MVBRDF_RETURN_IF_ERROR(BindKey(pin, key));
+  MVBRDF_RETURN_IF_ERROR(pin.BindText(5, job_id));
+  absl::Status run = pin.Run();
+  if (!run.ok()) {
+    return absl::Status(run.code(), absl::StrCat("sample cache: pinning ", key.ToString(), " for job ", job_id, ": ",
+                                                 run.message()));
+  }
+  return absl::OkStatus();
 }
 
 absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key, int64_t now_ms,
@@ -187,11 +209,21 @@ absl::Status SampleCache::EvictLocked(const SampleKey& keep) {
   int64_t stored_bytes = total.ColumnInt64(0);
   if (stored_bytes <= options_.max_stored_bytes) return absl::OkStatus();
 
-  // Oldest use first; the entry just put stays (it fits on its own).
+  // Pins of jobs that have ended protect nothing any more.
+  MVBRDF_RETURN_IF_ERROR(db_->Exec(
+      "DELETE FROM sample_cache_pins WHERE job_id NOT IN "
+      "(SELECT id FROM jobs WHERE state IN ('queued', 'running'))"));
+  // Oldest use first; the entry just put stays (it fits on its own), and so
+  // do the entries pinned by jobs still in flight.
   MVBRDF_ASSIGN_OR_RETURN(
       Statement oldest,
       Statement::Prepare(*db_, absl::StrCat("SELECT rowid, stored_size FROM sample_cache WHERE NOT (", kKeyWhere,
-                                            ") ORDER BY last_used_ms, rowid")));
+                                            ") AND NOT EXISTS (SELECT 1 FROM sample_cache_pins p WHERE "
+                                            "p.sequence_hash = sample_cache.sequence_hash AND "
+                                            "p.configuration = sample_cache.configuration AND "
+                                            "p.sample_level = sample_cache.sample_level AND "
+                                            "p.options_hash = sample_cache.options_hash) "
+                                            "ORDER BY last_used_ms, rowid")));
   MVBRDF_RETURN_IF_ERROR(BindKey(oldest, keep));
   std::vector<int64_t> victims;
   while (stored_bytes > options_.max_stored_bytes) {

@@ -6,7 +6,10 @@
 // A corrupt entry (checksum or zlib failure) is deleted and reported as
 // DATA_LOSS: the caller recomputes and Puts again. The cache holds at most
 // `max_stored_bytes` of compressed data; Put evicts the least recently used
-// entries (Get and Put stamp last_used_ms) to make room.
+// entries (Get and Put stamp last_used_ms) to make room, except those pinned
+// by a job that is still queued or running (Pin): a job's Samples stay until
+// it has used them, even when that holds the cache over its limit for a while
+// (bounded by the jobs in flight; the next Put after they end evicts).
 //
 // Threading: every method may be called from any thread (a mutex serialises
 // them). Other stores may use the same database file through their own
@@ -69,8 +72,10 @@ class SampleCache {
   // than the limit (nothing stored).
   // `known_sha256`: the SHA-256 of `bytes` when the caller has verified it
   // already (saves hashing large entries twice); computed when empty.
+  // `pin_for_job`: also Pin the entry for that job (in the same transaction,
+  // so no other Put evicts it in between).
   absl::Status Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms,
-                   absl::string_view known_sha256 = {});
+                   absl::string_view known_sha256 = {}, absl::string_view pin_for_job = {});
   // The bytes given to Put, or nullopt on a miss. DATA_LOSS naming the key
   // when the stored entry is corrupt; the entry is then gone. On a hit,
   // `sha256` (when given) receives the bytes' SHA-256, hex, which Get has
@@ -79,6 +84,10 @@ class SampleCache {
                                                  std::string* sha256 = nullptr);
   // Removes the entry if present.
   absl::Status Erase(const SampleKey& key);
+  // Keeps the entry (present or later Put) from eviction while job `job_id`
+  // (a row of the jobs table in the same database) is queued or running.
+  // Pins of ended jobs are dropped by the next eviction pass.
+  absl::Status Pin(const SampleKey& key, absl::string_view job_id);
 
   absl::StatusOr<SampleCacheStats> Stats();
 
@@ -87,6 +96,7 @@ class SampleCache {
 
   absl::Status EraseLocked(const SampleKey& key);
   absl::Status EvictLocked(const SampleKey& keep);
+  absl::Status PinLocked(const SampleKey& key, absl::string_view job_id);
 
   std::mutex mu_;
   std::unique_ptr<SqliteDb> db_;  // guarded by mu_

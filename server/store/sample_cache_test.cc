@@ -8,6 +8,7 @@
 
 #include "core/samples/sample_set.h"
 #include "server/store/digest.h"
+#include "server/store/job_store.h"
 #include "server/store/sqlite_db.h"
 #include "server/store/test_dir.h"
 
@@ -173,6 +174,57 @@ TEST(SampleCacheTest, EvictsLeastRecentlyUsed) {
   std::string too_big;
   for (int i = 0; i < 4; ++i) too_big += random_bytes();
   EXPECT_EQ(cache->Put(Key("too big"), too_big, kT0 + 21).code(), absl::StatusCode::kResourceExhausted);
+}
+
+// Issue #17: an eviction mid-job made the job regather its Samples. An entry
+// pinned by a job that is still queued or running is not evicted, even when
+// that holds the cache over its limit; once the job has ended the next Put
+// evicts it as usual, and its pin is gone.
+TEST(SampleCacheTest, EntriesPinnedByUnfinishedJobsAreNotEvicted) {
+  TestDir dir;
+  auto jobs = JobStore::Open(dir.db());
+  ASSERT_TRUE(jobs.ok()) << jobs.status();
+  auto job = (*jobs)->CreateJob(NewJob{"alice", "scenehash", "request"}, kT0);
+  ASSERT_TRUE(job.ok()) << job.status();
+  std::mt19937 rng(5);
+  auto random_bytes = [&rng] {
+    std::string bytes(1000, '\0');
+    for (char& c : bytes) c = static_cast<char>(rng() & 0xff);
+    return bytes;
+  };
+  auto cache = OpenOrDie(dir.db(), SampleCacheOptions{/*max_stored_bytes=*/2600, /*compression_level=*/6});
+  EXPECT_EQ(cache->Pin(Key("a"), "").code(), absl::StatusCode::kInvalidArgument);
+  ASSERT_TRUE(cache->Put(Key("a"), random_bytes(), kT0, {}, *job).ok());  // put and pinned at once
+  ASSERT_TRUE(cache->Put(Key("b"), random_bytes(), kT0 + 1).ok());
+  ASSERT_TRUE(cache->Pin(Key("b"), *job).ok());                            // pinned after the fact
+  ASSERT_TRUE(cache->Put(Key("c"), random_bytes(), kT0 + 2).ok());         // over the limit: nothing to evict
+  auto has = [&](const std::string& name) {
+    auto got = cache->Get(Key(name), kT0 + 10);
+    EXPECT_TRUE(got.ok()) << got.status();
+    return got.ok() && got->has_value();
+  };
+  EXPECT_TRUE(has("a"));
+  EXPECT_TRUE(has("b"));
+  EXPECT_TRUE(has("c"));
+  auto stats = cache->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->evictions, 0);
+  EXPECT_GT(stats->stored_bytes, 2600);
+
+  // The job ends: the next Put evicts the least recently used ones again.
+  ASSERT_TRUE((*jobs)->CancelJob(*job, kT0 + 20).ok());
+  ASSERT_TRUE(cache->Put(Key("d"), random_bytes(), kT0 + 21).ok());
+  stats = cache->Stats();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(stats->evictions, 2);
+  EXPECT_LE(stats->stored_bytes, 2600);
+  EXPECT_TRUE(has("d"));
+  auto db = SqliteDb::Open(dir.db());
+  ASSERT_TRUE(db.ok()) << db.status();
+  auto pins = Statement::Prepare(**db, "SELECT COUNT(*) FROM sample_cache_pins");
+  ASSERT_TRUE(pins.ok()) << pins.status();
+  ASSERT_TRUE(pins->Step().ok());
+  EXPECT_EQ(pins->ColumnInt64(0), 0);  // the ended job's pins were dropped
 }
 
 }  // namespace

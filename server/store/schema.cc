@@ -108,6 +108,18 @@ CREATE TABLE workers (
 );
 ALTER TABLE tasks ADD COLUMN stage_finished BLOB;
 )sql",
+    // 5 -> 6: Sample-cache entries pinned by the jobs that use them.
+    R"sql(
+CREATE TABLE sample_cache_pins (
+  job_id         TEXT NOT NULL REFERENCES jobs (id) ON DELETE CASCADE,
+  sequence_hash  TEXT NOT NULL,
+  configuration  TEXT NOT NULL,
+  sample_level   INTEGER NOT NULL,
+  options_hash   TEXT NOT NULL,
+  PRIMARY KEY (job_id, sequence_hash, configuration, sample_level, options_hash)
+);
+CREATE INDEX sample_cache_pins_by_key ON sample_cache_pins (sequence_hash, configuration, sample_level, options_hash);
+)sql",
 };
 static_assert(sizeof(kMigrations) / sizeof(kMigrations[0]) == kSchemaVersion,
               "one migration per schema version");

@@ -35,6 +35,10 @@
 //   tasks.stage_finished: the worker's StageFinished for the task (serialized
 //     mvbrdf.v1.StageFinished, opaque here: seconds and metrics), NULL before;
 //     a watch replays it, so each finished task is one event with its numbers
+// Version 6 (issue #17):
+//   sample_cache_pins(job_id, sequence_hash, configuration, sample_level,
+//     options_hash): a Sample-cache entry a job uses; while the job is queued
+//     or running the cache does not evict the entry (SampleCache::Pin)
 // Times are unix milliseconds.
 #ifndef MVBRDF_SERVER_STORE_SCHEMA_H_
 #define MVBRDF_SERVER_STORE_SCHEMA_H_
@@ -49,7 +53,7 @@
 namespace mvbrdf::store {
 
 // The newest schema this build knows.
-constexpr int kSchemaVersion = 5;
+constexpr int kSchemaVersion = 6;
 
 // Brings the database up to kSchemaVersion. FAILED_PRECONDITION when the file
 // was written by a newer build (its version is above kSchemaVersion).

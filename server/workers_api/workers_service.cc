@@ -320,14 +320,15 @@ absl::Status WorkersService::ReportReactor::CacheGatheredSamples(const std::stri
   MVBRDF_ASSIGN_OR_RETURN(store::Job job, service_->jobs_.GetJob(job_id_));
   MVBRDF_ASSIGN_OR_RETURN(v1::SubmitJobRequest request, RequestOf(job));
   const store::SampleKey key = TriangleSampleKey(job.scene_hash, request);
-  absl::Status put = service_->samples_.Put(key, samples_->bytes, now_ms, samples_->sha256);  // verified above
+  // Pinned for the job: its sweeps and texel passes fetch them later.
+  absl::Status put = service_->samples_.Put(key, samples_->bytes, now_ms, samples_->sha256, job.id);  // verified above
   if (!put.ok()) {
     return FailOnStorage(absl::StrCat("samples: ", samples_->bytes.size(), " bytes of triangle Samples"), put, now_ms);
   }
   // The cameras the Samples were resampled with (issue #14), for a gather
   // answered from the cache.
   put = service_->samples_.Put(CalibrationKey(job.scene_hash, request), gathered.calibration().SerializeAsString(),
-                               now_ms);
+                               now_ms, {}, job.id);
   if (put.ok()) return put;
   return FailOnStorage("result.calibration: the camera refinement", put, now_ms);
 }
@@ -742,6 +743,10 @@ absl::StatusOr<bool> WorkersService::AnswerGatherFromCache(const store::Task& ta
       return false;
     }
   }
+  // The job's later tasks fetch these: keep them from eviction until it ends.
+  // (A failed pin costs at most a regather, RedoDependency's case.)
+  (void)samples_.Pin(key, job.id);
+  (void)samples_.Pin(CalibrationKey(job.scene_hash, request), job.id);
   result.set_samples_sha256(sha256);
   result.set_samples(decoded->num_samples);
   result.set_encoded_bytes((*bytes)->size());

@@ -693,6 +693,16 @@ TEST_F(WorkersServiceTest, GatheredSamplesAreCachedAndAnswerTheNextJobOnTheSameB
   ASSERT_TRUE(cached.ok()) << cached.status();
   ASSERT_TRUE(cached->has_value());
   EXPECT_EQ(**cached, encoded);
+  // Pinned for the job (issue #17): its Samples and its cameras stay cached
+  // until it has ended, whatever else is put meanwhile.
+  const auto pins_of = [this](const std::string& job) {
+    auto db = store::SqliteDb::Open(dir_.db());
+    if (!db.ok()) return int64_t{-1};
+    auto count = store::Statement::Prepare(**db, "SELECT COUNT(*) FROM sample_cache_pins WHERE job_id = ?1");
+    if (!count.ok() || !count->BindText(1, job).ok() || !count->Step().ok()) return int64_t{-1};
+    return count->ColumnInt64(0);
+  };
+  EXPECT_EQ(pins_of(job1), 2);
 
   ASSERT_TRUE(Lease(worker, 0, &leased).ok());
   ASSERT_TRUE(leased.has_task());
@@ -731,6 +741,7 @@ TEST_F(WorkersServiceTest, GatheredSamplesAreCachedAndAnswerTheNextJobOnTheSameB
   EXPECT_EQ(gather2_row->lease_owner, worker);
   EXPECT_TRUE(gather2_row->samples_from_cache);
   EXPECT_TRUE(jobs_->GetTask(sweep2)->samples_from_cache);
+  EXPECT_EQ(pins_of(job2), 2);  // a cache hit pins them for its job too
 
   const std::vector<v1::JobEvent> events = service_->RecordedEvents(job2);
   ASSERT_EQ(events.size(), 3u);
