@@ -104,7 +104,9 @@ constexpr char kF0[] =
 constexpr char kRoughness[] =
     "roughness (--brdf ggx): glTF's perceptual roughness in [0.02, 1]; higher: a broader highlight. After it "
     "F90/F0, the Fresnel curve's rise from normal incidence to grazing (25: a dielectric of index 1.5; 1: a "
-    "metal's flat curve).";
+    "metal's flat curve), and the grazing support: the most grazing geometry the capture saw the lobe in (its "
+    "visibility term's denominator), below which the renderer does not extrapolate the lobe (absent: none, the "
+    "plain lobe is drawn).";
 constexpr char kSamples[] =
     "Samples: one observation of a surface point: its radiance in one camera and frame with the light and view "
     "cosines (per triangle for the light sweep, per texel for the fits).";
@@ -282,6 +284,8 @@ std::string ClustersTable(const v1::RunReport& run) {
     std::string p1 = Rgb(row_ggx ? c.roughness() : c.ke(), row_ggx ? "%.3f" : "%.1f");
     // GGX's third parameter beside its roughness: F90 / F0 (25 a dielectric).
     if (row_ggx && c.f90_ratio_size() > 0) p1 += "; F90/F0 " + Rgb(c.f90_ratio(), "%.1f");
+    // And the grazing support it is drawn within (0: none, the plain lobe).
+    if (row_ggx && c.ggx_grazing_support() > 0.0) p1 += "; grazing support " + F(c.ggx_grazing_support(), "%.3f");
     std::vector<std::string> row = {c.name(), absl::StrCat(c.texels()), Rgb(c.centre())};
     if (per_cluster) {
       row.push_back(c.brdf().empty() ? "-" : c.brdf());

@@ -249,6 +249,29 @@ TEST(ReportPageTest, TinyClusterIsMarked) {
   EXPECT_NE(html.find("<td>tiny</td>", table), std::string::npos);
 }
 
+// Issue #15: a GGX cluster's row names its F90 / F0 and the grazing support it
+// is drawn within; a cluster without support (0) names none.
+TEST(ReportPageTest, GgxClustersShowTheirGrazingSupport) {
+  ReportInputs in = SampleInputs();
+  in.run.set_brdf("ggx");
+  ASSERT_GE(in.run.clusters_size(), 2);
+  for (int k = 0; k < 2; ++k) {
+    v1::ClusterRow* c = in.run.mutable_clusters(k);
+    for (int i = 0; i < 3; ++i) {
+      c->add_f0(0.04);
+      c->add_roughness(0.3);
+      c->add_f90_ratio(25.0);
+    }
+  }
+  in.run.mutable_clusters(0)->set_ggx_grazing_support(0.0123);
+  const std::string html = BuildReportHtml(in);
+  const size_t table = html.find("id=\"clusters\"");
+  ASSERT_NE(table, std::string::npos);
+  EXPECT_NE(html.find("grazing support 0.012", table), std::string::npos);
+  EXPECT_EQ(html.find("grazing support", html.find("grazing support 0.012", table) + 1), std::string::npos)
+      << "only the cluster with a support names one";
+}
+
 // Issue #20: half of the relit sequence was black, the light circling behind
 // the model. The path stays on the camera's side, whichever way the camera
 // looks and whichever axis is up: every light sees the model's camera-facing
