@@ -153,8 +153,9 @@ void main() {
   float inverse_depth = textureLod(u_depth_map, (pinhole + 0.5) / depth_size, 0.0).r;
   if (u_orthographic != 0) inverse_depth = OrthographicInverseDepth(pinhole, inverse_depth);
   if (q.z * inverse_depth > u_depth_scale + u_depth_absolute * inverse_depth) return;  // occluded
-  // (Also where the bilinear map does not lie in front of the texel: at an
-  // occluder's silhouette it mixes the occluder with the surface behind.)
+  // The exact test also where the bilinear map passed the texel by a wide
+  // margin: at an occluder's silhouette it mixes the occluder's depth with
+  // that of the surface behind it.
   int own = texelFetch(u_texel_triangle, texel, 0).r;
   float margin = u_orthographic != 0 ? u_occluder_margin_orthographic : u_occluder_tolerance * q.z;
   if (u_occluder_tolerance >= 0.0 && OccludedExactly(pinhole, own, position.xyz, v, margin)) {
