@@ -413,7 +413,6 @@ absl::StatusOr<SampleSetHeader> ReadHeader(absl::string_view bytes, Reader& r) {
   if (!r.Has(4)) return Truncated("header", r.position(), 4, r.remaining());
   SampleSetHeader header;
   const uint32_t version = r.U32();
-  header.version = version;
   if (version == 1) {
     return absl::DataLossError(
         "sample set encoding: version 1 (dense rows of at most 16 lights) is no longer read; this build reads version "

@@ -213,7 +213,6 @@ absl::StatusOr<SampleSet> DecodeSampleSet(absl::string_view bytes);
 
 // An encoding's header: what DecodeSampleSet would read, without the arrays.
 struct SampleSetHeader {
-  uint32_t version = 0;
   bool compact = false;
   bool has_falloff = false;
   bool half_vector = false;
