@@ -12,6 +12,7 @@
 #include "absl/strings/str_format.h"
 #include "ceres/ceres.h"
 #include "ceres/manifold.h"
+#include "core/calibrate/clustered_covariance.h"
 #include "core/samples/assemble.h"
 #include "core/scene/camera_model.h"
 #include "core/scene/video_source.h"
@@ -123,6 +124,7 @@ struct Parameters {
 struct Problem {
   std::unique_ptr<ceres::Problem> problem;
   std::vector<double*> light_blocks;
+  std::vector<ceres::ResidualBlockId> residuals;  // per observation, in order
 };
 
 Problem Build(const std::vector<Observation>& obs, const Model& model, Parameters* p, bool robust, double loss_scale) {
@@ -145,7 +147,7 @@ Problem Build(const std::vector<Observation>& obs, const Model& model, Parameter
     }
     cost->SetNumResiduals(3);
     ceres::LossFunction* loss = robust ? new ceres::CauchyLoss(loss_scale) : nullptr;
-    problem.AddResidualBlock(cost, loss, blocks);
+    out.residuals.push_back(problem.AddResidualBlock(cost, loss, blocks));
   }
   for (size_t g = 0; g < p->ks.size(); ++g) {
     if (!problem.HasParameterBlock(p->ks[g].data())) continue;
@@ -435,8 +437,7 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
   if (!after.IsSolutionUsable()) return finish(absl::StrCat("the light refinement did not converge: ", after.message));
   const double cost_before = before.final_cost, cost_after = after.final_cost;
 
-  // Covariance of the lights (kd free, ks and ke held), scaled by the
-  // residuals' variance.
+  // Covariance of the lights: kd free, ks and ke held.
   for (size_t g = 0; g < p.ks.size(); ++g) {
     if (!b.problem->HasParameterBlock(p.ks[g].data())) continue;
     b.problem->SetParameterBlockConstant(p.ks[g].data());
@@ -462,21 +463,33 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
       }
     }
   }
-  ceres::Covariance::Options cov_options;
-  cov_options.algorithm_type = ceres::SPARSE_QR;
-  cov_options.num_threads = 1;
-  ceres::Covariance covariance(cov_options);
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (double* blk : b.light_blocks) pairs.emplace_back(blk, blk);
-  if (model.num_lights >= 2) pairs.emplace_back(p.u.data(), p.u.data());
-  bool identifiable = covariance.Compute(pairs, b.problem.get());
-  const double dof = std::max(1.0, 3.0 * static_cast<double>(obs.size()) - 3.0 * chosen.size() -
-                                       3.0 * model.num_lights - (model.num_lights - 1));
-  const double variance = 2.0 * cost_after / dof;
+  // Their covariance: clustered by triangle (clustered_covariance.h; Ceres's
+  // own, scaled by the residuals' variance, was ~9x too small on clean data).
+  std::vector<double*> interest = b.light_blocks;
+  if (model.num_lights >= 2) interest.push_back(p.u.data());
+  std::vector<std::vector<ceres::ResidualBlockId>> clusters(chosen.size());
+  for (size_t i = 0; i < obs.size(); ++i) clusters[obs[i].slot].push_back(b.residuals[i]);
+  const absl::StatusOr<Eigen::MatrixXd> covariance = ClusteredCovariance(*b.problem, interest, clusters);
+  bool identifiable = covariance.ok() && covariance->allFinite() && covariance->rows() > 0;
+  // Column offsets of the blocks in the covariance (tangent spaces).
+  std::map<const double*, int> column;
+  int offset = 0;
+  for (double* blk : interest) {
+    if (!b.problem->HasParameterBlock(blk) || b.problem->IsParameterBlockConstant(blk)) continue;
+    column[blk] = offset;
+    offset += b.problem->ParameterBlockTangentSize(blk);
+  }
   std::vector<double> cu;
   if (identifiable && model.num_lights >= 2) {
-    cu.resize(static_cast<size_t>((model.num_lights - 1) * (model.num_lights - 1)));
-    identifiable = covariance.GetCovarianceBlock(p.u.data(), p.u.data(), cu.data());
+    const int n = model.num_lights - 1;
+    const auto it = column.find(p.u.data());
+    identifiable = it != column.end();
+    if (identifiable) {
+      cu.resize(static_cast<size_t>(n * n));
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) cu[static_cast<size_t>(i * n + j)] = (*covariance)(it->second + i, it->second + j);
+      }
+    }
   }
 
   // Rows.
@@ -491,11 +504,17 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
     const glm::dvec3 q = light.directional ? d : model.centre + model.radius[ks] * glm::normalize(d);
     double sigma2 = std::numeric_limits<double>::infinity();
     double* blk = p.light[ks].data();
-    if (identifiable && b.problem->HasParameterBlock(blk)) {
-      double c[9];
-      if (covariance.GetCovarianceBlock(blk, blk, c)) {
-        // The direction's (radians^2); a point light moves radius times that.
-        sigma2 = variance * (c[0] + c[4] + c[8]) * (light.directional ? 1.0 : model.radius[ks] * model.radius[ks]);
+    if (identifiable && column.count(blk) != 0) {
+      // The direction's (radians^2: the unit vector's covariance, J C J^T
+      // through the sphere's Plus at the solution); a point light moves radius
+      // times that.
+      double plus[6];
+      const double norm = std::sqrt(blk[0] * blk[0] + blk[1] * blk[1] + blk[2] * blk[2]);
+      if (b.problem->GetManifold(blk)->PlusJacobian(blk, plus)) {
+        const Eigen::Map<const Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> j(plus);
+        const Eigen::Matrix3d ambient = j * covariance->block<2, 2>(column.at(blk), column.at(blk)) * j.transpose();
+        sigma2 = ambient.trace() / (norm * norm) *
+                 (light.directional ? 1.0 : model.radius[ks] * model.radius[ks]);
       }
     }
     double change = 0.0, sigma = std::sqrt(sigma2);
@@ -529,7 +548,7 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
         log_scale = -sum;
         for (double v : cu) var += v;
       }
-      log_sigma = identifiable ? std::sqrt(variance * var) : std::numeric_limits<double>::infinity();
+      log_sigma = identifiable ? std::sqrt(var) : std::numeric_limits<double>::infinity();
     }
     const glm::dvec3 i0(light.intensity), i1 = i0 * std::exp(log_scale);
     SetVec3(i0, row->mutable_intensity_before());

@@ -2,7 +2,8 @@
 // configuration's light positions (point lights) or directions (directional
 // lights) and relative intensities refined continuously from the triangle
 // Samples (the thesis's sweep only picks among candidates), with their
-// uncertainty from the solver's covariance.
+// uncertainty from the solver's Jacobians (a covariance clustered by
+// triangle, clustered_covariance.h).
 //
 // The model is the sweep's (shared/NOTES.md, core/samples/sample_set.h): per
 // triangle Sample f_c = sum_k I_kc s_k [kd_c g_k + ks_c a_k h_k^ke] over the

@@ -159,10 +159,14 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   } else if (request.refine_lights == v1::REFINEMENT_ON) {
     skip(Stage::kRefineLights, "no configuration to refine the lights of (lighting per frame or every light on)");
   } else {
-    // Measured (issue #14): the refinement's covariance sigma is ~9x too small
-    // on clean data (the lights move 0.06-0.12 m at 0.015-0.025 m sigma), and
-    // on small scenes the cost rule takes correct lights for wrong ones, so
-    // auto cannot tell when to use it; it costs 9-33 s and a second pass 1.
+    // Measured (issue #14): on correct lights the refinement still moves
+    // them by several sigma: 0.12-0.14 m at 0.023-0.027 m on cli_light_refinement's
+    // small scene (z 4.6-5.3), 0.010-0.042 m at ~0.007 m on the actor 8 x 30
+    // (z 1.4-6.1). The sigma is already clustered by triangle
+    // (clustered_covariance.h; Ceres's own gave 0.015-0.025 m there); the move
+    // is a bias of the triangle-Sample model (one centre and face normal per
+    // triangle) shared by every triangle, which no covariance shows, so
+    // auto cannot tell when to use it. It costs 9-33 s and a second pass 1.
     skip(Stage::kRefineLights,
          "auto: light refinement runs only with --refine-lights on (its uncertainty is not yet calibrated well "
          "enough to decide by itself when the scene's lights are off)");
