@@ -10,9 +10,10 @@
 # the report has its Calibration section.
 # PART (default all): `core` is everything above, `options` the refinement
 # flags (--refine-frames, --refine-focal, --refine-distortion,
-# --refine-photometric); ctest runs the
-# two as cli_calibration and cli_calibration_options, side by side.
-# Usage: cli_calibration_test.sh MVBRDF_BINARY WORK_DIR [all|core|options]
+# --refine-photometric), `hd` the refined cameras within 0.05 deg and 1 mm of
+# the truth where the images hold that (1280x960); ctest runs the three as
+# cli_calibration, cli_calibration_options and cli_calibration_hd.
+# Usage: cli_calibration_test.sh MVBRDF_BINARY WORK_DIR [all|core|options|hd]
 set -u
 bin=$1
 work=$2
@@ -20,6 +21,35 @@ part=${3:-all}
 rm -rf "$work"
 mkdir -p "$work"
 source "$(dirname "$0")/lib.sh"
+
+# Issue #14's "refined cameras within 0.05 deg and 1 mm of the truth" (0.3 deg,
+# 5 mm off), at a resolution whose images hold it. At 320x240 and 3.5 m a
+# millimetre sideways moves the image by ~0.09 px and differs from a turn by a
+# few thousandths of a pixel across the subject's depth: measured on the actor
+# (8 cameras, 8 refinement frames) 0.113 deg / 6.7 mm at worst, with a
+# covariance sigma of 1.1-1.9 mm (the same with the centre's prior 80x weaker:
+# the data, not the prior, hold it); at 1280x960 the same scene and code give
+# 0.0087 deg / 0.53 mm. Here 4 cameras x 4 frames at 1280x960 (~20 s); measured
+# 0.0051-0.0097 deg, 0.38-0.60 mm, reprojection 0.015-0.023 px.
+if [ "$part" = hd ] || [ "$part" = all ]; then
+  "$bin" synth --cameras 4 --frames 4 --width 1280 --height 960 --camera-rotation-error 0.3 \
+    --camera-translation-error 0.005 --out "$work/hd" >/dev/null || exit 1
+  check "1280x960: run --refine-cameras on (light table only)" 0 "refine_cameras" -- \
+    "$bin" run "$work/hd/scene.json" --out "$work/hd_run" --direct --outputs light --refine-cameras on --refine-frames 4
+  "$bin" evaluate "$work/hd_run" --truth "$work/hd" --no-relighting > "$work/eval_hd.json" 2>/dev/null
+  expect "1280x960: every refined camera within 0.05 deg and 1 mm of the truth (was 0.3 deg, 5 mm)" python3 -c '
+import json, sys
+rows = json.load(open(sys.argv[1]))["cameras"]
+for r in rows:
+    print("    %s rotation %.4f -> %.4f deg, centre %.5f -> %.5f, reprojection %.3f -> %.3f px" % (
+        r["name"], r["rotationErrorDegBefore"], r["rotationErrorDegAfter"], r["centreErrorBefore"],
+        r["centreErrorAfter"], r["reprojectionErrorPxBefore"], r["reprojectionErrorPxAfter"]), file=sys.stderr)
+sys.exit(not (len(rows) == 4 and all(abs(r["rotationErrorDegBefore"] - 0.3) < 1e-6 and
+                                     abs(r["centreErrorBefore"] - 0.005) < 1e-6 and
+                                     r["rotationErrorDegAfter"] <= 0.05 and r["centreErrorAfter"] <= 0.001 and
+                                     r["reprojectionErrorPxAfter"] < 0.1 for r in rows)))' "$work/eval_hd.json"
+  [ "$part" = hd ] && { summary; exit; }
+fi
 
 "$bin" synth --width 160 --height 120 --frames 8 --seed 3 --camera-rotation-error 0.3 \
   --camera-translation-error 0.005 --out "$work/rot" >/dev/null || exit 1
