@@ -17,7 +17,9 @@ exported pre-applied, so that this is a check of the C++ too):
     rho_i = r_ic / r_scale - (a G_i + b S_i)
     J = [-G_i, -S_i, -b ke sum_k w_k exp(.) ln h'_ik]
   bounds [0, kd_max / to_orig], [0, ks_max / to_orig], [ln ke_min, ln ke_max]
-  x0: ks, ke from the options, a by least squares with b = 0, clamped.
+  x0: where our LM started (FitPhong's start after its grid over ke, exported
+      per channel); without it, ks, ke from the options, a by least squares
+      with b = 0, clamped.
   cost (original units) = 0.5 sum_i (r_ic - f_ic)^2 = r_scale^2 * 0.5 sum rho_i^2  (Ceres's convention)
 
 Runs per channel: 'trf' with the bounds and the analytic Jacobian, 'trf' with
@@ -206,6 +208,11 @@ def main():
         start = time.perf_counter()
         channels = prepare(os.path.join(args.dir, problem["dir"]), problem, opts)
         prepare_seconds = time.perf_counter() - start
+        # SciPy starts where our LM started: FitPhong's initial grid over ke
+        # (phong_fit.cc InitialSpecular) is part of our time, not of SciPy's.
+        for ch, summary in zip(channels, problem["ours"]["lm"]["channels"]):
+            if "start" in summary:
+                ch.x0 = np.clip(ch.x_of(*summary["start"]), ch.lower, ch.upper)
         # One residual + Jacobian evaluation of channel 0 at x0 (exp() once):
         # the peer's per-evaluation cost, beside BM_PhongResidualBlocks's.
         evals = []
@@ -339,7 +346,7 @@ def print_table(report):
             print(f"{evs:>12} {n['total_seconds']:>7.4f} {n['cost'] / r['ours']['lm']['cost'] - 1:>9.1e}")
         else:
             print()
-    print("our LM over RGB, from Ceres's summary: iterations, residual-only and residual+Jacobian evaluations (each "
+    print("Ceres's LM over RGB (FitPhong's solver before phong_lm.h), from its summary: iterations, residual-only and residual+Jacobian evaluations (each "
           "over all samples, exp() every time),\ntheir time, the linear solver's, Ceres's total; ms per evaluation, "
           "ours and numpy's (residual + Jacobian of one channel, exp() once); SciPy's evaluation counts over RGB;\n"
           "noLS: the same Ceres solve with its projected line search off (max_num_line_search_step_size_iterations = 0):"

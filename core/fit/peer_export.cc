@@ -17,8 +17,9 @@
 //                              params, initial/final cost per channel
 //                              (0.5 * sum of squared residuals, original
 //                              units), iterations, flags, seconds; and
-//                              where our LM spends its time (Ceres's
-//                              evaluation counts and times, see below)
+//                              the same problem through Ceres's LM, as
+//                              FitPhong solved it before the fused LM
+//                              (evaluation counts and times, see below)
 //
 // All .f64 files are little-endian float64, row-major. The clamping of g and
 // h, the fall-off, the normalisation (I_max, r_scale), the log-ke
@@ -169,12 +170,12 @@ Timed TimeFit(const Problem& p, Solver solver, int repeats) {
   return timed;
 }
 
-// Where the LM time goes. FitPhong's Ceres summary is not part of its
-// result, so this rebuilds the same Ceres problem — a copy of phong_fit.cc's
-// Prepare, FitChannel and SolveLevenbergMarquardt for the case of every
-// parameter free, which all these problems are — and reports Ceres's
+// The same problem through Ceres's LM, as FitPhong solved it before its
+// fused LM (core/fit/phong_lm.h): a copy of phong_fit.cc's Prepare and
+// FitChannel for the case of every parameter free, which all these problems
+// are, from the options' initial point (not FitPhong's grid), with Ceres's
 // evaluation counts and times per channel. Its final cost is reported beside
-// FitPhong's so that a drift of this copy from phong_fit.cc shows.
+// FitPhong's.
 //
 // With `projected_line_search` false, the same solve with Ceres's projected
 // line search after each bounded trust-region step turned off
@@ -287,7 +288,8 @@ std::string SolverJson(const Timed& t) {
                                   Num(t.result.params[c].ke), "]"));
     const ChannelFitSummary& s = t.result.channels[c];
     channels.push_back(absl::StrCat("{\"initial_cost\": ", Num(s.initial_cost), ", \"final_cost\": ", Num(s.final_cost),
-                                    ", \"iterations\": ", s.iterations, ", \"flags\": ", s.flags, "}"));
+                                    ", \"iterations\": ", s.iterations, ", \"flags\": ", s.flags, ", \"start\": [",
+                                    Num(s.start[0]), ", ", Num(s.start[1]), ", ", Num(s.start[2]), "]}"));
   }
   std::vector<std::string> seconds;
   for (double s : t.seconds) seconds.push_back(Num(s));

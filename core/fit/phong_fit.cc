@@ -11,8 +11,8 @@
 // Bounds: [0, kd_max A], [0, ks_max A], [ln ke_min, ln ke_max], with A the
 // data's albedo scale (r_rms / G_rms, see FitChannel); kd_max, ks_max and the
 // initial kd, ks are multiples of A, so no bound or starting point assumes
-// data in [0, 1]. Ceres LM enforces them by projection inside its trust
-// region. Powell minimises C(P(x)) with P the clamp to the box (a projection:
+// data in [0, 1]. The LM (phong_lm.h) enforces them by projecting each step
+// onto the box. Powell minimises C(P(x)) with P the clamp to the box (a projection:
 // continuous, piecewise smooth, flat outside the box), and the iterate is
 // projected back after each line minimisation; the bounds are reachable
 // exactly (ks = 0 for a diffuse surface), which a sigmoid map would not allow.
@@ -28,8 +28,8 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
-#include "ceres/ceres.h"
 #include "core/fit/phong_cost.h"
+#include "core/fit/phong_lm.h"
 #include "core/fit/phong_terms.h"
 #include "core/fit/powell.h"
 
@@ -42,11 +42,9 @@ using samples::LightMask;
 using samples::LightSelection;
 using samples::SampleSet;
 
-// Residuals per Ceres residual block (PERF.md: analytic blocks of 1024).
-constexpr size_t kBlockSize = 1024;
 // A fitted parameter within this fraction of its range from a bound is at it.
 constexpr double kAtBoundFraction = 1e-6;
-// Ceres's parameter tolerance (relative step size to stop).
+// The LM's parameter tolerance (relative step size to stop; Ceres's default).
 constexpr double kParameterTolerance = 1e-10;
 
 bool IsFinite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
@@ -158,39 +156,17 @@ class PowellPhongCost {
   double cached_t_ = std::nan("");
 };
 
-// Minimises over the free coordinates of x; returns the iteration count and
-// whether it converged.
+// Minimises over the free coordinates of x (phong_lm.h: one fused pass over
+// the samples per step, Ceres's LM rules).
 void SolveLevenbergMarquardt(const PhongChannelData& data, const bool* free, const double* lower, const double* upper,
                              const PhongFitOptions& options, double* x, ChannelFitSummary* summary) {
-  ceres::Problem problem;
-  for (size_t begin = 0; begin < data.size(); begin += kBlockSize) {
-    const size_t end = std::min(data.size(), begin + kBlockSize);
-    problem.AddResidualBlock(internal::PhongBlockCost::Create(&data, begin, end), nullptr, x);
-  }
-  std::vector<int> constant;
-  for (int j = 0; j < 3; ++j) {
-    if (!free[j]) constant.push_back(j);
-  }
-  if (!constant.empty()) problem.SetManifold(x, new ceres::SubsetManifold(3, constant));
-  for (int j = 0; j < 3; ++j) {
-    if (!free[j]) continue;
-    problem.SetParameterLowerBound(x, j, lower[j]);
-    problem.SetParameterUpperBound(x, j, upper[j]);
-  }
-  ceres::Solver::Options solver_options;
-  solver_options.minimizer_type = ceres::TRUST_REGION;
-  solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  solver_options.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.function_tolerance = options.function_tolerance;
-  solver_options.parameter_tolerance = kParameterTolerance;
-  solver_options.num_threads = 1;
-  solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
-  ceres::Solver::Summary ceres_summary;
-  ceres::Solve(solver_options, &problem, &ceres_summary);
-  summary->iterations = ceres_summary.num_successful_steps + ceres_summary.num_unsuccessful_steps;
-  if (ceres_summary.termination_type != ceres::CONVERGENCE) summary->flags |= kDidNotConverge;
+  internal::PhongLmOptions lm;
+  lm.max_iterations = options.max_iterations;
+  lm.function_tolerance = options.function_tolerance;
+  lm.parameter_tolerance = kParameterTolerance;
+  const internal::PhongLmSummary result = internal::SolvePhongLm(data, free, lower, upper, lm, x);
+  summary->iterations = result.iterations;
+  if (!result.converged) summary->flags |= kDidNotConverge;
 }
 
 void SolvePowell(const PhongChannelData& data, const bool* free, const double* lower, const double* upper,
@@ -228,27 +204,65 @@ void SolvePowell(const PhongChannelData& data, const bool* free, const double* l
 // data's albedo scale LM chose the wrong light configuration on the synth
 // sequence (reconstruct_stage_test) and missed ke by 350 %.
 constexpr int kInitialGrid = 25;
+// The grid's sums are estimated from about this many samples: 25 exp() per
+// term over all of 1e5 samples took 8x the LM's own time (scripts/bench-peer),
+// and the grid only has to find the basin the LM then solves on all samples.
+// Half of them are the samples nearest a mirror highlight (a sharp lobe,
+// ke ~1000, is seen by a few samples only), each with weight 1; the other
+// half every stride-th of the rest, with weight stride: an unbiased estimate
+// of the sums over all samples.
+constexpr size_t kGridSamples = 8192;
 
 void InitialSpecular(const PhongChannelData& data, bool kd_free, const double* lower, const double* upper,
                      const PhongFitOptions& options, double* x) {
   const size_t n = data.size();
+  std::vector<uint32_t> chosen;
+  std::vector<double> weight;
+  if (n <= kGridSamples) {
+    for (size_t i = 0; i < n; ++i) chosen.push_back(static_cast<uint32_t>(i));
+    weight.assign(n, 1.0);
+  } else {
+    std::vector<double> nearest(n, internal::kNoHighlight);  // per sample its largest ln h
+    for (size_t i = 0; i < n; ++i) {
+      for (uint64_t j = data.begin[i]; j < data.begin[i + 1]; ++j) nearest[i] = std::max(nearest[i], data.log_h[j]);
+    }
+    std::vector<double> sorted = nearest;
+    const size_t top = kGridSamples / 2;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(n - top), sorted.end());
+    const double threshold = sorted[n - top];
+    // Ties at the threshold go to the rest, so the top set is at most `top`.
+    size_t rest = 0;
+    for (size_t i = 0; i < n; ++i) rest += nearest[i] > threshold ? 0 : 1;
+    const size_t stride = std::max<size_t>(1, rest / (kGridSamples - top));
+    for (size_t i = 0, k = 0; i < n; ++i) {
+      if (nearest[i] > threshold) {
+        chosen.push_back(static_cast<uint32_t>(i));
+        weight.push_back(1.0);
+      } else if (k++ % stride == 0) {
+        chosen.push_back(static_cast<uint32_t>(i));
+        weight.push_back(static_cast<double>(stride));
+      }
+    }
+  }
   double s_rr = 0.0, s_rg = 0.0, s_gg = 0.0;
-  for (size_t i = 0; i < n; ++i) {
-    s_rr += data.r[i] * data.r[i];
-    s_rg += data.r[i] * data.diffuse[i];
-    s_gg += data.diffuse[i] * data.diffuse[i];
+  for (size_t m = 0; m < chosen.size(); ++m) {
+    const size_t i = chosen[m];
+    s_rr += weight[m] * data.r[i] * data.r[i];
+    s_rg += weight[m] * data.r[i] * data.diffuse[i];
+    s_gg += weight[m] * data.diffuse[i] * data.diffuse[i];
   }
   double best = std::numeric_limits<double>::infinity();
   const double t_min = std::log(options.ke_min), t_max = std::log(options.ke_max);
   for (int j = 0; j < kInitialGrid; ++j) {
     const double t = t_min + (t_max - t_min) * j / (kInitialGrid - 1);
     double s_rs = 0.0, s_gs = 0.0, s_ss = 0.0;
-    for (size_t i = 0; i < n; ++i) {
+    for (size_t m = 0; m < chosen.size(); ++m) {
+      const size_t i = chosen[m];
       double sp, d;
       internal::SpecularSums(data, i, std::exp(t), &sp, &d);
-      s_rs += data.r[i] * sp;
-      s_gs += data.diffuse[i] * sp;
-      s_ss += sp * sp;
+      s_rs += weight[m] * data.r[i] * sp;
+      s_gs += weight[m] * data.diffuse[i] * sp;
+      s_ss += weight[m] * sp * sp;
     }
     const auto cost = [&](double a, double b) {
       return s_rr - 2.0 * a * s_rg - 2.0 * b * s_rs + a * a * s_gg + 2.0 * a * b * s_gs + b * b * s_ss;
@@ -391,6 +405,7 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   const double x0[3] = {x[0], x[1], x[2]};
 
   out.summary.initial_cost = PhongCost(data, x) * r_scale * r_scale;
+  out.summary.start = {x[0] * to_original, x[1] * to_original, std::exp(x[2])};
   const auto solve = [&]() {
     if (options.solver == Solver::kPowell) {
       SolvePowell(data, free, lower, upper, options, x, &out.summary);

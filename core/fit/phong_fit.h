@@ -106,6 +106,9 @@ enum FitFlag : uint32_t {
 struct ChannelFitSummary {
   double initial_cost = 0.0;  // 0.5 * sum of squared residuals
   double final_cost = 0.0;
+  // kd, ks, ke the solver started from (after the initial grid over ke),
+  // where initial_cost is taken.
+  std::array<double, 3> start = {0.0, 0.0, 0.0};
   int iterations = 0;
   uint32_t flags = kFitOk;
   // Robust fits: the residual scale sigma (units of the reflectance) and the
