@@ -1,14 +1,75 @@
 #include "core/calibrate/clustered_covariance.h"
 
-#include <Eigen/Eigenvalues>
-#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
 #include <map>
 
 #include "absl/strings/str_cat.h"
 
 namespace mvbrdf::calibrate {
+namespace {
 
-absl::StatusOr<Eigen::MatrixXd> ClusteredCovariance(ceres::Problem& problem, const std::vector<double*>& interest,
+// Row-major dense matrices as plain vectors (see the header on Eigen).
+using Dense = std::vector<double>;
+
+// The pseudo-inverse of the symmetric positive semi-definite n x n `a`
+// (cyclic Jacobi rotations; eigenvalues below `relative` of the largest are
+// taken as 0); `rank` gets how many were kept.
+Dense PseudoInverse(int n, Dense a, double relative, int* rank = nullptr) {
+  Dense v(static_cast<size_t>(n * n), 0.0);
+  for (int i = 0; i < n; ++i) v[static_cast<size_t>(i * n + i)] = 1.0;
+  const auto at = [n](Dense& m, int i, int j) -> double& { return m[static_cast<size_t>(i * n + j)]; };
+  for (int sweep = 0; sweep < 100; ++sweep) {
+    double off = 0.0, diag = 0.0;
+    for (int i = 0; i < n; ++i) {
+      diag += at(a, i, i) * at(a, i, i);
+      for (int j = i + 1; j < n; ++j) off += at(a, i, j) * at(a, i, j);
+    }
+    if (off <= 1e-30 * diag || off == 0.0) break;
+    for (int p = 0; p < n; ++p) {
+      for (int q = p + 1; q < n; ++q) {
+        const double apq = at(a, p, q);
+        if (apq == 0.0) continue;
+        const double theta = (at(a, q, q) - at(a, p, p)) / (2.0 * apq);
+        const double t = (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1.0));
+        const double c = 1.0 / std::sqrt(t * t + 1.0), s = t * c;
+        for (int k = 0; k < n; ++k) {  // a <- a J (columns p, q)
+          const double akp = at(a, k, p), akq = at(a, k, q);
+          at(a, k, p) = c * akp - s * akq;
+          at(a, k, q) = s * akp + c * akq;
+        }
+        for (int k = 0; k < n; ++k) {  // a <- J^T a (rows p, q)
+          const double apk = at(a, p, k), aqk = at(a, q, k);
+          at(a, p, k) = c * apk - s * aqk;
+          at(a, q, k) = s * apk + c * aqk;
+        }
+        for (int k = 0; k < n; ++k) {  // v <- v J
+          const double vkp = at(v, k, p), vkq = at(v, k, q);
+          at(v, k, p) = c * vkp - s * vkq;
+          at(v, k, q) = s * vkp + c * vkq;
+        }
+      }
+    }
+  }
+  double largest = 0.0;
+  for (int i = 0; i < n; ++i) largest = std::max(largest, at(a, i, i));
+  Dense out(static_cast<size_t>(n * n), 0.0);
+  int kept = 0;
+  for (int k = 0; k < n; ++k) {
+    const double lambda = at(a, k, k);
+    if (!(largest > 0.0) || !(lambda > relative * largest)) continue;
+    ++kept;
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) at(out, i, j) += at(v, i, k) * at(v, j, k) / lambda;
+    }
+  }
+  if (rank != nullptr) *rank = kept;
+  return out;
+}
+
+}  // namespace
+
+absl::StatusOr<SymmetricMatrix> ClusteredCovariance(ceres::Problem& problem, const std::vector<double*>& interest,
                                                     const std::vector<std::vector<ceres::ResidualBlockId>>& clusters) {
   // Columns of interest: the tangent spaces of the variable blocks, stacked.
   std::map<const double*, int> interest_column;
@@ -18,16 +79,21 @@ absl::StatusOr<Eigen::MatrixXd> ClusteredCovariance(ceres::Problem& problem, con
     interest_column[block] = m;
     m += problem.ParameterBlockTangentSize(block);
   }
-  if (m == 0) return Eigen::MatrixXd();
+  SymmetricMatrix result;
+  if (m == 0) return result;
 
+  // Per cluster only its Gram sums are needed: with A its nuisance columns,
+  // B the columns of interest and P = A (A^T A)^+ A^T,
+  //   B~^T B~ = B^T B - (A^T B)^T (A^T A)^+ (A^T B),
+  //   s = B~^T r~ = B^T r - (A^T B)^T (A^T A)^+ (A^T r).
   std::map<const double*, size_t> owner;  // nuisance block -> its cluster
-  Eigen::MatrixXd h = Eigen::MatrixXd::Zero(m, m), meat = Eigen::MatrixXd::Zero(m, m);
+  Dense h(static_cast<size_t>(m * m), 0.0), meat(static_cast<size_t>(m * m), 0.0);
   int groups = 0;
   std::vector<double*> blocks;
   for (size_t c = 0; c < clusters.size(); ++c) {
-    // This cluster's nuisance columns and its rows.
     std::map<const double*, int> nuisance_column;
-    int p = 0, n = 0;
+    int p = 0;
+    size_t rows_total = 0;
     for (ceres::ResidualBlockId id : clusters[c]) {
       problem.GetParameterBlocksForResidualBlock(id, &blocks);
       for (double* block : blocks) {
@@ -40,13 +106,13 @@ absl::StatusOr<Eigen::MatrixXd> ClusteredCovariance(ceres::Problem& problem, con
         }
         if (nuisance_column.emplace(block, p).second) p += problem.ParameterBlockTangentSize(block);
       }
-      n += problem.GetCostFunctionForResidualBlock(id)->num_residuals();
+      rows_total += static_cast<size_t>(problem.GetCostFunctionForResidualBlock(id)->num_residuals());
     }
-    if (n == 0) continue;
+    if (rows_total == 0) continue;
     ++groups;
-    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n, p), b = Eigen::MatrixXd::Zero(n, m);
-    Eigen::VectorXd r(n);
-    int row = 0;
+    Dense aa(static_cast<size_t>(p * p), 0.0), ab(static_cast<size_t>(p * m), 0.0), bb(static_cast<size_t>(m * m), 0.0);
+    std::vector<double> ar(static_cast<size_t>(p), 0.0), br(static_cast<size_t>(m), 0.0);
+    std::vector<double> row_a(static_cast<size_t>(p)), row_b(static_cast<size_t>(m));
     for (ceres::ResidualBlockId id : clusters[c]) {
       problem.GetParameterBlocksForResidualBlock(id, &blocks);
       const int rows = problem.GetCostFunctionForResidualBlock(id)->num_residuals();
@@ -63,40 +129,91 @@ absl::StatusOr<Eigen::MatrixXd> ClusteredCovariance(ceres::Problem& problem, con
                                          jacobian_ptr.data())) {
         return absl::InternalError("clustered covariance: a residual block could not be evaluated");
       }
-      for (int k = 0; k < rows; ++k) r(row + k) = residual[static_cast<size_t>(k)];
-      for (size_t i = 0; i < blocks.size(); ++i) {
-        if (jacobian_ptr[i] == nullptr) continue;
-        const int size = problem.ParameterBlockTangentSize(blocks[i]);
-        const auto in = interest_column.find(blocks[i]);
-        Eigen::MatrixXd& target = in != interest_column.end() ? b : a;
-        const int column = in != interest_column.end() ? in->second : nuisance_column.at(blocks[i]);
-        for (int k = 0; k < rows; ++k) {
-          for (int j = 0; j < size; ++j) target(row + k, column + j) += jacobian[i][static_cast<size_t>(k * size + j)];
+      for (int k = 0; k < rows; ++k) {
+        std::fill(row_a.begin(), row_a.end(), 0.0);
+        std::fill(row_b.begin(), row_b.end(), 0.0);
+        for (size_t i = 0; i < blocks.size(); ++i) {
+          if (jacobian_ptr[i] == nullptr) continue;
+          const int size = problem.ParameterBlockTangentSize(blocks[i]);
+          const auto in = interest_column.find(blocks[i]);
+          std::vector<double>& target = in != interest_column.end() ? row_b : row_a;
+          const int column = in != interest_column.end() ? in->second : nuisance_column.at(blocks[i]);
+          for (int j = 0; j < size; ++j) {
+            target[static_cast<size_t>(column + j)] += jacobian[i][static_cast<size_t>(k * size + j)];
+          }
+        }
+        const double rk = residual[static_cast<size_t>(k)];
+        for (int i = 0; i < p; ++i) {
+          const double ai = row_a[static_cast<size_t>(i)];
+          if (ai == 0.0) continue;
+          ar[static_cast<size_t>(i)] += ai * rk;
+          for (int j = 0; j < p; ++j) aa[static_cast<size_t>(i * p + j)] += ai * row_a[static_cast<size_t>(j)];
+          for (int j = 0; j < m; ++j) ab[static_cast<size_t>(i * m + j)] += ai * row_b[static_cast<size_t>(j)];
+        }
+        for (int i = 0; i < m; ++i) {
+          const double bi = row_b[static_cast<size_t>(i)];
+          if (bi == 0.0) continue;
+          br[static_cast<size_t>(i)] += bi * rk;
+          for (int j = 0; j < m; ++j) bb[static_cast<size_t>(i * m + j)] += bi * row_b[static_cast<size_t>(j)];
         }
       }
-      row += rows;
     }
+    std::vector<double> score = br;
     if (p > 0) {
-      // Profile the cluster's own parameters out: remove the projection on A.
-      const Eigen::MatrixXd pinv = (a.transpose() * a).completeOrthogonalDecomposition().pseudoInverse();
-      b -= a * (pinv * (a.transpose() * b));
-      r -= a * (pinv * (a.transpose() * r));
+      // Profile the cluster's own parameters out.
+      const Dense pinv = PseudoInverse(p, aa, 1e-12);
+      Dense pab(static_cast<size_t>(p * m), 0.0);  // (A^T A)^+ A^T B
+      std::vector<double> par(static_cast<size_t>(p), 0.0);
+      for (int i = 0; i < p; ++i) {
+        for (int k = 0; k < p; ++k) {
+          const double v = pinv[static_cast<size_t>(i * p + k)];
+          par[static_cast<size_t>(i)] += v * ar[static_cast<size_t>(k)];
+          for (int j = 0; j < m; ++j) pab[static_cast<size_t>(i * m + j)] += v * ab[static_cast<size_t>(k * m + j)];
+        }
+      }
+      for (int i = 0; i < m; ++i) {
+        for (int k = 0; k < p; ++k) {
+          const double abki = ab[static_cast<size_t>(k * m + i)];
+          score[static_cast<size_t>(i)] -= abki * par[static_cast<size_t>(k)];
+          for (int j = 0; j < m; ++j) bb[static_cast<size_t>(i * m + j)] -= abki * pab[static_cast<size_t>(k * m + j)];
+        }
+      }
     }
-    h += b.transpose() * b;
-    const Eigen::VectorXd score = b.transpose() * r;
-    meat += score * score.transpose();
+    for (size_t i = 0; i < h.size(); ++i) h[i] += bb[i];
+    for (int i = 0; i < m; ++i) {
+      for (int j = 0; j < m; ++j) {
+        meat[static_cast<size_t>(i * m + j)] += score[static_cast<size_t>(i)] * score[static_cast<size_t>(j)];
+      }
+    }
   }
   if (groups < 2) {
     return absl::InvalidArgumentError("clustered covariance: fewer than two clusters have residuals");
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(h);
-  const Eigen::VectorXd& lambda = eigen.eigenvalues();  // ascending
-  if (!(lambda(m - 1) > 0.0) || !(lambda(0) > 1e-12 * lambda(m - 1))) {
+  int rank = 0;
+  const Dense h_inverse = PseudoInverse(m, h, 1e-12, &rank);
+  if (rank < m) {
     return absl::FailedPreconditionError("clustered covariance: the parameters of interest are not identifiable");
   }
-  const Eigen::MatrixXd h_inverse = eigen.eigenvectors() * lambda.cwiseInverse().asDiagonal() *
-                                    eigen.eigenvectors().transpose();
-  return (h_inverse * meat * h_inverse) * (static_cast<double>(groups) / (groups - 1.0));
+  // H^-1 M H^-1, times G / (G - 1).
+  Dense left(static_cast<size_t>(m * m), 0.0);
+  for (int i = 0; i < m; ++i) {
+    for (int k = 0; k < m; ++k) {
+      const double v = h_inverse[static_cast<size_t>(i * m + k)];
+      for (int j = 0; j < m; ++j) left[static_cast<size_t>(i * m + j)] += v * meat[static_cast<size_t>(k * m + j)];
+    }
+  }
+  const double correction = static_cast<double>(groups) / (groups - 1.0);
+  result.size = m;
+  result.values.assign(static_cast<size_t>(m * m), 0.0);
+  for (int i = 0; i < m; ++i) {
+    for (int k = 0; k < m; ++k) {
+      const double v = left[static_cast<size_t>(i * m + k)];
+      for (int j = 0; j < m; ++j) {
+        result.values[static_cast<size_t>(i * m + j)] += v * h_inverse[static_cast<size_t>(k * m + j)] * correction;
+      }
+    }
+  }
+  return result;
 }
 
 }  // namespace mvbrdf::calibrate

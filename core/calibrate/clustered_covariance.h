@@ -17,17 +17,29 @@
 // blocks of interest may be touched by any cluster. Jacobians and residuals
 // are Ceres's with the loss function applied (so robust fits are covered) and
 // in each block's tangent space (a direction on the unit sphere has 2 columns).
+// No dynamic-size Eigen here: Debian's libceres calls Eigen templates it
+// does not inline (ColPivHouseholderQR's constructor in its dense SVD), and
+// an instantiation of ours in the executable preempts its own; under ASan
+// ours allocates with Eigen's handmade aligned malloc and libceres frees with
+// free() (the sanitizer suite's bad-free in RefineCameras' covariance when
+// this file used Eigen::MatrixXd and its complete orthogonal decomposition).
 #ifndef MVBRDF_CORE_CALIBRATE_CLUSTERED_COVARIANCE_H_
 #define MVBRDF_CORE_CALIBRATE_CLUSTERED_COVARIANCE_H_
 
 #include <ceres/ceres.h>
 
-#include <Eigen/Core>
 #include <vector>
 
 #include "absl/status/statusor.h"
 
 namespace mvbrdf::calibrate {
+
+// A symmetric n x n matrix, row-major.
+struct SymmetricMatrix {
+  int size = 0;
+  std::vector<double> values;
+  double operator()(int i, int j) const { return values[static_cast<size_t>(i * size + j)]; }
+};
 
 // The covariance of `interest` (their tangent spaces stacked in that order;
 // blocks held constant contribute no columns) from the residual blocks of
@@ -35,7 +47,7 @@ namespace mvbrdf::calibrate {
 // when a block not of interest is touched by two clusters or when fewer than
 // two clusters have residuals; FAILED_PRECONDITION when the interest is not
 // identifiable (H singular to 1e-12 of its largest eigenvalue).
-absl::StatusOr<Eigen::MatrixXd> ClusteredCovariance(ceres::Problem& problem, const std::vector<double*>& interest,
+absl::StatusOr<SymmetricMatrix> ClusteredCovariance(ceres::Problem& problem, const std::vector<double*>& interest,
                                                     const std::vector<std::vector<ceres::ResidualBlockId>>& clusters);
 
 }  // namespace mvbrdf::calibrate

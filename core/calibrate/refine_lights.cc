@@ -469,8 +469,10 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
   if (model.num_lights >= 2) interest.push_back(p.u.data());
   std::vector<std::vector<ceres::ResidualBlockId>> clusters(chosen.size());
   for (size_t i = 0; i < obs.size(); ++i) clusters[obs[i].slot].push_back(b.residuals[i]);
-  const absl::StatusOr<Eigen::MatrixXd> covariance = ClusteredCovariance(*b.problem, interest, clusters);
-  bool identifiable = covariance.ok() && covariance->allFinite() && covariance->rows() > 0;
+  const absl::StatusOr<SymmetricMatrix> covariance = ClusteredCovariance(*b.problem, interest, clusters);
+  bool identifiable = covariance.ok() && covariance->size > 0 &&
+                      std::all_of(covariance->values.begin(), covariance->values.end(),
+                                  [](double v) { return std::isfinite(v); });
   // Column offsets of the blocks in the covariance (tangent spaces).
   std::map<const double*, int> column;
   int offset = 0;
@@ -508,13 +510,17 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
       // The direction's (radians^2: the unit vector's covariance, J C J^T
       // through the sphere's Plus at the solution); a point light moves radius
       // times that.
-      double plus[6];
+      double plus[6];  // 3 x 2, row-major
       const double norm = std::sqrt(blk[0] * blk[0] + blk[1] * blk[1] + blk[2] * blk[2]);
       if (b.problem->GetManifold(blk)->PlusJacobian(blk, plus)) {
-        const Eigen::Map<const Eigen::Matrix<double, 3, 2, Eigen::RowMajor>> j(plus);
-        const Eigen::Matrix3d ambient = j * covariance->block<2, 2>(column.at(blk), column.at(blk)) * j.transpose();
-        sigma2 = ambient.trace() / (norm * norm) *
-                 (light.directional ? 1.0 : model.radius[ks] * model.radius[ks]);
+        const int o = column.at(blk);
+        double trace = 0.0;  // of J C J^T
+        for (int r = 0; r < 3; ++r) {
+          for (int i = 0; i < 2; ++i) {
+            for (int j = 0; j < 2; ++j) trace += plus[r * 2 + i] * (*covariance)(o + i, o + j) * plus[r * 2 + j];
+          }
+        }
+        sigma2 = trace / (norm * norm) * (light.directional ? 1.0 : model.radius[ks] * model.radius[ks]);
       }
     }
     double change = 0.0, sigma = std::sqrt(sigma2);
