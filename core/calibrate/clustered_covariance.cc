@@ -69,18 +69,22 @@ Dense PseudoInverse(int n, Dense a, double relative, int* rank = nullptr) {
 
 }  // namespace
 
-absl::StatusOr<SymmetricMatrix> ClusteredCovariance(ceres::Problem& problem, const std::vector<double*>& interest,
+absl::StatusOr<ClusteredCovarianceResult> ClusteredCovariance(ceres::Problem& problem, const std::vector<double*>& interest,
                                                     const std::vector<std::vector<ceres::ResidualBlockId>>& clusters) {
   // Columns of interest: the tangent spaces of the variable blocks, stacked.
+  ClusteredCovarianceResult out;
   std::map<const double*, int> interest_column;
   int m = 0;
   for (double* block : interest) {
-    if (!problem.HasParameterBlock(block) || problem.IsParameterBlockConstant(block)) continue;
+    if (!problem.HasParameterBlock(block) || problem.IsParameterBlockConstant(block)) {
+      out.offset.push_back(-1);
+      continue;
+    }
+    out.offset.push_back(m);
     interest_column[block] = m;
     m += problem.ParameterBlockTangentSize(block);
   }
-  SymmetricMatrix result;
-  if (m == 0) return result;
+  if (m == 0) return out;
 
   // Per cluster only its Gram sums are needed: with A its nuisance columns,
   // B the columns of interest and P = A (A^T A)^+ A^T,
@@ -203,6 +207,7 @@ absl::StatusOr<SymmetricMatrix> ClusteredCovariance(ceres::Problem& problem, con
     }
   }
   const double correction = static_cast<double>(groups) / (groups - 1.0);
+  SymmetricMatrix& result = out.covariance;
   result.size = m;
   result.values.assign(static_cast<size_t>(m * m), 0.0);
   for (int i = 0; i < m; ++i) {
@@ -213,7 +218,7 @@ absl::StatusOr<SymmetricMatrix> ClusteredCovariance(ceres::Problem& problem, con
       }
     }
   }
-  return result;
+  return out;
 }
 
 }  // namespace mvbrdf::calibrate

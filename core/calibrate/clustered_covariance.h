@@ -41,13 +41,21 @@ struct SymmetricMatrix {
   double operator()(int i, int j) const { return values[static_cast<size_t>(i * size + j)]; }
 };
 
+// ClusteredCovariance's result: the covariance and, per block of interest
+// (in the order given), its first row and column in it (-1: held constant
+// or not in the problem, no rows).
+struct ClusteredCovarianceResult {
+  SymmetricMatrix covariance;
+  std::vector<int> offset;
+};
+
 // The covariance of `interest` (their tangent spaces stacked in that order;
 // blocks held constant contribute no columns) from the residual blocks of
 // `clusters`. Residual blocks in no cluster are left out. INVALID_ARGUMENT
 // when a block not of interest is touched by two clusters or when fewer than
 // two clusters have residuals; FAILED_PRECONDITION when the interest is not
 // identifiable (H singular to 1e-12 of its largest eigenvalue).
-absl::StatusOr<SymmetricMatrix> ClusteredCovariance(ceres::Problem& problem, const std::vector<double*>& interest,
+absl::StatusOr<ClusteredCovarianceResult> ClusteredCovariance(ceres::Problem& problem, const std::vector<double*>& interest,
                                                     const std::vector<std::vector<ceres::ResidualBlockId>>& clusters);
 
 }  // namespace mvbrdf::calibrate

@@ -54,9 +54,9 @@ Fit FitOnce(std::mt19937& rng, int clusters, int n, double shared, double noise)
   if (covariance.Compute(blocks, &problem) && covariance.GetCovarianceBlock(&b, &b, &cb)) {
     fit.naive_sigma = std::sqrt(cb * 2.0 * summary.final_cost / (clusters * n - clusters - 1.0));
   }
-  const absl::StatusOr<SymmetricMatrix> c = ClusteredCovariance(problem, {&b}, ids);
+  const absl::StatusOr<ClusteredCovarianceResult> c = ClusteredCovariance(problem, {&b}, ids);
   fit.code = c.status().code();
-  if (c.ok()) fit.sandwich_sigma = std::sqrt((*c)(0, 0));
+  if (c.ok()) fit.sandwich_sigma = std::sqrt(c->covariance(0, 0));
   return fit;
 }
 

@@ -469,17 +469,17 @@ absl::Status RefineLights(const scene::Sequence& sequence, const samples::Sample
   if (model.num_lights >= 2) interest.push_back(p.u.data());
   std::vector<std::vector<ceres::ResidualBlockId>> clusters(chosen.size());
   for (size_t i = 0; i < obs.size(); ++i) clusters[obs[i].slot].push_back(b.residuals[i]);
-  const absl::StatusOr<SymmetricMatrix> covariance = ClusteredCovariance(*b.problem, interest, clusters);
-  bool identifiable = covariance.ok() && covariance->size > 0 &&
+  const absl::StatusOr<ClusteredCovarianceResult> clustered = ClusteredCovariance(*b.problem, interest, clusters);
+  const SymmetricMatrix* covariance = clustered.ok() ? &clustered->covariance : nullptr;
+  bool identifiable = covariance != nullptr && covariance->size > 0 &&
                       std::all_of(covariance->values.begin(), covariance->values.end(),
                                   [](double v) { return std::isfinite(v); });
-  // Column offsets of the blocks in the covariance (tangent spaces).
+  // Where each block of interest lies in the covariance (-1: held).
   std::map<const double*, int> column;
-  int offset = 0;
-  for (double* blk : interest) {
-    if (!b.problem->HasParameterBlock(blk) || b.problem->IsParameterBlockConstant(blk)) continue;
-    column[blk] = offset;
-    offset += b.problem->ParameterBlockTangentSize(blk);
+  if (clustered.ok()) {
+    for (size_t i = 0; i < interest.size(); ++i) {
+      if (clustered->offset[i] >= 0) column[interest[i]] = clustered->offset[i];
+    }
   }
   std::vector<double> cu;
   if (identifiable && model.num_lights >= 2) {

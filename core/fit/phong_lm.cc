@@ -14,24 +14,27 @@ struct Normal {
 };
 
 Normal Evaluate(const PhongChannelData& data, const double* x) {
-  const double a = x[0], b = x[1], ke = std::exp(x[2]);
-  const bool weighted = !data.sqrt_weight.empty();
-  double c = 0, h00 = 0, h01 = 0, h02 = 0, h11 = 0, h12 = 0, h22 = 0, g0 = 0, g1 = 0, g2 = 0;
-  for (size_t i = 0; i < data.size(); ++i) {
-    double s, d;
-    SpecularSums(data, i, ke, &s, &d);
-    const double w = weighted ? data.sqrt_weight[i] : 1.0;
-    const double rho = w * (data.r[i] - (a * data.diffuse[i] + b * s));
-    const double j0 = -w * data.diffuse[i], j1 = -w * s, j2 = -w * b * d * ke;
-    c += rho * rho;
-    h00 += j0 * j0, h01 += j0 * j1, h02 += j0 * j2, h11 += j1 * j1, h12 += j1 * j2, h22 += j2 * j2;
-    g0 += j0 * rho, g1 += j1 * rho, g2 += j2 * rho;
-  }
+  // The residuals and Jacobian rows of phong_cost.h, a chunk at a time.
+  constexpr size_t kChunk = 1024;
+  double rho[kChunk], jacobian[3 * kChunk];
   Normal n;
+  double c = 0.0;
+  for (size_t begin = 0; begin < data.size(); begin += kChunk) {
+    const size_t end = std::min(data.size(), begin + kChunk);
+    EvaluatePhongResiduals(data, begin, end, x, rho, jacobian);
+    for (size_t i = 0; i < end - begin; ++i) {
+      const double* row = jacobian + 3 * i;
+      c += rho[i] * rho[i];
+      for (int r = 0; r < 3; ++r) {
+        n.g[r] += row[r] * rho[i];
+        for (int k = r; k < 3; ++k) n.h[r][k] += row[r] * row[k];
+      }
+    }
+  }
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < r; ++k) n.h[r][k] = n.h[k][r];
+  }
   n.cost = 0.5 * c;
-  n.h[0][0] = h00, n.h[0][1] = n.h[1][0] = h01, n.h[0][2] = n.h[2][0] = h02;
-  n.h[1][1] = h11, n.h[1][2] = n.h[2][1] = h12, n.h[2][2] = h22;
-  n.g[0] = g0, n.g[1] = g1, n.g[2] = g2;
   return n;
 }
 
