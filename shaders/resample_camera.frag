@@ -11,10 +11,11 @@ layout(binding = 2) uniform sampler2D u_depth_map;     // R32F: 1 / eye z of the
 layout(binding = 3) uniform sampler2D u_frame;         // RGB32F linear, row 0 = image top, bilinear
 layout(binding = 4) uniform isampler2D u_texel_triangle;  // R32I: the texel's drawn triangle (-1: none)
 layout(binding = 5) uniform isampler2D u_pixel_triangle;  // R32I, depth-map pixels: drawn triangle (-1: none)
-// The posed mesh as drawn: render-vertex positions (xyz, world units) and the
-// drawn triangles' vertex indices, indexed by gl_PrimitiveID.
-layout(std430, binding = 1) readonly buffer Positions { float u_positions[]; };
-layout(std430, binding = 2) readonly buffer Indices { uint u_indices[]; };
+// The posed mesh as drawn, per drawn triangle (indexed by gl_PrimitiveID)
+// its three corners: positions (xyz world units, w = 1) and position ids
+// (equal ids: equal positions, across UV seams too).
+layout(std430, binding = 1) readonly buffer Corners { vec4 u_corners[]; };
+layout(std430, binding = 2) readonly buffer CornerIds { uint u_corner_ids[]; };
 
 layout(location = 0) uniform mat4 u_cam_from_world;
 // The viewpoint, homogeneous (scene::CameraModel::ViewOrigin): (centre, 1) for
@@ -55,17 +56,13 @@ float OrthographicInverseDepth(vec2 pixel, float bilinear) {
   return 1.0 / z;
 }
 
-vec3 VertexPosition(uint v) {
-  return vec3(u_positions[3u * v], u_positions[3u * v + 1u], u_positions[3u * v + 2u]);
-}
-
 // Distance along the ray origin + s * direction (unit) at which it crosses
 // drawn triangle t (Moller-Trumbore); -1 when it misses.
 float RayCrossing(int t, vec3 origin, vec3 direction) {
   uint base = 3u * uint(t);
-  vec3 a = VertexPosition(u_indices[base]);
-  vec3 e1 = VertexPosition(u_indices[base + 1u]) - a;
-  vec3 e2 = VertexPosition(u_indices[base + 2u]) - a;
+  vec3 a = u_corners[base].xyz;
+  vec3 e1 = u_corners[base + 1u].xyz - a;
+  vec3 e2 = u_corners[base + 2u].xyz - a;
   vec3 p = cross(direction, e2);
   float det = dot(e1, p);
   if (abs(det) < 1e-30) return -1.0;  // the ray lies in the triangle's plane
@@ -100,11 +97,9 @@ bool OccludedExactly(vec2 pinhole, int own, vec3 point, vec3 towards, float marg
 bool Adjacent(int own, int other) {
   if (own == other) return true;
   uint a = 3u * uint(own), b = 3u * uint(other);
+  uvec3 ids = uvec3(u_corner_ids[b], u_corner_ids[b + 1u], u_corner_ids[b + 2u]);
   for (uint i = 0u; i < 3u; ++i) {
-    vec3 pa = VertexPosition(u_indices[a + i]);
-    for (uint j = 0u; j < 3u; ++j) {
-      if (pa == VertexPosition(u_indices[b + j])) return true;
-    }
+    if (any(equal(uvec3(u_corner_ids[a + i]), ids))) return true;
   }
   return false;
 }
@@ -116,7 +111,7 @@ bool Adjacent(int own, int other) {
 // (a crease's neighbour lies in front of the plane but is the same surface).
 bool ShowsAnotherPartInFront(ivec2 d, int own, vec3 q, vec3 nc, float margin) {
   int t = texelFetch(u_pixel_triangle, d, 0).r;
-  if (t < 0 || own < 0 || Adjacent(own, t)) return false;
+  if (t < 0 || own < 0 || t == own) return false;
   vec2 xy = (vec2(d) - u_depth_principal) / u_intrinsics.xy;
   vec3 origin = u_orthographic != 0 ? vec3(xy, 0.0) : vec3(0.0);
   vec3 direction = u_orthographic != 0 ? vec3(0.0, 0.0, 1.0) : vec3(xy, 1.0);
@@ -124,7 +119,8 @@ bool ShowsAnotherPartInFront(ivec2 d, int own, vec3 q, vec3 nc, float margin) {
   if (!(slope < -1e-3 * length(direction))) return false;  // the plane is edge-on there
   float plane_z = dot(nc, q - origin) / slope;
   float pixel_z = 1.0 / texelFetch(u_depth_map, d, 0).r;
-  return pixel_z < plane_z - margin;
+  // The neighbour test last: it reads both triangles' vertices.
+  return pixel_z < plane_z - margin && !Adjacent(own, t);
 }
 
 void main() {

@@ -1,11 +1,14 @@
 #include "core/resample/resampler.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <glm/gtc/type_ptr.hpp>
 #include <limits>
 #include <opencv2/imgproc.hpp>
+#include <unordered_map>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -19,6 +22,20 @@
 
 namespace mvbrdf::resample {
 namespace {
+
+uint32_t FloatBits(float f) {
+  uint32_t bits;
+  std::memcpy(&bits, &f, sizeof(bits));
+  return bits;
+}
+
+struct PositionBitsHash {
+  size_t operator()(const std::array<uint32_t, 3>& key) const {
+    uint64_t h = 1469598103934665603ull;
+    for (uint32_t k : key) h = (h ^ k) * 1099511628211ull;
+    return static_cast<size_t>(h ^ (h >> 29));
+  }
+};
 
 // Lights per shadow pass (shaders/resample_shadow.frag kMaxLights): one
 // 16-bit channel of the shadow atlas, light k at bit k % 16 of channel k / 16.
@@ -54,8 +71,8 @@ constexpr GLuint kDepthMapUnit = 2;  // resample_camera.frag
 constexpr GLuint kFrameUnit = 3;
 constexpr GLuint kTexelTriangleUnit = 4;  // resample_camera.frag
 constexpr GLuint kPixelTriangleUnit = 5;
-constexpr GLuint kPositionsBinding = 1;  // resample_camera.frag's storage buffers
-constexpr GLuint kIndicesBinding = 2;
+constexpr GLuint kCornersBinding = 1;  // resample_camera.frag's storage buffers
+constexpr GLuint kCornerIdsBinding = 2;
 // The exact occluder test's margin, relative to the texel's depth (for an
 // orthographic camera, to the pose's extent from the origin): above float
 // rounding of positions and intersections (~1e-6), far below the depth map's
@@ -201,6 +218,12 @@ struct Resampler::Impl {
   gl::Buffer normal_buffer;            // per render vertex, per frame
   gl::Buffer uv_buffer;
   gl::Buffer index_buffer;
+  // Per drawn triangle its three corners as the exact occluder test reads
+  // them (resample_camera.frag), per frame: posed positions (vec4, w = 1),
+  // and position ids (uint; equal ids: equal positions this frame).
+  gl::Buffer corner_buffer;
+  gl::Buffer corner_id_buffer;
+  std::vector<glm::uvec3> drawn;  // the drawn triangles, render vertices
   gl::Buffer light_buffer;  // GpuShadowLightBlock
 
   gl::Program geometry_program;
@@ -343,6 +366,7 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
     if (!skip[t]) drawn.push_back(topo.triangles[t]);
   }
   r.num_indices = static_cast<GLsizei>(drawn.size() * 3);
+  r.drawn = drawn;
 
   MVBRDF_ASSIGN_OR_RETURN(r.geometry_program, gl::BuildProgram({{GL_VERTEX_SHADER, "resample_geometry.vert", {}},
                                                                 {GL_FRAGMENT_SHADER, "resample_geometry.frag", {}}}));
@@ -365,6 +389,14 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
   glNamedBufferStorage(r.index_buffer.id(),
                        static_cast<GLsizeiptr>(std::max<size_t>(drawn.size(), 1) * sizeof(glm::uvec3)),
                        drawn.empty() ? nullptr : drawn.data(), 0);
+  r.corner_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(r.corner_buffer.id(),
+                       static_cast<GLsizeiptr>(std::max<size_t>(drawn.size(), 1) * 3 * sizeof(glm::vec4)), nullptr,
+                       GL_DYNAMIC_STORAGE_BIT);
+  r.corner_id_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(r.corner_id_buffer.id(),
+                       static_cast<GLsizeiptr>(std::max<size_t>(drawn.size(), 1) * 3 * sizeof(uint32_t)), nullptr,
+                       GL_DYNAMIC_STORAGE_BIT);
   r.mesh_vertex_array = gl::CreateVertexArray();
   const GLuint vao = r.mesh_vertex_array.id();
   glVertexArrayVertexBuffer(vao, 0, r.position_buffer.id(), 0, sizeof(glm::vec3));
@@ -476,6 +508,35 @@ absl::Status Resampler::SetFrame(const scene::FramePositions& file_positions) {
   const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(positions.size() * sizeof(glm::vec3));
   glNamedBufferSubData(r.position_buffer.id(), 0, vec3_bytes, positions.data());
   glNamedBufferSubData(r.normal_buffer.id(), 0, vec3_bytes, normals.data());
+  if (!r.drawn.empty()) {
+    // Position ids: render vertices at the same position (copies of a file
+    // vertex across UV seams, coincident file vertices) share one.
+    std::vector<uint32_t> file_id(file_positions.size());
+    {
+      std::unordered_map<std::array<uint32_t, 3>, uint32_t, PositionBitsHash> ids;
+      ids.reserve(file_positions.size());
+      for (size_t v = 0; v < file_positions.size(); ++v) {
+        const glm::vec3& p = file_positions[v];
+        // +0 and -0 compare equal as floats (as the shader's == did).
+        std::array<uint32_t, 3> key;
+        for (int i = 0; i < 3; ++i) key[static_cast<size_t>(i)] = FloatBits(p[i] == 0.0f ? 0.0f : p[i]);
+        file_id[v] = ids.emplace(key, static_cast<uint32_t>(ids.size())).first->second;
+      }
+    }
+    std::vector<glm::vec4> corners(r.drawn.size() * 3);
+    std::vector<uint32_t> corner_ids(r.drawn.size() * 3);
+    for (size_t t = 0; t < r.drawn.size(); ++t) {
+      for (int i = 0; i < 3; ++i) {
+        const uint32_t v = r.drawn[t][i];
+        corners[3 * t + static_cast<size_t>(i)] = glm::vec4(positions[v], 1.0f);
+        corner_ids[3 * t + static_cast<size_t>(i)] = file_id[r.topology.render_to_file_vertex[v]];
+      }
+    }
+    glNamedBufferSubData(r.corner_buffer.id(), 0, static_cast<GLsizeiptr>(corners.size() * sizeof(glm::vec4)),
+                         corners.data());
+    glNamedBufferSubData(r.corner_id_buffer.id(), 0, static_cast<GLsizeiptr>(corner_ids.size() * sizeof(uint32_t)),
+                         corner_ids.data());
+  }
   r.bounds = render::ComputeBoundingSphere(positions);
   // A new frame number invalidates every camera's depth map and the shadow atlas.
   ++r.frame;
@@ -621,8 +682,8 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   glBindTextureUnit(kFrameUnit, state.frame_texture.id());
   glBindTextureUnit(kTexelTriangleUnit, r.triangle_map.id());
   glBindTextureUnit(kPixelTriangleUnit, state.surface_triangle.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kPositionsBinding, r.position_buffer.id());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kIndicesBinding, r.index_buffer.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCornersBinding, r.corner_buffer.id());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCornerIdsBinding, r.corner_id_buffer.id());
   glBindFramebuffer(GL_FRAMEBUFFER, r.resample_framebuffer.id());
   glViewport(0, 0, r.size, r.size);
   glDisable(GL_DEPTH_TEST);
@@ -654,8 +715,8 @@ absl::StatusOr<cv::Mat> Resampler::ResampleCamera(int camera, const cv::Mat& fra
   glUseProgram(0);
   glBindVertexArray(0);
   for (GLuint unit = 0; unit < 6; ++unit) glBindTextureUnit(unit, 0);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kPositionsBinding, 0);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kIndicesBinding, 0);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCornersBinding, 0);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kCornerIdsBinding, 0);
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::ResampleCamera"));
   return out;
 }
