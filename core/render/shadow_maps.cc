@@ -31,6 +31,20 @@ constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
     {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
 }};
 
+// Whether a sphere (centre relative to the light) reaches into the 90-degree
+// frustum of the cube face looking along `axis`: outside any of its four side
+// planes (through the light) it does not, and the face's map holds no mesh.
+// Conservative (a sphere near a frustum's edge may count as inside).
+bool SphereReachesFace(const glm::vec3& centre, float radius, const glm::vec3& axis, const glm::vec3& up) {
+  const glm::vec3 side = glm::cross(axis, up);
+  for (const glm::vec3& across : {side, -side, up, -up}) {
+    // Inward normal of the plane through the light containing axis + across
+    // (unnormalised by sqrt(2): compare against radius * sqrt(2)).
+    if (glm::dot(centre, axis - across) < -radius * 1.41421356f) return false;
+  }
+  return true;
+}
+
 // Depth texture array: `target` GL_TEXTURE_CUBE_MAP_ARRAY (layers = 6 per
 // light) or GL_TEXTURE_2D_ARRAY. Nearest lookups, no compare mode.
 gl::Texture CreateShadowArray(GLenum target, int size, int layers) {
@@ -138,7 +152,12 @@ absl::Status ShadowMaps::Render(const std::vector<scene::Light>& lights, const B
         glNamedFramebufferTextureLayer(framebuffer_.id(), GL_DEPTH_ATTACHMENT, point_maps_.id(), 0,
                                        6 * point_layer + face);
         glClear(GL_DEPTH_BUFFER_BIT);
-        draw_mesh();
+        // A face that cannot see the mesh's sphere stays cleared (a light
+        // outside the mesh sees it in one to three faces: the mesh's
+        // vertices are not processed six times).
+        if (SphereReachesFace(bounds.center - light.position, radius, kCubeFaces[face][0], kCubeFaces[face][1])) {
+          draw_mesh();
+        }
       }
       ++point_layer;
     } else {
