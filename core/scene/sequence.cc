@@ -761,10 +761,17 @@ absl::StatusOr<FramePositions> Sequence::LoadFrame(int t) const {
   }
   if (is_static_mesh()) return rest_positions;
   const int absolute = AbsoluteFrame(t);
-  absl::StatusOr<FramePositions> positions =
-      LoadFramePositions(ResolvePath(scene_dir, MeshFramePath(scene, absolute)), topology,
-                         absl::StrCat("scene.mesh.path (frame ", absolute, ")"), scene.mesh().flip_winding());
+  const std::filesystem::path file = ResolvePath(scene_dir, MeshFramePath(scene, absolute));
+  // The key names what the positions depend on besides the file.
+  const std::string key = absl::StrCat(file.string(), scene.mesh().flip_winding() ? " flipped " : " ",
+                                       topology.num_file_vertices, " ", topology.file_triangles.size());
+  if (frame_cache != nullptr) {
+    if (std::optional<FramePositions> kept = frame_cache->Find(key)) return *std::move(kept);
+  }
+  absl::StatusOr<FramePositions> positions = LoadFramePositions(
+      file, topology, absl::StrCat("scene.mesh.path (frame ", absolute, ")"), scene.mesh().flip_winding());
   if (!positions.ok()) return InSceneTerms(positions.status(), scene_dir);
+  if (frame_cache != nullptr) frame_cache->Keep(key, *positions);
   return positions;
 }
 

@@ -6,12 +6,14 @@
 #define MVBRDF_CORE_SCENE_SEQUENCE_H_
 
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "core/scene/light.h"
 #include "core/scene/camera_model.h"
+#include "core/scene/frame_cache.h"
 #include "core/scene/mesh.h"
 #include "core/scene/video_source.h"
 #include "mvbrdf/v1/scene.pb.h"
@@ -45,8 +47,11 @@ struct Sequence {
 
   bool is_static_mesh() const;
   // File-vertex positions of frame t in [0, num_frames): frame 0's for a
-  // static mesh, else the frame's file (read now, topology checked).
+  // static mesh, else the frame's file (read and topology checked the first
+  // time, then from frame_cache while it fits).
   absl::StatusOr<FramePositions> LoadFrame(int t) const;
+  // The frames LoadFrame read (by file path); copies of the sequence share it.
+  std::shared_ptr<FrameCache> frame_cache = std::make_shared<FrameCache>();
   // The absolute frame index of frame t: what mesh patterns, image patterns,
   // masks, frame_lighting and per-frame outputs are numbered by.
   int AbsoluteFrame(int t) const { return frames.Absolute(t); }
