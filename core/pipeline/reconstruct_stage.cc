@@ -876,7 +876,10 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       texel_sigma[k] = TexelResidualScale(set, pixel_selection, cluster_brdf[k], options.diffuse);
     }
     if (plan.Has(Stage::kSolverComparison)) {
-      fit::PhongFitOptions powell = options.fit;
+      // The LM's problem (least squares, as above), so that Table 6.2
+      // compares two solvers, not two losses: with options.fit's robust loss
+      // Powell ran four IRLS solves (4x the time) of another cost.
+      fit::PhongFitOptions powell = lm;
       powell.solver = fit::Solver::kPowell;
       MVBRDF_ASSIGN_OR_RETURN(const fit::PhongFitResult p_result, fit::FitPhong(set, {}, pixel_selection, powell));
       SolverRowFrom(clusters.names[k], p_result, report.add_solvers());
