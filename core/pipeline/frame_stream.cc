@@ -1,6 +1,7 @@
 #include "core/pipeline/frame_stream.h"
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
 
 namespace mvbrdf::pipeline {
@@ -23,8 +24,17 @@ std::vector<bool> LightsOnIn(const scene::Sequence& sequence, int t) {
 
 absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequence& sequence,
                                                                gl::EglContext& context, const atlas::Atlas& atlas,
-                                                               const resample::ResamplerOptions& options) {
+                                                               const resample::ResamplerOptions& options,
+                                                               ShadowAtlasCache* shadows) {
   auto s = std::unique_ptr<FrameStream>(new FrameStream(sequence));
+  s->shadow_cache_ = shadows;
+  // What a frame's shadow atlas depends on besides the frame: the lights
+  // (positions, directions) and the resampler's atlas and shadow maps.
+  s->shadow_key_ = absl::StrCat(atlas.size, " ", options.shadow_map_size);
+  for (const scene::Light& l : sequence.lights) {
+    const glm::vec3& p = l.directional ? l.direction : l.position;
+    absl::StrAppend(&s->shadow_key_, l.directional ? " d" : " p", absl::StrFormat(" %a %a %a", p.x, p.y, p.z));
+  }
   s->frame_lights_ = samples::FrameLightMasks(sequence);
   MVBRDF_ASSIGN_OR_RETURN(s->resampler_,
                           resample::Resampler::Create(context, atlas, sequence.cameras, sequence.lights, options));
@@ -43,8 +53,15 @@ absl::Status FrameStream::SetFrame(int t) {
   }
   MVBRDF_ASSIGN_OR_RETURN(positions_, sequence_.LoadFrame(t));
   MVBRDF_RETURN_IF_ERROR(resampler_->SetFrame(positions_));
-  MVBRDF_ASSIGN_OR_RETURN(shadows_, resampler_->ShadowAtlas(LightsOnIn(sequence_, t)));
-  samples::ApplyLightMask(frame_lights_[static_cast<size_t>(t)], sequence_.lights.size(), &shadows_);
+  std::optional<cv::Mat> kept;
+  if (shadow_cache_ != nullptr) kept = shadow_cache_->Find(t, shadow_key_);
+  if (kept.has_value()) {
+    shadows_ = *std::move(kept);
+  } else {
+    MVBRDF_ASSIGN_OR_RETURN(shadows_, resampler_->ShadowAtlas(LightsOnIn(sequence_, t)));
+    samples::ApplyLightMask(frame_lights_[static_cast<size_t>(t)], sequence_.lights.size(), &shadows_);
+    if (shadow_cache_ != nullptr) shadow_cache_->Keep(t, shadow_key_, shadows_);
+  }
   MVBRDF_ASSIGN_OR_RETURN(geometry_, resampler_->Geometry());
   frame_ = t;
   return absl::OkStatus();

@@ -7,6 +7,7 @@
 #define MVBRDF_CORE_PIPELINE_FRAME_STREAM_H_
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -15,6 +16,7 @@
 #include "absl/status/statusor.h"
 #include "core/atlas/atlas.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/shadow_atlas_cache.h"
 #include "core/resample/resampler.h"
 #include "core/samples/assemble.h"
 #include "core/scene/sequence.h"
@@ -24,10 +26,13 @@ namespace mvbrdf::pipeline {
 
 class FrameStream {
  public:
-  // The resampler and every camera's video.
+  // The resampler and every camera's video. With `shadows`, SetFrame takes
+  // a frame's shadow atlas from it when an earlier pass kept it there, and
+  // keeps the ones it computes (the caller's; it outlives the stream).
   static absl::StatusOr<std::unique_ptr<FrameStream>> Open(const scene::Sequence& sequence, gl::EglContext& context,
                                                            const atlas::Atlas& atlas,
-                                                           const resample::ResamplerOptions& options);
+                                                           const resample::ResamplerOptions& options,
+                                                           ShadowAtlasCache* shadows = nullptr);
 
   // Loads frame t: pose, geometry and shadow atlases. The shadow atlas holds
   // only the lights on in frame t (scene.frame_lighting,
@@ -57,6 +62,8 @@ class FrameStream {
   resample::GeometryAtlas geometry_;
   cv::Mat last_frame_;
   std::vector<samples::LightMask> frame_lights_;  // per frame (samples::FrameLightMasks)
+  ShadowAtlasCache* shadow_cache_ = nullptr;
+  std::string shadow_key_;  // the lights, as ShadowAtlasCache keys them
   int frame_ = 0;
 };
 

@@ -1,6 +1,7 @@
 // FrameStream on a generated one-light-at-a-time sequence: the shadow atlas
 // of each frame holds only the lights on in it (issue #13), so every Sample
-// assembled from it knows its frame's lights.
+// assembled from it knows its frame's lights; a second pass takes them from
+// the first's ShadowAtlasCache.
 #include "core/pipeline/frame_stream.h"
 
 #include <gtest/gtest.h>
@@ -46,11 +47,19 @@ TEST(FrameStreamTest, ShadowBitsHoldOnlyEachFramesOwnLights) {
     ao.size = 128;
     auto atlas = atlas::BuildAtlas(sequence->topology, sequence->rest_positions, ao);
     ASSERT_TRUE(atlas.ok()) << atlas.status();
-    auto stream = FrameStream::Open(*sequence, **context, *atlas, {});
+    // The first stream keeps its shadow atlases in `kept`; the second takes
+    // them from it: the same atlases as computed.
+    ShadowAtlasCache kept;
+    auto stream = FrameStream::Open(*sequence, **context, *atlas, {}, &kept);
     ASSERT_TRUE(stream.ok()) << stream.status();
+    auto second = FrameStream::Open(*sequence, **context, *atlas, {}, &kept);
+    ASSERT_TRUE(second.ok()) << second.status();
     const std::vector<samples::LightMask> on = samples::FrameLightMasks(*sequence);
     for (int t = 0; t < 3; ++t) {
       ASSERT_TRUE((*stream)->SetFrame(t).ok());
+      EXPECT_EQ(kept.size(), static_cast<size_t>(t + 1));
+      ASSERT_TRUE((*second)->SetFrame(t).ok());
+      EXPECT_EQ(cv::norm((*second)->shadows(), (*stream)->shadows(), cv::NORM_INF), 0.0) << "frame " << t;
       const uint32_t seen = BitsSeen((*stream)->shadows());
       if (lighting == synth::Lighting::kOlat) {
         // Frame t: light t (C, N, E) alone.

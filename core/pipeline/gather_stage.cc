@@ -60,7 +60,9 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
   }
   TexelStatistics* st = g.texels.get();
   const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
-  MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
+  if (st != nullptr) st->shadow_atlases = std::make_shared<ShadowAtlasCache>();
+  MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler,
+                                                         st != nullptr ? st->shadow_atlases.get() : nullptr));
   const int stride = SweepFrameStride(options, sequence.num_frames);
   const std::vector<uint8_t> own_frames = samples::OwnLightingFrames(sequence);
   for (int t = 0; t < sequence.num_frames; ++t) {

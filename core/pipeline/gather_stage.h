@@ -27,7 +27,9 @@ struct Gathered {
 // Samples of every sweep frame when `triangles`, the texel statistics over
 // every frame when `texels`. RunReconstruction's pass 1 is this call. Uses
 // options.resampler, assemble, min_valid_fraction, sweep_frame_stride,
-// reservoir_*, progress (stage "gather_samples") and cancelled.
+// reservoir_*, progress (stage "gather_samples") and cancelled. With
+// `texels`, the frames' shadow atlases are kept for the texel pass
+// (TexelStatistics::shadow_atlases).
 absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglContext& context,
                                     const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
                                     bool texels);

@@ -907,6 +907,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       }
     }
   }
+  // Pass 1's shadow atlases, for pass 2.
+  const std::shared_ptr<ShadowAtlasCache> shadow_atlases = g.texels != nullptr ? g.texels->shadow_atlases : nullptr;
   g.texels.reset();
   AddStage(&report, "cluster_fit", Since(t0), options);
 
@@ -938,7 +940,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   // saturated (every frame, every camera: counted once, here).
   std::vector<resample::Resampler::RefusedObservations> refused(static_cast<size_t>(num_cameras));
   {
-    MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler));
+    MVBRDF_ASSIGN_OR_RETURN(auto stream,
+                            FrameStream::Open(sequence, context, atlas, options.resampler, shadow_atlases.get()));
     std::vector<glm::vec3> frame_sum(num_texels);
     std::vector<glm::vec3> frame_illumination(num_texels);
     std::vector<uint16_t> frame_count(num_texels);

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/pipeline/texel_illumination.h"
+#include "core/pipeline/shadow_atlas_cache.h"
 #include "core/pipeline/texel_reservoir.h"
 
 namespace mvbrdf::pipeline {
@@ -27,6 +28,9 @@ struct TexelStatistics {
   TexelIllumination illumination;
   std::unique_ptr<TexelReservoir> reservoir;
   cv::Mat rest_position;  // geometry atlas of frame 0 (CV_32FC4)
+  // The frames' shadow atlases as the gather computed them, for the texel
+  // pass (the same frames, lights and atlas).
+  std::shared_ptr<ShadowAtlasCache> shadow_atlases;
 };
 
 }  // namespace mvbrdf::pipeline
