@@ -104,12 +104,18 @@ void AppendTriangleSamples(const std::vector<resample::TriangleMean>& means, con
 
 // Per-texel cosines of one (frame, camera) without storing samples: calls
 // `visit(texel, rgb, const LightTerms& terms)` for every valid texel of
-// `resampled` (the terms are valid during the call). The reflectance passes stream
-// through this instead of materialising every texel sample.
+// `resampled` (the terms are valid during the call) in atlas rows [rows.begin,
+// rows.end) (end < 0: to the last), in row-major order. The reflectance
+// passes stream through this instead of materialising every texel sample;
+// disjoint row ranges may be visited on threads of their own.
+struct TexelRows {
+  int begin = 0;
+  int end = -1;
+};
 template <typename Visit>
 void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
                         const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
-                        const AssembleOptions& options, Visit&& visit);
+                        const AssembleOptions& options, Visit&& visit, TexelRows rows = {});
 
 // Per-pixel Samples of one (frame, camera): every video pixel whose centre
 // shows the mesh (with its four neighbours, so silhouettes are left out) and

@@ -151,7 +151,7 @@ struct FootprintTerms {
 template <typename Visit>
 void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
                         const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
-                        const AssembleOptions& options, Visit&& visit) {
+                        const AssembleOptions& options, Visit&& visit, TexelRows rows) {
   using assemble_internal::Check;
   Check(resampled.type() == CV_32FC4 && resampled.rows == resampled.cols,
         "ForEachTexelSample: resampled must be a square CV_32FC4 atlas");
@@ -167,7 +167,8 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
   const int channels = ShadowChannels(lights.size());
   auto buffers = std::make_unique<assemble_internal::TermBuffers>();
   const int size = resampled.cols;
-  for (int row = 0; row < size; ++row) {
+  const int row_end = rows.end < 0 ? size : std::min(rows.end, size);
+  for (int row = std::max(rows.begin, 0); row < row_end; ++row) {
     const cv::Vec4f* value = resampled.ptr<cv::Vec4f>(row);
     const cv::Vec4f* position = geometry.position.ptr<cv::Vec4f>(row);
     const cv::Vec4f* normal = geometry.normal.ptr<cv::Vec4f>(row);
