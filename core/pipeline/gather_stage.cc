@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
+#include "core/pipeline/atlas_parts.h"
 #include "core/pipeline/frame_stream.h"
 #include "core/resample/atlas_ops.h"
 #include "core/samples/assemble.h"
@@ -84,13 +85,18 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                                        sequence.lights, assemble, &g.triangle_samples);
       }
       if (st == nullptr) continue;
-      samples::ForEachTexelSample(resampled, stream->geometry(), stream->shadows(), sequence.cameras[c],
-                                  sequence.lights, assemble,
-                                  [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
-                                    st->texel_sum[texel] += glm::dvec3(rgb);
-                                    ++st->texel_count[texel];
-                                    st->illumination.Add(texel, terms, own_lit);
-                                  });
+      // Per-texel sums only: in parts on threads (atlas_parts.h).
+      if (own_lit) st->illumination.ReserveOwn();
+      InAtlasParts([&](int part) {
+        samples::ForEachTexelSample(
+            resampled, stream->geometry(), stream->shadows(), sequence.cameras[c], sequence.lights, assemble,
+            [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
+              st->texel_sum[texel] += glm::dvec3(rgb);
+              ++st->texel_count[texel];
+              st->illumination.Add(texel, terms, own_lit);
+            },
+            AtlasPartRows(part, atlas.size));
+      });
       // The cluster fits take per-pixel Samples: the video's own pixels at
       // the exact surface points they show, so highlights reach ks and ke
       // without the atlas's bilinear blur (measured: the blur alone made

@@ -9,7 +9,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
-#include <thread>
 #include <unordered_map>
 
 #include "absl/strings/str_cat.h"
@@ -32,6 +31,7 @@
 #include "core/fit/texel_kd_fit.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_figures.h"
+#include "core/pipeline/atlas_parts.h"
 #include "core/pipeline/calibration_stage.h"
 #include "core/pipeline/frame_stream.h"
 #include "core/pipeline/gather_stage.h"
@@ -50,33 +50,12 @@
 namespace mvbrdf::pipeline {
 namespace {
 
-// The texel pass's folds over an atlas: its rows in kFoldParts parts, each on
-// a thread of its own (InParts), with the sums over texels per part
-// (FoldPart), added in part order. A fixed count, not the machine's: the
-// sums, and so the camera errors, do not depend on the machine. Measured
-// (thesis-scale actor, 40 frames): ~half of the 7.7 s the folds took on one
-// thread, on 2 cores while llvmpipe's threads wait.
-constexpr int kFoldParts = 2;
-
+// The texel pass's sums over texels per atlas part (atlas_parts.h).
 struct FoldPart {
   std::vector<uint64_t> outliers, observations;  // per cluster
   std::vector<double> s_rr, corr_sq;             // per camera
   std::vector<uint64_t> count;                   // per camera
 };
-
-samples::TexelRows FoldRows(int part, int size) {
-  return {static_cast<int>(static_cast<int64_t>(size) * part / kFoldParts),
-          static_cast<int>(static_cast<int64_t>(size) * (part + 1) / kFoldParts)};
-}
-
-// work(part) for parts [0, parts): part 0 on this thread, the rest on their own.
-template <typename F>
-void InParts(int parts, F&& work) {
-  std::vector<std::thread> others;
-  for (int p = 1; p < parts; ++p) others.emplace_back(work, p);
-  work(0);
-  for (std::thread& t : others) t.join();
-}
 
 using Clock = std::chrono::steady_clock;
 
@@ -964,7 +943,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     cam_s_gr.assign(num_texels * static_cast<size_t>(num_cameras), glm::dvec3(0.0));
     cam_s_gg.assign(num_texels * static_cast<size_t>(num_cameras), glm::dvec3(0.0));
   }
-  std::vector<FoldPart> fold_parts(kFoldParts);
+  std::vector<FoldPart> fold_parts(kAtlasParts);
   for (FoldPart& part : fold_parts) {
     part.outliers.assign(num_clusters, 0);
     part.observations.assign(num_clusters, 0);
@@ -995,10 +974,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       }
       for (int c = 0; c < num_cameras; ++c) {
         MVBRDF_ASSIGN_OR_RETURN(frame_atlases[static_cast<size_t>(c)], stream->Resample(c));
-        // The atlas's rows in kFoldParts parts on threads of their own: each
-        // texel's sums are one part's; the sums over texels are per part,
-        // added in part order below (the same result on any machine).
-        InParts(kFoldParts, [&](int part_index) {
+        // In parts (atlas_parts.h): each texel's sums are one part's; the
+        // sums over texels are per part, added in part order below.
+        InAtlasParts([&](int part_index) {
           FoldPart& part = fold_parts[static_cast<size_t>(part_index)];
           samples::ForEachTexelSample(
               frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
@@ -1068,7 +1046,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
                   ++frame_count[texel];
                 }
               },
-              FoldRows(part_index, atlas.size));
+              AtlasPartRows(part_index, atlas.size));
         });
       }
       if (!correction && !camera_errors) continue;
@@ -1091,7 +1069,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       }
       if (camera_errors) {
         for (int c = 0; c < num_cameras; ++c) {
-          InParts(kFoldParts, [&](int part_index) {
+          InAtlasParts([&](int part_index) {
             FoldPart& part = fold_parts[static_cast<size_t>(part_index)];
             samples::ForEachTexelSample(
                 frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
@@ -1120,7 +1098,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
                     part.corr_sq[static_cast<size_t>(c)] += d * d;
                   }
                 },
-                FoldRows(part_index, atlas.size));
+                AtlasPartRows(part_index, atlas.size));
           });
         }
       }

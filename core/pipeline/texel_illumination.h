@@ -43,7 +43,13 @@ class TexelIllumination {
   // One observation of `texel` (its terms' g). `own`: from a frame with its
   // own lights (samples::LightSelection), whose terms count under every
   // configuration.
+  // Add of distinct texels may run on threads of their own once ReserveOwn
+  // has run (if any observation is own-lit).
   void Add(uint32_t texel, const samples::LightTerms& terms, bool own = false);
+  // Allocates the own-lit sums, which Add otherwise allocates on first use.
+  void ReserveOwn() {
+    if (own_.empty()) own_.assign(num_texels_, glm::dvec3(0.0));
+  }
   // G of `texel` under `mask` (plus the observations of frames with their
   // own lights, under all of their lights); INTERNAL when `mask` is none of the masks
   // given (per-configuration layout).
