@@ -57,6 +57,28 @@ struct FoldPart {
   std::vector<uint64_t> count;                   // per camera
 };
 
+// Frame t's correction atlas c = kd_o - kd (half-float RGB) from its observed
+// kd_o in observed_dir (the texel pass's), named by the frame's number.
+absl::Status WriteCorrectionAtlas(const std::filesystem::path& observed_dir, int t, const scene::Sequence& sequence,
+                                  const std::vector<glm::vec3>& kd, int size, const std::filesystem::path& dir) {
+  const std::filesystem::path file = observed_dir / absl::StrCat(t, ".exr");
+  MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage observed, image::ReadExr(file));
+  cv::Mat corr(size, size, CV_32FC3, cv::Scalar::all(0));
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const cv::Vec4f& o = observed.image.at<cv::Vec4f>(y, x);
+      if (o[3] < 0.5f) continue;
+      const glm::vec3& k = kd[static_cast<size_t>(y) * size + x];
+      corr.at<cv::Vec3f>(y, x) = {o[0] - k.x, o[1] - k.y, o[2] - k.z};
+    }
+  }
+  char name[32];
+  std::snprintf(name, sizeof(name), "%04d.exr", sequence.AbsoluteFrame(t));
+  image::ExrOptions half;
+  half.half = true;
+  return image::WriteExr(dir / name, corr, half);
+}
+
 using Clock = std::chrono::steady_clock;
 
 double Since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
@@ -1261,25 +1283,17 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     }
     MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(atlases / "cluster.png", cluster_preview));
   }
-  // Correction atlases c = kd_o - kd where the frame observed the texel.
-  for (int t : observed_frames) {
-    const std::filesystem::path file = observed_dir / absl::StrCat(t, ".exr");
-    MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage observed, image::ReadExr(file));
-    cv::Mat corr(atlas.size, atlas.size, CV_32FC3, cv::Scalar::all(0));
-    for (int y = 0; y < atlas.size; ++y) {
-      for (int x = 0; x < atlas.size; ++x) {
-        const cv::Vec4f& o = observed.image.at<cv::Vec4f>(y, x);
-        if (o[3] < 0.5f) continue;
-        const glm::vec3& k = kd.kd[static_cast<size_t>(y) * atlas.size + x];
-        corr.at<cv::Vec3f>(y, x) = {o[0] - k.x, o[1] - k.y, o[2] - k.z};
-      }
+  // Correction atlases c = kd_o - kd where the frame observed the texel;
+  // the frames split among kAtlasParts threads (each frame's file its own).
+  std::vector<absl::Status> part_status(kAtlasParts);
+  InAtlasParts([&](int part) {
+    for (size_t i = static_cast<size_t>(part); i < observed_frames.size(); i += kAtlasParts) {
+      part_status[static_cast<size_t>(part)] = WriteCorrectionAtlas(observed_dir, observed_frames[i], sequence,
+                                                                    kd.kd, atlas.size, atlases / "correction");
+      if (!part_status[static_cast<size_t>(part)].ok()) return;
     }
-    char name[32];
-    std::snprintf(name, sizeof(name), "%04d.exr", sequence.AbsoluteFrame(t));
-    image::ExrOptions half;
-    half.half = true;
-    MVBRDF_RETURN_IF_ERROR(image::WriteExr(atlases / "correction" / name, corr, half));
-  }
+  });
+  for (const absl::Status& status : part_status) MVBRDF_RETURN_IF_ERROR(status);
   std::error_code ec;
   std::filesystem::remove_all(observed_dir, ec);
   AddStage(&report, "write_atlases", Since(t0), options);
