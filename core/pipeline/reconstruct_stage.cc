@@ -986,6 +986,21 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     std::vector<uint16_t> frame_count(num_texels);
     std::vector<cv::Mat> frame_atlases(static_cast<size_t>(num_cameras));
     std::future<absl::Status> writing;  // the last frame's correction atlas
+    // Camera c's texel Samples of the frame in atlas parts (atlas_parts.h),
+    // visit(part, texel, rgb, terms): each texel's sums are one part's, the
+    // sums over texels the part's (fold_parts, added in order after the pass).
+    const auto for_each_texel = [&](int c, const auto& visit) {
+      InAtlasParts([&](int part_index) {
+        FoldPart& part = fold_parts[static_cast<size_t>(part_index)];
+        samples::ForEachTexelSample(
+            frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
+            sequence.lights, assemble,
+            [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
+              visit(part, texel, rgb, terms);
+            },
+            AtlasPartRows(part_index, atlas.size));
+      });
+    };
     for (int t = 0; t < sequence.num_frames; ++t) {
       if (options.progress) options.progress("texel_pass", t, sequence.num_frames);
       MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
@@ -996,79 +1011,69 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       }
       for (int c = 0; c < num_cameras; ++c) {
         MVBRDF_ASSIGN_OR_RETURN(frame_atlases[static_cast<size_t>(c)], stream->Resample(c));
-        // In parts (atlas_parts.h): each texel's sums are one part's; the
-        // sums over texels are per part, added in part order below.
-        InAtlasParts([&](int part_index) {
-          FoldPart& part = fold_parts[static_cast<size_t>(part_index)];
-          samples::ForEachTexelSample(
-              frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
-              sequence.lights, assemble,
-              [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
-                const int32_t k = texel_cluster[texel];
-                if (k < 0) return;
-                const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-                const brdf::Model model = cluster_model[static_cast<size_t>(k)];
-                const bool phong = model == brdf::Model::kPhong;
-                glm::vec3 G, res;
-                if (phong) {
-                  G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
-                  for (int ch = 0; ch < 3; ++ch) {
-                    res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) *
-                                            SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke);
-                  }
-                } else {
-                  glm::vec3 specular;
-                  fit::LobeTerms(model, cluster_lobe[static_cast<size_t>(k)], terms, intensity,
-                                 selection.Of(t, all_lights), &specular, &G);
-                  res = rgb - specular;
-                }
-                // Weighted by (n.v)^4: near-grazing observations come from
-                // stretched image footprints and smear across silhouettes
-                // (sum w G r / sum w G^2, folded in as sqrt(w) = (n.v)^2).
-                // Measured kd RMSE on the 12-frame test sequence: unweighted
-                // 0.0248, (n.v) 0.0205, (n.v)^2 0.0187, (n.v)^4 0.0170.
-                const cv::Vec4f& pos = stream->geometry().position.at<cv::Vec4f>(static_cast<int>(texel / atlas.size),
-                                                                                 static_cast<int>(texel % atlas.size));
-                const cv::Vec4f& nor = stream->geometry().normal.at<cv::Vec4f>(static_cast<int>(texel / atlas.size),
-                                                                               static_cast<int>(texel % atlas.size));
-                const glm::vec3 view =
-                    scene::ViewDirection(camera_views[static_cast<size_t>(c)], glm::vec3(pos[0], pos[1], pos[2]));
-                const float cos_view = std::max(0.0f, glm::dot(glm::vec3(nor[0], nor[1], nor[2]), view));
-                float w = cos_view * cos_view;
-                // Robust (issue #14): weighted by the loss at the residual
-                // against the texel's running estimate (its kd so far, shrunk
-                // to the cluster's like the final solve), in units of the
-                // cluster's per-texel residual scale: one streamed pass.
-                glm::vec3 wc(w);
-                // Before kMinRunningObservations of its own the texel has no
-                // estimate to judge by: plain weights (measured, 4-frame
-                // sequence at 320x240: judging from the first observation on
-                // made kd RMSE 0.087 -> 0.099).
-                if (texel_sigma[static_cast<size_t>(k)].x > 0.0 && diffuse.count(texel) >= kMinRunningObservations) {
-                  const glm::dvec3 running =
-                      diffuse.Running(texel, fallback_kd[static_cast<size_t>(k)], running_lambda);
-                  for (int ch = 0; ch < 3; ++ch) {
-                    const double u = (res[ch] - running[ch] * G[ch]) / texel_sigma[static_cast<size_t>(k)][ch];
-                    if (std::fabs(u) > 3.0) ++part.outliers[static_cast<size_t>(k)];
-                    wc[ch] = w * static_cast<float>(std::sqrt(options.diffuse.robust.Weight(u)));
-                  }
-                  part.observations[static_cast<size_t>(k)] += 3;
-                }
-                diffuse.Add(texel, wc * res, wc * G);
-                if (camera_errors) {
-                  const size_t i = static_cast<size_t>(c) * num_texels + texel;
-                  cam_s_gr[i] += glm::dvec3(G * res);
-                  cam_s_gg[i] += glm::dvec3(G * G);
-                  part.s_rr[static_cast<size_t>(c)] += glm::dot(glm::dvec3(res), glm::dvec3(res));
-                  ++part.count[static_cast<size_t>(c)];
-                }
-                if (correction || camera_errors) {
-                  frame_sum[texel] += res;
-                  frame_illumination[texel] = G;
-                  ++frame_count[texel];
-                }
-              },
-              AtlasPartRows(part_index, atlas.size));
+        for_each_texel(c, [&](FoldPart& part, uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
+          const int32_t k = texel_cluster[texel];
+          if (k < 0) return;
+          const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
+          const brdf::Model model = cluster_model[static_cast<size_t>(k)];
+          const bool phong = model == brdf::Model::kPhong;
+          glm::vec3 G, res;
+          if (phong) {
+            G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
+            for (int ch = 0; ch < 3; ++ch) {
+              res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) *
+                                      SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke);
+            }
+          } else {
+            glm::vec3 specular;
+            fit::LobeTerms(model, cluster_lobe[static_cast<size_t>(k)], terms, intensity, selection.Of(t, all_lights),
+                           &specular, &G);
+            res = rgb - specular;
+          }
+          // Weighted by (n.v)^4: near-grazing observations come from
+          // stretched image footprints and smear across silhouettes
+          // (sum w G r / sum w G^2, folded in as sqrt(w) = (n.v)^2).
+          // Measured kd RMSE on the 12-frame test sequence: unweighted
+          // 0.0248, (n.v) 0.0205, (n.v)^2 0.0187, (n.v)^4 0.0170.
+          const cv::Vec4f& pos = stream->geometry().position.at<cv::Vec4f>(static_cast<int>(texel / atlas.size),
+                                                                           static_cast<int>(texel % atlas.size));
+          const cv::Vec4f& nor = stream->geometry().normal.at<cv::Vec4f>(static_cast<int>(texel / atlas.size),
+                                                                         static_cast<int>(texel % atlas.size));
+          const glm::vec3 view =
+              scene::ViewDirection(camera_views[static_cast<size_t>(c)], glm::vec3(pos[0], pos[1], pos[2]));
+          const float cos_view = std::max(0.0f, glm::dot(glm::vec3(nor[0], nor[1], nor[2]), view));
+          float w = cos_view * cos_view;
+          // Robust (issue #14): weighted by the loss at the residual
+          // against the texel's running estimate (its kd so far, shrunk
+          // to the cluster's like the final solve), in units of the
+          // cluster's per-texel residual scale: one streamed pass.
+          glm::vec3 wc(w);
+          // Before kMinRunningObservations of its own the texel has no
+          // estimate to judge by: plain weights (measured, 4-frame
+          // sequence at 320x240: judging from the first observation on
+          // made kd RMSE 0.087 -> 0.099).
+          if (texel_sigma[static_cast<size_t>(k)].x > 0.0 && diffuse.count(texel) >= kMinRunningObservations) {
+            const glm::dvec3 running = diffuse.Running(texel, fallback_kd[static_cast<size_t>(k)], running_lambda);
+            for (int ch = 0; ch < 3; ++ch) {
+              const double u = (res[ch] - running[ch] * G[ch]) / texel_sigma[static_cast<size_t>(k)][ch];
+              if (std::fabs(u) > 3.0) ++part.outliers[static_cast<size_t>(k)];
+              wc[ch] = w * static_cast<float>(std::sqrt(options.diffuse.robust.Weight(u)));
+            }
+            part.observations[static_cast<size_t>(k)] += 3;
+          }
+          diffuse.Add(texel, wc * res, wc * G);
+          if (camera_errors) {
+            const size_t i = static_cast<size_t>(c) * num_texels + texel;
+            cam_s_gr[i] += glm::dvec3(G * res);
+            cam_s_gg[i] += glm::dvec3(G * G);
+            part.s_rr[static_cast<size_t>(c)] += glm::dot(glm::dvec3(res), glm::dvec3(res));
+            ++part.count[static_cast<size_t>(c)];
+          }
+          if (correction || camera_errors) {
+            frame_sum[texel] += res;
+            frame_illumination[texel] = G;
+            ++frame_count[texel];
+          }
         });
       }
       if (!correction && !camera_errors) continue;
@@ -1091,37 +1096,31 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
       }
       if (camera_errors) {
         for (int c = 0; c < num_cameras; ++c) {
-          InAtlasParts([&](int part_index) {
-            FoldPart& part = fold_parts[static_cast<size_t>(part_index)];
-            samples::ForEachTexelSample(
-                frame_atlases[static_cast<size_t>(c)], stream->geometry(), stream->shadows(), sequence.cameras[c],
-                sequence.lights, assemble,
-                [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
-                  const int32_t k = texel_cluster[texel];
-                  if (k < 0) return;
-                  const cv::Vec4f& o = observed.at<cv::Vec4f>(static_cast<int>(texel / atlas.size),
-                                                              static_cast<int>(texel % atlas.size));
-                  const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-                  const brdf::Model model = cluster_model[static_cast<size_t>(k)];
-                  const bool phong = model == brdf::Model::kPhong;
-                  glm::vec3 G, specular;
-                  if (phong) {
-                    G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
-                  } else {
-                    fit::LobeTerms(model, cluster_lobe[static_cast<size_t>(k)], terms, intensity,
-                                   selection.Of(t, all_lights), &specular, &G);
-                  }
-                  for (int ch = 0; ch < 3; ++ch) {
-                    const double s =
-                        phong ? p[ch].ks * SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke)
-                              : specular[ch];
-                    const double predicted = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
-                    const double d = o[3] > 0.5f ? rgb[ch] - predicted : 0.0;
-                    part.corr_sq[static_cast<size_t>(c)] += d * d;
-                  }
-                },
-                AtlasPartRows(part_index, atlas.size));
-          });
+          for_each_texel(
+              c, [&](FoldPart& part, uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
+                const int32_t k = texel_cluster[texel];
+                if (k < 0) return;
+                const cv::Vec4f& o =
+                    observed.at<cv::Vec4f>(static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
+                const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
+                const brdf::Model model = cluster_model[static_cast<size_t>(k)];
+                const bool phong = model == brdf::Model::kPhong;
+                glm::vec3 G, specular;
+                if (phong) {
+                  G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
+                } else {
+                  fit::LobeTerms(model, cluster_lobe[static_cast<size_t>(k)], terms, intensity,
+                                 selection.Of(t, all_lights), &specular, &G);
+                }
+                for (int ch = 0; ch < 3; ++ch) {
+                  const double s =
+                      phong ? p[ch].ks * SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke)
+                            : specular[ch];
+                  const double predicted = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
+                  const double d = o[3] > 0.5f ? rgb[ch] - predicted : 0.0;
+                  part.corr_sq[static_cast<size_t>(c)] += d * d;
+                }
+              });
         }
       }
       if (correction) {
