@@ -22,6 +22,7 @@
 #include <cmath>
 #include <memory>
 #include <opencv2/imgproc.hpp>
+#include <atomic>
 #include <thread>
 #include <vector>
 
@@ -114,13 +115,20 @@ absl::StatusOr<std::vector<RefinementFrame>> ReadFrames(const scene::Sequence& s
   }
   // Each camera's video read to its last refinement frame (the frames are
   // spread over the sequence: a video is decoded frame by frame up to it,
-  // VideoSource), the cameras split between kReadThreads threads.
-  const auto read_camera = [&](int c) -> absl::Status {
+  // VideoSource), the cameras split between kReadThreads threads. Only the
+  // calling thread asks options.cancelled (a worker's callback reads state
+  // its own thread writes); the others see its answer.
+  std::atomic<bool> cancelled{false};
+  const auto is_cancelled = [&](int part) {
+    if (part == 0 && options.cancelled && options.cancelled()) cancelled = true;
+    return cancelled.load();
+  };
+  const auto read_camera = [&](int part, int c) -> absl::Status {
     MVBRDF_ASSIGN_OR_RETURN(auto video,
                             scene::VideoSource::Open(sequence.scene.cameras(c), sequence.scene_dir, sequence.frames,
                                                      sequence.num_frames, absl::StrCat("scene.cameras[", c, "]")));
     for (size_t f = 0; f < frames.size(); ++f) {
-      if (options.cancelled && options.cancelled()) return absl::CancelledError("camera refinement cancelled");
+      if (is_cancelled(part)) return absl::CancelledError("camera refinement cancelled");
       MVBRDF_ASSIGN_OR_RETURN(cv::Mat image, video->ReadFrame(frames[f]));
       cv::Mat rgb = cv::max(image, 0.0f);  // masked and saturated pixels: dark
       cv::Mat grey;
@@ -135,15 +143,16 @@ absl::StatusOr<std::vector<RefinementFrame>> ReadFrames(const scene::Sequence& s
   std::vector<absl::Status> status(kReadThreads);
   const auto read_part = [&](int part) {
     for (int c = part; c < num_cameras && status[static_cast<size_t>(part)].ok(); c += kReadThreads) {
-      status[static_cast<size_t>(part)] = read_camera(c);
+      status[static_cast<size_t>(part)] = read_camera(part, c);
     }
   };
   std::vector<std::thread> others;
   for (int part = 1; part < kReadThreads; ++part) others.emplace_back(read_part, part);
   read_part(0);
   for (std::thread& t : others) t.join();
-  // The first error in camera order's part order (part 0 holds camera 0).
+  // Part 0's error first (its first camera is camera 0), then part 1's.
   for (const absl::Status& s : status) MVBRDF_RETURN_IF_ERROR(s);
+  if (is_cancelled(0)) return absl::CancelledError("camera refinement cancelled");
   return out;
 }
 
