@@ -476,6 +476,28 @@ TEST(SequenceTest, MissingLaterMeshFileIsFoundWithoutReadingFrames) {
   EXPECT_NE(seq.status().message().find("mesh_0002.obj"), std::string::npos) << seq.status();
 }
 
+// A frame is imported once: later reads, also through a copy of the
+// sequence, come from its FrameCache (here after the file is gone).
+TEST(SequenceTest, AFrameReadOnceComesFromTheCacheAfterwards) {
+  TempDir dir;
+  const auto file = WriteFixture(dir.path(), FixtureScene());
+  LoadOptions options;
+  options.check_all_frames = false;
+  auto seq = LoadSequence(file, options);
+  ASSERT_TRUE(seq.ok()) << seq.status();
+  auto first = seq->LoadFrame(3);
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_EQ(seq->frame_cache->size(), 1u);
+  std::filesystem::remove(dir / "mesh_0003.obj");
+  const Sequence copy = *seq;
+  auto again = copy.LoadFrame(3);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(*again, *first);
+  // A frame not read before still goes to its file.
+  std::filesystem::remove(dir / "mesh_0002.obj");
+  EXPECT_EQ(copy.LoadFrame(2).status().code(), absl::StatusCode::kNotFound);
+}
+
 // Errors are one line and name files as the scene does, relative to its
 // directory (on the server that directory is private).
 TEST(SequenceTest, ErrorsAreOneLineAndNameFilesRelativeToTheScene) {
