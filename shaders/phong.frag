@@ -7,6 +7,7 @@
 #define NBRDF_WEIGHTS_BINDING 3
 #include "brdf_models.glsl"
 #include "nbrdf.glsl"
+#include "normal_detail.glsl"
 #include "phong_model.glsl"
 #include "solid_texture.glsl"
 
@@ -56,6 +57,13 @@ layout(location = 3) uniform int u_inverse_square_falloff;
 // -1 in atlas mode: per texel, from u_atlas_model (brdf::Model's value in
 // its red channel, read without filtering).
 layout(location = 5) uniform int u_brdf_model;
+// Issue #18: 0 the mesh's normals; 1 the procedural detail
+// (core/render/normal_detail.h: x amplitude, y wavelength; directions d1,
+// d2); 2 the tangent-space normal atlas u_atlas_normal.
+layout(location = 6) uniform int u_normal_mode;
+layout(location = 7) uniform vec4 u_normal_detail;
+layout(location = 8) uniform vec3 u_normal_detail_d1;
+layout(location = 9) uniform vec3 u_normal_detail_d2;
 
 layout(binding = 0) uniform sampler2D u_kd_texture;
 layout(binding = 1) uniform sampler2D u_atlas_kd;
@@ -69,11 +77,13 @@ layout(binding = 7) uniform sampler2D u_atlas_p3;  // the third parameter (GGX's
 // brdf::Ggx::SpecularWithin, result.json's clusters[].ggxGrazingSupport):
 // V's denominator held at or above it; 0 draws the plain lobe.
 layout(binding = 8) uniform sampler2D u_atlas_ggx_support;
+layout(binding = 9) uniform sampler2D u_atlas_normal;  // tangent-space unit normals
 
 in vec3 v_position;
 in vec3 v_normal;
 in vec3 v_rest_position;
 in vec2 v_uv;
+in vec4 v_tangent;
 
 layout(location = 0) out vec4 out_radiance;  // rgb radiance, a = 1 (coverage)
 
@@ -134,6 +144,13 @@ bool DirectionalLightVisible(GpuLight light, vec3 l, vec3 geometric_normal) {
 
 void main() {
   vec3 n = normalize(v_normal);
+  if (u_normal_mode == 1) {
+    n = TangentToWorld(NormalDetailAt(u_normal_detail, u_normal_detail_d1, u_normal_detail_d2, v_rest_position),
+                       v_tangent, n);
+  } else if (u_normal_mode == 2) {
+    vec3 m = texture(u_atlas_normal, v_uv).xyz;
+    if (m.z > 0.0) n = TangentToWorld(normalize(m), v_tangent, n);
+  }
   // The flat triangle's normal, for the shadow bias only.
   vec3 face = cross(dFdx(v_position), dFdy(v_position));
   float face_length = length(face);

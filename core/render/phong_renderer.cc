@@ -1,6 +1,7 @@
 #include "core/render/phong_renderer.h"
 
 #include "core/render/camera_projection.h"
+#include "core/scene/tangent_frames.h"
 
 #include <algorithm>
 #include <array>
@@ -61,6 +62,7 @@ enum TextureUnit : GLuint {
   kAtlasModelUnit = 6,
   kAtlasP3Unit = 7,
   kAtlasGgxSupportUnit = 8,
+  kAtlasNormalUnit = 9,
 };
 constexpr GLuint kLightBlockBinding = 0;
 constexpr GLuint kMaterialBlockBinding = 1;
@@ -74,6 +76,12 @@ constexpr GLint kAtlasModeLocation = 2;
 constexpr GLint kFalloffLocation = 3;
 constexpr GLint kUvSpaceLocation = 4;
 constexpr GLint kBrdfModelLocation = 5;
+// Issue #18: 0 the mesh's normals, 1 the procedural detail (NormalDetail),
+// 2 the tangent-space normal atlas.
+constexpr GLint kNormalModeLocation = 6;
+constexpr GLint kNormalDetailLocation = 7;  // vec4: amplitude, wavelength
+constexpr GLint kNormalDetailD1Location = 8;
+constexpr GLint kNormalDetailD2Location = 9;
 
 // Uploads an image with row 0 = v = 1 into a 2D RGB32F texture with row 0 at
 // t = 0 (GL's convention), i.e. flipped.
@@ -152,6 +160,9 @@ struct PhongRenderer::Impl {
   gl::Buffer normal_buffer;    // per frame
   gl::Buffer rest_position_buffer;
   gl::Buffer uv_buffer;
+  gl::Buffer tangent_buffer;  // per frame, with a normal detail or atlas (scene::VertexTangents)
+  std::vector<glm::uvec3> triangles;  // for the tangents
+  std::vector<glm::vec2> uvs;
   gl::Buffer index_buffer;
   gl::Buffer triangle_material_buffer;
   gl::Buffer material_buffer;
@@ -169,6 +180,10 @@ struct PhongRenderer::Impl {
   gl::Texture atlas_model;  // per-texel model (empty: options.brdf_model everywhere)
   gl::Texture atlas_p3;     // the third parameter (1x1 of GGX's dielectric ratio when none was given)
   gl::Texture atlas_ggx_support;  // GGX's grazing support per texel (empty: 0, the plain lobe)
+  gl::Texture atlas_normal;       // tangent-space normals per texel (empty: the mesh's normals)
+  NormalDetail normal_detail;     // the procedural materials' detail (amplitude 0: none)
+  // Whether the pose's tangents are needed (a detail or a normal atlas).
+  bool NeedsTangents() const { return normal_detail.amplitude != 0.0f || static_cast<bool>(atlas_normal); }
 
   enum class Mode { kNone, kProcedural, kAtlas };
   Mode mode = Mode::kNone;
@@ -273,6 +288,11 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
   if (impl->has_uvs) {
     glNamedBufferStorage(impl->uv_buffer.id(), static_cast<GLsizeiptr>(n * sizeof(glm::vec2)), mesh.uvs.data(), 0);
   }
+  impl->tangent_buffer = gl::CreateBuffer();
+  glNamedBufferStorage(impl->tangent_buffer.id(), static_cast<GLsizeiptr>(n * sizeof(glm::vec4)), nullptr,
+                       GL_DYNAMIC_STORAGE_BIT);
+  impl->triangles = mesh.triangles;
+  impl->uvs = mesh.uvs;
   impl->index_buffer = gl::CreateBuffer();
   // Zero-sized storage is legal; keep one element so the buffer always exists.
   std::vector<glm::uvec3> triangles = mesh.triangles;
@@ -297,10 +317,11 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
 
   impl->vertex_array = gl::CreateVertexArray();
   const GLuint vao = impl->vertex_array.id();
-  const std::array<std::pair<GLuint, GLint>, 4> attributes = {{{impl->position_buffer.id(), 3},
+  const std::array<std::pair<GLuint, GLint>, 5> attributes = {{{impl->position_buffer.id(), 3},
                                                                {impl->normal_buffer.id(), 3},
                                                                {impl->rest_position_buffer.id(), 3},
-                                                               {impl->uv_buffer.id(), 2}}};
+                                                               {impl->uv_buffer.id(), 2},
+                                                               {impl->tangent_buffer.id(), 4}}};
   for (GLuint i = 0; i < attributes.size(); ++i) {
     if (i == 3 && !impl->has_uvs) continue;  // disabled attribute reads as (0, 0)
     glVertexArrayVertexBuffer(vao, i, attributes[i].first, 0,
@@ -414,6 +435,31 @@ absl::Status PhongRenderer::SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& 
   return absl::OkStatus();
 }
 
+absl::Status PhongRenderer::SetNormalDetail(const NormalDetail& detail) {
+  if (!std::isfinite(detail.amplitude) || detail.amplitude < 0.0f) {
+    return absl::InvalidArgumentError(absl::StrCat("normal detail amplitude: must be finite and >= 0, got ",
+                                                   detail.amplitude));
+  }
+  if (!(detail.wavelength > 0.0f) || !std::isfinite(detail.wavelength)) {
+    return absl::InvalidArgumentError(absl::StrCat("normal detail wavelength: must be > 0, got ", detail.wavelength));
+  }
+  if (detail.amplitude > 0.0f && !impl_->has_uvs) {
+    return absl::FailedPreconditionError("normal detail: the mesh has no uvs for its tangent frames");
+  }
+  impl_->normal_detail = detail;
+  return absl::OkStatus();
+}
+
+absl::Status PhongRenderer::SetNormalAtlas(const cv::Mat& tangent_normals) {
+  if (tangent_normals.empty()) {
+    impl_->atlas_normal = gl::Texture();
+    return absl::OkStatus();
+  }
+  if (!impl_->has_uvs) return absl::FailedPreconditionError("normal atlas: the mesh has no uvs");
+  MVBRDF_ASSIGN_OR_RETURN(impl_->atlas_normal, UploadUvImage(tangent_normals, "normal atlas"));
+  return absl::OkStatus();
+}
+
 absl::Status PhongRenderer::SetLights(const std::vector<scene::Light>& lights) {
   for (size_t k = 0; k < lights.size(); ++k) {
     if (lights[k].directional && !(glm::length(lights[k].direction) > 0.0f)) {
@@ -454,6 +500,11 @@ void PhongRenderer::Impl::PreparePose(const Pose& pose) {
   const GLsizeiptr vec3_bytes = static_cast<GLsizeiptr>(num_vertices * sizeof(glm::vec3));
   glNamedBufferSubData(position_buffer.id(), 0, vec3_bytes, pose.positions.data());
   glNamedBufferSubData(normal_buffer.id(), 0, vec3_bytes, pose.normals.data());
+  if (NeedsTangents()) {
+    const std::vector<glm::vec4> tangents = scene::VertexTangents(triangles, pose.positions, pose.normals, uvs);
+    glNamedBufferSubData(tangent_buffer.id(), 0, static_cast<GLsizeiptr>(num_vertices * sizeof(glm::vec4)),
+                         tangents.data());
+  }
   bounds = ComputeBoundingSphere(pose.positions);
 }
 
@@ -511,6 +562,11 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   const bool per_texel_model = mode == Mode::kAtlas && atlas_model;
   glProgramUniform1i(program, kBrdfModelLocation, per_texel_model ? -1 : static_cast<GLint>(options.brdf_model));
   glProgramUniform1i(program, kUvSpaceLocation, uv_space ? 1 : 0);
+  const int normal_mode = mode == Mode::kAtlas ? (atlas_normal ? 2 : 0) : (normal_detail.amplitude != 0.0f ? 1 : 0);
+  glProgramUniform1i(program, kNormalModeLocation, normal_mode);
+  glProgramUniform4f(program, kNormalDetailLocation, normal_detail.amplitude, normal_detail.wavelength, 0.0f, 0.0f);
+  glProgramUniform3fv(program, kNormalDetailD1Location, 1, glm::value_ptr(normal_detail.d1));
+  glProgramUniform3fv(program, kNormalDetailD2Location, 1, glm::value_ptr(normal_detail.d2));
 
   const GLuint placeholder = placeholder_texture.id();
   const bool atlas = mode == Mode::kAtlas;
@@ -523,6 +579,7 @@ absl::Status PhongRenderer::Impl::DrawShadedPass(const glm::mat4& clip_from_worl
   glBindTextureUnit(kAtlasModelUnit, per_texel_model ? atlas_model.id() : placeholder);
   glBindTextureUnit(kAtlasP3Unit, atlas ? atlas_p3.id() : placeholder);
   glBindTextureUnit(kAtlasGgxSupportUnit, atlas && atlas_ggx_support ? atlas_ggx_support.id() : placeholder);
+  glBindTextureUnit(kAtlasNormalUnit, atlas && atlas_normal ? atlas_normal.id() : placeholder);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kNbrdfWeightsBinding, nbrdf_buffer.id());
   glBindBufferBase(GL_UNIFORM_BUFFER, kLightBlockBinding, light_buffer.id());
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kMaterialBlockBinding, material_buffer.id());

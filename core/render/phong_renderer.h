@@ -20,6 +20,7 @@
 #include "core/brdf/model.h"
 #include "core/brdf/nbrdf.h"
 #include "core/gl/egl_context.h"
+#include "core/render/normal_detail.h"
 #include "core/render/solid_texture.h"
 #include "core/scene/camera_model.h"
 #include "core/scene/light.h"
@@ -109,6 +110,15 @@ class PhongRenderer {
   absl::Status SetAtlasMaterials(const cv::Mat& kd, const cv::Mat& ks, const cv::Mat& ke,
                                  const cv::Mat& model = cv::Mat(), const cv::Mat& p3 = cv::Mat(),
                                  const cv::Mat& ggx_support = cv::Mat());
+
+  // Issue #18. Procedural mode: the materials' surface detail (a
+  // tangent-space normal per rest position, render/normal_detail.h; amplitude
+  // 0: none). Atlas mode: tangent-space unit normals per texel as CV_32FC3 in
+  // UV space (row 0 = v = 1; empty: the mesh's normals). Both read in the
+  // tangent frames of the mesh's UVs (scene/tangent_frames.h, computed per
+  // pose), so the mesh needs uvs (FAILED_PRECONDITION).
+  absl::Status SetNormalDetail(const NormalDetail& detail);
+  absl::Status SetNormalAtlas(const cv::Mat& tangent_normals);
 
   // Any number of lights, drawn in passes of 16 whose radiance is summed;
   // each light gets a shadow map. With at most 16 lights the maps are

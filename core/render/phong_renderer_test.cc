@@ -1,5 +1,6 @@
 #include "core/render/phong_renderer.h"
 
+#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,6 +18,7 @@
 #include "core/brdf/nbrdf.h"
 #include "core/render/phong_model.h"
 #include "core/render/solid_texture.h"
+#include "core/scene/tangent_frames.h"
 
 namespace mvbrdf::render {
 namespace {
@@ -996,6 +998,75 @@ TEST_F(PhongRendererTest, AtlasTexelsMatchTheCpuModelAtTheirSurfacePoints) {
   absl::StatusOr<cv::Mat> again = renderer->RenderAtlas(pose, camera_center, kSize);
   ASSERT_TRUE(again.ok()) << again.status();
   EXPECT_EQ(cv::norm(*atlas, *again, cv::NORM_INF), 0.0);
+}
+
+// Issue #18: the truth's procedural normal detail and a reconstruction's
+// tangent-space normal atlas perturb the shading normal exactly as the CPU
+// twins (render/normal_detail.h, scene/tangent_frames.h) say, on a grid
+// turned in space and mirrored in u (so the tangent and the handedness
+// matter).
+TEST_F(PhongRendererTest, NormalDetailAndNormalAtlasMatchTheCpuFrames) {
+  RenderMesh mesh;
+  Pose pose;
+  AppendGridWithUvs(6, 1.0, 0.0, 0, {0.9f, 0.1f}, {0.1f, 0.9f}, &mesh, &pose);
+  const glm::mat3 turn(glm::rotate(glm::mat4(1.0f), 0.6f, glm::normalize(glm::vec3(1.0f, -2.0f, 0.5f))));
+  for (glm::vec3& p : pose.positions) p = turn * p;
+  for (glm::vec3& n : pose.normals) n = turn * n;
+  RendererOptions options;
+  options.shadow_map_size = 256;
+  auto renderer = MakeRenderer(mesh, options);
+  ASSERT_NE(renderer, nullptr);
+  ProceduralMaterial material;
+  material.kd.base = {0.6f, 0.5f, 0.4f};
+  material.ks = {0.2f, 0.2f, 0.2f};
+  material.ke = {10.0f, 10.0f, 10.0f};
+  ASSERT_TRUE(renderer->SetProceduralMaterials({material}).ok());
+  const std::vector<scene::Light> lights = {PointLight(turn * glm::vec3(0.4f, 0.2f, 2.0f), {1.0f, 1.0f, 1.0f})};
+  ASSERT_TRUE(renderer->SetLights(lights).ok());
+  NormalDetail detail;
+  detail.amplitude = 0.5f;
+  detail.wavelength = 0.7f;
+  ASSERT_TRUE(renderer->SetNormalDetail(detail).ok());
+  constexpr int kSize = 64;
+  const glm::vec3 camera_center = turn * glm::vec3(0.3f, -1.0f, 2.5f);
+  const std::vector<glm::vec4> tangents = scene::VertexTangents(mesh.triangles, pose.positions, pose.normals, mesh.uvs);
+  // A constant normal atlas: one tilted tangent-space normal.
+  const glm::vec3 m_atlas = glm::normalize(glm::vec3(0.3f, -0.4f, 1.0f));
+  for (int mode = 0; mode < 2; ++mode) {
+    if (mode == 1) {
+      const cv::Mat kd(1, 1, CV_32FC3, cv::Scalar(0.6, 0.5, 0.4)), ks(1, 1, CV_32FC3, cv::Scalar::all(0.2)),
+          ke(1, 1, CV_32FC3, cv::Scalar::all(10.0));
+      ASSERT_TRUE(renderer->SetAtlasMaterials(kd, ks, ke).ok());
+      ASSERT_TRUE(renderer->SetNormalAtlas(cv::Mat(4, 4, CV_32FC3, cv::Scalar(m_atlas.x, m_atlas.y, m_atlas.z))).ok());
+    }
+    absl::StatusOr<cv::Mat> atlas = renderer->RenderAtlas(pose, camera_center, kSize);
+    ASSERT_TRUE(atlas.ok()) << atlas.status();
+    const float scale = MaxValue(*atlas);
+    int compared = 0, differs_from_mesh = 0;
+    for (int j = 0; j < kSize; ++j) {
+      for (int i = 0; i < kSize; ++i) {
+        const TexelTruth truth = LocateTexel(mesh, pose, i, j, kSize);
+        if (!truth.covered || truth.ambiguous) continue;
+        // The grid is flat: every vertex has the same tangent.
+        const scene::TangentFrame frame = scene::FrameAt(tangents[0], glm::vec3(truth.normal));
+        const glm::vec3 m = mode == 0 ? NormalDetailAt(detail, glm::vec3(truth.rest_point)) : m_atlas;
+        PhongParams params;
+        params.kd = material.kd.base;
+        params.ks = material.ks;
+        params.ke = material.ke;
+        const glm::vec3 expected = EvaluatePhong(params, glm::vec3(truth.point), glm::normalize(frame.ToWorld(m)),
+                                                 camera_center, lights, {}, false);
+        const glm::vec3 flat = EvaluatePhong(params, glm::vec3(truth.point), glm::vec3(truth.normal), camera_center,
+                                             lights, {}, false);
+        const cv::Vec4f texel = atlas->at<cv::Vec4f>(j, i);
+        EXPECT_LE(MaxChannelError(texel, expected), 2e-3f * scale) << "mode " << mode << " texel " << i << ", " << j;
+        if (MaxChannelError(texel, flat) > 0.02f * scale) ++differs_from_mesh;
+        ++compared;
+      }
+    }
+    EXPECT_GT(compared, kSize * kSize / 2);
+    EXPECT_GT(differs_from_mesh, compared / 2) << "mode " << mode << ": the detail must change the shading";
+  }
 }
 
 // Issue #15: with another model the same renderer shades by core/brdf's
