@@ -14,7 +14,8 @@
 namespace mvbrdf::client {
 
 void AddJobFlags(FlagParser& flags, JobFlags* job) {
-  flags.AddString("--outputs LIST", &job->outputs, "comma-separated: light (Table 6.1), brdf (atlases), correction, errors");
+  flags.AddString("--outputs LIST", &job->outputs, "comma-separated: light (Table 6.1), brdf (atlases), correction, errors, normals (per-texel "
+                 "normals refined from the video, atlases/normal.exr; off by default: extra passes over the frames)");
   flags.AddString("--config NAME", &job->configuration, "a known light configuration: skips the sweep");
   flags.AddString("--candidates LIST", &job->candidates,
                   "configurations to sweep, separated by ';' (default: every configuration of the scene)");
@@ -157,9 +158,10 @@ absl::Status ToSubmitRequest(const JobFlags& job, v1::SubmitJobRequest* request)
     else if (part == "brdf") request->add_outputs(v1::OUTPUT_BRDF_ATLASES);
     else if (part == "correction") request->add_outputs(v1::OUTPUT_CORRECTION);
     else if (part == "errors") request->add_outputs(v1::OUTPUT_CAMERA_ERRORS);
+    else if (part == "normals") request->add_outputs(v1::OUTPUT_NORMALS);
     else {
       return absl::InvalidArgumentError(
-          absl::StrCat("--outputs: expected light, brdf, correction or errors, got \"", part, "\""));
+          absl::StrCat("--outputs: expected light, brdf, correction, errors or normals, got \"", part, "\""));
     }
   }
   if (request->outputs_size() == 0) return absl::InvalidArgumentError("--outputs: name at least one output");

@@ -14,6 +14,7 @@
 #include "core/brdf/ggx.h"
 #include "core/brdf/model.h"
 #include "core/evaluate/calibration_truth.h"
+#include "core/render/normal_detail.h"
 #include "core/image/exr.h"
 #include "core/scene/fingerprint.h"
 #include "core/scene/sequence.h"
@@ -305,6 +306,61 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
     }
   }
   report.set_cluster_accuracy(assigned > 0 ? static_cast<double>(correct) / static_cast<double>(assigned) : 0.0);
+
+  // Issue #18: normals against the truth's detail, in tangent space: the run
+  // reads its normals in the frames of the atlas's UVs, the truth in those of
+  // the scene mesh's (synth --normal-detail writes them), the same frames
+  // when the run kept the mesh's UVs (atlas.keep_existing_uvs, the default).
+  if (truth.message().has_normal_detail()) {
+    const v1::NormalDetail& d = truth.message().normal_detail();
+    render::NormalDetail detail;
+    detail.amplitude = static_cast<float>(d.amplitude());
+    detail.wavelength = static_cast<float>(d.wavelength());
+    if (d.d1_size() == 3 && d.d2_size() == 3) {
+      detail.d1 = glm::vec3(d.d1(0), d.d1(1), d.d1(2));
+      detail.d2 = glm::vec3(d.d2(0), d.d2(1), d.d2(2));
+    }
+    cv::Mat normal;
+    const bool refined = std::filesystem::exists(run_dir / "atlases" / "normal.exr");
+    if (refined) {
+      MVBRDF_ASSIGN_OR_RETURN(normal, ReadImage(run_dir / "atlases" / "normal.exr", CV_32FC3, size));
+    }
+    std::vector<double> errors, mesh_errors;
+    const auto angle = [](const glm::vec3& a, const glm::vec3& b) {
+      return std::acos(std::clamp(static_cast<double>(glm::dot(glm::normalize(a), glm::normalize(b))), -1.0, 1.0)) *
+             180.0 / 3.14159265358979323846;
+    };
+    for (int y = 0; y < size; ++y) {
+      for (int x = 0; x < size; ++x) {
+        const cv::Vec4f& p = rest.at<cv::Vec4f>(y, x);
+        if (triangle_id.at<int32_t>(y, x) < 0 || p[3] < 0.5f || cluster.at<int32_t>(y, x) < 0 ||
+            kd_counts.at<float>(y, x) < kMinObservationsForKd) {
+          continue;
+        }
+        const glm::vec3 m_true = render::NormalDetailAt(detail, glm::vec3(p[0], p[1], p[2]));
+        glm::vec3 m(0.0f, 0.0f, 1.0f);
+        if (refined) {
+          const cv::Vec3f& v = normal.at<cv::Vec3f>(y, x);
+          if (v[2] > 0.0f) m = glm::vec3(v[0], v[1], v[2]);
+        }
+        errors.push_back(angle(m, m_true));
+        mesh_errors.push_back(angle(glm::vec3(0.0f, 0.0f, 1.0f), m_true));
+      }
+    }
+    const auto quantile = [](std::vector<double> v, double q) {
+      if (v.empty()) return 0.0;
+      const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(i), v.end());
+      return v[i];
+    };
+    v1::NormalEvaluation* n = report.mutable_normals();
+    n->set_texels(errors.size());
+    n->set_refined(refined);
+    n->set_median_deg(quantile(errors, 0.5));
+    n->set_p90_deg(quantile(errors, 0.9));
+    n->set_mesh_median_deg(quantile(mesh_errors, 0.5));
+    n->set_mesh_p90_deg(quantile(mesh_errors, 0.9));
+  }
   return report;
 }
 

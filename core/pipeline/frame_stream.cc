@@ -3,6 +3,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/status_macros.h"
+#include "core/scene/tangent_frames.h"
 
 namespace mvbrdf::pipeline {
 namespace {
@@ -28,6 +29,7 @@ absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequ
                                                                ShadowAtlasCache* shadows) {
   auto s = std::unique_ptr<FrameStream>(new FrameStream(sequence));
   s->shadow_cache_ = shadows;
+  s->atlas_ = &atlas;
   // What a frame's shadow atlas depends on besides the frame: the lights
   // (positions, directions) and the resampler's atlas and shadow maps.
   s->shadow_key_ = absl::StrCat(atlas.size, " ", options.shadow_map_size);
@@ -63,8 +65,32 @@ absl::Status FrameStream::SetFrame(int t) {
     if (shadow_cache_ != nullptr) shadow_cache_->Keep(t, shadow_key_, shadows_);
   }
   MVBRDF_ASSIGN_OR_RETURN(geometry_, resampler_->Geometry());
+  if (tangent_normals_ != nullptr) {
+    const std::vector<glm::vec4> tangents = tangents_->Compute(positions_);
+    cv::Mat normal = geometry_.normal.clone();
+    for (int row = 0; row < normal.rows; ++row) {
+      cv::Vec4f* n = normal.ptr<cv::Vec4f>(row);
+      for (int column = 0; column < normal.cols; ++column) {
+        const size_t i = static_cast<size_t>(row) * static_cast<size_t>(normal.cols) + static_cast<size_t>(column);
+        if ((*refined_)[i] == 0 || !(n[column][3] > 0.5f)) continue;
+        const glm::vec3 mesh(n[column][0], n[column][1], n[column][2]);
+        const float length = glm::length(mesh);
+        if (!(length > 0.0f)) continue;
+        const glm::vec3 refined =
+            glm::normalize(scene::FrameAt(tangents[i], mesh / length).ToWorld((*tangent_normals_)[i]));
+        n[column] = {refined.x, refined.y, refined.z, n[column][3]};
+      }
+    }
+    geometry_.normal = normal;
+  }
   frame_ = t;
   return absl::OkStatus();
+}
+
+void FrameStream::UseNormals(const std::vector<glm::vec3>* tangent_normals, const std::vector<uint8_t>* refined) {
+  tangent_normals_ = tangent_normals;
+  refined_ = refined;
+  tangents_ = tangent_normals != nullptr ? std::make_unique<atlas::TexelTangents>(*atlas_) : nullptr;
 }
 
 absl::StatusOr<cv::Mat> FrameStream::Resample(int camera) {

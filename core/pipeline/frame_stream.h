@@ -15,6 +15,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "core/atlas/atlas.h"
+#include "core/atlas/texel_tangents.h"
 #include "core/gl/egl_context.h"
 #include "core/pipeline/shadow_atlas_cache.h"
 #include "core/resample/resampler.h"
@@ -48,6 +49,13 @@ class FrameStream {
   resample::Resampler::RefusedObservations Refused(int camera) const { return resampler_->Refused(camera); }
   const cv::Mat& last_frame() const { return last_frame_; }
 
+  // Issue #18: from the next SetFrame on, the geometry atlas's normals are
+  // the refined ones where `refined[texel]` is 1: the tangent-space
+  // `tangent_normals[texel]` read in the frame's tangent frames
+  // (atlas::TexelTangents), so every Sample assembled from geometry() sees
+  // them. Both vectors are the caller's and outlive the stream.
+  void UseNormals(const std::vector<glm::vec3>* tangent_normals, const std::vector<uint8_t>* refined);
+
   const scene::FramePositions& positions() const { return positions_; }
   const cv::Mat& shadows() const { return shadows_; }
   const resample::GeometryAtlas& geometry() const { return geometry_; }
@@ -63,6 +71,10 @@ class FrameStream {
   cv::Mat last_frame_;
   std::vector<samples::LightMask> frame_lights_;  // per frame (samples::FrameLightMasks)
   ShadowAtlasCache* shadow_cache_ = nullptr;
+  const atlas::Atlas* atlas_ = nullptr;
+  std::unique_ptr<atlas::TexelTangents> tangents_;  // with UseNormals
+  const std::vector<glm::vec3>* tangent_normals_ = nullptr;
+  const std::vector<uint8_t>* refined_ = nullptr;
   std::string shadow_key_;  // the lights, as ShadowAtlasCache keys them
   int frame_ = 0;
 };

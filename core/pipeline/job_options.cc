@@ -50,6 +50,9 @@ absl::StatusOr<ReconstructOptions> ReconstructOptionsFor(const v1::SubmitJobRequ
         case v1::OUTPUT_CAMERA_ERRORS:
           run.camera_errors = true;
           break;
+        case v1::OUTPUT_NORMALS:
+          run.normals = true;
+          break;
         default:
           return absl::InvalidArgumentError(
               absl::StrCat("outputs[", i, "]: unknown output ", static_cast<int>(request.outputs(i))));

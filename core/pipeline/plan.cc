@@ -16,6 +16,7 @@ const char* StageName(Stage stage) {
     case Stage::kClustering: return "clustering";
     case Stage::kClusterFit: return "cluster_fit";
     case Stage::kSolverComparison: return "solver_comparison";
+    case Stage::kNormals: return "normals";
     case Stage::kTexelPass: return "texel_pass";
     case Stage::kCorrection: return "correction_atlases";
     case Stage::kCameraErrors: return "camera_errors";
@@ -57,7 +58,8 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
     s.set_reason(std::move(reason));
     plan.skipped.push_back(std::move(s));
   };
-  if (!request.light_table && !request.brdf_atlases && !request.correction && !request.camera_errors) {
+  if (!request.light_table && !request.brdf_atlases && !request.correction && !request.camera_errors &&
+      !request.normals) {
     return absl::InvalidArgumentError("outputs: nothing requested (light table, BRDF atlases, correction, errors)");
   }
   const auto known = [&](const std::string& name) {
@@ -96,7 +98,7 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
     }
   }
   // Everything beyond the light table needs the reflectance stages.
-  const bool reflectance = request.brdf_atlases || request.correction || request.camera_errors;
+  const bool reflectance = request.brdf_atlases || request.correction || request.camera_errors || request.normals;
 
   if (sequence.topology.has_uvs()) {
     skip(Stage::kAtlas, "the mesh has UVs: they are the atlas");
@@ -174,7 +176,7 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
 
   if (!reflectance) {
     const char* why = "only the light table was requested";
-    for (Stage s : {Stage::kClustering, Stage::kClusterFit, Stage::kSolverComparison, Stage::kTexelPass,
+    for (Stage s : {Stage::kClustering, Stage::kClusterFit, Stage::kSolverComparison, Stage::kNormals, Stage::kTexelPass,
                     Stage::kCorrection, Stage::kCameraErrors, Stage::kWriteAtlases}) {
       skip(s, why);
     }
@@ -195,7 +197,20 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   } else {
     skip(Stage::kSolverComparison, "not requested");
   }
-  run(Stage::kTexelPass, "per-texel kd with the clusters' specular part removed");
+  const bool normals_run = request.normals && sequence.lights.size() * static_cast<size_t>(sequence.num_frames) >= 3;
+  if (!request.normals) {
+    skip(Stage::kNormals, "not requested (--outputs ...,normals)");
+  } else if (sequence.lights.size() * static_cast<size_t>(sequence.num_frames) < 3) {
+    // A direction has two degrees of freedom and kd a third: fewer than three
+    // (light, frame) pairs cannot constrain a texel's normal.
+    skip(Stage::kNormals, absl::StrCat("the observations cannot constrain normals: ", sequence.lights.size(),
+                                       " light(s) x ", sequence.num_frames, " frame(s), fewer than 3 light directions"));
+  } else {
+    run(Stage::kNormals, "per-texel normals (tangent space) from every frame's observations, then pass 2 with them");
+  }
+  run(Stage::kTexelPass, normals_run ? "per-texel kd with the clusters' specular part removed, read with the "
+                                       "refined normals"
+                                     : "per-texel kd with the clusters' specular part removed");
   if (!request.correction) {
     skip(Stage::kCorrection, "not requested");
   } else if (sequence.num_frames < 2) {

@@ -21,6 +21,9 @@ struct RunRequest {
   bool correction = true;       // per-frame correction atlases
   bool camera_errors = true;    // Table 7.1
   bool compare_solvers = true;  // Table 6.2: Powell beside Levenberg-Marquardt
+  // Issue #18: per-texel normals refined from the video (off unless asked:
+  // extra passes over every frame, see core/pipeline/normal_stage.h).
+  bool normals = false;
   // A known configuration (by name): the sweep is not needed.
   std::string configuration;
   // The configurations to sweep (names of the scene's), in this order; empty:
@@ -44,6 +47,7 @@ enum class Stage {
   kClustering,       // k-means of texels into materials
   kClusterFit,       // one Phong BRDF per cluster (LM)
   kSolverComparison, // the same fits with Powell's method
+  kNormals,          // per-texel normals refined from the video (issue #18), before pass 2
   kTexelPass,        // pass 2: resample again, per-texel kd, camera errors
   kCorrection,       // per-frame correction atlases
   kCameraErrors,     // Table 7.1

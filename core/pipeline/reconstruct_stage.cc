@@ -36,8 +36,10 @@
 #include "core/pipeline/frame_stream.h"
 #include "core/pipeline/gather_stage.h"
 #include "core/pipeline/light_table.h"
+#include "core/pipeline/normal_stage.h"
 #include "core/pipeline/refine_lights_stage.h"
 #include "core/pipeline/run_scene.h"
+#include "core/pipeline/texel_shading.h"
 #include "core/pipeline/texel_reservoir.h"
 #include "core/resample/atlas_ops.h"
 #include "core/samples/sample_set.h"
@@ -271,19 +273,6 @@ absl::Status WriteModelAtlas(const std::filesystem::path& file, cv::Mat model, i
   return absl::OkStatus();
 }
 
-// Sum of I_k a_k h_k^ke over the lights in `mask`, channel c (a: the
-// fall-off, 1 without fall-off).
-inline float SpecularSum(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
-                         const samples::LightMask& mask, int c, double ke) {
-  double s = 0.0;
-  for (size_t j = 0; j < terms.count; ++j) {
-    const size_t k = terms.light[j];
-    if (!mask.Test(k) || !(terms.h[j] > 0.0f)) continue;
-    s += intensity[k][c] * terms.falloff[j] * std::exp(ke * std::log(static_cast<double>(terms.h[j])));
-  }
-  return static_cast<float>(s);
-}
-
 // Why no texel was seen lit, as precisely as pass 1's statistics tell.
 absl::Status NothingLit(const scene::Sequence& sequence, const TexelStatistics& texels, const std::string& chosen,
                         const samples::LightMask& mask) {
@@ -309,15 +298,6 @@ absl::Status NothingLit(const scene::Sequence& sequence, const TexelStatistics& 
       "light configuration \"", chosen,
       "\": every texel the cameras observed is unlit by its lights (they face away from the observed surfaces or are "
       "shadowed on all of them; check scene.lights' positions and directions)"));
-}
-
-inline glm::vec3 IlluminationOf(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
-                                const samples::LightMask& mask) {
-  glm::vec3 s(0.0f);
-  for (size_t j = 0; j < terms.count; ++j) {
-    if (mask.Test(terms.light[j])) s += intensity[terms.light[j]] * terms.g[j];
-  }
-  return s;
 }
 
 }  // namespace
@@ -943,6 +923,48 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   g.texels.reset();
   AddStage(&report, "cluster_fit", Since(t0), options);
 
+  // Issue #18: per-texel normals, which pass 2 then reads its Samples with.
+  std::optional<TexelNormals> normals;
+  if (plan.Has(Stage::kNormals)) {
+    t0 = Clock::now();
+    NormalStageInput input;
+    input.sequence = &sequence;
+    input.context = &context;
+    input.atlas = &atlas;
+    input.resampler = options.resampler;
+    input.shadows = shadow_atlases.get();
+    input.assemble = assemble;
+    input.texel_cluster = &texel_cluster;
+    for (size_t k = 0; k < num_clusters; ++k) {
+      input.clusters.push_back({cluster_model[k], cluster_brdf[k], cluster_lobe[k]});
+    }
+    input.residual_scale = texel_sigma;
+    input.robust = options.diffuse.robust;
+    input.selection = &selection;
+    input.intensity = intensity;
+    input.options = options.normals;
+    input.progress = options.progress;
+    input.cancelled = options.cancelled;
+    MVBRDF_ASSIGN_OR_RETURN(normals, RefineTexelNormals(input));
+    v1::NormalReport* row = report.mutable_normals();
+    row->set_texels(normals->texels);
+    row->set_refined(normals->refined_texels);
+    row->set_few_observations(normals->few_observations);
+    row->set_coplanar_lights(normals->coplanar);
+    row->set_tilt_limit(normals->tilt_limit);
+    row->set_passes(static_cast<uint32_t>(normals->passes));
+    row->set_median_tilt_deg(normals->median_tilt_deg);
+    row->set_median_sigma_deg(normals->median_sigma_deg);
+    if (normals->texels > 0 && normals->refined_texels * 2 < normals->texels) {
+      report.add_warnings(absl::StrCat("normals: only ", normals->refined_texels, " of ", normals->texels,
+                                       " texels could be refined (", normals->few_observations,
+                                       " with too few observations, ", normals->coplanar,
+                                       " lit from too nearly coplanar directions, ", normals->tilt_limit,
+                                       " past the tilt limit); the others keep the mesh's normal"));
+    }
+    AddStage(&report, "normals", Since(t0), options);
+  }
+
   // Pass 2: per-texel kd, observed diffuse per frame, camera errors.
   t0 = Clock::now();
   fit::DiffuseAccumulator diffuse(num_texels);
@@ -981,6 +1003,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   {
     MVBRDF_ASSIGN_OR_RETURN(auto stream,
                             FrameStream::Open(sequence, context, atlas, options.resampler, shadow_atlases.get()));
+    if (normals.has_value()) stream->UseNormals(&normals->m, &normals->refined);
     std::vector<glm::vec3> frame_sum(num_texels);
     std::vector<glm::vec3> frame_illumination(num_texels);
     std::vector<uint16_t> frame_count(num_texels);
@@ -1281,6 +1304,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
           centre.x, centre.y, centre.z, 1.0f};
     }
     MVBRDF_RETURN_IF_ERROR(image::WritePngPreview(atlases / "cluster.png", cluster_preview));
+  }
+  if (normals.has_value()) {
+    MVBRDF_RETURN_IF_ERROR(WriteNormalAtlases(*normals, texel_cluster, atlas.size, options.grow_iterations, atlases));
   }
   // Correction atlases c = kd_o - kd where the frame observed the texel;
   // the frames split among kAtlasParts threads (each frame's file its own).

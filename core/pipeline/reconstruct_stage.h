@@ -33,6 +33,7 @@
 #include "absl/status/statusor.h"
 #include "core/brdf/model.h"
 #include "core/atlas/atlas.h"
+#include "core/fit/texel_normal_fit.h"
 #include "core/fit/diffuse.h"
 #include "core/fit/phong_fit.h"
 #include "core/gl/egl_context.h"
@@ -89,6 +90,8 @@ struct ReconstructOptions {
   // 0 -> 0.096, 0.1 -> 0.0216, 0.3 -> 0.0196, 1 -> 0.0187 (the former
   // absolute 0.1 at G = 1 gave 0.0187 there: G^2 ~ 0.1 on it).
   double kd_prior_weight = 1.0;
+  // Issue #18: the normals stage's solver (it runs when the request asks).
+  fit::TexelNormalOptions normals;
   int grow_iterations = 2;
   // Samples kept per texel for the cluster fits (TexelReservoir).
   int reservoir_uniform = 2;

@@ -117,6 +117,14 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
                         const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
                         const AssembleOptions& options, Visit&& visit, TexelRows rows = {});
 
+// The same texels as ForEachTexelSample, with the surface instead of the
+// terms: visit(texel, rgb, point, unit_normal, bits), `bits` the texel's
+// shadow-atlas channels (ShadowChannels(lights.size()) values), for callers
+// that read the lights at other normals (issue #18: PointTerms below).
+template <typename Visit>
+void ForEachTexelObservation(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
+                             const scene::CameraModel& camera, size_t num_lights, Visit&& visit, TexelRows rows = {});
+
 // Per-pixel Samples of one (frame, camera): every video pixel whose centre
 // shows the mesh (with its four neighbours, so silhouettes are left out) and
 // faces the camera by more than `min_cos_view`, with the exact surface point

@@ -148,10 +148,14 @@ struct FootprintTerms {
 
 }  // namespace assemble_internal
 
+// The terms of one surface point as the assemblers compute them (Fill: the
+// lights of `bits` that face it), in buffers for every light; the terms are
+// valid until the next Fill.
+using PointTerms = assemble_internal::TermBuffers;
+
 template <typename Visit>
-void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
-                        const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
-                        const AssembleOptions& options, Visit&& visit, TexelRows rows) {
+void ForEachTexelObservation(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
+                             const scene::CameraModel& camera, size_t num_lights, Visit&& visit, TexelRows rows) {
   using assemble_internal::Check;
   Check(resampled.type() == CV_32FC4 && resampled.rows == resampled.cols,
         "ForEachTexelSample: resampled must be a square CV_32FC4 atlas");
@@ -159,13 +163,12 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
         "ForEachTexelSample: geometry.position must be CV_32FC4 of the atlas size");
   Check(geometry.normal.type() == CV_32FC4 && geometry.normal.size() == resampled.size(),
         "ForEachTexelSample: geometry.normal must be CV_32FC4 of the atlas size");
-  Check(lights.size() <= static_cast<size_t>(kMaxLights), "ForEachTexelSample: more than kMaxLights lights");
-  Check(shadows.type() == ShadowAtlasType(lights.size()) && shadows.size() == resampled.size(),
+  Check(num_lights <= static_cast<size_t>(kMaxLights), "ForEachTexelSample: more than kMaxLights lights");
+  Check(shadows.type() == ShadowAtlasType(num_lights) && shadows.size() == resampled.size(),
         "ForEachTexelSample: shadows must be CV_16UC(ShadowChannels) of the atlas size");
 
   const glm::vec4 view(camera.ViewOrigin());  // v: scene::ViewDirection (pinhole or orthographic)
-  const int channels = ShadowChannels(lights.size());
-  auto buffers = std::make_unique<assemble_internal::TermBuffers>();
+  const int channels = ShadowChannels(num_lights);
   const int size = resampled.cols;
   const int row_end = rows.end < 0 ? size : std::min(rows.end, size);
   for (int row = std::max(rows.begin, 0); row < row_end; ++row) {
@@ -185,14 +188,27 @@ void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas&
       // The resampler already rejects back-facing texels; this guards against
       // a camera centre that differs from the one resampled with.
       if (!(glm::dot(n, scene::ViewDirection(view, point)) > 0.0f)) continue;
-      const LightTerms terms = buffers->Fill(lights, point, n, view, bits + static_cast<size_t>(column) * channels,
-                                             options.inverse_square_falloff,
-                                             options.half_vector_geometry);
       const uint32_t texel = static_cast<uint32_t>(row) * static_cast<uint32_t>(size) + static_cast<uint32_t>(column);
       const glm::vec3 rgb(value[column][0], value[column][1], value[column][2]);
-      visit(texel, rgb, terms);
+      visit(texel, rgb, point, n, bits + static_cast<size_t>(column) * channels);
     }
   }
+}
+
+template <typename Visit>
+void ForEachTexelSample(const cv::Mat& resampled, const resample::GeometryAtlas& geometry, const cv::Mat& shadows,
+                        const scene::CameraModel& camera, const std::vector<scene::Light>& lights,
+                        const AssembleOptions& options, Visit&& visit, TexelRows rows) {
+  const glm::vec4 view(camera.ViewOrigin());
+  auto buffers = std::make_unique<PointTerms>();
+  ForEachTexelObservation(
+      resampled, geometry, shadows, camera, lights.size(),
+      [&](uint32_t texel, const glm::vec3& rgb, const glm::vec3& point, const glm::vec3& n, const uint16_t* bits) {
+        const LightTerms terms =
+            buffers->Fill(lights, point, n, view, bits, options.inverse_square_falloff, options.half_vector_geometry);
+        visit(texel, rgb, terms);
+      },
+      rows);
 }
 
 template <typename Visit>

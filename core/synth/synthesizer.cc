@@ -14,6 +14,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "core/atlas/atlas.h"
 #include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -176,6 +177,7 @@ absl::Status SynthOptions::Check() const {
   MVBRDF_RETURN_IF_ERROR(CheckRange("--exposure", exposure, 0.01, 100));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--distortion", distortion_k1, -1, 1));
   MVBRDF_RETURN_IF_ERROR(CheckRange("--pixel-samples", pixel_samples, 1, 8));
+  MVBRDF_RETURN_IF_ERROR(CheckRange("--normal-detail", normal_detail, 0, 2));
   if (std::max(width, height) * pixel_samples > 16384) {
     return absl::InvalidArgumentError(absl::StrCat("--pixel-samples: ", pixel_samples, " x the image's ",
                                                    std::max(width, height), " pixels exceeds 16384"));
@@ -206,6 +208,14 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   if (subject.max_frames > 0 && options.num_frames > subject.max_frames) {
     return absl::InvalidArgumentError(absl::StrCat("--frames: the ", subject.preset, " preset has ", subject.max_frames,
                                                    " frames, got ", options.num_frames));
+  }
+
+  // Normal detail is read in the tangent frames of UVs (issue #18): a
+  // subject without them gets an atlas's, which its meshes then carry.
+  if (options.normal_detail > 0.0 && !subject.topology.has_uvs()) {
+    MVBRDF_ASSIGN_OR_RETURN(const atlas::Atlas uv_atlas,
+                            atlas::BuildAtlas(subject.topology, subject.rest_positions, atlas::AtlasOptions()));
+    subject.topology = uv_atlas.topology;
   }
 
   std::vector<std::optional<MeasuredMaterial>> measured(subject.materials.size());
@@ -336,6 +346,12 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   }
   MVBRDF_RETURN_IF_ERROR(renderer->SetMeasuredBrdfs(measured_brdfs));
   MVBRDF_RETURN_IF_ERROR(renderer->SetProceduralMaterials(materials));
+  render::NormalDetail detail;
+  if (options.normal_detail > 0.0) {
+    detail.amplitude = static_cast<float>(options.normal_detail);
+    detail.wavelength = static_cast<float>(kNormalDetailWavelength * 0.5 * glm::length(bounds.max - bounds.min));
+    MVBRDF_RETURN_IF_ERROR(renderer->SetNormalDetail(detail));
+  }
   if (!subject.kd_texture.empty()) {
     MVBRDF_RETURN_IF_ERROR(renderer->SetKdTexture(subject.kd_texture));
   }
@@ -520,6 +536,15 @@ absl::StatusOr<SynthResult> Synthesize(const SynthOptions& options, gl::EglConte
   p->set_light_intensity_error(options.light_intensity_error);
   p->set_light_direction_error_deg(options.light_direction_error_deg);
   p->set_pixel_samples(static_cast<uint32_t>(options.pixel_samples));
+  if (detail.amplitude > 0.0f) {
+    v1::NormalDetail* d = truth.mutable_normal_detail();
+    d->set_amplitude(detail.amplitude);
+    d->set_wavelength(detail.wavelength);
+    for (int i = 0; i < 3; ++i) {
+      d->add_d1(detail.d1[i]);
+      d->add_d2(detail.d2[i]);
+    }
+  }
   truth.set_shadow_map_size(static_cast<uint32_t>(options.shadow_map_size));
   {
     // The scene as `mvbrdf run` will read it (the mesh as parsed back from

@@ -38,6 +38,10 @@ enum class VideoFormat { kFfv1, kPng };
 // (C, N, E, W, S, NE, NW, SE, SW), or with a dome by dome light t mod N,
 // recorded in the scene's frame_lighting and the truth's frame_lighting.
 enum class Lighting { kStudio, kOlat };
+
+// SynthOptions::normal_detail's bumps: this times the subject's bounding
+// radius (half its rest pose's box diagonal) across, world units.
+inline constexpr double kNormalDetailWavelength = 0.08;
 absl::StatusOr<Lighting> ParseLighting(absl::string_view name);
 
 // "pinhole" or "orthographic" (--camera-model).
@@ -74,6 +78,12 @@ struct SynthOptions {
   // 1 renders one sample at each pixel centre, N averages N x N in linear
   // light, as a camera's pixel integrates over its area.
   int pixel_samples = 1;
+  // Issue #18: surface detail below the mesh's resolution, the peak slope of
+  // a procedural tangent-space normal (render/normal_detail.h) in bumps of
+  // kNormalDetailWavelength x the subject's bounding radius; 0: none. A
+  // subject without UVs gets an atlas's (atlas::BuildAtlas, default options)
+  // for its tangent frames, written into the meshes.
+  double normal_detail = 0.0;
   // The reflectance model rendered (model_materials.h converts the presets'
   // materials; recorded in truth.json's brdf and materials).
   brdf::Model brdf = brdf::Model::kPhong;

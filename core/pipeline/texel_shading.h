@@ -1,0 +1,66 @@
+// How the texel passes model one observation under a cluster's fitted
+// reflectance: r ~ kd G + S per channel (the thesis's Phong: G = sum_k I_k g_k,
+// S = ks sum_k I_k a_k h_k^ke; the other models through fit::LobeTerms).
+// Shared by pass 2 (reconstruct_stage.cc) and the normal stage, which reads
+// the same model at other normals.
+#ifndef MVBRDF_CORE_PIPELINE_TEXEL_SHADING_H_
+#define MVBRDF_CORE_PIPELINE_TEXEL_SHADING_H_
+
+#include <array>
+#include <cmath>
+#include <glm/glm.hpp>
+#include <vector>
+
+#include "core/brdf/model.h"
+#include "core/fit/lobe_fit.h"
+#include "core/fit/phong_fit.h"
+#include "core/samples/assemble.h"
+
+namespace mvbrdf::pipeline {
+
+// Sum of I_k a_k h_k^ke over the lights in `mask`, channel c (a: the
+// fall-off, 1 without fall-off).
+inline float SpecularSum(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
+                         const samples::LightMask& mask, int c, double ke) {
+  double s = 0.0;
+  for (size_t j = 0; j < terms.count; ++j) {
+    const size_t k = terms.light[j];
+    if (!mask.Test(k) || !(terms.h[j] > 0.0f)) continue;
+    s += intensity[k][c] * terms.falloff[j] * std::exp(ke * std::log(static_cast<double>(terms.h[j])));
+  }
+  return static_cast<float>(s);
+}
+
+// Sum of I_k g_k over the lights in `mask`.
+inline glm::vec3 IlluminationOf(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
+                                const samples::LightMask& mask) {
+  glm::vec3 s(0.0f);
+  for (size_t j = 0; j < terms.count; ++j) {
+    if (mask.Test(terms.light[j])) s += intensity[terms.light[j]] * terms.g[j];
+  }
+  return s;
+}
+
+// A cluster's reflectance as the texel passes read it.
+struct ClusterShading {
+  brdf::Model model = brdf::Model::kPhong;
+  fit::PhongRgb phong;                   // Phong's kd, ks, ke
+  std::array<fit::LobeChannel, 3> lobe;  // the other models' parameters
+};
+
+// G and S of one observation's terms under `cluster`.
+inline void ShadeTexel(const ClusterShading& cluster, const samples::LightTerms& terms,
+                       const std::vector<glm::vec3>& intensity, const samples::LightMask& mask, glm::vec3* illumination,
+                       glm::vec3* specular) {
+  if (cluster.model == brdf::Model::kPhong) {
+    *illumination = IlluminationOf(terms, intensity, mask);
+    for (int c = 0; c < 3; ++c)
+      (*specular)[c] = cluster.phong[c].ks * SpecularSum(terms, intensity, mask, c, cluster.phong[c].ke);
+  } else {
+    fit::LobeTerms(cluster.model, cluster.lobe, terms, intensity, mask, specular, illumination);
+  }
+}
+
+}  // namespace mvbrdf::pipeline
+
+#endif  // MVBRDF_CORE_PIPELINE_TEXEL_SHADING_H_
