@@ -48,7 +48,7 @@ check "synth" 0 "wrote" -- "$bin" synth --preset sphere --cameras 3 --frames 2 -
 check "run --config NOPE lists the scene's configurations" 3 \
   '--config: the scene has no light configuration "NOPE" (it has "C", .*"NE,NW,SE,SW"' -- \
   "$bin" run --direct "$work/sphere/scene.json" --config NOPE --out "$work/nope_run"
-check "run --outputs nope lists the outputs" 2 "light, brdf, correction or errors" -- \
+check "run --outputs nope lists the outputs" 2 "light, brdf, correction, errors or normals" -- \
   "$bin" run --direct "$work/sphere/scene.json" --outputs nope --out "$work/nope_run"
 python3 - "$work/sphere/scene.json" "$work/unknown_light.json" <<'EOF_PY'
 import json, sys

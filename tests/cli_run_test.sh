@@ -20,7 +20,7 @@ cat > "$work/bad_lights.json" <<'JSON'
 JSON
 
 check "run help" 0 "--outputs" -- "$bin" run --help
-check "bad outputs" 2 "--outputs: expected light, brdf, correction or errors" -- "$bin" run "$scene" --outputs shiny --out "$work/x"
+check "bad outputs" 2 "--outputs: expected light, brdf, correction, errors or normals" -- "$bin" run "$scene" --outputs shiny --out "$work/x"
 check "unknown configuration" 3 "no light configuration \"XY\"" -- "$bin" run "$scene" --config XY --out "$work/x"
 check "missing scene" 3 "nope.json" -- "$bin" run "$work/nope.json" --out "$work/x"
 check "plan printed, light table only" 0 "skip  texel_pass: only the light table was requested" -- \

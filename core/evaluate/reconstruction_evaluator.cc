@@ -312,14 +312,7 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   // the scene mesh's (synth --normal-detail writes them), the same frames
   // when the run kept the mesh's UVs (atlas.keep_existing_uvs, the default).
   if (truth.message().has_normal_detail()) {
-    const v1::NormalDetail& d = truth.message().normal_detail();
-    render::NormalDetail detail;
-    detail.amplitude = static_cast<float>(d.amplitude());
-    detail.wavelength = static_cast<float>(d.wavelength());
-    if (d.d1_size() == 3 && d.d2_size() == 3) {
-      detail.d1 = glm::vec3(d.d1(0), d.d1(1), d.d1(2));
-      detail.d2 = glm::vec3(d.d2(0), d.d2(1), d.d2(2));
-    }
+    const render::NormalDetail detail = truth.Detail();
     cv::Mat normal;
     const bool refined = std::filesystem::exists(run_dir / "atlases" / "normal.exr");
     if (refined) {

@@ -162,8 +162,48 @@ TEST(PlanTest, PlanGoesIntoTheReport) {
   v1::Plan proto;
   plan->ToProto(&proto);
   EXPECT_EQ(proto.stages_size(), static_cast<int>(plan->steps.size()));
-  // atlas, sweep, refine_lights (no sweep), correction
-  EXPECT_EQ(proto.skipped_size(), 4);
+  // atlas, sweep, refine_lights (no sweep), normals (not asked), correction
+  EXPECT_EQ(proto.skipped_size(), 5);
+}
+
+// Issue #18: the normals stage runs only when asked, before pass 2, and is
+// skipped with its reason when too few light directions reach a texel.
+TEST(PlanTest, NormalsRunWhenAskedAndTheObservationsCanConstrainThem) {
+  scene::Sequence s = MakeSequence(1, 30, true, true);
+  s.lights.resize(2);
+  auto plan = MakePlan(s, {});
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  EXPECT_FALSE(plan->Has(Stage::kNormals));
+  ASSERT_NE(FindSkipped(*plan, Stage::kNormals), nullptr);
+  EXPECT_EQ(FindSkipped(*plan, Stage::kNormals)->reason(), "not requested (--outputs ...,normals)");
+  RunRequest normals;
+  normals.normals = true;
+  plan = MakePlan(s, normals);
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  ASSERT_TRUE(plan->Has(Stage::kNormals));
+  size_t at_normals = 0, at_texel_pass = 0;
+  for (size_t i = 0; i < plan->steps.size(); ++i) {
+    if (plan->steps[i].stage == Stage::kNormals) at_normals = i;
+    if (plan->steps[i].stage == Stage::kTexelPass) at_texel_pass = i;
+  }
+  EXPECT_LT(at_normals, at_texel_pass);
+  // Only normals asked for: the reflectance stages they need run too.
+  RunRequest only;
+  only.light_table = only.brdf_atlases = only.correction = only.camera_errors = false;
+  only.normals = true;
+  plan = MakePlan(s, only);
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  EXPECT_TRUE(plan->Has(Stage::kNormals));
+  EXPECT_TRUE(plan->Has(Stage::kClusterFit));
+  // One light, one frame: one direction per texel.
+  scene::Sequence one = MakeSequence(1, 1, true, true);
+  one.lights.resize(1);
+  plan = MakePlan(one, normals);
+  ASSERT_TRUE(plan.ok()) << plan.status();
+  EXPECT_FALSE(plan->Has(Stage::kNormals));
+  ASSERT_NE(FindSkipped(*plan, Stage::kNormals), nullptr);
+  EXPECT_EQ(FindSkipped(*plan, Stage::kNormals)->reason(),
+            "the observations cannot constrain normals: 1 light(s) x 1 frame(s), fewer than 3 light directions");
 }
 
 // Issue #14: camera refinement runs unless off (auto needs two cameras to

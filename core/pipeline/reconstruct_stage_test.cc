@@ -84,8 +84,8 @@ TEST_F(ReconstructStageTest, RecoversTheGroundTruth) {
     EXPECT_GT(row.samples(), 0u);
   }
   // The Powell comparison was not requested; light refinement is skipped in
-  // auto (plan.cc says why).
-  EXPECT_EQ(report->plan().skipped_size(), 2);
+  // auto (plan.cc says why); normals were not asked for (issue #18).
+  EXPECT_EQ(report->plan().skipped_size(), 3);
 
   auto evaluation = evaluate::EvaluateReconstruction(dir_ / "run", dir_ / "bundle");
   ASSERT_TRUE(evaluation.ok()) << evaluation.status();

@@ -108,6 +108,11 @@ absl::StatusOr<std::unique_ptr<ReconstructionRenderer>> ReconstructionRenderer::
   renderer_options.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   MVBRDF_ASSIGN_OR_RETURN(r->renderer_, render::PhongRenderer::Create(context, mesh, renderer_options));
   MVBRDF_RETURN_IF_ERROR(r->renderer_->SetAtlasMaterials(r->kd_, r->ks_, r->ke_, r->model_, r->p3_, r->ggx_support_));
+  // Issue #18: a run with refined normals is drawn with them.
+  if (std::filesystem::exists(run_dir / "atlases" / "normal.exr")) {
+    MVBRDF_ASSIGN_OR_RETURN(const cv::Mat normal, ReadRgb(run_dir / "atlases" / "normal.exr"));
+    MVBRDF_RETURN_IF_ERROR(r->renderer_->SetNormalAtlas(normal));
+  }
   return r;
 }
 

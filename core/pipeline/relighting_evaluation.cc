@@ -175,6 +175,8 @@ absl::StatusOr<v1::RelightingEvaluation> EvaluateRelighting(const std::filesyste
   MVBRDF_RETURN_IF_ERROR(renderer->SetMeasuredBrdfs(truth.MeasuredBrdfs()));
   MVBRDF_RETURN_IF_ERROR(renderer->SetProceduralMaterials(truth.RendererMaterials()));
   if (!truth.KdTexture().empty()) MVBRDF_RETURN_IF_ERROR(renderer->SetKdTexture(truth.KdTexture()));
+  // The truth's surface detail (issue #18), in the scene mesh's UV frames.
+  MVBRDF_RETURN_IF_ERROR(renderer->SetNormalDetail(truth.Detail()));
   MVBRDF_ASSIGN_OR_RETURN(const scene::FramePositions positions, sequence.LoadFrame(frame));
   render::Pose pose;
   pose.positions = scene::ToRenderVertices(sequence.topology, positions);

@@ -158,4 +158,17 @@ std::vector<render::ProceduralMaterial> GroundTruth::RendererMaterials() const {
   return out;
 }
 
+render::NormalDetail GroundTruth::Detail() const {
+  render::NormalDetail detail;
+  if (!truth_.has_normal_detail()) return detail;
+  const v1::NormalDetail& d = truth_.normal_detail();
+  detail.amplitude = static_cast<float>(d.amplitude());
+  detail.wavelength = static_cast<float>(d.wavelength());
+  if (d.d1_size() == 3 && d.d2_size() == 3) {
+    detail.d1 = glm::vec3(d.d1(0), d.d1(1), d.d1(2));
+    detail.d2 = glm::vec3(d.d2(0), d.d2(1), d.d2(2));
+  }
+  return detail;
+}
+
 }  // namespace mvbrdf::synth

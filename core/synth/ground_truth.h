@@ -15,6 +15,7 @@
 #include "core/brdf/model.h"
 #include "core/brdf/nbrdf.h"
 #include "core/render/phong_model.h"
+#include "core/render/normal_detail.h"
 #include "core/render/phong_renderer.h"
 #include "core/scene/camera_model.h"
 #include "core/scene/light.h"
@@ -41,6 +42,9 @@ class GroundTruth {
   // `rest_position` is the point in the rest pose (frame 0, world units),
   // `uv` its texture coordinate (used only by materials with a kd texture).
   render::PhongParams At(uint32_t triangle, const glm::vec3& rest_position, const glm::vec2& uv) const;
+
+  // The surface detail rendered (issue #18; amplitude 0: none).
+  render::NormalDetail Detail() const;
 
   // The lights that lit every frame, with their true positions and intensities
   // (with per-frame lighting: every light that lit some frame).
