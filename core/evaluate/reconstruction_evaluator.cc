@@ -311,10 +311,12 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
   // reads its normals in the frames of the atlas's UVs, the truth in those of
   // the scene mesh's (synth --normal-detail writes them), the same frames
   // when the run kept the mesh's UVs (atlas.keep_existing_uvs, the default).
-  if (truth.message().has_normal_detail()) {
+  // A truth without detail has the mesh's normals (m = z): a run's refined
+  // normals are then measured against those.
+  const bool refined = std::filesystem::exists(run_dir / "atlases" / "normal.exr");
+  if (truth.message().has_normal_detail() || refined) {
     const render::NormalDetail detail = truth.Detail();
     cv::Mat normal;
-    const bool refined = std::filesystem::exists(run_dir / "atlases" / "normal.exr");
     if (refined) {
       MVBRDF_ASSIGN_OR_RETURN(normal, ReadImage(run_dir / "atlases" / "normal.exr", CV_32FC3, size));
     }

@@ -17,6 +17,8 @@
 #include "core/brdf/ggx.h"
 #include "core/brdf/ggx_equivalent.h"
 #include "core/export/export_input.h"
+#include "core/image/exr.h"
+#include "core/scene/tangent_frames.h"
 #include "core/base/version.h"
 #include "mvbrdf/v1/run_report.pb.h"
 
@@ -370,6 +372,38 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
     model.accessors.push_back(a);
     primitive.indices = static_cast<int>(model.accessors.size() - 1);
   }
+  // Issue #18: a run with refined normals exports them as the normal texture,
+  // with the tangents they were fitted in (scene/tangent_frames.h: glTF's
+  // convention, B = w (N x T) towards increasing v, "up" in the image).
+  const std::filesystem::path normal_file = run_dir / "atlases" / "normal.exr";
+  int normal_texture = -1;
+  if (std::filesystem::exists(normal_file)) {
+    MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage normal, image::ReadExr(normal_file));
+    if (normal.image.type() != CV_32FC3 || normal.image.size() != atlases.kd.size()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(normal_file.string(), ": expected an RGB image of the kd atlas's size"));
+    }
+    cv::Mat encoded(normal.image.size(), CV_8UC3);
+    for (int y = 0; y < encoded.rows; ++y) {
+      for (int x = 0; x < encoded.cols; ++x) {
+        const cv::Vec3f& m = normal.image.at<cv::Vec3f>(y, x);
+        const bool valid = m[2] > 0.0f;  // texels outside every chart: flat
+        encoded.at<cv::Vec3b>(y, x) = {Linear8(valid ? 0.5 * (m[2] + 1.0) : 1.0),
+                                       Linear8(valid ? 0.5 * (m[1] + 1.0) : 0.5),
+                                       Linear8(valid ? 0.5 * (m[0] + 1.0) : 0.5)};  // B, G, R
+      }
+    }
+    MVBRDF_ASSIGN_OR_RETURN(normal_texture, AddPngTexture(&model, encoded, "normal"));
+    const std::vector<glm::vec4> tangents =
+        scene::VertexTangents(atlas.topology.triangles, vertices, normals, atlas.topology.uvs);
+    tinygltf::Accessor a;
+    a.bufferView = AddView(&model, tangents.data(), tangents.size() * sizeof(glm::vec4), kArrayBuffer);
+    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    a.type = TINYGLTF_TYPE_VEC4;
+    a.count = tangents.size();
+    model.accessors.push_back(a);
+    primitive.attributes["TANGENT"] = static_cast<int>(model.accessors.size() - 1);
+  }
   primitive.material = 0;
   tinygltf::Mesh mesh;
   if (options.animation) {
@@ -388,6 +422,7 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
   material.pbrMetallicRoughness.metallicRoughnessTexture.index = metallic_roughness;
   material.pbrMetallicRoughness.metallicFactor = 1.0;  // x the texture's B = 0
   material.pbrMetallicRoughness.roughnessFactor = 1.0;
+  if (normal_texture >= 0) material.normalTexture.index = normal_texture;
   tinygltf::Value::Object specular_extension = {
       {"specularTexture", Object({{"index", tinygltf::Value(specular)}})},
       {"specularColorTexture", Object({{"index", tinygltf::Value(specular)}})}};

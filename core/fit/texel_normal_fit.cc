@@ -29,6 +29,9 @@ absl::Status TexelNormalOptions::Check() const {
   if (!(max_tilt_deg > 0.0 && max_tilt_deg < 90.0)) {
     return absl::InvalidArgumentError(absl::StrCat("normals.max_tilt_deg: must be in (0, 90), got ", max_tilt_deg));
   }
+  if (!(significance >= 0.0) || !std::isfinite(significance)) {
+    return absl::InvalidArgumentError(absl::StrCat("normals.significance: must be >= 0, got ", significance));
+  }
   if (!(max_step_deg > 0.0 && max_step_deg < 90.0)) {
     return absl::InvalidArgumentError(absl::StrCat("normals.max_step_deg: must be in (0, 90), got ", max_step_deg));
   }
@@ -108,6 +111,29 @@ void NormalGaussNewtonSums::Add(size_t texel, const std::array<std::array<double
     e.cost += w2 * res[c] * res[c];
   }
   ++e.n;
+}
+
+void NormalGaussNewtonSums::AddMeshNormal(size_t texel, const glm::dvec3& res_z, const glm::dvec3& g_z,
+                                          const glm::dvec3& w) {
+  Entry& e = s_[texel];
+  for (int c = 0; c < 3; ++c) {
+    const double w2 = w[c] * w[c];
+    e.mesh[static_cast<size_t>(3 * c)] += w2 * res_z[c] * res_z[c];
+    e.mesh[static_cast<size_t>(3 * c + 1)] += w2 * res_z[c] * g_z[c];
+    e.mesh[static_cast<size_t>(3 * c + 2)] += w2 * g_z[c] * g_z[c];
+  }
+}
+
+bool NormalGaussNewtonSums::Significant(size_t texel, const TexelNormalOptions& options) const {
+  const Entry& e = s_[texel];
+  const double dof = 3.0 * static_cast<double>(e.n) - 5.0;
+  if (!(dof > 0.0) || !(e.cost > 0.0)) return e.n > 0;
+  double mesh_cost = 0.0;
+  for (size_t c = 0; c < 3; ++c) {
+    const double rr = e.mesh[3 * c], rg = e.mesh[3 * c + 1], gg = e.mesh[3 * c + 2];
+    mesh_cost += gg > 0.0 ? rr - rg * rg / gg : rr;
+  }
+  return mesh_cost - e.cost > options.significance * e.cost / dof;
 }
 
 NormalGaussNewtonSums::Step NormalGaussNewtonSums::Solve(size_t texel, const NormalTangentBasis& basis,

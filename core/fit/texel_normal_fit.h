@@ -29,6 +29,13 @@
 //   (sum J^T W J + P) dx = sum J^T W res - p.
 // The normal's uncertainty: sigma^2 = cost / (3 n - 5) times the (alpha,
 // beta) block of the inverse, reported as its standard deviation in degrees.
+//
+// Whether to use it at all (a likelihood-ratio test): the same observations
+// explained with the mesh normal and the best kd for it,
+//   cost_mesh = sum_c min_kd sum w_c^2 (r_c - S_c(z) - kd G_c(z))^2,
+// must exceed the refined cost by more than `significance` x its residual
+// variance (chi^2 with 2 degrees of freedom: 13.8 at 0.1 %). On a surface the
+// mesh models, the refined normal fits noise and is not used.
 #ifndef MVBRDF_CORE_FIT_TEXEL_NORMAL_FIT_H_
 #define MVBRDF_CORE_FIT_TEXEL_NORMAL_FIT_H_
 
@@ -54,10 +61,12 @@ struct TexelNormalOptions {
   // largest eigenvalue of sum w^2 q q^T below min_conditioning), or when the
   // refined normal tilts more than max_tilt_deg from the mesh's.
   int min_observations = 8;
-  double min_conditioning = 0.01;
+  double min_conditioning = 1e-4;
   double max_tilt_deg = 60.0;
   // At most this rotation of m per Gauss-Newton step.
   double max_step_deg = 15.0;
+  // The likelihood-ratio test's threshold (chi^2, 2 degrees of freedom).
+  double significance = 13.8;
 
   absl::Status Check() const;
 };
@@ -67,6 +76,10 @@ enum TexelNormalFlag : uint8_t {
   kNormalFewObservations = 1,
   kNormalCoplanarLights = 2,
   kNormalAtTiltLimit = 4,
+  // The refined normal explains the observations no better than the mesh's
+  // by more than fitting two more parameters to noise would (see
+  // NormalGaussNewtonSums::Significant).
+  kNormalNotSignificant = 8,
 };
 
 // The closed-form pass's sums.
@@ -109,6 +122,12 @@ class NormalGaussNewtonSums {
   // j[c] = d model_c / d(alpha, beta, kd_r, kd_g, kd_b) (only kd_c's column
   // non-zero among the kd), square root weight w[c].
   void Add(size_t texel, const std::array<std::array<double, 5>, 3>& j, const glm::dvec3& res, const glm::dvec3& w);
+  // The same observation at the mesh normal: res_z = r - S(z), g_z = G(z)
+  // per channel (for the test above).
+  void AddMeshNormal(size_t texel, const glm::dvec3& res_z, const glm::dvec3& g_z, const glm::dvec3& w);
+  // Whether the refined normal explains the texel's observations
+  // significantly better than the mesh's (only with AddMeshNormal's sums).
+  bool Significant(size_t texel, const TexelNormalOptions& options) const;
   struct Step {
     double alpha = 0.0, beta = 0.0;
     glm::dvec3 kd{0.0};      // the new kd
@@ -126,6 +145,8 @@ class NormalGaussNewtonSums {
     std::array<double, 5> g{};   // sum J^T W res
     double cost = 0.0;           // sum W res^2
     uint32_t n = 0;              // observations (3 channels each)
+    // At the mesh normal, per channel: sum w^2 res_z^2, w^2 res_z g_z, w^2 g_z^2.
+    std::array<double, 9> mesh{};
   };
   std::vector<Entry> s_;
 };

@@ -66,7 +66,8 @@ absl::Status FrameStream::SetFrame(int t) {
   }
   MVBRDF_ASSIGN_OR_RETURN(geometry_, resampler_->Geometry());
   if (tangent_normals_ != nullptr) {
-    const std::vector<glm::vec4> tangents = tangents_->Compute(positions_);
+    frame_tangents_ = tangents_->Compute(positions_);
+    const std::vector<glm::vec4>& tangents = frame_tangents_;
     cv::Mat normal = geometry_.normal.clone();
     for (int row = 0; row < normal.rows; ++row) {
       cv::Vec4f* n = normal.ptr<cv::Vec4f>(row);
@@ -91,6 +92,29 @@ void FrameStream::UseNormals(const std::vector<glm::vec3>* tangent_normals, cons
   tangent_normals_ = tangent_normals;
   refined_ = refined;
   tangents_ = tangent_normals != nullptr ? std::make_unique<atlas::TexelTangents>(*atlas_) : nullptr;
+}
+
+absl::StatusOr<resample::CameraSurface> FrameStream::Surface(int camera) {
+  MVBRDF_ASSIGN_OR_RETURN(resample::CameraSurface surface, resampler_->Surface(camera));
+  if (tangent_normals_ == nullptr) return surface;
+  cv::Mat normal = surface.normal.clone();
+  const size_t texels = refined_->size();
+  for (int y = 0; y < normal.rows; ++y) {
+    const cv::Vec4f* p = surface.position_texel.ptr<cv::Vec4f>(y);
+    cv::Vec4f* n = normal.ptr<cv::Vec4f>(y);
+    for (int x = 0; x < normal.cols; ++x) {
+      const int64_t texel = static_cast<int64_t>(p[x][3]) - 1;  // w = texel + 1, 0: no surface
+      if (texel < 0 || static_cast<size_t>(texel) >= texels || (*refined_)[static_cast<size_t>(texel)] == 0) continue;
+      const glm::vec3 mesh(n[x][0], n[x][1], n[x][2]);
+      const float length = glm::length(mesh);
+      if (!(length > 0.0f)) continue;
+      const glm::vec3 refined = glm::normalize(scene::FrameAt(frame_tangents_[static_cast<size_t>(texel)], mesh / length)
+                                                   .ToWorld((*tangent_normals_)[static_cast<size_t>(texel)]));
+      n[x] = {refined.x, refined.y, refined.z, n[x][3]};
+    }
+  }
+  surface.normal = normal;
+  return surface;
 }
 
 absl::StatusOr<cv::Mat> FrameStream::Resample(int camera) {

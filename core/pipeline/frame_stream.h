@@ -44,7 +44,9 @@ class FrameStream {
   // resampler's unreliable pixels marked: Resampler::MarkUnreliable) and
   // resamples it.
   absl::StatusOr<cv::Mat> Resample(int camera);
-  absl::StatusOr<resample::CameraSurface> Surface(int camera) { return resampler_->Surface(camera); }
+  // The surface under the camera's pixels (with UseNormals: the refined
+  // normals where the pixel's texel has one).
+  absl::StatusOr<resample::CameraSurface> Surface(int camera);
   // Texel observations refused as masked or saturated so far (Resampler::Refused).
   resample::Resampler::RefusedObservations Refused(int camera) const { return resampler_->Refused(camera); }
   const cv::Mat& last_frame() const { return last_frame_; }
@@ -52,8 +54,8 @@ class FrameStream {
   // Issue #18: from the next SetFrame on, the geometry atlas's normals are
   // the refined ones where `refined[texel]` is 1: the tangent-space
   // `tangent_normals[texel]` read in the frame's tangent frames
-  // (atlas::TexelTangents), so every Sample assembled from geometry() sees
-  // them. Both vectors are the caller's and outlive the stream.
+  // (atlas::TexelTangents), so every Sample assembled from geometry() or
+  // Surface() sees them. Both vectors are the caller's and outlive the stream.
   void UseNormals(const std::vector<glm::vec3>* tangent_normals, const std::vector<uint8_t>* refined);
 
   const scene::FramePositions& positions() const { return positions_; }
@@ -75,6 +77,7 @@ class FrameStream {
   std::unique_ptr<atlas::TexelTangents> tangents_;  // with UseNormals
   const std::vector<glm::vec3>* tangent_normals_ = nullptr;
   const std::vector<uint8_t>* refined_ = nullptr;
+  std::vector<glm::vec4> frame_tangents_;  // per texel, this frame's (with UseNormals)
   std::string shadow_key_;  // the lights, as ShadowAtlasCache keys them
   int frame_ = 0;
 };

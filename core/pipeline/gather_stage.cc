@@ -23,14 +23,80 @@ absl::Status CheckPixelFootprint(int pixel_footprint, size_t num_lights) {
       " in all; at most ", most, " for this scene"));
 }
 
-absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglContext& context,
-                                    const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
-                                    bool texels) {
-  if (texels) MVBRDF_RETURN_IF_ERROR(CheckPixelFootprint(options.pixel_footprint, sequence.lights.size()));
+namespace {
+
+// The assemblers' options of the gathering passes.
+samples::AssembleOptions GatherAssembleOptions(const scene::Sequence& sequence, const ReconstructOptions& options) {
   samples::AssembleOptions assemble = options.assemble;
   assemble.inverse_square_falloff = sequence.scene.lighting().inverse_square_falloff();
   // The kept texel Samples of a half-vector model need the geometry.
   assemble.half_vector_geometry = options.GathersHalfVector();
+  return assemble;
+}
+
+// A Sample holds only the lights on in its frame: the reservoir's rows are
+// that long, not as long as the candidate list. With a pixel footprint each
+// light has one copy per subpixel (samples::FootprintLights), and every term
+// its a (the subpixel's share).
+std::unique_ptr<TexelReservoir> MakeReservoir(const scene::Sequence& sequence, const ReconstructOptions& options,
+                                              const samples::AssembleOptions& assemble, size_t num_texels) {
+  const size_t num_lights = sequence.lights.size();
+  const size_t copies = static_cast<size_t>(options.pixel_footprint) * static_cast<size_t>(options.pixel_footprint);
+  const size_t max_terms = copies * samples::MaxLightsOn(samples::FrameLightMasks(sequence), num_lights);
+  return std::make_unique<TexelReservoir>(num_texels, static_cast<int>(num_lights * copies), options.reservoir_uniform,
+                                          options.reservoir_highlight, assemble.inverse_square_falloff || copies > 1,
+                                          max_terms, options.GathersHalfVector());
+}
+
+// The cluster fits take per-pixel Samples: the video's own pixels at the
+// exact surface points they show, so highlights reach ks and ke without the
+// atlas's bilinear blur (measured: the blur alone made ke come out ~50 % low
+// on 320x240 video). Camera c's of frame t, after stream->Resample(c).
+absl::Status OfferPixelSamples(FrameStream& stream, const scene::Sequence& sequence, int t, int c,
+                               const samples::AssembleOptions& assemble, const ReconstructOptions& options,
+                               TexelReservoir* reservoir) {
+  const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
+  MVBRDF_ASSIGN_OR_RETURN(const resample::CameraSurface surface, stream.Surface(c));
+  samples::ForEachPixelSample(
+      stream.last_frame(), surface, stream.shadows(), sequence.cameras[static_cast<size_t>(c)], sequence.lights,
+      assemble, min_cos_view,
+      [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
+        reservoir->Offer(texel, t, c, rgb, terms);
+      },
+      options.pixel_footprint);
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<TexelReservoir>> GatherPixelSamples(const scene::Sequence& sequence,
+                                                                   gl::EglContext& context, const atlas::Atlas& atlas,
+                                                                   const ReconstructOptions& options,
+                                                                   ShadowAtlasCache* shadows,
+                                                                   const std::vector<glm::vec3>& tangent_normals,
+                                                                   const std::vector<uint8_t>& refined) {
+  const samples::AssembleOptions assemble = GatherAssembleOptions(sequence, options);
+  const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
+  std::unique_ptr<TexelReservoir> reservoir = MakeReservoir(sequence, options, assemble, num_texels);
+  MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler, shadows));
+  stream->UseNormals(&tangent_normals, &refined);
+  for (int t = 0; t < sequence.num_frames; ++t) {
+    if (options.progress) options.progress("normals", t, sequence.num_frames);
+    MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
+    MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
+    for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
+      MVBRDF_RETURN_IF_ERROR(stream->Resample(c).status());
+      MVBRDF_RETURN_IF_ERROR(OfferPixelSamples(*stream, sequence, t, c, assemble, options, reservoir.get()));
+    }
+  }
+  return reservoir;
+}
+
+absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglContext& context,
+                                    const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
+                                    bool texels) {
+  if (texels) MVBRDF_RETURN_IF_ERROR(CheckPixelFootprint(options.pixel_footprint, sequence.lights.size()));
+  const samples::AssembleOptions assemble = GatherAssembleOptions(sequence, options);
   const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
   const size_t num_lights = sequence.lights.size();
   const int num_cameras = static_cast<int>(sequence.cameras.size());
@@ -49,18 +115,9 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
       if (std::find(masks.begin(), masks.end(), mask) == masks.end()) masks.push_back(mask);
     }
     g.texels->illumination = TexelIllumination(num_texels, g.triangle_samples.light_intensity, std::move(masks));
-    // A Sample holds only the lights on in its frame: the reservoir's rows
-    // are that long, not as long as the candidate list.
-    // With a pixel footprint each light has one copy per subpixel
-    // (samples::FootprintLights), and every term its a (the subpixel's share).
-    const size_t copies = static_cast<size_t>(options.pixel_footprint) * static_cast<size_t>(options.pixel_footprint);
-    const size_t max_terms = copies * samples::MaxLightsOn(samples::FrameLightMasks(sequence), num_lights);
-    g.texels->reservoir = std::make_unique<TexelReservoir>(
-        num_texels, static_cast<int>(num_lights * copies), options.reservoir_uniform, options.reservoir_highlight,
-        assemble.inverse_square_falloff || copies > 1, max_terms, options.GathersHalfVector());
+    g.texels->reservoir = MakeReservoir(sequence, options, assemble, num_texels);
   }
   TexelStatistics* st = g.texels.get();
-  const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
   if (st != nullptr) st->shadow_atlases = std::make_shared<ShadowAtlasCache>();
   MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler,
                                                          st != nullptr ? st->shadow_atlases.get() : nullptr));
@@ -97,17 +154,7 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
             },
             AtlasPartRows(part, atlas.size));
       });
-      // The cluster fits take per-pixel Samples: the video's own pixels at
-      // the exact surface points they show, so highlights reach ks and ke
-      // without the atlas's bilinear blur (measured: the blur alone made
-      // ke come out ~50 % low on 320x240 video).
-      MVBRDF_ASSIGN_OR_RETURN(const resample::CameraSurface surface, stream->Surface(c));
-      samples::ForEachPixelSample(stream->last_frame(), surface, stream->shadows(), sequence.cameras[c],
-                                  sequence.lights, assemble, min_cos_view,
-                                  [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
-                                    st->reservoir->Offer(texel, t, c, rgb, terms);
-                                  },
-                                  options.pixel_footprint);
+      MVBRDF_RETURN_IF_ERROR(OfferPixelSamples(*stream, sequence, t, c, assemble, options, st->reservoir.get()));
     }
   }
   if (options.progress) options.progress("gather_samples", sequence.num_frames, sequence.num_frames);

@@ -11,6 +11,8 @@
 #include "core/atlas/atlas.h"
 #include "core/gl/egl_context.h"
 #include "core/pipeline/reconstruct_stage.h"
+#include "core/pipeline/shadow_atlas_cache.h"
+#include "core/pipeline/texel_reservoir.h"
 #include "core/pipeline/texel_statistics.h"
 #include "core/samples/sample_set.h"
 #include "core/scene/sequence.h"
@@ -33,6 +35,17 @@ struct Gathered {
 absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglContext& context,
                                     const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
                                     bool texels);
+
+// Issue #18: the cluster fits' per-pixel Samples gathered again over every
+// frame, read with refined normals (per texel tangent-space `tangent_normals`
+// where `refined` is 1; FrameStream::UseNormals), into a reservoir of
+// GatherPass's shape. `shadows`: pass 1's shadow atlases (may be null).
+absl::StatusOr<std::unique_ptr<TexelReservoir>> GatherPixelSamples(const scene::Sequence& sequence,
+                                                                   gl::EglContext& context, const atlas::Atlas& atlas,
+                                                                   const ReconstructOptions& options,
+                                                                   ShadowAtlasCache* shadows,
+                                                                   const std::vector<glm::vec3>& tangent_normals,
+                                                                   const std::vector<uint8_t>& refined);
 
 // INVALID_ARGUMENT naming options.pixel_footprint when its copies of the
 // scene's `num_lights` lights (footprint^2 each, samples::FootprintLights)

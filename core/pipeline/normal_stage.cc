@@ -148,6 +148,7 @@ absl::StatusOr<TexelNormals> RefineTexelNormals(const NormalStageInput& in) {
     if (texel_cluster[i] >= 0) kd[i] = cluster_kd(texel_cluster[i]);
   }
   for (int iteration = 0; iteration < in.options.iterations; ++iteration) {
+    const bool last = iteration + 1 == in.options.iterations;
     fit::NormalGaussNewtonSums sums(num_texels);
     MVBRDF_RETURN_IF_ERROR(pass("normals", [&](int part, const Observation& o) {
       if (out.flags[o.texel] != 0) return;
@@ -176,9 +177,19 @@ absl::StatusOr<TexelNormals> RefineTexelNormals(const NormalStageInput& in) {
         if (scale[c] > 0.0 && in.robust.enabled()) w[c] *= std::sqrt(in.robust.Weight(res[c] / scale[c]));
       }
       sums.Add(o.texel, j, res, w);
+      if (last) {
+        // The mesh normal's fit of the same observation, for the test.
+        glm::vec3 g, sz;
+        ShadeTexel(cluster, terms_at(part, 0, o, o.frame.n), in.intensity, mask, &g, &sz);
+        sums.AddMeshNormal(o.texel, glm::dvec3(o.rgb) - glm::dvec3(sz), glm::dvec3(g), w);
+      }
     }));
     for (size_t i = 0; i < num_texels; ++i) {
       if (texel_cluster[i] < 0 || out.flags[i] != 0) continue;
+      if (last && !sums.Significant(i, in.options)) {
+        out.flags[i] = fit::kNormalNotSignificant;
+        continue;
+      }
       const fit::NormalTangentBasis basis{glm::dvec3(out.m[i])};
       const fit::NormalGaussNewtonSums::Step step =
           sums.Solve(i, basis, kd[i], cluster_kd(texel_cluster[i]), in.options);
@@ -190,28 +201,41 @@ absl::StatusOr<TexelNormals> RefineTexelNormals(const NormalStageInput& in) {
     ++out.passes;
   }
 
-  std::vector<double> tilts, sigmas;
   for (size_t i = 0; i < num_texels; ++i) {
+    if (texel_cluster[i] < 0 || out.flags[i] != 0) continue;
+    const double tilt = std::acos(std::clamp(static_cast<double>(out.m[i].z), -1.0, 1.0)) * kDegrees;
+    if (tilt > in.options.max_tilt_deg) out.flags[i] = fit::kNormalAtTiltLimit;
+  }
+  CountNormals(texel_cluster, &out);
+  return out;
+}
+
+void CountNormals(const std::vector<int32_t>& texel_cluster, TexelNormals* normals) {
+  TexelNormals& out = *normals;
+  out.texels = out.refined_texels = out.few_observations = out.coplanar = out.tilt_limit = out.not_significant =
+      out.cluster_no_better = 0;
+  std::vector<double> tilts, sigmas;
+  for (size_t i = 0; i < texel_cluster.size(); ++i) {
+    out.refined[i] = 0;
     if (texel_cluster[i] < 0) continue;
     ++out.texels;
-    const double tilt = std::acos(std::clamp(static_cast<double>(out.m[i].z), -1.0, 1.0)) * kDegrees;
-    if (out.flags[i] == 0 && tilt > in.options.max_tilt_deg) out.flags[i] = fit::kNormalAtTiltLimit;
     if (out.flags[i] != 0) {
       out.m[i] = glm::vec3(0.0f, 0.0f, 1.0f);
       out.sigma_deg[i] = -1.0f;
       if (out.flags[i] & fit::kNormalFewObservations) ++out.few_observations;
       if (out.flags[i] & fit::kNormalCoplanarLights) ++out.coplanar;
       if (out.flags[i] & fit::kNormalAtTiltLimit) ++out.tilt_limit;
+      if (out.flags[i] & fit::kNormalNotSignificant) ++out.not_significant;
+      if (out.flags[i] & kNormalClusterNoBetter) ++out.cluster_no_better;
       continue;
     }
     out.refined[i] = 1;
     ++out.refined_texels;
-    tilts.push_back(tilt);
+    tilts.push_back(std::acos(std::clamp(static_cast<double>(out.m[i].z), -1.0, 1.0)) * kDegrees);
     if (out.sigma_deg[i] >= 0.0f) sigmas.push_back(out.sigma_deg[i]);
   }
   out.median_tilt_deg = Median(tilts);
   out.median_sigma_deg = Median(sigmas);
-  return out;
 }
 
 absl::Status WriteNormalAtlases(const TexelNormals& normals, const std::vector<int32_t>& texel_cluster, int size,

@@ -51,12 +51,23 @@ struct TexelNormals {
   std::vector<uint8_t> flags;    // fit::TexelNormalFlag; 0 and m != z: refined
   std::vector<uint8_t> refined;  // 1 where m is the refined normal
   uint64_t texels = 0;           // texels of a cluster
-  uint64_t refined_texels = 0, few_observations = 0, coplanar = 0, tilt_limit = 0;
+  uint64_t refined_texels = 0, few_observations = 0, coplanar = 0, tilt_limit = 0, not_significant = 0;
+  uint64_t cluster_no_better = 0;  // texels of clusters the refined normals did not fit better (kNormalClusterNoBetter)
   int passes = 0;
   double median_tilt_deg = 0.0, median_sigma_deg = 0.0;
 };
 
 absl::StatusOr<TexelNormals> RefineTexelNormals(const NormalStageInput& input);
+
+// A texel flag beside fit::TexelNormalFlag: its cluster's BRDF, fitted again
+// with the refined normals' Samples, explained them no better than the mesh
+// normals' fit explained its own (reconstruct_stage.cc), so the cluster keeps
+// the mesh's normals and its first fit.
+inline constexpr uint8_t kNormalClusterNoBetter = 16;
+
+// Texels with a flag get the mesh normal (m = z, sigma -1); `refined` and
+// the counts and medians follow the flags.
+void CountNormals(const std::vector<int32_t>& texel_cluster, TexelNormals* normals);
 
 // Writes dir/normal.exr (RGB: tangent-space m per texel of a cluster, grown
 // `grow_iterations` texels past the charts like the other atlases),

@@ -33,11 +33,14 @@ const v1::SkippedStage* FindSkipped(const Plan& plan, Stage stage) {
 TEST(PlanTest, FullSceneRunsEverything) {
   RunRequest everything;
   everything.refine_lights = v1::REFINEMENT_ON;  // auto skips it (plan.cc says why)
-  auto plan = MakePlan(MakeSequence(8, 30, false, true), everything);
+  everything.normals = true;                      // off unless asked (issue #18)
+  scene::Sequence s = MakeSequence(8, 30, false, true);
+  s.lights.resize(1);
+  auto plan = MakePlan(s, everything);
   ASSERT_TRUE(plan.ok()) << plan.status();
   for (Stage s : {Stage::kAtlas, Stage::kGatherSamples, Stage::kLightSweep, Stage::kClustering, Stage::kClusterFit,
-                  Stage::kSolverComparison, Stage::kTexelPass, Stage::kCorrection, Stage::kCameraErrors,
-                  Stage::kWriteAtlases}) {
+                  Stage::kSolverComparison, Stage::kNormals, Stage::kTexelPass, Stage::kCorrection,
+                  Stage::kCameraErrors, Stage::kWriteAtlases}) {
     EXPECT_TRUE(plan->Has(s)) << StageName(s);
   }
   EXPECT_TRUE(plan->skipped.empty());
