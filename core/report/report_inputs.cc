@@ -157,7 +157,8 @@ absl::StatusOr<ReportInputs> CollectReportInputs(const fs::path& run_dir, const 
            {"parameter_1", "each texel's model's first parameter (--brdf auto: ks or f0)"},
            {"parameter_2", "each texel's model's second parameter, /100 (--brdf auto: ke or roughness)"},
            {"parameter_3", "each texel's model's third parameter, /25 (--brdf auto: GGX's F90 / F0)"},
-           {"cluster", "clusters"}}) {
+           {"cluster", "clusters"},
+           {"normal", "normals (tangent space, (n + 1) / 2; flat blue: the mesh's)"}}) {
     const fs::path file = run_dir / "atlases" / (name + ".png");
     if (!fs::exists(file)) continue;
     MVBRDF_ASSIGN_OR_RETURN(std::string png, ReadFileToString(file));

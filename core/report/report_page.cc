@@ -479,6 +479,26 @@ std::string BuildReportHtml(const ReportInputs& in) {
     h += "</section>";
   }
 
+  // Issue #18: the normals stage.
+  if (run.has_normals()) {
+    const v1::NormalReport& n = run.normals();
+    h += "<section id=\"normals\"><h2>Surface detail: per-texel normals</h2><p>" + absl::StrCat(n.refined()) +
+         " of " + absl::StrCat(n.texels()) + " texels refined (median tilt from the mesh normal " +
+         F(n.median_tilt_deg(), "%.2f") + "°, median standard deviation " + F(n.median_sigma_deg(), "%.2f") +
+         "°) in " + absl::StrCat(n.passes()) + " passes over the frames; the mesh's normal kept where the refined one "
+         "explained the data no better (" + absl::StrCat(n.not_significant()) + " texels, " +
+         absl::StrCat(n.cluster_no_better()) + " in clusters whose BRDF it did not fit better), or the data could not "
+         "constrain it (" + absl::StrCat(n.few_observations()) + " with too few observations, " +
+         absl::StrCat(n.coplanar_lights()) + " lit from nearly coplanar directions, " + absl::StrCat(n.tilt_limit()) +
+         " past the tilt limit).";
+    if (in.evaluation.has_value() && in.evaluation->has_normals()) {
+      const v1::NormalEvaluation& e = in.evaluation->normals();
+      h += " Against the truth: median angular error " + F(e.median_deg(), "%.2f") + "°, 90th percentile " +
+           F(e.p90_deg(), "%.2f") + "° (the mesh's normals: " + F(e.mesh_median_deg(), "%.2f") + "° / " +
+           F(e.mesh_p90_deg(), "%.2f") + "°).";
+    }
+    h += "</p></section>";
+  }
   if (!in.atlases.empty()) {
     h += "<section id=\"atlases\"><h2>Atlases</h2><div class=\"figures\">";
     for (const ReportImage& image : in.atlases) h += Figure(image, 360);

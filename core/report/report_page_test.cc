@@ -173,6 +173,30 @@ TEST(ReportPageTest, TermsHaveEscapedTooltips) {
   EXPECT_NE(html.find("tiny (too few texels, &lt; 0.5 % of the seen ones"), std::string::npos);
 }
 
+// Issue #18: a run with the normals stage gets a section with its counts and,
+// with a truth, the angular error beside the mesh normals'.
+TEST(ReportPageTest, NormalsSectionShowsTheStageAndTheTruth) {
+  ReportInputs in = SampleInputs();
+  EXPECT_EQ(BuildReportHtml(in).find("id=\"normals\""), std::string::npos);  // no stage: no section
+  v1::NormalReport* n = in.run.mutable_normals();
+  n->set_texels(1000);
+  n->set_refined(900);
+  n->set_not_significant(70);
+  n->set_passes(4);
+  n->set_median_tilt_deg(8.25);
+  std::string html = BuildReportHtml(in);
+  ASSERT_NE(html.find("id=\"normals\""), std::string::npos);
+  EXPECT_NE(html.find("900 of 1000 texels refined (median tilt from the mesh normal 8.25°"), std::string::npos);
+  EXPECT_NE(html.find("(70 texels,"), std::string::npos);
+  v1::EvaluationReport evaluation;
+  evaluation.mutable_normals()->set_median_deg(1.25);
+  evaluation.mutable_normals()->set_mesh_median_deg(11.98);
+  in.evaluation = evaluation;
+  html = BuildReportHtml(in);
+  EXPECT_NE(html.find("median angular error 1.25°"), std::string::npos);
+  EXPECT_NE(html.find("(the mesh's normals: 11.98°"), std::string::npos);
+}
+
 // Issue #14: the Calibration section says what was refined, by how much and
 // with what uncertainty, and against the truth; or why nothing was refined.
 TEST(ReportPageTest, CalibrationSectionShowsTheRefinementOrWhyNot) {
