@@ -60,6 +60,18 @@ int AddVec3Accessor(tinygltf::Model* model, const std::vector<glm::vec3>& v, boo
   return static_cast<int>(model->accessors.size() - 1);
 }
 
+// A vertex attribute of `count` elements of `components` floats (glTF type
+// `type`, e.g. TINYGLTF_TYPE_VEC2), without bounds.
+int AddFloatAccessor(tinygltf::Model* model, const void* data, size_t count, int type, size_t components) {
+  tinygltf::Accessor a;
+  a.bufferView = AddView(model, data, count * components * sizeof(float), kArrayBuffer);
+  a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+  a.type = type;
+  a.count = count;
+  model->accessors.push_back(a);
+  return static_cast<int>(model->accessors.size() - 1);
+}
+
 // A PNG image in the buffer, and a texture reading it with the one sampler.
 absl::StatusOr<int> AddPngTexture(tinygltf::Model* model, const cv::Mat& bgr_or_gray, const std::string& name) {
   std::vector<unsigned char> png;
@@ -354,15 +366,7 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
   primitive.mode = TINYGLTF_MODE_TRIANGLES;
   primitive.attributes["POSITION"] = AddVec3Accessor(&model, vertices, true);
   primitive.attributes["NORMAL"] = AddVec3Accessor(&model, normals, false);
-  {
-    tinygltf::Accessor a;
-    a.bufferView = AddView(&model, uvs.data(), uvs.size() * sizeof(glm::vec2), kArrayBuffer);
-    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-    a.type = TINYGLTF_TYPE_VEC2;
-    a.count = uvs.size();
-    model.accessors.push_back(a);
-    primitive.attributes["TEXCOORD_0"] = static_cast<int>(model.accessors.size() - 1);
-  }
+  primitive.attributes["TEXCOORD_0"] = AddFloatAccessor(&model, uvs.data(), uvs.size(), TINYGLTF_TYPE_VEC2, 2);
   {
     tinygltf::Accessor a;
     a.bufferView = AddView(&model, indices.data(), indices.size() * sizeof(uint32_t), kElementArrayBuffer);
@@ -396,13 +400,8 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
     MVBRDF_ASSIGN_OR_RETURN(normal_texture, AddPngTexture(&model, encoded, "normal"));
     const std::vector<glm::vec4> tangents =
         scene::VertexTangents(atlas.topology.triangles, vertices, normals, atlas.topology.uvs);
-    tinygltf::Accessor a;
-    a.bufferView = AddView(&model, tangents.data(), tangents.size() * sizeof(glm::vec4), kArrayBuffer);
-    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
-    a.type = TINYGLTF_TYPE_VEC4;
-    a.count = tangents.size();
-    model.accessors.push_back(a);
-    primitive.attributes["TANGENT"] = static_cast<int>(model.accessors.size() - 1);
+    primitive.attributes["TANGENT"] =
+        AddFloatAccessor(&model, tangents.data(), tangents.size(), TINYGLTF_TYPE_VEC4, 4);
   }
   primitive.material = 0;
   tinygltf::Mesh mesh;

@@ -34,8 +34,7 @@ glm::vec3 ToLight(const scene::Light& light, const glm::vec3& point) {
   return light.directional ? glm::normalize(light.direction) : glm::normalize(light.position - point);
 }
 
-// What one observation pass does with each texel observation: `visit(part,
-// texel, rgb, point, frame, view, terms at the mesh normal)`.
+// One texel observation as a pass hands it to its visitor.
 struct Observation {
   uint32_t texel;
   glm::vec3 rgb, point;
