@@ -15,8 +15,12 @@ vec3 NormalDetailAt(vec4 amplitude_wavelength, vec3 d1, vec3 d2, vec3 rest_posit
 vec3 TangentToWorld(vec3 m, vec4 tangent, vec3 n) {
   vec3 t = tangent.xyz - n * dot(n, tangent.xyz);
   float length_t = length(t);
-  if (!(length_t > 1e-12)) return n;
-  t /= length_t;
+  // Degenerate: some tangent orthogonal to n, as scene::FrameAt picks it.
+  if (!(length_t > 1e-12)) {
+    t = normalize(cross(abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0), n));
+  } else {
+    t /= length_t;
+  }
   vec3 b = (tangent.w < 0.0 ? -1.0 : 1.0) * cross(n, t);
   return normalize(m.x * t + m.y * b + m.z * n);
 }

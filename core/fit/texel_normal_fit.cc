@@ -16,8 +16,10 @@ absl::Status TexelNormalOptions::Check() const {
   if (!(prior_weight >= 0.0) || !std::isfinite(prior_weight)) {
     return absl::InvalidArgumentError(absl::StrCat("normals.prior_weight: must be >= 0, got ", prior_weight));
   }
-  if (iterations < 0 || iterations > 20) {
-    return absl::InvalidArgumentError(absl::StrCat("normals.iterations: must be in [0, 20], got ", iterations));
+  // At least 2: the last pass's test compares the refined normal with the
+  // per-texel kd of a step before it.
+  if (iterations < 2 || iterations > 20) {
+    return absl::InvalidArgumentError(absl::StrCat("normals.iterations: must be in [2, 20], got ", iterations));
   }
   if (min_observations < 3) {
     return absl::InvalidArgumentError(absl::StrCat("normals.min_observations: must be >= 3, got ", min_observations));

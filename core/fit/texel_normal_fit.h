@@ -15,7 +15,7 @@
 // Weighted least squares over the texel's observations, with a prior
 // lambda |b - kappa0 z|^2 towards the mesh normal z = (0, 0, 1) (kappa0 the
 // scale that fits the mesh normal; lambda = prior_weight x the texel's mean
-// w^2 |q|^2, i.e. prior_weight observations' worth):
+// w^2 |q|^2 / 3, i.e. prior_weight observations' worth along each axis):
 //   (sum w^2 q q^T + lambda I) b = sum w^2 y q + lambda kappa0 z,   m = b / |b|.
 //
 // Gauss-Newton steps (the full model, specular included). With the current
@@ -54,7 +54,8 @@ struct TexelNormalOptions {
   // typical observation.
   double prior_weight = 1.0;
   // Gauss-Newton passes after the closed-form one (each a pass over every
-  // frame).
+  // frame); at least 2 (the last one's significance test needs a per-texel
+  // kd from the one before).
   int iterations = 2;
   // A texel keeps the mesh normal (flagged) with fewer observations than
   // this, when its light directions are too nearly coplanar (smallest over

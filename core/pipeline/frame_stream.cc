@@ -96,7 +96,8 @@ void FrameStream::UseNormals(const std::vector<glm::vec3>* tangent_normals, cons
 
 absl::StatusOr<resample::CameraSurface> FrameStream::Surface(int camera) {
   MVBRDF_ASSIGN_OR_RETURN(resample::CameraSurface surface, resampler_->Surface(camera));
-  if (tangent_normals_ == nullptr) return surface;
+  // Until SetFrame has computed this frame's tangents, the mesh's normals.
+  if (tangent_normals_ == nullptr || frame_tangents_.size() != refined_->size()) return surface;
   cv::Mat normal = surface.normal.clone();
   const size_t texels = refined_->size();
   for (int y = 0; y < normal.rows; ++y) {

@@ -47,7 +47,7 @@ struct NormalStageInput {
 
 struct TexelNormals {
   std::vector<glm::vec3> m;      // per texel, tangent space (0, 0, 1): the mesh's
-  std::vector<float> sigma_deg;  // per refined texel, else -1
+  std::vector<float> sigma_deg;  // per refined texel (-1 where no Gauss-Newton step succeeded), else -1
   std::vector<uint8_t> flags;    // fit::TexelNormalFlag; 0 and m != z: refined
   std::vector<uint8_t> refined;  // 1 where m is the refined normal
   uint64_t texels = 0;           // texels of a cluster

@@ -60,7 +60,7 @@ absl::StatusOr<Plan> MakePlan(const scene::Sequence& sequence, const RunRequest&
   };
   if (!request.light_table && !request.brdf_atlases && !request.correction && !request.camera_errors &&
       !request.normals) {
-    return absl::InvalidArgumentError("outputs: nothing requested (light table, BRDF atlases, correction, errors)");
+    return absl::InvalidArgumentError("outputs: nothing requested (light table, BRDF atlases, correction, errors, normals)");
   }
   const auto known = [&](const std::string& name) {
     for (const auto& c : scene.light_configurations()) {

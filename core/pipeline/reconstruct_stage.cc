@@ -932,7 +932,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   // Pass 1's shadow atlases, for pass 2; its kept Samples for the normals
   // stage's choice between the fits (issue #18).
   const std::shared_ptr<ShadowAtlasCache> shadow_atlases = g.texels != nullptr ? g.texels->shadow_atlases : nullptr;
-  const std::unique_ptr<TexelReservoir> mesh_reservoir =
+  std::unique_ptr<TexelReservoir> mesh_reservoir =
       plan.Has(Stage::kNormals) && g.texels != nullptr ? std::move(g.texels->reservoir) : nullptr;
   g.texels.reset();
   AddStage(&report, "cluster_fit", Since(t0), options);
@@ -991,8 +991,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     }
     if (any_kept) {
       for (size_t i = 0; i < num_texels; ++i) {
-        if (texel_cluster[i] >= 0 && !refined_cluster[static_cast<size_t>(texel_cluster[i])]) {
-          normals->flags[i] |= kNormalClusterNoBetter;
+        if (texel_cluster[i] >= 0 && normals->flags[i] == 0 &&
+            !refined_cluster[static_cast<size_t>(texel_cluster[i])]) {
+          normals->flags[i] = kNormalClusterNoBetter;
         }
       }
       CountNormals(texel_cluster, &*normals);
@@ -1000,6 +1001,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         return refined_cluster[k] ? *reservoir : *mesh_reservoir;
       }));
     }
+    mesh_reservoir.reset();
     v1::NormalReport* row = report.mutable_normals();
     row->set_texels(normals->texels);
     row->set_refined(normals->refined_texels);

@@ -15,9 +15,11 @@
 //   n' = m.x T + m.y B + m.z N
 // (glTF 2.0's normalTexture convention, +Y the direction of increasing v).
 //
-// Computed per frame from the posed positions, the tangents are the rest
-// pose's carried by the deformation: dP/du is a fixed combination of the
-// triangle's edges, so a normal map stays valid in every frame.
+// Computed per frame from the posed positions, the tangents are (up to the
+// normalisation, angle weights and Gram-Schmidt: exactly for locally rigid
+// motion) the rest pose's carried by the deformation: dP/du is a fixed
+// combination of the triangle's edges, so a normal map stays valid in every
+// frame.
 #ifndef MVBRDF_CORE_SCENE_TANGENT_FRAMES_H_
 #define MVBRDF_CORE_SCENE_TANGENT_FRAMES_H_
 
