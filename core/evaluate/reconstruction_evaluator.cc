@@ -9,6 +9,7 @@
 #include <glm/glm.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/quantile.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
 #include "core/brdf/ggx.h"
@@ -342,19 +343,13 @@ absl::StatusOr<v1::EvaluationReport> EvaluateReconstruction(const std::filesyste
         mesh_errors.push_back(angle(glm::vec3(0.0f, 0.0f, 1.0f), m_true));
       }
     }
-    const auto quantile = [](std::vector<double> v, double q) {
-      if (v.empty()) return 0.0;
-      const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(i), v.end());
-      return v[i];
-    };
     v1::NormalEvaluation* n = report.mutable_normals();
     n->set_texels(errors.size());
     n->set_refined(refined);
-    n->set_median_deg(quantile(errors, 0.5));
-    n->set_p90_deg(quantile(errors, 0.9));
-    n->set_mesh_median_deg(quantile(mesh_errors, 0.5));
-    n->set_mesh_p90_deg(quantile(mesh_errors, 0.9));
+    n->set_median_deg(Quantile(errors, 0.5));
+    n->set_p90_deg(Quantile(errors, 0.9));
+    n->set_mesh_median_deg(Quantile(mesh_errors, 0.5));
+    n->set_mesh_p90_deg(Quantile(mesh_errors, 0.9));
   }
   return report;
 }

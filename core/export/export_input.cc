@@ -53,11 +53,5 @@ uint8_t Srgb8(double linear) {
 
 uint8_t Linear8(double value) { return static_cast<uint8_t>(std::lround(255.0 * std::clamp(value, 0.0, 1.0))); }
 
-double Quantile(std::vector<double> values, double q) {
-  if (values.empty()) return 0.0;
-  const size_t k = std::min(values.size() - 1, static_cast<size_t>(q * static_cast<double>(values.size())));
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return values[k];
-}
 
 }  // namespace mvbrdf::exporter

@@ -11,6 +11,7 @@
 #include <glm/glm.hpp>
 
 #include "absl/status/statusor.h"
+#include "core/base/quantile.h"
 #include "core/atlas/atlas.h"
 #include "core/pipeline/run_atlases.h"
 #include "core/scene/sequence.h"
@@ -39,9 +40,6 @@ absl::Status PoseOf(const scene::Sequence& sequence, const scene::MeshTopology& 
 // Linear [0, 1] (clamped) to an sRGB or a linear 8-bit code value.
 uint8_t Srgb8(double linear);
 uint8_t Linear8(double value);
-
-// The q-quantile (q in [0, 1]) of `values`; 0 when empty.
-double Quantile(std::vector<double> values, double q);
 
 }  // namespace mvbrdf::exporter
 

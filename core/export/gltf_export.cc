@@ -18,6 +18,7 @@
 #include "core/brdf/ggx_equivalent.h"
 #include "core/export/export_input.h"
 #include "core/image/exr.h"
+#include "core/pipeline/normal_stage.h"
 #include "core/scene/tangent_frames.h"
 #include "core/base/version.h"
 #include "mvbrdf/v1/run_report.pb.h"
@@ -387,17 +388,8 @@ absl::StatusOr<GltfExportSummary> ExportGltf(const std::filesystem::path& run_di
       return absl::InvalidArgumentError(
           absl::StrCat(normal_file.string(), ": expected an RGB image of the kd atlas's size"));
     }
-    cv::Mat encoded(normal.image.size(), CV_8UC3);
-    for (int y = 0; y < encoded.rows; ++y) {
-      for (int x = 0; x < encoded.cols; ++x) {
-        const cv::Vec3f& m = normal.image.at<cv::Vec3f>(y, x);
-        const bool valid = m[2] > 0.0f;  // texels outside every chart: flat
-        encoded.at<cv::Vec3b>(y, x) = {Linear8(valid ? 0.5 * (m[2] + 1.0) : 1.0),
-                                       Linear8(valid ? 0.5 * (m[1] + 1.0) : 0.5),
-                                       Linear8(valid ? 0.5 * (m[0] + 1.0) : 0.5)};  // B, G, R
-      }
-    }
-    MVBRDF_ASSIGN_OR_RETURN(normal_texture, AddPngTexture(&model, encoded, "normal"));
+    MVBRDF_ASSIGN_OR_RETURN(normal_texture,
+                            AddPngTexture(&model, pipeline::EncodeNormalMap(normal.image), "normal"));
     const std::vector<glm::vec4> tangents =
         scene::VertexTangents(atlas.topology.triangles, vertices, normals, atlas.topology.uvs);
     primitive.attributes["TANGENT"] =

@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/atlas/texel_tangents.h"
+#include "core/base/quantile.h"
 #include "core/base/status_macros.h"
 #include "core/image/exr.h"
 #include "core/pipeline/atlas_parts.h"
@@ -22,12 +23,6 @@ namespace {
 constexpr double kDegrees = 180.0 / 3.14159265358979323846;
 // Forward-difference step of the normal's Jacobian, radians.
 constexpr double kNormalStep = 1e-3;
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 // Unit direction from `point` towards light `light`.
 glm::vec3 ToLight(const scene::Light& light, const glm::vec3& point) {
@@ -233,8 +228,24 @@ void CountNormals(const std::vector<int32_t>& texel_cluster, TexelNormals* norma
     tilts.push_back(std::acos(std::clamp(static_cast<double>(out.m[i].z), -1.0, 1.0)) * kDegrees);
     if (out.sigma_deg[i] >= 0.0f) sigmas.push_back(out.sigma_deg[i]);
   }
-  out.median_tilt_deg = Median(tilts);
-  out.median_sigma_deg = Median(sigmas);
+  out.median_tilt_deg = Quantile(tilts, 0.5);
+  out.median_sigma_deg = Quantile(sigmas, 0.5);
+}
+
+cv::Mat EncodeNormalMap(const cv::Mat& tangent_normals) {
+  const auto code = [](double c) {
+    return static_cast<uint8_t>(std::lround(255.0 * std::clamp(0.5 * (c + 1.0), 0.0, 1.0)));
+  };
+  cv::Mat png(tangent_normals.size(), CV_8UC3);
+  for (int y = 0; y < png.rows; ++y) {
+    for (int x = 0; x < png.cols; ++x) {
+      const cv::Vec3f& m = tangent_normals.at<cv::Vec3f>(y, x);
+      const bool valid = m[2] > 0.0f;  // texels outside every chart: the flat normal
+      png.at<cv::Vec3b>(y, x) = {code(valid ? m[2] : 1.0), code(valid ? m[1] : 0.0),
+                                 code(valid ? m[0] : 0.0)};  // OpenCV's B, G, R
+    }
+  }
+  return png;
 }
 
 absl::Status WriteNormalAtlases(const TexelNormals& normals, const std::vector<int32_t>& texel_cluster, int size,
@@ -252,20 +263,10 @@ absl::Status WriteNormalAtlases(const TexelNormals& normals, const std::vector<i
   cv::cvtColor(grown, rgb, cv::COLOR_BGRA2BGR);  // drops alpha, keeps the channel order
   MVBRDF_RETURN_IF_ERROR(image::WriteExr(dir / "normal.exr", rgb));
   MVBRDF_RETURN_IF_ERROR(image::WriteExr(dir / "normal_sigma.exr", sigma));
-  // 8-bit linear (m + 1) / 2; texels outside every chart the flat normal.
-  cv::Mat png(size, size, CV_8UC3);
-  for (int y = 0; y < size; ++y) {
-    for (int x = 0; x < size; ++x) {
-      const cv::Vec4f& v = grown.at<cv::Vec4f>(y, x);
-      const glm::vec3 n = v[3] > 0.5f ? glm::vec3(v[0], v[1], v[2]) : glm::vec3(0.0f, 0.0f, 1.0f);
-      const auto code = [](float c) {
-        return static_cast<uint8_t>(std::lround(std::clamp(0.5f * (c + 1.0f), 0.0f, 1.0f) * 255.0f));
-      };
-      png.at<cv::Vec3b>(y, x) = {code(n.z), code(n.y), code(n.x)};  // OpenCV's B, G, R
-    }
-  }
   const std::filesystem::path file = dir / "normal.png";
-  if (!cv::imwrite(file.string(), png)) return absl::InternalError(absl::StrCat("cannot write ", file.string()));
+  if (!cv::imwrite(file.string(), EncodeNormalMap(rgb))) {
+    return absl::InternalError(absl::StrCat("cannot write ", file.string()));
+  }
   return absl::OkStatus();
 }
 

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <glm/glm.hpp>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,12 @@ inline constexpr uint8_t kNormalClusterNoBetter = 16;
 // Texels with a flag get the mesh normal (m = z, sigma -1); `refined` and
 // the counts and medians follow the flags.
 void CountNormals(const std::vector<int32_t>& texel_cluster, TexelNormals* normals);
+
+// A tangent-space normal atlas (CV_32FC3, x y z in R G B, z <= 0 where no
+// normal is: the flat one) in the usual 8-bit linear normal-map encoding
+// (m + 1) / 2, as glTF's normalTexture reads it; CV_8UC3 in OpenCV's B, G, R
+// order (cv::imwrite, cv::imencode).
+cv::Mat EncodeNormalMap(const cv::Mat& tangent_normals);
 
 // Writes dir/normal.exr (RGB: tangent-space m per texel of a cluster, grown
 // `grow_iterations` texels past the charts like the other atlases),

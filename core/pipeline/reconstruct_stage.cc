@@ -937,6 +937,13 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   g.texels.reset();
   AddStage(&report, "cluster_fit", Since(t0), options);
 
+  // Each cluster's reflectance as the texel passes read it (texel_shading.h).
+  const auto cluster_shading = [&] {
+    std::vector<ClusterShading> shading;
+    for (size_t k = 0; k < num_clusters; ++k) shading.push_back({cluster_model[k], cluster_brdf[k], cluster_lobe[k]});
+    return shading;
+  };
+
   // Issue #18: per-texel normals, which pass 2 then reads its Samples with.
   std::optional<TexelNormals> normals;
   if (plan.Has(Stage::kNormals)) {
@@ -949,9 +956,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     input.shadows = shadow_atlases.get();
     input.assemble = assemble;
     input.texel_cluster = &texel_cluster;
-    for (size_t k = 0; k < num_clusters; ++k) {
-      input.clusters.push_back({cluster_model[k], cluster_brdf[k], cluster_lobe[k]});
-    }
+    input.clusters = cluster_shading();
     input.residual_scale = texel_sigma;
     input.robust = options.diffuse.robust;
     input.selection = &selection;
@@ -1027,6 +1032,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   }
 
   // Pass 2: per-texel kd, observed diffuse per frame, camera errors.
+  const std::vector<ClusterShading> shading = cluster_shading();  // as fitted last
   t0 = Clock::now();
   fit::DiffuseAccumulator diffuse(num_texels);
   std::vector<glm::vec3> fallback_kd(num_clusters);
@@ -1098,22 +1104,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         for_each_texel(c, [&](FoldPart& part, uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
           const int32_t k = texel_cluster[texel];
           if (k < 0) return;
-          const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-          const brdf::Model model = cluster_model[static_cast<size_t>(k)];
-          const bool phong = model == brdf::Model::kPhong;
-          glm::vec3 G, res;
-          if (phong) {
-            G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
-            for (int ch = 0; ch < 3; ++ch) {
-              res[ch] = rgb[ch] - static_cast<float>(p[ch].ks) *
-                                      SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke);
-            }
-          } else {
-            glm::vec3 specular;
-            fit::LobeTerms(model, cluster_lobe[static_cast<size_t>(k)], terms, intensity, selection.Of(t, all_lights),
-                           &specular, &G);
-            res = rgb - specular;
-          }
+          glm::vec3 G, specular;
+          ShadeTexel(shading[static_cast<size_t>(k)], terms, intensity, selection.Of(t, all_lights), &G, &specular);
+          const glm::vec3 res = rgb - specular;
           // Weighted by (n.v)^4: near-grazing observations come from
           // stretched image footprints and smear across silhouettes
           // (sum w G r / sum w G^2, folded in as sqrt(w) = (n.v)^2).

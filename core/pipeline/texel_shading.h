@@ -48,14 +48,17 @@ struct ClusterShading {
   std::array<fit::LobeChannel, 3> lobe;  // the other models' parameters
 };
 
-// G and S of one observation's terms under `cluster`.
+// G and S of one observation's terms under `cluster` (S in float, ks rounded
+// to float first: pass 2's residuals r - S are as they were before this
+// function existed, bit for bit).
 inline void ShadeTexel(const ClusterShading& cluster, const samples::LightTerms& terms,
                        const std::vector<glm::vec3>& intensity, const samples::LightMask& mask, glm::vec3* illumination,
                        glm::vec3* specular) {
   if (cluster.model == brdf::Model::kPhong) {
     *illumination = IlluminationOf(terms, intensity, mask);
     for (int c = 0; c < 3; ++c)
-      (*specular)[c] = cluster.phong[c].ks * SpecularSum(terms, intensity, mask, c, cluster.phong[c].ke);
+      (*specular)[c] =
+          static_cast<float>(cluster.phong[c].ks) * SpecularSum(terms, intensity, mask, c, cluster.phong[c].ke);
   } else {
     fit::LobeTerms(cluster.model, cluster.lobe, terms, intensity, mask, specular, illumination);
   }

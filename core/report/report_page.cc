@@ -482,10 +482,13 @@ std::string BuildReportHtml(const ReportInputs& in) {
   // Issue #18: the normals stage.
   if (run.has_normals()) {
     const v1::NormalReport& n = run.normals();
+    // Medians over no texel are not figures: left out then.
     h += "<section id=\"normals\"><h2>Surface detail: per-texel normals</h2><p>" + absl::StrCat(n.refined()) +
-         " of " + absl::StrCat(n.texels()) + " texels refined (median tilt from the mesh normal " +
-         F(n.median_tilt_deg(), "%.2f") + "°, median standard deviation " + F(n.median_sigma_deg(), "%.2f") +
-         "°) in " + absl::StrCat(n.passes()) + " passes over the frames; the mesh's normal kept where the refined one "
+         " of " + absl::StrCat(n.texels()) + " texels refined" +
+         (n.refined() > 0 ? " (median tilt from the mesh normal " + F(n.median_tilt_deg(), "%.2f") +
+                                "°, median standard deviation " + F(n.median_sigma_deg(), "%.2f") + "°)"
+                          : std::string()) +
+         " in " + absl::StrCat(n.passes()) + " passes over the frames; the mesh's normal kept where the refined one "
          "explained the data no better (" + absl::StrCat(n.not_significant()) + " texels, " +
          absl::StrCat(n.cluster_no_better()) + " in clusters whose BRDF it did not fit better), or the data could not "
          "constrain it (" + absl::StrCat(n.few_observations()) + " with too few observations, " +
