@@ -2,15 +2,94 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
+
+#include "core/base/vector_exp.h"
 
 namespace mvbrdf::fit::internal {
+
+static_assert(kExpUnderflow == base::kExpFlushBelow, "ExpAffine returns 0 exactly where the terms drop out");
+
+void PhongTerms::Densify(int num_slots) {
+  const size_t n = begin.size() - 1, entries = static_cast<size_t>(std::max(num_slots, 0)) * n;
+  if (num_slots <= 0 || entries > 2 * slot.size() || entries > kMaxDenseEntries) return;
+  dense_slots = num_slots;
+  dense_log_h.assign(entries, 0.0);
+  dense_offset.assign(entries, kNoHighlight);
+  for (size_t i = 0; i < n; ++i) {
+    for (uint64_t j = begin[i]; j < begin[i + 1]; ++j) {
+      const size_t at = static_cast<size_t>(slot[j]) * n + i;
+      dense_log_h[at] = log_h[j];
+      dense_offset[at] = log_a.empty() ? 0.0 : log_a[j];
+    }
+  }
+}
+
+namespace {
+
+void DenseSpecularSums(const PhongChannelData& data, size_t begin, size_t end, double ke, double* s, double* d) {
+  constexpr size_t kBlock = 512;
+  double e[kBlock];
+  const size_t n = data.size();
+  for (size_t block = begin; block < end; block += kBlock) {
+    const size_t count = std::min(end, block + kBlock) - block;
+    double* sb = s + (block - begin);
+    double* db = d == nullptr ? nullptr : d + (block - begin);
+    std::fill(sb, sb + count, 0.0);
+    if (db != nullptr) std::fill(db, db + count, 0.0);
+    for (int k = 0; k < data.dense_slots; ++k) {
+      const double w = data.weight[static_cast<size_t>(k)];
+      const double* log_h = data.dense_log_h + static_cast<size_t>(k) * n + block;
+      base::ExpAffine(count, ke, log_h, data.dense_offset + static_cast<size_t>(k) * n + block, e);
+      for (size_t m = 0; m < count; ++m) sb[m] += w * e[m];
+      if (db != nullptr) {
+        for (size_t m = 0; m < count; ++m) db[m] += w * e[m] * log_h[m];
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void SpecularSumsRange(const PhongChannelData& data, size_t begin, size_t end, double ke, double* s, double* d) {
+  if (data.dense_slots > 0) {
+    DenseSpecularSums(data, begin, end, ke, s, d);
+    return;
+  }
+  // The terms' exponentials a block of samples at a time (a block's terms
+  // stay in the L1 cache between the exp and the sums).
+  constexpr size_t kBlock = 512;
+  thread_local std::vector<double> exps;
+  for (size_t block = begin; block < end; block += kBlock) {
+    const size_t stop = std::min(end, block + kBlock);
+    const size_t first = static_cast<size_t>(data.begin[block]), last = static_cast<size_t>(data.begin[stop]);
+    if (exps.size() < last - first) exps.resize(last - first);
+    base::ExpAffine(last - first, ke, data.log_h + first, data.log_a == nullptr ? nullptr : data.log_a + first,
+                    exps.data());
+    const double* e = exps.data() - first;
+    for (size_t i = block; i < stop; ++i) {
+      double sum = 0.0, dsum = 0.0;
+      for (size_t j = static_cast<size_t>(data.begin[i]); j < static_cast<size_t>(data.begin[i + 1]); ++j) {
+        const double p = data.weight[data.slot[j]] * e[j];
+        sum += p;
+        dsum += p == 0.0 ? 0.0 : p * data.log_h[j];  // 0, not NaN, for a term with ln h = -inf
+      }
+      s[i - begin] = sum;
+      if (d != nullptr) d[i - begin] = dsum;
+    }
+  }
+}
 
 void EvaluatePhongResiduals(const PhongChannelData& data, size_t begin, size_t end, const double* x, double* residuals,
                             double* jacobian) {
   const double a = x[0], b = x[1], ke = std::exp(x[2]);
+  constexpr size_t kChunk = 1024;
+  double specular[kChunk], derivative[kChunk];
   for (size_t i = begin; i < end; ++i) {
-    double s, d;
-    SpecularSums(data, i, ke, &s, &d);
+    if ((i - begin) % kChunk == 0) {
+      SpecularSumsRange(data, i, std::min(end, i + kChunk), ke, specular, jacobian != nullptr ? derivative : nullptr);
+    }
+    const double s = specular[(i - begin) % kChunk], d = jacobian != nullptr ? derivative[(i - begin) % kChunk] : 0.0;
     const double g = data.diffuse[i];
     const double w = data.sqrt_weight.empty() ? 1.0 : data.sqrt_weight[i];
     residuals[i - begin] = w * (data.r[i] - (a * g + b * s));

@@ -63,6 +63,15 @@ struct PhongChannelData {
   // Optional (robust fits, IRLS): sqrt(w_i), multiplying rho_i and its
   // Jacobian row, so that C(x) = 1/2 sum_i w_i rho_i^2. Empty: w_i = 1.
   std::vector<double> sqrt_weight;
+  // Optional, the same terms laid out densely (PhongTerms::Densify), which
+  // SpecularSumsRange then reads instead: dense_slots rows of size() values,
+  // slot-major; dense_log_h[k * size() + i] is ln h of sample i's term of slot
+  // k and dense_offset[...] its ln a (0 without fall-off); a sample without a
+  // term of slot k has ln h = 0 and offset -inf (its exp is 0, and so is its
+  // part of D).
+  int dense_slots = 0;
+  const double* dense_log_h = nullptr;
+  const double* dense_offset = nullptr;
   size_t size() const { return r.size(); }
 };
 
@@ -82,36 +91,40 @@ struct PhongTerms {
     }
     begin.push_back(slot.size());
   }
+  // The dense layout (PhongChannelData::dense_*), slot-major.
+  int dense_slots = 0;
+  std::vector<double> dense_log_h, dense_offset;
+
+  // Lays the terms out densely as well when that costs at most twice the
+  // exponentials (num_slots x samples <= 2 x terms: few lights, most of them
+  // with a highlight term, as in the sweep's and clusters' fits; not OLAT's
+  // one light in 96) and at most kMaxDenseEntries entries. The dense sums
+  // vectorise across samples; the CSR ones loop over 1-4 terms per sample.
+  static constexpr size_t kMaxDenseEntries = size_t{1} << 21;  // 32 MiB for both arrays
+  void Densify(int num_slots);
+
   void Attach(PhongChannelData* data) const {
     data->begin = begin.data();
     data->slot = slot.data();
     data->log_h = log_h.data();
     data->log_a = log_a.empty() ? nullptr : log_a.data();
+    data->dense_slots = dense_slots;
+    data->dense_log_h = dense_slots > 0 ? dense_log_h.data() : nullptr;
+    data->dense_offset = dense_slots > 0 ? dense_offset.data() : nullptr;
   }
 };
 
 // Below this exp() returns a subnormal or 0.
 constexpr double kExpUnderflow = -708.0;
 
-// S_i and D_i of sample i at exponent ke.
-inline void SpecularSums(const PhongChannelData& data, size_t i, double ke, double* s, double* d) {
-  const size_t first = static_cast<size_t>(data.begin[i]), last = static_cast<size_t>(data.begin[i + 1]);
-  double sum = 0.0, dsum = 0.0;
-  for (size_t j = first; j < last; ++j) {
-    const double log_h = data.log_h[j];
-    if (log_h == kNoHighlight) continue;
-    const double e = ke * log_h + (data.log_a == nullptr ? 0.0 : data.log_a[j]);
-    // exp underflows below ~-708 (to subnormals, then 0) and is several times
-    // slower there; such a term adds nothing a double can hold beside the
-    // others (measured: a third of the terms at ke = 1000).
-    if (e < kExpUnderflow) continue;
-    const double p = data.weight[data.slot[j]] * std::exp(e);
-    sum += p;
-    dsum += p * log_h;
-  }
-  *s = sum;
-  *d = dsum;
-}
+// S_i (and D_i when d is not null) of the samples i in [begin, end) into
+// s[i - begin] (d[i - begin]), from the dense layout when the data has one,
+// else from the CSR terms. The exponentials of a block's terms are taken at
+// once (base::ExpAffine, vectorised, within 2 ulp of std::exp). A term whose
+// exponent ke ln h + ln a is below kExpUnderflow adds 0: exp would return a
+// subnormal or 0 there, several times slower, and such a term adds nothing a
+// double can hold beside the others (a third of the terms at ke = 1000).
+void SpecularSumsRange(const PhongChannelData& data, size_t begin, size_t end, double ke, double* s, double* d);
 
 // rho_i for i in [begin, end) into residuals[i - begin]; the Jacobian rows
 // (row-major, 3 per residual) into `jacobian` when not null.

@@ -29,6 +29,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/base/vector_exp.h"
 #include "core/fit/phong_cost.h"
 #include "core/fit/phong_lm.h"
 #include "core/fit/phong_terms.h"
@@ -82,6 +83,18 @@ PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indic
     prep.lights.push_back(static_cast<int>(k));
   });
   prep.used.reserve(count);
+  size_t num_terms = set.num_terms();
+  if (!indices.empty()) {
+    num_terms = 0;
+    for (uint32_t i : indices) num_terms += set.TermsEnd(i) - set.TermsBegin(i);
+  }
+  prep.g_begin.reserve(count + 1);
+  prep.g_slot.reserve(num_terms);
+  prep.g.reserve(num_terms);
+  prep.specular.begin.reserve(count + 1);
+  prep.specular.slot.reserve(num_terms);
+  prep.specular.log_h.reserve(num_terms);
+  if (!set.falloff.empty()) prep.specular.log_a.reserve(num_terms);
   for (size_t u = 0; u < count; ++u) {
     const size_t i = indices.empty() ? u : indices[u];
     const bool own = selection.Own(set.frame[i]);
@@ -114,6 +127,7 @@ PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indic
     prep.g_begin.push_back(prep.g.size());
     prep.specular.begin.push_back(prep.specular.slot.size());
   }
+  prep.specular.Densify(static_cast<int>(prep.lights.size()));
   return prep;
 }
 
@@ -134,11 +148,7 @@ class PowellPhongCost {
     double x[3];
     for (int j = 0; j < 3; ++j) x[j] = std::clamp(x_unclamped[j], lower_[j], upper_[j]);
     if (!(x[2] == cached_t_)) {
-      const double ke = std::exp(x[2]);
-      for (size_t i = 0; i < data_.size(); ++i) {
-        double d;
-        internal::SpecularSums(data_, i, ke, &specular_[i], &d);
-      }
+      internal::SpecularSumsRange(data_, 0, data_.size(), std::exp(x[2]), specular_.data(), nullptr);
       cached_t_ = x[2];
     }
     double sum = 0.0;
@@ -159,8 +169,9 @@ class PowellPhongCost {
 
 // Minimises over the free coordinates of x (phong_lm.h: one fused pass over
 // the samples per step, Ceres's LM rules).
-void SolveLevenbergMarquardt(const PhongChannelData& data, const bool* free, const double* lower, const double* upper,
-                             const PhongFitOptions& options, double* x, ChannelFitSummary* summary) {
+internal::PhongLmSummary SolveLevenbergMarquardt(const PhongChannelData& data, const bool* free, const double* lower,
+                                                 const double* upper, const PhongFitOptions& options, double* x,
+                                                 ChannelFitSummary* summary) {
   internal::PhongLmOptions lm;
   lm.max_iterations = options.max_iterations;
   lm.function_tolerance = options.function_tolerance;
@@ -168,6 +179,7 @@ void SolveLevenbergMarquardt(const PhongChannelData& data, const bool* free, con
   const internal::PhongLmSummary result = internal::SolvePhongLm(data, free, lower, upper, lm, x);
   summary->iterations = result.iterations;
   if (!result.converged) summary->flags |= kDidNotConverge;
+  return result;
 }
 
 void SolvePowell(const PhongChannelData& data, const bool* free, const double* lower, const double* upper,
@@ -205,10 +217,9 @@ void SolvePowell(const PhongChannelData& data, const bool* free, const double* l
 // data's albedo scale LM chose the wrong light configuration on the synth
 // sequence (reconstruct_stage_test) and missed ke by 350 %.
 constexpr int kInitialGrid = 25;
-// Samples from which FitPhong fits its three channels on threads of their own
-// (a channel of 1e4 samples takes ~10 ms with the LM, scripts/bench-peer;
-// Powell ~15x the LM's time: 0.95 against 0.06 s for a cluster's three
-// channels of 1e5 Samples on the thesis-scale actor).
+// Samples from which FitPhong solves its three channels on threads of their
+// own (the LM solves a channel of 1e4 samples in ~0.5 ms, of 1e5 in ~5 ms:
+// bench-peer's problems; Powell takes ~15x the LM's time).
 constexpr size_t kParallelChannelSamples = 10000;
 // The grid's sums are estimated from about this many samples: 25 exp() per
 // term over all of 1e5 samples took 8x the LM's own time (scripts/bench-peer),
@@ -219,79 +230,169 @@ constexpr size_t kParallelChannelSamples = 10000;
 // of the sums over all samples.
 constexpr size_t kGridSamples = 8192;
 
-void InitialSpecular(const PhongChannelData& data, bool kd_free, const double* lower, const double* upper,
-                     const PhongFitOptions& options, double* x) {
+// One channel's fit: its normalised data, bounds and start (SetUpChannel),
+// the grid's start for ks and ke (InitialSpecular, shared by the channels),
+// then the solve (SolveChannel).
+struct ChannelFit {
+  PhongChannelData data;
+  double r_scale = 1.0, to_original = 1.0;
+  uint32_t flags = kFitOk;
+  bool free[3] = {false, false, false};
+  double lower[3] = {0, 0, 0}, upper[3] = {0, 0, 0};
+  double x[3] = {0, 0, 0};
+  bool grid() const { return free[1] && data.size() > 0; }  // ks and ke to start from the grid
+};
+
+// The samples the grid's sums are estimated from, with their weights: all of
+// them up to kGridSamples; beyond, the kGridSamples / 2 nearest a mirror
+// highlight (largest ln h) with weight 1 and a stride through the rest with
+// weight stride (unbiased sums). The same for every channel (ln h is).
+void GridSamples(const PhongChannelData& data, std::vector<uint32_t>* chosen, std::vector<double>* weight) {
   const size_t n = data.size();
+  if (n <= kGridSamples) {
+    for (size_t i = 0; i < n; ++i) chosen->push_back(static_cast<uint32_t>(i));
+    weight->assign(n, 1.0);
+    return;
+  }
+  std::vector<double> nearest(n, internal::kNoHighlight);  // per sample its largest ln h
+  for (size_t i = 0; i < n; ++i) {
+    for (uint64_t j = data.begin[i]; j < data.begin[i + 1]; ++j) nearest[i] = std::max(nearest[i], data.log_h[j]);
+  }
+  std::vector<double> sorted = nearest;
+  const size_t top = kGridSamples / 2;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(n - top), sorted.end());
+  const double threshold = sorted[n - top];
+  // Ties at the threshold go to the rest, so the top set is at most `top`.
+  size_t rest = 0;
+  for (size_t i = 0; i < n; ++i) rest += nearest[i] > threshold ? 0 : 1;
+  const size_t stride = std::max<size_t>(1, rest / (kGridSamples - top));
+  for (size_t i = 0, k = 0; i < n; ++i) {
+    if (nearest[i] > threshold) {
+      chosen->push_back(static_cast<uint32_t>(i));
+      weight->push_back(1.0);
+    } else if (k++ % stride == 0) {
+      chosen->push_back(static_cast<uint32_t>(i));
+      weight->push_back(static_cast<double>(stride));
+    }
+  }
+}
+
+// The start of ks and ke of every channel in `fits` that needs one (all fit
+// the same samples with the same terms; only r, G and the light weights
+// differ): for each exponent of a log grid over [ke_min, ke_max], kd (when
+// free) and ks by non-negative linear least squares in closed form; the
+// exponent with the lowest cost wins. The exponentials exp(ke ln h + ln a)
+// of the grid's samples do not depend on the channel and are taken once per
+// grid point for all of them.
+void InitialSpecular(const PhongFitOptions& options, const std::vector<ChannelFit*>& fits) {
+  if (fits.empty()) return;
+  const PhongChannelData& shared = fits[0]->data;
   std::vector<uint32_t> chosen;
   std::vector<double> weight;
-  if (n <= kGridSamples) {
-    for (size_t i = 0; i < n; ++i) chosen.push_back(static_cast<uint32_t>(i));
-    weight.assign(n, 1.0);
-  } else {
-    std::vector<double> nearest(n, internal::kNoHighlight);  // per sample its largest ln h
-    for (size_t i = 0; i < n; ++i) {
-      for (uint64_t j = data.begin[i]; j < data.begin[i + 1]; ++j) nearest[i] = std::max(nearest[i], data.log_h[j]);
+  GridSamples(shared, &chosen, &weight);
+  // The chosen samples' terms, with a weight of 1 per slot (the channels'
+  // weights are applied in the sums below).
+  internal::PhongTerms terms;
+  size_t num_slots = 0;
+  for (uint32_t i : chosen) {
+    for (uint64_t j = shared.begin[i]; j < shared.begin[i + 1]; ++j) {
+      terms.slot.push_back(shared.slot[j]);
+      terms.log_h.push_back(shared.log_h[j]);
+      if (shared.log_a != nullptr) terms.log_a.push_back(shared.log_a[j]);
+      num_slots = std::max<size_t>(num_slots, shared.slot[j] + size_t{1});
     }
-    std::vector<double> sorted = nearest;
-    const size_t top = kGridSamples / 2;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(n - top), sorted.end());
-    const double threshold = sorted[n - top];
-    // Ties at the threshold go to the rest, so the top set is at most `top`.
-    size_t rest = 0;
-    for (size_t i = 0; i < n; ++i) rest += nearest[i] > threshold ? 0 : 1;
-    const size_t stride = std::max<size_t>(1, rest / (kGridSamples - top));
-    for (size_t i = 0, k = 0; i < n; ++i) {
-      if (nearest[i] > threshold) {
-        chosen.push_back(static_cast<uint32_t>(i));
-        weight.push_back(1.0);
-      } else if (k++ % stride == 0) {
-        chosen.push_back(static_cast<uint32_t>(i));
-        weight.push_back(static_cast<double>(stride));
-      }
+    terms.begin.push_back(terms.slot.size());
+  }
+  const size_t m = chosen.size();
+  terms.Densify(static_cast<int>(num_slots));
+  const bool dense = terms.dense_slots > 0;
+  // Per grid point the terms' exponentials (dense: slot-major, m per slot),
+  // summed per channel with the channel's weights: E_c,i = sum_k w_c,k exp(...).
+  std::vector<double> exps(dense ? terms.dense_log_h.size() : terms.log_h.size());
+  std::vector<std::vector<double>> specular(fits.size(), std::vector<double>(m));
+  struct Sums {
+    double rr = 0, rg = 0, gg = 0;
+    double best = std::numeric_limits<double>::infinity();
+  };
+  std::vector<Sums> sums(fits.size());
+  // Per channel the chosen samples' weight * r and weight * G, contiguous.
+  std::vector<std::vector<double>> wr(fits.size(), std::vector<double>(m)), wg = wr;
+  for (size_t f = 0; f < fits.size(); ++f) {
+    const PhongChannelData& data = fits[f]->data;
+    for (size_t q = 0; q < m; ++q) {
+      const size_t i = chosen[q];
+      sums[f].rr += weight[q] * data.r[i] * data.r[i];
+      sums[f].rg += weight[q] * data.r[i] * data.diffuse[i];
+      sums[f].gg += weight[q] * data.diffuse[i] * data.diffuse[i];
+      wr[f][q] = weight[q] * data.r[i];
+      wg[f][q] = weight[q] * data.diffuse[i];
     }
   }
-  double s_rr = 0.0, s_rg = 0.0, s_gg = 0.0;
-  for (size_t m = 0; m < chosen.size(); ++m) {
-    const size_t i = chosen[m];
-    s_rr += weight[m] * data.r[i] * data.r[i];
-    s_rg += weight[m] * data.r[i] * data.diffuse[i];
-    s_gg += weight[m] * data.diffuse[i] * data.diffuse[i];
-  }
-  double best = std::numeric_limits<double>::infinity();
   const double t_min = std::log(options.ke_min), t_max = std::log(options.ke_max);
-  for (int j = 0; j < kInitialGrid; ++j) {
-    const double t = t_min + (t_max - t_min) * j / (kInitialGrid - 1);
-    double s_rs = 0.0, s_gs = 0.0, s_ss = 0.0;
-    for (size_t m = 0; m < chosen.size(); ++m) {
-      const size_t i = chosen[m];
-      double sp, d;
-      internal::SpecularSums(data, i, std::exp(t), &sp, &d);
-      s_rs += weight[m] * data.r[i] * sp;
-      s_gs += weight[m] * data.diffuse[i] * sp;
-      s_ss += weight[m] * sp * sp;
+  for (int g = 0; g < kInitialGrid; ++g) {
+    const double t = t_min + (t_max - t_min) * g / (kInitialGrid - 1);
+    if (dense) {
+      base::ExpAffine(exps.size(), std::exp(t), terms.dense_log_h.data(), terms.dense_offset.data(), exps.data());
+    } else {
+      base::ExpAffine(exps.size(), std::exp(t), terms.log_h.data(), terms.log_a.empty() ? nullptr : terms.log_a.data(),
+                      exps.data());
     }
-    const auto cost = [&](double a, double b) {
-      return s_rr - 2.0 * a * s_rg - 2.0 * b * s_rs + a * a * s_gg + 2.0 * a * b * s_gs + b * b * s_ss;
-    };
-    // Candidates (a, b) >= 0: ks alone (kd fixed), both free, kd alone.
-    std::vector<std::pair<double, double>> candidates;
-    if (!kd_free && s_ss > 0.0) candidates.push_back({x[0], std::max(0.0, (s_rs - x[0] * s_gs) / s_ss)});
-    if (kd_free) {
-      const double det = s_gg * s_ss - s_gs * s_gs;
-      if (det > 0.0) {
-        const double a = (s_rg * s_ss - s_rs * s_gs) / det, b = (s_rs * s_gg - s_rg * s_gs) / det;
-        if (a >= 0.0 && b >= 0.0) candidates.push_back({a, b});
+    for (size_t f = 0; f < fits.size(); ++f) {
+      const PhongChannelData& data = fits[f]->data;
+      double* sp = specular[f].data();
+      if (dense) {
+        std::fill(sp, sp + m, 0.0);
+        for (size_t k = 0; k < num_slots; ++k) {
+          const double w = data.weight[k];
+          const double* e = exps.data() + k * m;
+          for (size_t q = 0; q < m; ++q) sp[q] += w * e[q];
+        }
+        continue;
       }
-      if (s_gg > 0.0) candidates.push_back({std::max(0.0, s_rg / s_gg), 0.0});
+      for (size_t q = 0; q < m; ++q) {
+        double sum = 0.0;
+        for (uint64_t j = terms.begin[q]; j < terms.begin[q + 1]; ++j) sum += data.weight[terms.slot[j]] * exps[j];
+        sp[q] = sum;
+      }
     }
-    for (const auto& [a, b] : candidates) {
-      const double ca = std::clamp(a, lower[0], upper[0]), cb = std::clamp(b, lower[1], upper[1]);
-      const double c = cost(ca, cb);
-      if (std::isfinite(c) && c < best) {
-        best = c;
-        if (kd_free) x[0] = ca;
-        x[1] = cb;
-        x[2] = t;
+    for (size_t f = 0; f < fits.size(); ++f) {
+      ChannelFit& fit = *fits[f];
+      const bool kd_free = fit.free[0];
+      double s_rs = 0.0, s_gs = 0.0, s_ss = 0.0;
+      const double* sp = specular[f].data();
+      const double* r = wr[f].data();
+      const double* g = wg[f].data();
+      for (size_t q = 0; q < m; ++q) {
+        s_rs += r[q] * sp[q];
+        s_gs += g[q] * sp[q];
+        s_ss += weight[q] * sp[q] * sp[q];
+      }
+      const Sums& c = sums[f];
+      const auto cost = [&](double a, double b) {
+        return c.rr - 2.0 * a * c.rg - 2.0 * b * s_rs + a * a * c.gg + 2.0 * a * b * s_gs + b * b * s_ss;
+      };
+      // Candidates (a, b) >= 0: ks alone (kd fixed), both free, kd alone.
+      std::pair<double, double> candidates[3];
+      int count = 0;
+      if (!kd_free && s_ss > 0.0) candidates[count++] = {fit.x[0], std::max(0.0, (s_rs - fit.x[0] * s_gs) / s_ss)};
+      if (kd_free) {
+        const double det = c.gg * s_ss - s_gs * s_gs;
+        if (det > 0.0) {
+          const double a = (c.rg * s_ss - s_rs * s_gs) / det, b = (s_rs * c.gg - c.rg * s_gs) / det;
+          if (a >= 0.0 && b >= 0.0) candidates[count++] = {a, b};
+        }
+        if (c.gg > 0.0) candidates[count++] = {std::max(0.0, c.rg / c.gg), 0.0};
+      }
+      for (int k = 0; k < count; ++k) {
+        const auto [a, b] = candidates[k];
+        const double ca = std::clamp(a, fit.lower[0], fit.upper[0]), cb = std::clamp(b, fit.lower[1], fit.upper[1]);
+        const double v = cost(ca, cb);
+        if (std::isfinite(v) && v < sums[f].best) {
+          sums[f].best = v;
+          if (kd_free) fit.x[0] = ca;
+          fit.x[1] = cb;
+          fit.x[2] = t;
+        }
       }
     }
   }
@@ -328,11 +429,11 @@ void RobustRefit(const RobustOptions& robust, const Solve& solve, double* x, dou
   summary->outlier_fraction = static_cast<double>(outliers) / static_cast<double>(std::max<size_t>(n, 1));
 }
 
-ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int c, const PhongFitOptions& options) {
-  ChannelOutcome out;
+// Channel c's normalised data, identifiability, bounds and kd's start.
+void SetUpChannel(const PreparedSamples& prep, const SampleSet& set, int c, const PhongFitOptions& options,
+                  ChannelFit* fit) {
   const size_t n = prep.used.size();
-
-  PhongChannelData data;
+  PhongChannelData& data = fit->data;
   prep.specular.Attach(&data);
   double i_max = 0.0;
   for (int k : prep.lights) {
@@ -357,8 +458,9 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   double r_scale = n > 0 ? std::sqrt(sum_rr / static_cast<double>(n)) : 1.0;
   if (!(r_scale > 0.0) || !std::isfinite(r_scale)) r_scale = 1.0;
   for (double& r : data.r) r /= r_scale;
+  fit->r_scale = r_scale;
   // kd = a * to_original, ks = b * to_original.
-  const double to_original = i_max > 0.0 ? r_scale / i_max : 1.0;
+  fit->to_original = i_max > 0.0 ? r_scale / i_max : 1.0;
 
   // Identifiability.
   const double log_highlight = options.highlight_cosine > 0.0 ? std::log(options.highlight_cosine) : kNoHighlight;
@@ -379,6 +481,7 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   const bool specular_free = highlight_samples >= static_cast<size_t>(std::max(options.min_highlight_samples, 1));
   if (!kd_free) flags |= kKdNotIdentifiable;
   if (!specular_free) flags |= kKsKeNotIdentifiable;
+  fit->flags = flags;
 
   // The data's own albedo scale in normalised units: the a for which a G'
   // alone has the rms of r (1 in normalised units). Bounds and initial
@@ -391,10 +494,14 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
   const double lower[3] = {0.0, 0.0, std::log(options.ke_min)};
   const double upper[3] = {options.kd_max * albedo_scale, options.ks_max * albedo_scale, std::log(options.ke_max)};
   const bool free[3] = {kd_free, specular_free, specular_free};
+  std::copy(lower, lower + 3, fit->lower);
+  std::copy(upper, upper + 3, fit->upper);
+  std::copy(free, free + 3, fit->free);
 
   // Initial point: kd by least squares with ks = 0 (or the fallback kd), ks
-  // and ke from the options (ks = 0 when they are not identifiable).
-  double x[3];
+  // and ke from the options (ks = 0 when they are not identifiable); ks and
+  // ke then from the grid (InitialSpecular).
+  double* x = fit->x;
   x[1] = specular_free ? options.initial.ks * albedo_scale : 0.0;
   x[2] = std::log(std::clamp(options.initial.ke, options.ke_min, options.ke_max));
   x[0] = options.initial.kd * albedo_scale;
@@ -406,35 +513,59 @@ ChannelOutcome FitChannel(const PreparedSamples& prep, const SampleSet& set, int
     }
     if (s_gg > 0.0) x[0] = s_rg / s_gg;
   }
-  if (specular_free && n > 0) InitialSpecular(data, kd_free, lower, upper, options, x);
+}
+
+// The solve from the start SetUpChannel and InitialSpecular left in `fit`.
+ChannelOutcome SolveChannel(const PhongFitOptions& options, ChannelFit* fit) {
+  ChannelOutcome out;
+  PhongChannelData& data = fit->data;
+  const size_t n = data.size();
+  const double* lower = fit->lower;
+  const double* upper = fit->upper;
+  const bool* free = fit->free;
+  const bool kd_free = free[0], specular_free = free[1];
+  const double r_scale = fit->r_scale, to_original = fit->to_original;
+  uint32_t flags = fit->flags;
+  double* x = fit->x;
   for (int j = 0; j < 3; ++j) x[j] = std::clamp(x[j], lower[j], upper[j]);
   const double x0[3] = {x[0], x[1], x[2]};
 
-  out.summary.initial_cost = PhongCost(data, x) * r_scale * r_scale;
   out.summary.start = {x[0] * to_original, x[1] * to_original, std::exp(x[2])};
+  // The LM's first pass is at x0 and its last at its result: their costs are
+  // the reported ones (the same sums PhongCost takes) unless a robust refit
+  // or Powell came between.
+  double initial_cost = -1.0, final_cost = -1.0;
   const auto solve = [&]() {
     if (options.solver == Solver::kPowell) {
       SolvePowell(data, free, lower, upper, options, x, &out.summary);
     } else {
-      SolveLevenbergMarquardt(data, free, lower, upper, options, x, &out.summary);
+      const internal::PhongLmSummary lm = SolveLevenbergMarquardt(data, free, lower, upper, options, x, &out.summary);
+      if (initial_cost < 0.0) initial_cost = lm.initial_cost;
+      final_cost = lm.final_cost;
     }
   };
   if (n > 0 && (kd_free || specular_free)) {
     solve();
-    if (options.robust.enabled()) RobustRefit(options.robust, solve, x, r_scale, &data, &out.summary);
+    if (options.robust.enabled()) {
+      RobustRefit(options.robust, solve, x, r_scale, &data, &out.summary);
+      final_cost = -1.0;  // the weighted cost; the plain one is taken below
+    }
   }
+  if (options.solver == Solver::kPowell || initial_cost < 0.0) initial_cost = PhongCost(data, x0);
+  out.summary.initial_cost = initial_cost * r_scale * r_scale;
   bool finite = true;
   for (int j = 0; j < 3; ++j) finite = finite && std::isfinite(x[j]);
   if (!finite) {  // cannot happen with finite data; never return it
     std::copy(x0, x0 + 3, x);
     flags |= kDidNotConverge;
+    final_cost = -1.0;
   }
   for (int j = 0; j < 3; ++j) {
     x[j] = std::clamp(x[j], lower[j], upper[j]);
     const double margin = kAtBoundFraction * (upper[j] - lower[j]);
     if (free[j] && (x[j] - lower[j] <= margin || upper[j] - x[j] <= margin)) flags |= kAtBound;
   }
-  const double final_cost = PhongCost(data, x);
+  if (options.solver == Solver::kPowell || final_cost < 0.0) final_cost = PhongCost(data, x);
   out.summary.final_cost = final_cost * r_scale * r_scale;
   out.sum_squares = 2.0 * out.summary.final_cost;
   out.summary.flags |= flags;
@@ -596,16 +727,25 @@ absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<
   double sum_squares = 0.0;
   // The channels are independent fits: on their own threads when each is
   // large enough to pay for one (the same results either way).
+  ChannelFit fits[3];
+  std::vector<ChannelFit*> grid;
+  for (int c = 0; c < 3; ++c) {
+    SetUpChannel(prep, set, c, options, &fits[c]);
+    if (fits[c].grid()) grid.push_back(&fits[c]);
+  }
+  InitialSpecular(options, grid);
   ChannelOutcome channels[3];
-  if (prep.used.size() >= kParallelChannelSamples && std::thread::hardware_concurrency() > 1) {
-    std::thread green([&] { channels[1] = FitChannel(prep, set, 1, options); });
-    std::thread blue([&] { channels[2] = FitChannel(prep, set, 2, options); });
-    channels[0] = FitChannel(prep, set, 0, options);
+  if (options.parallel_channels && prep.used.size() >= kParallelChannelSamples &&
+      std::thread::hardware_concurrency() > 1) {
+    std::thread green([&] { channels[1] = SolveChannel(options, &fits[1]); });
+    std::thread blue([&] { channels[2] = SolveChannel(options, &fits[2]); });
+    channels[0] = SolveChannel(options, &fits[0]);
     green.join();
     blue.join();
   } else {
-    for (int c = 0; c < 3; ++c) channels[c] = FitChannel(prep, set, c, options);
+    for (int c = 0; c < 3; ++c) channels[c] = SolveChannel(options, &fits[c]);
   }
+
   for (int c = 0; c < 3; ++c) {
     const ChannelOutcome& channel = channels[c];
     result.params[c] = channel.params;

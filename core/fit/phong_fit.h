@@ -87,6 +87,10 @@ struct PhongFitOptions {
   double highlight_cosine = 0.5;
   // Robust loss (issue #14); least squares by default.
   RobustOptions robust;
+  // Large fits (>= 1e4 Samples) fit their three channels on threads of their
+  // own (the same results either way); false keeps them on the calling thread
+  // (scripts/bench-peer compares single-threaded solvers).
+  bool parallel_channels = true;
 
   absl::Status Check() const;
 };

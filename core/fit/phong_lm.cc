@@ -76,6 +76,7 @@ PhongLmSummary SolvePhongLm(const PhongChannelData& data, const bool* free, cons
   }
   Normal at = Evaluate(data, x);
   summary.passes = 1;
+  summary.initial_cost = at.cost;
   double mu = 1e-4, nu = 2.0;  // Ceres: 1 / initial trust region radius; its decrease factor
   while (m > 0 && summary.iterations < options.max_iterations) {
     // The projected gradient.

@@ -35,10 +35,11 @@ struct PhongLmOptions {
 };
 
 struct PhongLmSummary {
-  int iterations = 0;       // steps tried (accepted or not)
-  int passes = 0;           // passes over the samples
-  bool converged = false;   // a tolerance was met (not the iteration limit)
-  double final_cost = 0.0;  // phong_cost.h's C(x), normalised units
+  int iterations = 0;         // steps tried (accepted or not)
+  int passes = 0;             // passes over the samples
+  bool converged = false;     // a tolerance was met (not the iteration limit)
+  double initial_cost = 0.0;  // C at the start (the first pass's sums, as PhongCost takes them)
+  double final_cost = 0.0;    // phong_cost.h's C(x), normalised units, at the result
 };
 
 // Minimises C over the free coordinates of x within [lower, upper]; x must
