@@ -2,8 +2,8 @@
 // their time in exp(ke ln h) over every specular term (perf of
 // scripts/bench-peer's fit_peer: glibc's exp 47 % of its samples), one call
 // at a time. ExpAffine evaluates a whole array of them with SIMD lanes (GCC
-// vector extensions: 2 lanes (SSE2 on baseline x86-64, NEON on arm64), 4 or 8 where the
-// CPU has them), to within 2 ulp of std::exp (ExpAffineTest).
+// vector extensions: 2 lanes (SSE2 on baseline x86-64, NEON on arm64), 4 or 8
+// where the CPU has them), to within 2 ulp of std::exp (ExpAffineTest).
 #ifndef MVBRDF_CORE_BASE_VECTOR_EXP_H_
 #define MVBRDF_CORE_BASE_VECTOR_EXP_H_
 
@@ -11,13 +11,15 @@
 
 namespace mvbrdf::base {
 
-// Below this exponent ExpAffine returns exactly 0: std::exp would return a
-// subnormal (from ~-708.4) or 0, which no sum of terms of order one can hold.
+// Below this exponent ExpAffine returns exactly 0: std::exp would return at
+// most ~3e-308 (a subnormal from ~-708.4, then 0), which no sum of terms of
+// order one can hold.
 constexpr double kExpFlushBelow = -708.0;
 
 // y[i] = exp(scale * x[i] + offset[i]) (offset may be null: 0), for
-// i < n; 0 where the exponent is below kExpFlushBelow (also for -inf x or
-// offset), +inf above ~709.78, NaN for NaN. y may alias x or offset.
+// i < n; 0 where the exponent is below kExpFlushBelow (also for -inf x with
+// scale > 0, or -inf offset), +inf above ~709.78, NaN for NaN. y may alias x
+// or offset.
 // Lanes: 8 where the CPU has AVX-512F, 4 where it has AVX2 and FMA, else 2.
 void ExpAffine(size_t n, double scale, const double* x, const double* offset, double* y);
 

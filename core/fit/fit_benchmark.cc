@@ -107,7 +107,7 @@ BENCHMARK(BM_DiffuseAccumulator)->Arg(1000000)->Unit(benchmark::kMillisecond);
 
 // --- The Phong residual and Jacobian alone -------------------------------
 
-// One channel's normalised data built the way FitPhong's Prepare/FitChannel
+// One channel's normalised data built the way FitPhong's Prepare/SetUpChannel
 // build it (clamped cosines, ln h or kNoHighlight, w_k = I_k / I_max, r /
 // r_scale), for the evaluation benchmarks only.
 struct ChannelProblem {

@@ -172,10 +172,11 @@ Timed TimeFit(const Problem& p, Solver solver, int repeats) {
 }
 
 // The same problem through Ceres's LM, as FitPhong solved it before its
-// fused LM (core/fit/phong_lm.h): a copy of phong_fit.cc's Prepare and
-// FitChannel for the case of every parameter free, which all these problems
-// are, from the options' initial point (not FitPhong's grid), with Ceres's
-// evaluation counts and times per channel. Its final cost is reported beside
+// fused LM (core/fit/phong_lm.h): a copy of what phong_fit.cc's Prepare and
+// FitChannel (now SetUpChannel / SolveChannel) did for the case of every
+// parameter free, which all these problems are, from the options' initial
+// point (not FitPhong's grid), with Ceres's evaluation counts and times per
+// channel. Its final cost is reported beside
 // FitPhong's.
 //
 // With `projected_line_search` false, the same solve with Ceres's projected

@@ -18,6 +18,7 @@ void PhongTerms::Densify(int num_slots) {
   dense_offset.assign(entries, kNoHighlight);
   for (size_t i = 0; i < n; ++i) {
     for (uint64_t j = begin[i]; j < begin[i + 1]; ++j) {
+      if (log_h[j] == kNoHighlight) continue;  // stays "no term": ln h 0, offset -inf (D's part 0, not NaN)
       const size_t at = static_cast<size_t>(slot[j]) * n + i;
       dense_log_h[at] = log_h[j];
       dense_offset[at] = log_a.empty() ? 0.0 : log_a[j];
@@ -66,11 +67,11 @@ void SpecularSumsRange(const PhongChannelData& data, size_t begin, size_t end, d
     if (exps.size() < last - first) exps.resize(last - first);
     base::ExpAffine(last - first, ke, data.log_h + first, data.log_a == nullptr ? nullptr : data.log_a + first,
                     exps.data());
-    const double* e = exps.data() - first;
+    const double* e = exps.data();
     for (size_t i = block; i < stop; ++i) {
       double sum = 0.0, dsum = 0.0;
       for (size_t j = static_cast<size_t>(data.begin[i]); j < static_cast<size_t>(data.begin[i + 1]); ++j) {
-        const double p = data.weight[data.slot[j]] * e[j];
+        const double p = data.weight[data.slot[j]] * e[j - first];
         sum += p;
         dsum += p == 0.0 ? 0.0 : p * data.log_h[j];  // 0, not NaN, for a term with ln h = -inf
       }

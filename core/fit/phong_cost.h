@@ -114,7 +114,7 @@ struct PhongTerms {
   }
 };
 
-// Below this exp() returns a subnormal or 0.
+// Below this exp() returns at most ~3e-308 (a subnormal from ~-708.4, then 0).
 constexpr double kExpUnderflow = -708.0;
 
 // S_i (and D_i when d is not null) of the samples i in [begin, end) into

@@ -180,6 +180,25 @@ TEST(PhongCostTest, SpecularSumsRangeDenseAndSparseMatchTheSums) {
       EXPECT_EQ(s_only, s_dense);
     }
   }
+  // A term of ln h = -inf written directly (AddDense leaves it out) adds 0 to
+  // S and D in both layouts, not NaN.
+  PhongTerms odd;
+  odd.slot = {0, 1};
+  odd.log_h = {kNoHighlight, -0.5};
+  odd.begin = {0, 2};
+  PhongTerms odd_dense = odd;
+  odd_dense.Densify(2);
+  ASSERT_EQ(odd_dense.dense_slots, 2);
+  for (const PhongTerms* t : {&odd, &odd_dense}) {
+    PhongChannelData data;
+    t->Attach(&data);
+    data.weight = {1.0, 1.0};
+    data.r = {0.0};
+    double s = -1.0, d = -1.0;
+    SpecularSumsRange(data, 0, 1, 10.0, &s, &d);
+    EXPECT_NEAR(s, std::exp(-5.0), 1e-15) << (t == &odd ? "csr" : "dense");
+    EXPECT_NEAR(d, -0.5 * std::exp(-5.0), 1e-15) << (t == &odd ? "csr" : "dense");
+  }
   // Sparse data (OLAT-like: one of many slots per sample) stays in CSR form.
   PhongTerms olat;
   std::vector<double> row(96, kNoHighlight);

@@ -9,7 +9,7 @@
 // kd = a r_scale / I_max and ks likewise on the way out; ke is unchanged.
 //
 // Bounds: [0, kd_max A], [0, ks_max A], [ln ke_min, ln ke_max], with A the
-// data's albedo scale (r_rms / G_rms, see FitChannel); kd_max, ks_max and the
+// data's albedo scale (r_rms / G_rms, see SetUpChannel); kd_max, ks_max and the
 // initial kd, ks are multiples of A, so no bound or starting point assumes
 // data in [0, 1]. The LM (phong_lm.h) enforces them by projecting each step
 // onto the box. Powell minimises C(P(x)) with P the clamp to the box (a projection:
