@@ -182,6 +182,9 @@ internal::PhongLmSummary SolveLevenbergMarquardt(const PhongChannelData& data, c
   return result;
 }
 
+// Restarts of Powell's method after it converged (SolvePowell).
+constexpr int kPowellRestarts = 3;
+
 void SolvePowell(const PhongChannelData& data, const bool* free, const double* lower, const double* upper,
                  const PhongFitOptions& options, double* x, ChannelFitSummary* summary) {
   int free_index[3];
@@ -203,9 +206,22 @@ void SolvePowell(const PhongChannelData& data, const bool* free, const double* l
   PowellOptions powell_options;
   powell_options.max_iterations = options.max_iterations;
   powell_options.function_tolerance = options.function_tolerance;
-  const PowellSummary powell = MinimizePowell(cost, n, u, powell_options, project);
+  PowellSummary powell = MinimizePowell(cost, n, u, powell_options, project);
+  int iterations = powell.iterations;
+  // Restarted from its result with fresh unit directions while that still
+  // lowers the cost (Numerical Recipes' advice: the direction set degenerates,
+  // and an iteration whose line searches barely move stops the method early).
+  // Measured on bench-peer's mixed-ke problem: its ke = 5 and ke = 200
+  // channels stopped 2.8 % and 0.46 % above the LM's cost without, at it
+  // (1e-12) with; the other problems' Powell costs were equal already.
+  for (int restart = 0; restart < kPowellRestarts && powell.converged; ++restart) {
+    const double before = powell.final_cost;
+    powell = MinimizePowell(cost, n, u, powell_options, project);
+    iterations += powell.iterations;
+    if (!(before - powell.final_cost > options.function_tolerance * std::fabs(before))) break;
+  }
   for (int m = 0; m < n; ++m) x[free_index[m]] = std::clamp(u[m], lower[free_index[m]], upper[free_index[m]]);
-  summary->iterations = powell.iterations;
+  summary->iterations = iterations;
   if (!powell.converged) summary->flags |= kDidNotConverge;
 }
 
