@@ -137,6 +137,38 @@ TEST_P(RecoveryTest, RecoversKdKsKe) {
 
 INSTANTIATE_TEST_SUITE_P(Exponents, RecoveryTest, ::testing::Values(1.0, 10.0, 100.0, 1000.0, 10000.0));
 
+// PhongFitOptions::parallel_channels only decides where the channels are
+// solved: the same parameters, costs and flags either way (2e4 Samples, over
+// the threshold from which FitPhong uses threads), for the LM, Powell and a
+// robust fit.
+TEST(FitPhongTest, ChannelThreadsChangeNothing) {
+  GeneratorOptions generator;
+  generator.num_samples = 20000;
+  generator.noise = 0.05;
+  const SampleSet set = MakeSamples(MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {5, 200, 3000}), generator);
+  for (const Solver solver : {Solver::kLevenbergMarquardt, Solver::kPowell}) {
+    for (const RobustLoss loss : {RobustLoss::kNone, RobustLoss::kCauchy}) {
+      PhongFitOptions options;
+      options.solver = solver;
+      options.robust.loss = loss;
+      options.parallel_channels = true;
+      const absl::StatusOr<PhongFitResult> threads = FitPhong(set, {}, kAllFour, options);
+      options.parallel_channels = false;
+      const absl::StatusOr<PhongFitResult> one = FitPhong(set, {}, kAllFour, options);
+      ASSERT_TRUE(threads.ok() && one.ok());
+      for (int c = 0; c < 3; ++c) {
+        EXPECT_EQ(threads->params[c].kd, one->params[c].kd) << SolverName(solver) << " " << c;
+        EXPECT_EQ(threads->params[c].ks, one->params[c].ks) << SolverName(solver) << " " << c;
+        EXPECT_EQ(threads->params[c].ke, one->params[c].ke) << SolverName(solver) << " " << c;
+        EXPECT_EQ(threads->channels[c].final_cost, one->channels[c].final_cost);
+        EXPECT_EQ(threads->channels[c].initial_cost, one->channels[c].initial_cost);
+        EXPECT_EQ(threads->channels[c].flags, one->channels[c].flags);
+      }
+      EXPECT_EQ(threads->mse, one->mse);
+    }
+  }
+}
+
 // Inverse-square fall-off: a_k scales the specular term as a h^ke (never
 // (a h)^ke), in the fit, in EvaluateSample and in the diffuse solve.
 TEST(FitPhongTest, FalloffScalesTheSpecularTermLinearly) {
