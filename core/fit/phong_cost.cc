@@ -86,19 +86,20 @@ void EvaluatePhongResiduals(const PhongChannelData& data, size_t begin, size_t e
   const double a = x[0], b = x[1], ke = std::exp(x[2]);
   constexpr size_t kChunk = 1024;
   double specular[kChunk], derivative[kChunk];
-  for (size_t i = begin; i < end; ++i) {
-    if ((i - begin) % kChunk == 0) {
-      SpecularSumsRange(data, i, std::min(end, i + kChunk), ke, specular, jacobian != nullptr ? derivative : nullptr);
-    }
-    const double s = specular[(i - begin) % kChunk], d = jacobian != nullptr ? derivative[(i - begin) % kChunk] : 0.0;
-    const double g = data.diffuse[i];
-    const double w = data.sqrt_weight.empty() ? 1.0 : data.sqrt_weight[i];
-    residuals[i - begin] = w * (data.r[i] - (a * g + b * s));
-    if (jacobian != nullptr) {
-      double* row = jacobian + 3 * (i - begin);
-      row[0] = -w * g;
-      row[1] = -w * s;
-      row[2] = -w * b * d * ke;
+  for (size_t chunk = begin; chunk < end; chunk += kChunk) {
+    const size_t stop = std::min(end, chunk + kChunk);
+    SpecularSumsRange(data, chunk, stop, ke, specular, jacobian != nullptr ? derivative : nullptr);
+    for (size_t i = chunk; i < stop; ++i) {
+      const double s = specular[i - chunk], d = jacobian != nullptr ? derivative[i - chunk] : 0.0;
+      const double g = data.diffuse[i];
+      const double w = data.sqrt_weight.empty() ? 1.0 : data.sqrt_weight[i];
+      residuals[i - begin] = w * (data.r[i] - (a * g + b * s));
+      if (jacobian != nullptr) {
+        double* row = jacobian + 3 * (i - begin);
+        row[0] = -w * g;
+        row[1] = -w * s;
+        row[2] = -w * b * d * ke;
+      }
     }
   }
 }

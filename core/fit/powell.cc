@@ -187,8 +187,11 @@ double LineMinimize(const std::function<double(const double*)>& cost, std::vecto
 
 }  // namespace
 
-PowellSummary MinimizePowell(const std::function<double(const double*)>& cost, int n, double* x,
-                             const PowellOptions& options, const std::function<void(double*)>& project) {
+namespace {
+
+// One run of the method from x with the unit directions.
+PowellSummary MinimizePowellOnce(const std::function<double(const double*)>& cost, int n, double* x,
+                                 const PowellOptions& options, const std::function<void(double*)>& project) {
   PowellSummary summary;
   const size_t size = static_cast<size_t>(n);
   std::vector<double> p(x, x + size), pt = p, ptt(size), xit(size);
@@ -245,6 +248,23 @@ PowellSummary MinimizePowell(const std::function<double(const double*)>& cost, i
   }
   summary.final_cost = fret;
   std::copy(p.begin(), p.end(), x);
+  return summary;
+}
+
+}  // namespace
+
+PowellSummary MinimizePowell(const std::function<double(const double*)>& cost, int n, double* x,
+                             const PowellOptions& options, const std::function<void(double*)>& project) {
+  PowellSummary summary = MinimizePowellOnce(cost, n, x, options, project);
+  for (int restart = 0; restart < options.restarts && summary.converged; ++restart) {
+    const PowellSummary again = MinimizePowellOnce(cost, n, x, options, project);
+    const double before = summary.final_cost;
+    summary.iterations += again.iterations;
+    summary.function_evaluations += again.function_evaluations;
+    summary.final_cost = again.final_cost;
+    summary.converged = again.converged;
+    if (!(before - again.final_cost > options.function_tolerance * std::fabs(before))) break;
+  }
   return summary;
 }
 

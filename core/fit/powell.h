@@ -27,18 +27,24 @@ struct PowellOptions {
   double line_tolerance = 3e-8;       // NR TOL of linmin (brent's fractional precision)
   int max_brent_iterations = 100;     // NR ITMAX of brent
   int max_bracket_steps = 200;
+  // After convergence, start again from the result with fresh unit
+  // directions, up to this many times, while a restart still lowers the cost
+  // by more than function_tolerance (relative): Numerical Recipes' advice, as
+  // the direction set degenerates and an iteration whose line searches barely
+  // move stops the method early.
+  int restarts = 0;
 };
 
 struct PowellSummary {
   double initial_cost = 0.0;
   double final_cost = 0.0;
-  int iterations = 0;
-  int function_evaluations = 0;
-  bool converged = false;  // the relative decrease fell below function_tolerance
+  int iterations = 0;            // over every restart
+  int function_evaluations = 0;  // likewise
+  bool converged = false;        // the last run's relative decrease fell below function_tolerance
 };
 
 // Minimises `cost` over x (n values, updated in place) starting from x with
-// the unit vectors as directions. `project`, when set, is applied to x after
+// the unit vectors as directions (again after each of options.restarts). `project`, when set, is applied to x after
 // each line minimisation (see above).
 PowellSummary MinimizePowell(const std::function<double(const double*)>& cost, int n, double* x,
                              const PowellOptions& options, const std::function<void(double*)>& project = nullptr);

@@ -25,6 +25,27 @@ TEST(PowellTest, MinimisesRosenbrock) {
   EXPECT_GT(summary.function_evaluations, 0);
 }
 
+// Restarts run after convergence (at least one more iteration, counted),
+// never end worse, and keep the first run's initial cost; with a loose
+// tolerance on Rosenbrock's valley the first run stops short and a restart
+// goes on down it.
+TEST(PowellTest, RestartsContinueFromTheResult) {
+  const auto rosenbrock = [](const double* x) {
+    return 100.0 * (x[1] - x[0] * x[0]) * (x[1] - x[0] * x[0]) + (1.0 - x[0]) * (1.0 - x[0]);
+  };
+  PowellOptions options;
+  options.function_tolerance = 1e-3;
+  double once[2] = {-1.2, 1.0}, again[2] = {-1.2, 1.0};
+  const PowellSummary first = MinimizePowell(rosenbrock, 2, once, options);
+  options.restarts = 3;
+  const PowellSummary restarted = MinimizePowell(rosenbrock, 2, again, options);
+  EXPECT_GT(restarted.iterations, first.iterations);
+  EXPECT_GT(restarted.function_evaluations, first.function_evaluations);
+  EXPECT_LE(restarted.final_cost, first.final_cost);
+  EXPECT_EQ(restarted.initial_cost, first.initial_cost);
+  EXPECT_EQ(restarted.final_cost, rosenbrock(again));
+}
+
 TEST(PowellTest, MinimisesIllConditionedQuadraticWithCoupling) {
   const auto quadratic = [](const double* x) {
     const double a = x[0] - 1.0, b = x[1] + 2.0, c = x[2] - 3.0;
