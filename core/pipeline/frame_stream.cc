@@ -21,14 +21,45 @@ std::vector<bool> LightsOnIn(const scene::Sequence& sequence, int t) {
   return on;
 }
 
+// What camera c's resampled atlases depend on besides the frame (the mesh,
+// video and atlas layout are the job's): the camera as calibrated and the
+// resampler's options, every double bit for bit.
+std::string AtlasKey(const scene::CameraModel& m, int atlas_size, const resample::ResamplerOptions& o) {
+  std::string key = absl::StrFormat("%s %d %dx%d %a %a %a %a %a %d", m.name, atlas_size, m.width, m.height, m.fx,
+                                    m.fy, m.cx, m.cy, m.pixel_size, m.orthographic() ? 1 : 0);
+  for (double k : m.distortion) absl::StrAppend(&key, absl::StrFormat(" %a", k));
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) absl::StrAppend(&key, absl::StrFormat(" %a", m.cam_from_world_rotation[i][j]));
+    absl::StrAppend(&key, absl::StrFormat(" %a", m.cam_from_world_translation[i]));
+  }
+  absl::StrAppend(&key, absl::StrFormat(" | %a %a %a %d %a %a", o.grazing_margin_deg, o.relative_depth_tolerance,
+                                        o.absolute_depth_tolerance, o.exact_occluder_test ? 1 : 0,
+                                        o.edge_margin_pixels, o.gradient_rejection));
+  return key;
+}
+
+void AddRefused(const resample::Resampler::RefusedObservations& a, resample::Resampler::RefusedObservations* sum) {
+  sum->masked += a.masked;
+  sum->saturated += a.saturated;
+  sum->edge += a.edge;
+  sum->gradient += a.gradient;
+  sum->kept += a.kept;
+}
+
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<FrameStream>> FrameStream::Open(const scene::Sequence& sequence,
                                                                gl::EglContext& context, const atlas::Atlas& atlas,
                                                                const resample::ResamplerOptions& options,
-                                                               ShadowAtlasCache* shadows) {
+                                                               ShadowAtlasCache* shadows,
+                                                               ResampledAtlasCache* atlases) {
   auto s = std::unique_ptr<FrameStream>(new FrameStream(sequence));
   s->shadow_cache_ = shadows;
+  s->atlas_cache_ = atlases;
+  for (const scene::CameraModel& camera : sequence.cameras) {
+    s->atlas_keys_.push_back(AtlasKey(camera, atlas.size, options));
+  }
+  s->cached_refused_.resize(sequence.cameras.size());
   s->atlas_ = &atlas;
   // What a frame's shadow atlas depends on besides the frame: the lights
   // (positions, directions) and the resampler's atlas and shadow maps.
@@ -118,11 +149,48 @@ absl::StatusOr<resample::CameraSurface> FrameStream::Surface(int camera) {
   return surface;
 }
 
-absl::StatusOr<cv::Mat> FrameStream::Resample(int camera) {
+absl::Status FrameStream::ReadFrame(int camera) {
+  if (camera < 0 || static_cast<size_t>(camera) >= videos_.size()) {
+    return absl::OutOfRangeError(absl::StrCat("camera ", camera, " outside [0, ", videos_.size(), ")"));
+  }
   MVBRDF_ASSIGN_OR_RETURN(last_frame_, videos_[static_cast<size_t>(camera)]->ReadFrame(frame_));
   // Unreliable pixels marked (issue #14): texel and pixel Samples skip them.
-  MVBRDF_RETURN_IF_ERROR(resampler_->MarkUnreliable(camera, &last_frame_));
-  return resampler_->ResampleCamera(camera, last_frame_);
+  return resampler_->MarkUnreliable(camera, &last_frame_);
+}
+
+absl::StatusOr<cv::Mat> FrameStream::Resample(int camera) {
+  MVBRDF_RETURN_IF_ERROR(ReadFrame(camera));
+  const resample::Resampler::RefusedObservations before = resampler_->Refused(camera);
+  MVBRDF_ASSIGN_OR_RETURN(cv::Mat atlas, resampler_->ResampleCamera(camera, last_frame_));
+  if (atlas_cache_ != nullptr) {
+    const resample::Resampler::RefusedObservations after = resampler_->Refused(camera);
+    const resample::Resampler::RefusedObservations refused{after.masked - before.masked,
+                                                           after.saturated - before.saturated,
+                                                           after.edge - before.edge, after.gradient - before.gradient,
+                                                           after.kept - before.kept};
+    atlas_cache_->Keep(frame_, camera, atlas_keys_[static_cast<size_t>(camera)], atlas, refused);
+  }
+  return atlas;
+}
+
+absl::StatusOr<cv::Mat> FrameStream::ResampledAtlas(int camera) {
+  if (atlas_cache_ != nullptr && camera >= 0 && static_cast<size_t>(camera) < atlas_keys_.size()) {
+    std::optional<ResampledAtlasCache::Kept> kept =
+        atlas_cache_->Find(frame_, camera, atlas_keys_[static_cast<size_t>(camera)]);
+    if (kept.has_value()) {
+      AddRefused(kept->refused, &cached_refused_[static_cast<size_t>(camera)]);
+      return std::move(kept->atlas);
+    }
+  }
+  return Resample(camera);
+}
+
+resample::Resampler::RefusedObservations FrameStream::Refused(int camera) const {
+  resample::Resampler::RefusedObservations sum = resampler_->Refused(camera);
+  if (camera >= 0 && static_cast<size_t>(camera) < cached_refused_.size()) {
+    AddRefused(cached_refused_[static_cast<size_t>(camera)], &sum);
+  }
+  return sum;
 }
 
 }  // namespace mvbrdf::pipeline

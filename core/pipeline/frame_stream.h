@@ -17,6 +17,7 @@
 #include "core/atlas/atlas.h"
 #include "core/atlas/texel_tangents.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/resampled_atlas_cache.h"
 #include "core/pipeline/shadow_atlas_cache.h"
 #include "core/resample/resampler.h"
 #include "core/samples/assemble.h"
@@ -29,11 +30,14 @@ class FrameStream {
  public:
   // The resampler and every camera's video. With `shadows`, SetFrame takes
   // a frame's shadow atlas from it when an earlier pass kept it there, and
-  // keeps the ones it computes (the caller's; it outlives the stream).
+  // keeps the ones it computes; with `atlases`, Resample keeps each atlas it
+  // computes there and ResampledAtlas reads it back (the caller's; they
+  // outlive the stream).
   static absl::StatusOr<std::unique_ptr<FrameStream>> Open(const scene::Sequence& sequence, gl::EglContext& context,
                                                            const atlas::Atlas& atlas,
                                                            const resample::ResamplerOptions& options,
-                                                           ShadowAtlasCache* shadows = nullptr);
+                                                           ShadowAtlasCache* shadows = nullptr,
+                                                           ResampledAtlasCache* atlases = nullptr);
 
   // Loads frame t: pose, geometry and shadow atlases. The shadow atlas holds
   // only the lights on in frame t (scene.frame_lighting,
@@ -44,11 +48,19 @@ class FrameStream {
   // resampler's unreliable pixels marked: Resampler::MarkUnreliable) and
   // resamples it.
   absl::StatusOr<cv::Mat> Resample(int camera);
+  // The same atlas, from the atlas cache when an earlier pass kept it there
+  // (then without reading the video: last_frame() is not this frame's), else
+  // Resample(camera).
+  absl::StatusOr<cv::Mat> ResampledAtlas(int camera);
+  // Only the video frame, as Resample reads it (last_frame()), for passes
+  // that take per-pixel Samples and no atlas.
+  absl::Status ReadFrame(int camera);
   // The surface under the camera's pixels (with UseNormals: the refined
   // normals where the pixel's texel has one).
   absl::StatusOr<resample::CameraSurface> Surface(int camera);
-  // Texel observations refused as masked or saturated so far (Resampler::Refused).
-  resample::Resampler::RefusedObservations Refused(int camera) const { return resampler_->Refused(camera); }
+  // Texel observations refused as masked or saturated so far
+  // (Resampler::Refused), the atlases read from the cache included.
+  resample::Resampler::RefusedObservations Refused(int camera) const;
   const cv::Mat& last_frame() const { return last_frame_; }
 
   // Issue #18: from the next SetFrame on, the geometry atlas's normals are
@@ -73,6 +85,9 @@ class FrameStream {
   cv::Mat last_frame_;
   std::vector<samples::LightMask> frame_lights_;  // per frame (samples::FrameLightMasks)
   ShadowAtlasCache* shadow_cache_ = nullptr;
+  ResampledAtlasCache* atlas_cache_ = nullptr;
+  std::vector<std::string> atlas_keys_;  // per camera: what its atlases depend on besides the frame
+  std::vector<resample::Resampler::RefusedObservations> cached_refused_;  // per camera, of atlases read back
   const atlas::Atlas* atlas_ = nullptr;
   std::unique_ptr<atlas::TexelTangents> tangents_;  // with UseNormals
   const std::vector<glm::vec3>* tangent_normals_ = nullptr;

@@ -1,13 +1,17 @@
 // FrameStream on a generated one-light-at-a-time sequence: the shadow atlas
 // of each frame holds only the lights on in it (issue #13), so every Sample
 // assembled from it knows its frame's lights; a second pass takes them from
-// the first's ShadowAtlasCache.
+// the first's ShadowAtlasCache, and its resampled atlases from the first's
+// ResampledAtlasCache.
 #include "core/pipeline/frame_stream.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
+#include <utility>
+#include <vector>
 
 #include "core/synth/synthesizer.h"
 
@@ -73,6 +77,89 @@ TEST(FrameStreamTest, ShadowBitsHoldOnlyEachFramesOwnLights) {
     }
     EXPECT_FALSE((*stream)->SetFrame(3).ok());
   }
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+}
+
+bool BitForBit(const cv::Mat& a, const cv::Mat& b) {
+  return a.type() == b.type() && a.size() == b.size() && std::memcmp(a.data, b.data, a.total() * a.elemSize()) == 0;
+}
+
+TEST(FrameStreamTest, ALaterPassReadsTheFirstPassesAtlasesBitForBitWithoutTheVideo) {
+  auto context = gl::EglContext::Create(gl::EglPlatform::kSurfaceless);
+  ASSERT_TRUE(context.ok()) << context.status();
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("mvbrdf_frame_stream_atlases_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  synth::SynthOptions so;
+  so.num_cameras = 2;
+  so.num_frames = 3;
+  so.width = 96;
+  so.height = 72;
+  so.actor_segments = 8;
+  so.shadow_map_size = 128;
+  so.out_dir = dir;
+  auto synthesized = synth::Synthesize(so, **context);
+  ASSERT_TRUE(synthesized.ok()) << synthesized.status();
+  auto sequence = scene::LoadSequence(synthesized->scene_file);
+  ASSERT_TRUE(sequence.ok()) << sequence.status();
+  atlas::AtlasOptions ao;
+  ao.size = 128;
+  auto atlas = atlas::BuildAtlas(sequence->topology, sequence->rest_positions, ao);
+  ASSERT_TRUE(atlas.ok()) << atlas.status();
+  // Edges and gradients refused, so that the counts are not all zero.
+  resample::ResamplerOptions options;
+  options.edge_margin_pixels = 1.5;
+  options.gradient_rejection = 0.5;
+  auto cache = ResampledAtlasCache::Create();
+  ASSERT_TRUE(cache.ok()) << cache.status();
+  auto first = FrameStream::Open(*sequence, **context, *atlas, options, nullptr, cache->get());
+  ASSERT_TRUE(first.ok()) << first.status();
+  std::vector<cv::Mat> computed;
+  for (int t = 0; t < 3; ++t) {
+    ASSERT_TRUE((*first)->SetFrame(t).ok());
+    for (int c = 0; c < 2; ++c) {
+      auto a = (*first)->Resample(c);
+      ASSERT_TRUE(a.ok()) << a.status();
+      computed.push_back(*a);
+    }
+  }
+  EXPECT_EQ((*cache)->size(), 6u);
+  const auto refused = [](const FrameStream& s, int c) {
+    const resample::Resampler::RefusedObservations r = s.Refused(c);
+    return std::vector<uint64_t>{r.masked, r.saturated, r.edge, r.gradient, r.kept};
+  };
+  EXPECT_GT(refused(**first, 0)[2] + refused(**first, 0)[3], 0u);
+
+  auto second = FrameStream::Open(*sequence, **context, *atlas, options, nullptr, cache->get());
+  ASSERT_TRUE(second.ok()) << second.status();
+  for (int t = 0; t < 3; ++t) {
+    ASSERT_TRUE((*second)->SetFrame(t).ok());
+    for (int c = 0; c < 2; ++c) {
+      auto a = (*second)->ResampledAtlas(c);
+      ASSERT_TRUE(a.ok()) << a.status();
+      EXPECT_TRUE(BitForBit(*a, computed[static_cast<size_t>(2 * t + c)])) << "frame " << t << " camera " << c;
+    }
+  }
+  // No video frame was read, and the refused observations count as if it had resampled.
+  EXPECT_TRUE((*second)->last_frame().empty());
+  for (int c = 0; c < 2; ++c) EXPECT_EQ(refused(**second, c), refused(**first, c)) << "camera " << c;
+
+  // Another calibration of camera 0 or other resampler options: resampled.
+  scene::Sequence moved = *sequence;
+  moved.cameras[0].fx *= 1.001;
+  resample::ResamplerOptions other = options;
+  other.edge_margin_pixels = 0.0;
+  for (const auto& [seq, opts] : {std::pair{&moved, options}, std::pair{&*sequence, other}}) {
+    auto third = FrameStream::Open(*seq, **context, *atlas, opts, nullptr, cache->get());
+    ASSERT_TRUE(third.ok()) << third.status();
+    ASSERT_TRUE((*third)->SetFrame(1).ok());
+    auto a = (*third)->ResampledAtlas(0);
+    ASSERT_TRUE(a.ok()) << a.status();
+    EXPECT_FALSE((*third)->last_frame().empty());
+    EXPECT_FALSE(BitForBit(*a, computed[2])) << (seq == &moved ? "moved camera" : "other options");
+  }
+  EXPECT_EQ((*cache)->size(), 6u);
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
 }

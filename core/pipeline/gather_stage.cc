@@ -85,7 +85,7 @@ absl::StatusOr<std::unique_ptr<TexelReservoir>> GatherPixelSamples(const scene::
     MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
     MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
     for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
-      MVBRDF_RETURN_IF_ERROR(stream->Resample(c).status());
+      MVBRDF_RETURN_IF_ERROR(stream->ReadFrame(c));
       MVBRDF_RETURN_IF_ERROR(OfferPixelSamples(*stream, sequence, t, c, assemble, options, reservoir.get()));
     }
   }
@@ -118,9 +118,16 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
     g.texels->reservoir = MakeReservoir(sequence, options, assemble, num_texels);
   }
   TexelStatistics* st = g.texels.get();
-  if (st != nullptr) st->shadow_atlases = std::make_shared<ShadowAtlasCache>();
-  MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, context, atlas, options.resampler,
-                                                         st != nullptr ? st->shadow_atlases.get() : nullptr));
+  if (st != nullptr) {
+    st->shadow_atlases = std::make_shared<ShadowAtlasCache>();
+    // Without a temporary file the later passes resample again: slower, the same result.
+    absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> atlases = ResampledAtlasCache::Create();
+    if (atlases.ok()) st->resampled_atlases = *std::move(atlases);
+  }
+  MVBRDF_ASSIGN_OR_RETURN(auto stream,
+                          FrameStream::Open(sequence, context, atlas, options.resampler,
+                                            st != nullptr ? st->shadow_atlases.get() : nullptr,
+                                            st != nullptr ? st->resampled_atlases.get() : nullptr));
   const int stride = SweepFrameStride(options, sequence.num_frames);
   const std::vector<uint8_t> own_frames = samples::OwnLightingFrames(sequence);
   for (int t = 0; t < sequence.num_frames; ++t) {

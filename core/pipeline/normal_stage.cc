@@ -50,7 +50,7 @@ absl::StatusOr<TexelNormals> RefineTexelNormals(const NormalStageInput& in) {
   const samples::LightMask all_lights = samples::AllLights(sequence.lights.size());
   const int num_cameras = static_cast<int>(sequence.cameras.size());
 
-  MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, *in.context, atlas, in.resampler, in.shadows));
+  MVBRDF_ASSIGN_OR_RETURN(auto stream, FrameStream::Open(sequence, *in.context, atlas, in.resampler, in.shadows, in.atlases));
   const atlas::TexelTangents texel_tangents(atlas);
 
   // One pass over every frame and camera, each texel observation handed to
@@ -62,7 +62,7 @@ absl::StatusOr<TexelNormals> RefineTexelNormals(const NormalStageInput& in) {
       MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
       const std::vector<glm::vec4> tangents = texel_tangents.Compute(stream->positions());
       for (int c = 0; c < num_cameras; ++c) {
-        MVBRDF_ASSIGN_OR_RETURN(const cv::Mat resampled, stream->Resample(c));
+        MVBRDF_ASSIGN_OR_RETURN(const cv::Mat resampled, stream->ResampledAtlas(c));
         const glm::vec4 view(sequence.cameras[static_cast<size_t>(c)].ViewOrigin());
         InAtlasParts([&](int part) {
           samples::ForEachTexelObservation(

@@ -20,6 +20,7 @@
 #include "core/fit/phong_fit.h"
 #include "core/fit/texel_normal_fit.h"
 #include "core/gl/egl_context.h"
+#include "core/pipeline/resampled_atlas_cache.h"
 #include "core/pipeline/shadow_atlas_cache.h"
 #include "core/pipeline/texel_shading.h"
 #include "core/resample/resampler.h"
@@ -34,6 +35,7 @@ struct NormalStageInput {
   const atlas::Atlas* atlas = nullptr;
   resample::ResamplerOptions resampler;
   ShadowAtlasCache* shadows = nullptr;  // pass 1's, may be null
+  ResampledAtlasCache* atlases = nullptr;  // pass 1's, may be null
   samples::AssembleOptions assemble;
   const std::vector<int32_t>* texel_cluster = nullptr;  // per texel, -1: none
   std::vector<ClusterShading> clusters;

@@ -932,6 +932,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   // Pass 1's shadow atlases, for pass 2; its kept Samples for the normals
   // stage's choice between the fits (issue #18).
   const std::shared_ptr<ShadowAtlasCache> shadow_atlases = g.texels != nullptr ? g.texels->shadow_atlases : nullptr;
+  const std::shared_ptr<ResampledAtlasCache> resampled_atlases =
+      g.texels != nullptr ? g.texels->resampled_atlases : nullptr;
   std::unique_ptr<TexelReservoir> mesh_reservoir =
       plan.Has(Stage::kNormals) && g.texels != nullptr ? std::move(g.texels->reservoir) : nullptr;
   g.texels.reset();
@@ -954,6 +956,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     input.atlas = &atlas;
     input.resampler = options.resampler;
     input.shadows = shadow_atlases.get();
+    input.atlases = resampled_atlases.get();
     input.assemble = assemble;
     input.texel_cluster = &texel_cluster;
     input.clusters = cluster_shading();
@@ -1069,7 +1072,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   std::vector<resample::Resampler::RefusedObservations> refused(static_cast<size_t>(num_cameras));
   {
     MVBRDF_ASSIGN_OR_RETURN(auto stream,
-                            FrameStream::Open(sequence, context, atlas, options.resampler, shadow_atlases.get()));
+                            FrameStream::Open(sequence, context, atlas, options.resampler, shadow_atlases.get(),
+                                              resampled_atlases.get()));
     if (normals.has_value()) stream->UseNormals(&normals->m, &normals->refined);
     std::vector<glm::vec3> frame_sum(num_texels);
     std::vector<glm::vec3> frame_illumination(num_texels);
@@ -1100,7 +1104,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         std::fill(frame_count.begin(), frame_count.end(), 0);
       }
       for (int c = 0; c < num_cameras; ++c) {
-        MVBRDF_ASSIGN_OR_RETURN(frame_atlases[static_cast<size_t>(c)], stream->Resample(c));
+        MVBRDF_ASSIGN_OR_RETURN(frame_atlases[static_cast<size_t>(c)], stream->ResampledAtlas(c));
         for_each_texel(c, [&](FoldPart& part, uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
           const int32_t k = texel_cluster[texel];
           if (k < 0) return;

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/pipeline/texel_illumination.h"
+#include "core/pipeline/resampled_atlas_cache.h"
 #include "core/pipeline/shadow_atlas_cache.h"
 #include "core/pipeline/texel_reservoir.h"
 
@@ -31,6 +32,9 @@ struct TexelStatistics {
   // The frames' shadow atlases as the gather computed them, for the texel
   // pass (the same frames, lights and atlas).
   std::shared_ptr<ShadowAtlasCache> shadow_atlases;
+  // And its resampled atlases, for the passes after it (null when no
+  // temporary file could be made: they resample again).
+  std::shared_ptr<ResampledAtlasCache> resampled_atlases;
 };
 
 }  // namespace mvbrdf::pipeline

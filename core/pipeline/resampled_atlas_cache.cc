@@ -1,0 +1,140 @@
+#include "core/pipeline/resampled_atlas_cache.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <system_error>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+
+namespace mvbrdf::pipeline {
+namespace {
+
+// pwrite / pread of the whole range, through short transfers and EINTR.
+bool WriteAt(int fd, const void* data, size_t bytes, uint64_t offset) {
+  const char* p = static_cast<const char*>(data);
+  while (bytes > 0) {
+    const ssize_t n = ::pwrite(fd, p, bytes, static_cast<off_t>(offset));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    bytes -= static_cast<size_t>(n);
+    offset += static_cast<uint64_t>(n);
+  }
+  return true;
+}
+
+bool ReadAt(int fd, void* data, size_t bytes, uint64_t offset) {
+  char* p = static_cast<char*>(data);
+  while (bytes > 0) {
+    const ssize_t n = ::pread(fd, p, bytes, static_cast<off_t>(offset));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    p += n;
+    bytes -= static_cast<size_t>(n);
+    offset += static_cast<uint64_t>(n);
+  }
+  return true;
+}
+
+bool AllZero(const cv::Vec4f& v) {
+  uint32_t bits[4];
+  std::memcpy(bits, &v, sizeof(bits));
+  return (bits[0] | bits[1] | bits[2] | bits[3]) == 0;
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> ResampledAtlasCache::Create(size_t budget_bytes,
+                                                                                 const std::string& dir) {
+  std::error_code error;
+  const std::filesystem::path where =
+      dir.empty() ? std::filesystem::temp_directory_path(error) : std::filesystem::path(dir);
+  if (error) return absl::UnavailableError(absl::StrCat("the temporary directory: ", error.message()));
+  std::string name = (where / "mvbrdf-atlases-XXXXXX").string();
+  const int fd = ::mkstemp(name.data());
+  if (fd < 0) {
+    return absl::UnavailableError(absl::StrCat(name, ": cannot create a temporary file: ", std::strerror(errno)));
+  }
+  ::unlink(name.c_str());
+  const std::filesystem::space_info space = std::filesystem::space(where, error);
+  if (!error) budget_bytes = std::min<size_t>(budget_bytes, static_cast<size_t>(space.available / 2));
+  return std::unique_ptr<ResampledAtlasCache>(new ResampledAtlasCache(fd, budget_bytes));
+}
+
+ResampledAtlasCache::~ResampledAtlasCache() { ::close(fd_); }
+
+std::optional<ResampledAtlasCache::Kept> ResampledAtlasCache::Find(int t, int camera, const std::string& key) const {
+  const auto it = entries_.find({t, camera});
+  if (it == entries_.end() || it->second.key != key) return std::nullopt;
+  const Entry& e = it->second;
+  std::vector<uint32_t>& runs = runs_;
+  std::vector<cv::Vec4f>& texels = texels_;
+  runs.resize(2 * static_cast<size_t>(e.runs));
+  texels.resize(e.texels);
+  const size_t run_bytes = runs.size() * sizeof(uint32_t);
+  if (!ReadAt(fd_, runs.data(), run_bytes, e.offset) ||
+      !ReadAt(fd_, texels.data(), texels.size() * sizeof(cv::Vec4f), e.offset + run_bytes)) {
+    return std::nullopt;  // the file cannot have shrunk; resampled again then
+  }
+  Kept kept;
+  kept.atlas = cv::Mat(e.rows, e.cols, CV_32FC4, cv::Scalar::all(0));
+  kept.refused = e.refused;
+  cv::Vec4f* out = kept.atlas.ptr<cv::Vec4f>();
+  size_t next = 0;
+  for (size_t r = 0; r < e.runs; ++r) {
+    std::copy_n(texels.begin() + static_cast<std::ptrdiff_t>(next), runs[2 * r + 1], out + runs[2 * r]);
+    next += runs[2 * r + 1];
+  }
+  return kept;
+}
+
+void ResampledAtlasCache::Keep(int t, int camera, const std::string& key, const cv::Mat& atlas,
+                               const resample::Resampler::RefusedObservations& refused) {
+  if (failed_ || entries_.count({t, camera}) != 0 || atlas.type() != CV_32FC4 || !atlas.isContinuous() ||
+      atlas.empty()) {
+    return;
+  }
+  // Runs of texels that are not all zero (a texel no camera sees is zero).
+  std::vector<uint32_t>& runs = runs_;
+  std::vector<cv::Vec4f>& texels = texels_;
+  runs.clear();
+  texels.clear();
+  const cv::Vec4f* in = atlas.ptr<cv::Vec4f>();
+  const size_t total = atlas.total();
+  for (size_t i = 0; i < total;) {
+    if (AllZero(in[i])) {
+      ++i;
+      continue;
+    }
+    const size_t begin = i;
+    while (i < total && !AllZero(in[i])) texels.push_back(in[i++]);
+    runs.push_back(static_cast<uint32_t>(begin));
+    runs.push_back(static_cast<uint32_t>(i - begin));
+  }
+  const size_t run_bytes = runs.size() * sizeof(uint32_t);
+  const size_t texel_bytes = texels.size() * sizeof(cv::Vec4f);
+  if (run_bytes + texel_bytes > budget_bytes_ - bytes_) return;
+  Entry e;
+  e.key = key;
+  e.rows = atlas.rows;
+  e.cols = atlas.cols;
+  e.offset = bytes_;
+  e.runs = static_cast<uint32_t>(runs.size() / 2);
+  e.texels = texels.size();
+  e.refused = refused;
+  if (!WriteAt(fd_, runs.data(), run_bytes, e.offset) ||
+      !WriteAt(fd_, texels.data(), texel_bytes, e.offset + run_bytes)) {
+    failed_ = true;  // the disk is full, say: the passes resample what is not kept
+    return;
+  }
+  bytes_ += run_bytes + texel_bytes;
+  entries_.emplace(std::make_pair(t, camera), std::move(e));
+}
+
+}  // namespace mvbrdf::pipeline
