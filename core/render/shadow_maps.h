@@ -43,6 +43,23 @@ struct BoundingSphere {
 // (not the minimal sphere). Empty: centre 0, radius 0.
 BoundingSphere ComputeBoundingSphere(const std::vector<glm::vec3>& points);
 
+namespace internal {
+
+// The window rectangle (pixels, GL's origin at the bottom left) of a size^2
+// cube face looking along `axis` (`up` as for glm::lookAt, a 90-degree
+// perspective) that holds the projection of a sphere (centre relative to the
+// light, world units), with two texels of room: a lookup towards a point
+// inside the sphere lands in it, so only it needs clearing before the mesh is
+// drawn. The whole face where the sphere reaches the plane of the light (its
+// projection is unbounded); empty (w = h = 0) where it misses the face or
+// lies behind it.
+struct FaceRect {
+  int x = 0, y = 0, w = 0, h = 0;
+};
+FaceRect SphereRectOnFace(const glm::vec3& centre, float radius, const glm::vec3& axis, const glm::vec3& up, int size);
+
+}  // namespace internal
+
 // What a shader needs to look light k up in the maps; the std140 layout of
 // the first three members of the shaders' light structs
 // (shaders/phong.frag GpuLight has the intensity in between).
