@@ -42,7 +42,8 @@ absl::Status WriteRunReport(const fs::path& run_dir, const fs::path& out, const 
   options.tradeoff = flags.tradeoff;
   options.relit_frames = flags.relit_frames;
   // A fresh private directory (mkdtemp), not a guessable name in $TMPDIR.
-  std::string scratch = (fs::temp_directory_path() / "mvbrdf-report-XXXXXX").string();
+  MVBRDF_ASSIGN_OR_RETURN(const fs::path tmp, TemporaryDirectory());
+  std::string scratch = (tmp / "mvbrdf-report-XXXXXX").string();
   if (mkdtemp(scratch.data()) == nullptr) return ErrnoStatus(errno, "cannot create a temporary directory", scratch);
   options.scratch_dir = scratch;
   std::unique_ptr<gl::EglContext> context;

@@ -186,13 +186,15 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
                 const std::vector<std::string>& command_line) {
   const auto start = std::chrono::steady_clock::now();
   // The server's state: --data keeps it (and its Sample cache) across runs.
-  std::string temp_template = (fs::temp_directory_path() / "mvbrdf-run-XXXXXX").string();
   fs::path data_dir = data_flag;
   std::unique_ptr<TempDir> temp;
   if (data_dir.empty()) {
+    const absl::StatusOr<fs::path> tmp = TemporaryDirectory();
+    if (!tmp.ok()) return ReportFailure(tmp.status(), "mvbrdf run");
+    std::string temp_template = (*tmp / "mvbrdf-run-XXXXXX").string();
     if (mkdtemp(temp_template.data()) == nullptr) {
-      return ReportFailure(absl::UnavailableError("cannot create a temporary directory in " +
-                                                  fs::temp_directory_path().string()), "mvbrdf run");
+      return ReportFailure(absl::UnavailableError("cannot create a temporary directory in " + tmp->string()),
+                           "mvbrdf run");
     }
     data_dir = temp_template;
     temp = std::make_unique<TempDir>(data_dir);

@@ -18,6 +18,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/bundle_upload.h"
 #include "client/embedded_service.h"
+#include "core/base/files.h"
 #include "core/bundle/bundle.h"
 
 namespace mvbrdf::client {
@@ -87,7 +88,12 @@ int Main(int argc, char** argv) {
   }
   const fs::path scene = argv[1];
   const int repetitions = argc > 2 ? std::atoi(argv[2]) : 3;
-  const fs::path base = fs::temp_directory_path() / ("mvbrdf-service-bench-" + std::to_string(getpid()));
+  const absl::StatusOr<fs::path> tmp = TemporaryDirectory();
+  if (!tmp.ok()) {
+    std::fprintf(stderr, "service_bench: %s\n", std::string(tmp.status().message()).c_str());
+    return 4;
+  }
+  const fs::path base = *tmp / ("mvbrdf-service-bench-" + std::to_string(getpid()));
   fs::remove_all(base);
   auto info = bundle::PackBundle(scene, base / "bundle.tar");
   if (!info.ok()) {

@@ -18,6 +18,7 @@
 #include "client/flags.h"
 #include "client/job_flags.h"
 #include "client/progress.h"
+#include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/bundle/bundle.h"
 #include "core/scene/names.h"
@@ -96,11 +97,10 @@ int RunSubmit(const std::vector<std::string>& args) {
   submit.set_scene_path(std::filesystem::path(scene).filename().string());
 
   // The bundle, in a private temporary file.
-  std::error_code ec;
-  std::filesystem::path tmp_dir = std::filesystem::temp_directory_path(ec);
-  if (ec) tmp_dir = "/tmp";
+  const absl::StatusOr<std::filesystem::path> tmp_dir = TemporaryDirectory();
+  if (!tmp_dir.ok()) return LocalFailure(tmp_dir.status());
   std::random_device random;
-  const TempFile archive(tmp_dir / ("mvbrdf-submit-" + std::to_string(getpid()) + "-" +
+  const TempFile archive(*tmp_dir / ("mvbrdf-submit-" + std::to_string(getpid()) + "-" +
                                     std::to_string(random()) + ".tar"));
   absl::StatusOr<bundle::BundleInfo> info = bundle::PackBundle(scene, archive.path());
   if (!info.ok()) return LocalFailure(info.status());

@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -203,6 +204,16 @@ absl::Status WriteAllToFd(int fd, absl::string_view bytes, absl::string_view pat
     bytes.remove_prefix(static_cast<size_t>(n));
   }
   return absl::OkStatus();
+}
+
+absl::StatusOr<std::filesystem::path> TemporaryDirectory() {
+  std::error_code error;
+  const std::filesystem::path dir = std::filesystem::temp_directory_path(error);
+  if (!error) return dir;
+  const char* tmpdir = std::getenv("TMPDIR");
+  return absl::UnavailableError(absl::StrCat(
+      "the directory for temporary files (TMPDIR=", tmpdir != nullptr ? ElideForMessage(tmpdir, kMaxShownPathChars) : "",
+      ", else /tmp): ", error.message(), "; set TMPDIR to an existing, writable directory"));
 }
 
 }  // namespace mvbrdf

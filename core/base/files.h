@@ -45,6 +45,11 @@ absl::Status ErrnoStatus(int error, absl::string_view what, absl::string_view pa
 // retried). Errors as ErrnoStatus, naming `path`.
 absl::Status WriteAllToFd(int fd, absl::string_view bytes, absl::string_view path);
 
+// The directory for temporary files (std::filesystem::temp_directory_path:
+// TMPDIR, else /tmp), checked to be a directory. UNAVAILABLE naming TMPDIR
+// when it is not (a TMPDIR that does not exist made std::filesystem throw).
+absl::StatusOr<std::filesystem::path> TemporaryDirectory();
+
 // The widest frame number a pattern may ask for ("%09d"): a wider one only
 // pads (an int has 10 digits), and "%999999999d" would ask for a 1 GB name.
 constexpr int kMaxFrameDigits = 9;

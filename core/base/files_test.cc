@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -159,6 +160,29 @@ TEST(FilesTest, SaysWhatAnInputThatIsNoRegularFileIs) {
   const auto zero = ReadFileToString("/dev/zero");  // must not read forever
   EXPECT_NE(zero.status().message().find("is a character device"), std::string::npos) << zero.status();
   EXPECT_EQ(WhyNotRegularFile(dir / "nope"), "not found");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(FilesTest, TemporaryDirectoryNamesATmpdirThatIsNoDirectory) {
+  const char* before = std::getenv("TMPDIR");
+  const std::string saved = before != nullptr ? before : "";
+  const auto dir = std::filesystem::temp_directory_path() / "mvbrdf_files_tmpdir_test";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  ::setenv("TMPDIR", dir.c_str(), 1);
+  const auto ok = TemporaryDirectory();
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  EXPECT_EQ(*ok, dir);
+  ::setenv("TMPDIR", (dir / "missing").c_str(), 1);
+  const auto missing = TemporaryDirectory();
+  EXPECT_EQ(missing.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_NE(missing.status().message().find("TMPDIR=" + (dir / "missing").string()), std::string::npos)
+      << missing.status();
+  if (before != nullptr) {
+    ::setenv("TMPDIR", saved.c_str(), 1);
+  } else {
+    ::unsetenv("TMPDIR");
+  }
   std::filesystem::remove_all(dir);
 }
 

@@ -11,6 +11,8 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/files.h"
+#include "core/base/status_macros.h"
 
 namespace mvbrdf::pipeline {
 namespace {
@@ -52,16 +54,17 @@ bool AllZero(const cv::Vec4f& v) {
 
 absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> ResampledAtlasCache::Create(size_t budget_bytes,
                                                                                  const std::string& dir) {
-  std::error_code error;
-  const std::filesystem::path where =
-      dir.empty() ? std::filesystem::temp_directory_path(error) : std::filesystem::path(dir);
-  if (error) return absl::UnavailableError(absl::StrCat("the temporary directory: ", error.message()));
+  std::filesystem::path where = dir;
+  if (dir.empty()) {
+    MVBRDF_ASSIGN_OR_RETURN(where, TemporaryDirectory());
+  }
   std::string name = (where / "mvbrdf-atlases-XXXXXX").string();
   const int fd = ::mkstemp(name.data());
   if (fd < 0) {
     return absl::UnavailableError(absl::StrCat(name, ": cannot create a temporary file: ", std::strerror(errno)));
   }
   ::unlink(name.c_str());
+  std::error_code error;
   const std::filesystem::space_info space = std::filesystem::space(where, error);
   if (!error) budget_bytes = std::min<size_t>(budget_bytes, static_cast<size_t>(space.available / 2));
   return std::unique_ptr<ResampledAtlasCache>(new ResampledAtlasCache(fd, budget_bytes));
