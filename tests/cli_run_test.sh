@@ -48,7 +48,23 @@ check "a known wrong configuration (light table only)" 0 "configuration given: C
   "$bin" run "$scene" --direct --outputs light --config C --out "$work/cand_direct_c"
 check "--candidates: an empty name is a usage error" 2 "--candidates: configuration 2 is empty" -- \
   "$bin" run "$scene" --direct --outputs light --candidates "C;;NE,NW,SE,SW" --out "$work/x"
-check "full run" 0 "correction atlas" -- "$bin" run "$scene" --config "NE,NW,SE,SW" --no-powell --atlas 256 --out "$work/run"
+mkdir -p "$work/tmp"
+check "full run" 0 "correction atlas" -- env TMPDIR="$work/tmp" "$bin" run "$scene" --config "NE,NW,SE,SW" --no-powell \
+  --atlas 256 --out "$work/run"
+# The first pass's resampled atlases, kept for the texel pass in an unlinked
+# file under TMPDIR (pipeline::ResampledAtlasCache): nothing left there, and
+# without it (no such directory: every pass resamples; --direct, since the
+# embedded service needs TMPDIR for its state) the same outputs bit for bit.
+expect "the kept atlases leave nothing in TMPDIR" test -z "$(ls -A "$work/tmp")"
+check "a TMPDIR that does not exist is an environment error naming it" 4 "TMPDIR=$work/no_such_dir" -- \
+  env TMPDIR="$work/no_such_dir" "$bin" run "$scene" --config "NE,NW,SE,SW" --no-powell --atlas 256 --out "$work/x"
+for tmp in tmp no_such_dir; do
+  check "--direct, TMPDIR $tmp" 0 "correction atlas" -- env TMPDIR="$work/$tmp" "$bin" run "$scene" --direct \
+    --config "NE,NW,SE,SW" --no-powell --atlas 256 --out "$work/direct_$tmp"
+done
+for f in atlases/kd.exr atlases/ks.exr atlases/ke.exr atlases/correction/0000.exr atlases/correction/0002.exr; do
+  expect "$f: the same with the kept atlases as resampled" cmp "$work/direct_tmp/$f" "$work/direct_no_such_dir/$f"
+done
 for f in result.json atlases/kd.exr atlases/ks.exr atlases/ke.exr atlases/cluster.exr atlases/confidence.exr \
          atlases/correction/0002.exr atlas/mesh.obj; do
   [ -f "$work/run/$f" ] && { echo "ok   wrote $f"; passes=$((passes + 1)); } || { echo "FAIL missing $f"; failures=$((failures + 1)); }
