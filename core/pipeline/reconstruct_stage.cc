@@ -53,10 +53,22 @@ namespace mvbrdf::pipeline {
 namespace {
 
 // The texel pass's sums over texels per atlas part (atlas_parts.h).
+// One texel observation of the frame as the camera-error pass needs it once
+// the frame's observed kd is known: its cluster's G and specular term as the
+// fold computed them (Phong: the sums before ks, SpecularSums; the other
+// models: S), so that the terms are not assembled and shaded twice.
+struct ErrorObservation {
+  uint32_t texel;
+  int32_t cluster;
+  glm::vec3 rgb, illumination, specular;
+};
+
 struct FoldPart {
   std::vector<uint64_t> outliers, observations;  // per cluster
   std::vector<double> s_rr, corr_sq;             // per camera
   std::vector<uint64_t> count;                   // per camera
+  // Per camera: this frame's observations in the part, in the fold's order.
+  std::vector<std::vector<ErrorObservation>> frame_observations;
 };
 
 // Frame t's correction atlas c = kd_o - kd (half-float RGB) from its observed
@@ -1064,6 +1076,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     part.s_rr.assign(static_cast<size_t>(num_cameras), 0.0);
     part.count.assign(static_cast<size_t>(num_cameras), 0);
     part.corr_sq.assign(static_cast<size_t>(num_cameras), 0.0);
+    part.frame_observations.resize(static_cast<size_t>(num_cameras));
   }
   const std::filesystem::path observed_dir = out / "atlases" / "observed_kd.tmp";
   std::vector<int> observed_frames;
@@ -1103,13 +1116,22 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         std::fill(frame_sum.begin(), frame_sum.end(), glm::vec3(0.0f));
         std::fill(frame_count.begin(), frame_count.end(), 0);
       }
+      for (FoldPart& part : fold_parts) {
+        for (std::vector<ErrorObservation>& v : part.frame_observations) v.clear();
+      }
       for (int c = 0; c < num_cameras; ++c) {
         MVBRDF_ASSIGN_OR_RETURN(frame_atlases[static_cast<size_t>(c)], stream->ResampledAtlas(c));
         for_each_texel(c, [&](FoldPart& part, uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
           const int32_t k = texel_cluster[texel];
           if (k < 0) return;
-          glm::vec3 G, specular;
-          ShadeTexel(shading[static_cast<size_t>(k)], terms, intensity, selection.Of(t, all_lights), &G, &specular);
+          glm::vec3 G, specular, phong_sums;
+          const ClusterShading& cluster = shading[static_cast<size_t>(k)];
+          ShadeTexel(cluster, terms, intensity, selection.Of(t, all_lights), &G, &specular,
+                     camera_errors ? &phong_sums : nullptr);
+          if (camera_errors) {
+            part.frame_observations[static_cast<size_t>(c)].push_back(
+                {texel, k, rgb, G, cluster.model == brdf::Model::kPhong ? phong_sums : specular});
+          }
           const glm::vec3 res = rgb - specular;
           // Weighted by (n.v)^4: near-grazing observations come from
           // stretched image footprints and smear across silhouettes
@@ -1176,32 +1198,23 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         o = {kd_o.x, kd_o.y, kd_o.z, 1.0f};
       }
       if (camera_errors) {
+        // The fold's observations, per part in its order (the sums as before).
         for (int c = 0; c < num_cameras; ++c) {
-          for_each_texel(
-              c, [&](FoldPart& part, uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
-                const int32_t k = texel_cluster[texel];
-                if (k < 0) return;
-                const cv::Vec4f& o =
-                    observed.at<cv::Vec4f>(static_cast<int>(texel / atlas.size), static_cast<int>(texel % atlas.size));
-                const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(k)];
-                const brdf::Model model = cluster_model[static_cast<size_t>(k)];
-                const bool phong = model == brdf::Model::kPhong;
-                glm::vec3 G, specular;
-                if (phong) {
-                  G = IlluminationOf(terms, intensity, selection.Of(t, all_lights));
-                } else {
-                  fit::LobeTerms(model, cluster_lobe[static_cast<size_t>(k)], terms, intensity,
-                                 selection.Of(t, all_lights), &specular, &G);
-                }
-                for (int ch = 0; ch < 3; ++ch) {
-                  const double s =
-                      phong ? p[ch].ks * SpecularSum(terms, intensity, selection.Of(t, all_lights), ch, p[ch].ke)
-                            : specular[ch];
-                  const double predicted = o[3] > 0.5f ? o[ch] * G[ch] + s : 0.0;
-                  const double d = o[3] > 0.5f ? rgb[ch] - predicted : 0.0;
-                  part.corr_sq[static_cast<size_t>(c)] += d * d;
-                }
-              });
+          InAtlasParts([&](int part_index) {
+            FoldPart& part = fold_parts[static_cast<size_t>(part_index)];
+            for (const ErrorObservation& e : part.frame_observations[static_cast<size_t>(c)]) {
+              const cv::Vec4f& o =
+                  observed.at<cv::Vec4f>(static_cast<int>(e.texel / atlas.size), static_cast<int>(e.texel % atlas.size));
+              const fit::PhongRgb& p = cluster_brdf[static_cast<size_t>(e.cluster)];
+              const bool phong = cluster_model[static_cast<size_t>(e.cluster)] == brdf::Model::kPhong;
+              for (int ch = 0; ch < 3; ++ch) {
+                const double s = phong ? p[ch].ks * e.specular[ch] : e.specular[ch];
+                const double predicted = o[3] > 0.5f ? o[ch] * e.illumination[ch] + s : 0.0;
+                const double d = o[3] > 0.5f ? e.rgb[ch] - predicted : 0.0;
+                part.corr_sq[static_cast<size_t>(c)] += d * d;
+              }
+            }
+          });
         }
       }
       if (correction) {

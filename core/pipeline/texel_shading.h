@@ -31,6 +31,21 @@ inline float SpecularSum(const samples::LightTerms& terms, const std::vector<glm
   return static_cast<float>(s);
 }
 
+// SpecularSum of the three channels at their exponents, ln h_k taken once
+// per light for the three (bit for bit SpecularSum's per channel: the same
+// operations in the same order).
+inline glm::vec3 SpecularSums(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
+                              const samples::LightMask& mask, const fit::PhongRgb& phong) {
+  double s[3] = {0.0, 0.0, 0.0};
+  for (size_t j = 0; j < terms.count; ++j) {
+    const size_t k = terms.light[j];
+    if (!mask.Test(k) || !(terms.h[j] > 0.0f)) continue;
+    const double log_h = std::log(static_cast<double>(terms.h[j]));
+    for (int c = 0; c < 3; ++c) s[c] += intensity[k][c] * terms.falloff[j] * std::exp(phong[c].ke * log_h);
+  }
+  return glm::vec3(static_cast<float>(s[0]), static_cast<float>(s[1]), static_cast<float>(s[2]));
+}
+
 // Sum of I_k g_k over the lights in `mask`.
 inline glm::vec3 IlluminationOf(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
                                 const samples::LightMask& mask) {
@@ -50,15 +65,16 @@ struct ClusterShading {
 
 // G and S of one observation's terms under `cluster` (S in float, ks rounded
 // to float first: pass 2's residuals r - S are as they were before this
-// function existed, bit for bit).
+// function existed, bit for bit). With `phong_sums` (Phong only): the sums
+// before ks (SpecularSums), for a caller that scales them in double.
 inline void ShadeTexel(const ClusterShading& cluster, const samples::LightTerms& terms,
                        const std::vector<glm::vec3>& intensity, const samples::LightMask& mask, glm::vec3* illumination,
-                       glm::vec3* specular) {
+                       glm::vec3* specular, glm::vec3* phong_sums = nullptr) {
   if (cluster.model == brdf::Model::kPhong) {
     *illumination = IlluminationOf(terms, intensity, mask);
-    for (int c = 0; c < 3; ++c)
-      (*specular)[c] =
-          static_cast<float>(cluster.phong[c].ks) * SpecularSum(terms, intensity, mask, c, cluster.phong[c].ke);
+    const glm::vec3 sums = SpecularSums(terms, intensity, mask, cluster.phong);
+    for (int c = 0; c < 3; ++c) (*specular)[c] = static_cast<float>(cluster.phong[c].ks) * sums[c];
+    if (phong_sums != nullptr) *phong_sums = sums;
   } else {
     fit::LobeTerms(cluster.model, cluster.lobe, terms, intensity, mask, specular, illumination);
   }
