@@ -71,12 +71,23 @@ struct FoldPart {
   std::vector<std::vector<ErrorObservation>> frame_observations;
 };
 
+// The key of the texel pass's observed kd atlases in their ResampledAtlasCache.
+constexpr char kObservedKey[] = "observed kd";
+
 // Frame t's correction atlas c = kd_o - kd (half-float RGB) from its observed
-// kd_o in observed_dir (the texel pass's), named by the frame's number.
-absl::Status WriteCorrectionAtlas(const std::filesystem::path& observed_dir, int t, const scene::Sequence& sequence,
-                                  const std::vector<glm::vec3>& kd, int size, const std::filesystem::path& dir) {
-  const std::filesystem::path file = observed_dir / absl::StrCat(t, ".exr");
-  MVBRDF_ASSIGN_OR_RETURN(const image::ExrImage observed, image::ReadExr(file));
+// kd_o (the texel pass's): kept in `kept` (may be null), else in observed_dir;
+// named by the frame's number.
+absl::Status WriteCorrectionAtlas(const ResampledAtlasCache* kept, const std::filesystem::path& observed_dir, int t,
+                                  const scene::Sequence& sequence, const std::vector<glm::vec3>& kd, int size,
+                                  const std::filesystem::path& dir) {
+  image::ExrImage observed;
+  std::optional<ResampledAtlasCache::Kept> found;
+  if (kept != nullptr) found = kept->Find(t, 0, kObservedKey);
+  if (found.has_value()) {
+    observed.image = std::move(found->atlas);
+  } else {
+    MVBRDF_ASSIGN_OR_RETURN(observed, image::ReadExr(observed_dir / absl::StrCat(t, ".exr")));
+  }
   cv::Mat corr(size, size, CV_32FC3, cv::Scalar::all(0));
   for (int y = 0; y < size; ++y) {
     for (int x = 0; x < size; ++x) {
@@ -1079,6 +1090,14 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     part.frame_observations.resize(static_cast<size_t>(num_cameras));
   }
   const std::filesystem::path observed_dir = out / "atlases" / "observed_kd.tmp";
+  // Each frame's observed kd until the correction atlases are written: in a
+  // temporary file where one can be made (ResampledAtlasCache), else as EXRs
+  // in observed_dir.
+  std::unique_ptr<ResampledAtlasCache> observed_atlases;
+  if (correction) {
+    absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> made = ResampledAtlasCache::Create();
+    if (made.ok()) observed_atlases = *std::move(made);
+  }
   std::vector<int> observed_frames;
   // Per camera: texel observations of the texel pass refused as masked or
   // saturated (every frame, every camera: counted once, here).
@@ -1218,12 +1237,15 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         }
       }
       if (correction) {
-        // Written on a thread while the next frame is resampled (~60 ms per
-        // 512^2 float EXR); one write in flight at a time.
-        if (writing.valid()) MVBRDF_RETURN_IF_ERROR(writing.get());
-        writing = std::async(std::launch::async, [file = observed_dir / absl::StrCat(t, ".exr"), observed] {
-          return image::WriteExr(file, observed);
-        });
+        // Kept bit for bit in the temporary file (no compression: ~2 ms),
+        // else written as an EXR on a thread while the next frame is
+        // resampled (~60 ms per 512^2 float EXR); one write in flight at a time.
+        if (observed_atlases == nullptr || !observed_atlases->Keep(t, 0, kObservedKey, observed)) {
+          if (writing.valid()) MVBRDF_RETURN_IF_ERROR(writing.get());
+          writing = std::async(std::launch::async, [file = observed_dir / absl::StrCat(t, ".exr"), observed] {
+            return image::WriteExr(file, observed);
+          });
+        }
         observed_frames.push_back(t);
       }
     }
@@ -1384,8 +1406,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   std::vector<absl::Status> part_status(kAtlasParts);
   InAtlasParts([&](int part) {
     for (size_t i = static_cast<size_t>(part); i < observed_frames.size(); i += kAtlasParts) {
-      part_status[static_cast<size_t>(part)] = WriteCorrectionAtlas(observed_dir, observed_frames[i], sequence,
-                                                                    kd.kd, atlas.size, atlases / "correction");
+      part_status[static_cast<size_t>(part)] =
+          WriteCorrectionAtlas(observed_atlases.get(), observed_dir, observed_frames[i], sequence, kd.kd, atlas.size,
+                               atlases / "correction");
       if (!part_status[static_cast<size_t>(part)].ok()) return;
     }
   });

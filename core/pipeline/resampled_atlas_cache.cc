@@ -72,7 +72,18 @@ absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> ResampledAtlasCache::Create
 
 ResampledAtlasCache::~ResampledAtlasCache() { ::close(fd_); }
 
+size_t ResampledAtlasCache::bytes() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return bytes_;
+}
+
+size_t ResampledAtlasCache::size() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return entries_.size();
+}
+
 std::optional<ResampledAtlasCache::Kept> ResampledAtlasCache::Find(int t, int camera, const std::string& key) const {
+  std::lock_guard<std::mutex> lock(mutex_);
   const auto it = entries_.find({t, camera});
   if (it == entries_.end() || it->second.key != key) return std::nullopt;
   const Entry& e = it->second;
@@ -97,11 +108,12 @@ std::optional<ResampledAtlasCache::Kept> ResampledAtlasCache::Find(int t, int ca
   return kept;
 }
 
-void ResampledAtlasCache::Keep(int t, int camera, const std::string& key, const cv::Mat& atlas,
+bool ResampledAtlasCache::Keep(int t, int camera, const std::string& key, const cv::Mat& atlas,
                                const resample::Resampler::RefusedObservations& refused) {
+  std::lock_guard<std::mutex> lock(mutex_);
   if (failed_ || entries_.count({t, camera}) != 0 || atlas.type() != CV_32FC4 || !atlas.isContinuous() ||
       atlas.empty()) {
-    return;
+    return false;
   }
   // Runs of texels that are not all zero (a texel no camera sees is zero).
   std::vector<uint32_t>& runs = runs_;
@@ -122,7 +134,7 @@ void ResampledAtlasCache::Keep(int t, int camera, const std::string& key, const 
   }
   const size_t run_bytes = runs.size() * sizeof(uint32_t);
   const size_t texel_bytes = texels.size() * sizeof(cv::Vec4f);
-  if (run_bytes + texel_bytes > budget_bytes_ - bytes_) return;
+  if (run_bytes + texel_bytes > budget_bytes_ - bytes_) return false;
   Entry e;
   e.key = key;
   e.rows = atlas.rows;
@@ -134,10 +146,11 @@ void ResampledAtlasCache::Keep(int t, int camera, const std::string& key, const 
   if (!WriteAt(fd_, runs.data(), run_bytes, e.offset) ||
       !WriteAt(fd_, texels.data(), texel_bytes, e.offset + run_bytes)) {
     failed_ = true;  // the disk is full, say: the passes resample what is not kept
-    return;
+    return false;
   }
   bytes_ += run_bytes + texel_bytes;
   entries_.emplace(std::make_pair(t, camera), std::move(e));
+  return true;
 }
 
 }  // namespace mvbrdf::pipeline

@@ -9,7 +9,8 @@
 // grow with the sequence (the page cache holds it while RAM allows); within a
 // byte budget, at most half the file system's free space at creation. A
 // write that fails keeps nothing more; what was kept stays readable.
-// One per job; not thread-safe: a job's passes run one after the other.
+// One per job (the texel pass keeps its per-frame observed kd atlases in one
+// more); any thread (one call at a time).
 #ifndef MVBRDF_CORE_PIPELINE_RESAMPLED_ATLAS_CACHE_H_
 #define MVBRDF_CORE_PIPELINE_RESAMPLED_ATLAS_CACHE_H_
 
@@ -17,6 +18,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -50,12 +52,13 @@ class ResampledAtlasCache {
   // The atlas kept for (t, camera) under `key` (what it was computed from
   // besides the frame: the camera's model, the resampler's options), if any.
   std::optional<Kept> Find(int t, int camera, const std::string& key) const;
-  // Keeps it (a continuous CV_32FC4 atlas) once, while the budget allows.
-  void Keep(int t, int camera, const std::string& key, const cv::Mat& atlas,
-            const resample::Resampler::RefusedObservations& refused);
+  // Keeps it (a continuous CV_32FC4 atlas) once, while the budget allows;
+  // whether it is kept now.
+  bool Keep(int t, int camera, const std::string& key, const cv::Mat& atlas,
+            const resample::Resampler::RefusedObservations& refused = {});
 
-  size_t bytes() const { return bytes_; }
-  size_t size() const { return entries_.size(); }
+  size_t bytes() const;
+  size_t size() const;
 
  private:
   ResampledAtlasCache(int fd, size_t budget_bytes) : fd_(fd), budget_bytes_(budget_bytes) {}
@@ -67,6 +70,7 @@ class ResampledAtlasCache {
     uint64_t texels = 0;
     resample::Resampler::RefusedObservations refused;
   };
+  mutable std::mutex mutex_;  // guards what follows
   int fd_;
   const size_t budget_bytes_;
   bool failed_ = false;  // a write failed: keep nothing more

@@ -36,7 +36,7 @@ TEST(ResampledAtlasCacheTest, GivesBackTheAtlasKeptBitForBitWithItsRefusedCounts
   for (int t = 0; t < 3; ++t) {
     for (int c = 0; c < 2; ++c) {
       resample::Resampler::RefusedObservations refused{1u + t, 2u + c, 3, 4, 5u + 10u * t + c};
-      (*cache)->Keep(t, c, "k", Atlas(64, 10.0f * t + c), refused);
+      EXPECT_TRUE((*cache)->Keep(t, c, "k", Atlas(64, 10.0f * t + c), refused));
     }
   }
   EXPECT_EQ((*cache)->size(), 6u);
@@ -56,7 +56,7 @@ TEST(ResampledAtlasCacheTest, GivesBackTheAtlasKeptBitForBitWithItsRefusedCounts
   EXPECT_FALSE((*cache)->Find(1, 0, "other").has_value());
   EXPECT_FALSE((*cache)->Find(3, 0, "k").has_value());
   // Kept once: a second Keep of (t, c) changes nothing.
-  (*cache)->Keep(0, 0, "k", Atlas(64, 99.0f), {});
+  EXPECT_FALSE((*cache)->Keep(0, 0, "k", Atlas(64, 99.0f), {}));
   EXPECT_TRUE(BitForBit((*cache)->Find(0, 0, "k")->atlas, Atlas(64, 0.0f)));
   // An all-zero atlas (a camera that sees nothing) is kept, and given back.
   (*cache)->Keep(5, 0, "k", cv::Mat(32, 48, CV_32FC4, cv::Scalar::all(0)), {});
@@ -69,8 +69,8 @@ TEST(ResampledAtlasCacheTest, GivesBackTheAtlasKeptBitForBitWithItsRefusedCounts
 TEST(ResampledAtlasCacheTest, KeepsNothingBeyondTheBudgetOrOfAnotherType) {
   auto cache = ResampledAtlasCache::Create(1000);
   ASSERT_TRUE(cache.ok());
-  (*cache)->Keep(0, 0, "k", Atlas(64, 1.0f), {});
-  (*cache)->Keep(1, 0, "k", cv::Mat(8, 8, CV_32FC3, cv::Scalar::all(1)), {});
+  EXPECT_FALSE((*cache)->Keep(0, 0, "k", Atlas(64, 1.0f), {}));
+  EXPECT_FALSE((*cache)->Keep(1, 0, "k", cv::Mat(8, 8, CV_32FC3, cv::Scalar::all(1)), {}));
   EXPECT_EQ((*cache)->size(), 0u);
   EXPECT_FALSE((*cache)->Find(0, 0, "k").has_value());
 }
