@@ -177,11 +177,41 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
     *illumination_out = glm::vec3(illumination);
     return true;
   };
+  const uint32_t parts = static_cast<uint32_t>(std::clamp(threads, 1, 64));
+  // A robust solve visits every Sample in 2 + 2 x iterations passes, and
+  // its r - s and G do not change between them (ln and exp of every
+  // highlight term): taken once here, in contiguous blocks of Samples on the
+  // threads, and read back (the same values bit for bit).
+  std::vector<glm::vec3> kept_residual, kept_illumination;
+  std::vector<uint8_t> kept_ok;
+  if (options.robust.enabled()) {
+    kept_residual.resize(set.size());
+    kept_illumination.resize(set.size());
+    kept_ok.resize(set.size());
+    const size_t per = (set.size() + parts - 1) / parts;
+    const auto take = [&](uint32_t part) {
+      const size_t first = static_cast<size_t>(part) * per, last = std::min(set.size(), first + per);
+      for (size_t i = first; i < last; ++i) kept_ok[i] = observation(i, &kept_residual[i], &kept_illumination[i]);
+    };
+    if (parts == 1) {
+      take(0);
+    } else {
+      std::vector<std::thread> pool;
+      for (uint32_t t = 0; t < parts; ++t) pool.emplace_back(take, t);
+      for (std::thread& t : pool) t.join();
+    }
+  }
+  const auto observed = [&](size_t i, glm::vec3* residual, glm::vec3* illumination) {
+    if (kept_ok.empty()) return observation(i, residual, illumination);
+    if (!kept_ok[i]) return false;
+    *residual = kept_residual[i];
+    *illumination = kept_illumination[i];
+    return true;
+  };
   // Thread t takes a contiguous block of elements (no shared cache lines in
   // the accumulator), each element's Samples in their order: the sums, and so
   // the solution, are those of one thread bit for bit. `weight` (robust
   // passes): per sample and channel the IRLS weight, folded in as sqrt(w).
-  const uint32_t parts = static_cast<uint32_t>(std::clamp(threads, 1, 64));
   const size_t block = (num_elements + parts - 1) / parts;
   const auto accumulate = [&](const std::vector<glm::vec3>* weight) {
     DiffuseAccumulator accumulator(num_elements);
@@ -191,7 +221,7 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
         const uint32_t element = set.element[i];
         if (element < first || element >= last) continue;  // not part of this solve / thread
         glm::vec3 d, g;
-        if (!observation(i, &d, &g)) continue;
+        if (!observed(i, &d, &g)) continue;
         if (weight != nullptr) {
           const glm::vec3 root = glm::sqrt((*weight)[i]);
           d *= root;
@@ -220,7 +250,7 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
     for (size_t i = 0; i < set.size(); ++i) {
       glm::vec3 d, g;
       const uint32_t element = set.element[i];
-      valid[i] = element < num_elements && observation(i, &d, &g) ? 1 : 0;
+      valid[i] = element < num_elements && observed(i, &d, &g) ? 1 : 0;
       if (valid[i]) residual[i] = d - at.kd[element] * g;
     }
   };
