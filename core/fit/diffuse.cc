@@ -178,6 +178,16 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
     return true;
   };
   const uint32_t parts = static_cast<uint32_t>(std::clamp(threads, 1, 64));
+  // work(part) for part in [0, parts), on threads when there are several.
+  const auto in_parts = [parts](const auto& work) {
+    if (parts == 1) {
+      work(0u);
+      return;
+    }
+    std::vector<std::thread> pool;
+    for (uint32_t t = 0; t < parts; ++t) pool.emplace_back(work, t);
+    for (std::thread& t : pool) t.join();
+  };
   // A robust solve visits every Sample in 2 + 2 x iterations passes, and
   // its r - s and G do not change between them (ln and exp of every
   // highlight term): taken once here, in contiguous blocks of Samples on the
@@ -193,13 +203,7 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
       const size_t first = static_cast<size_t>(part) * per, last = std::min(set.size(), first + per);
       for (size_t i = first; i < last; ++i) kept_ok[i] = observation(i, &kept_residual[i], &kept_illumination[i]);
     };
-    if (parts == 1) {
-      take(0);
-    } else {
-      std::vector<std::thread> pool;
-      for (uint32_t t = 0; t < parts; ++t) pool.emplace_back(take, t);
-      for (std::thread& t : pool) t.join();
-    }
+    in_parts(take);
   }
   const auto observed = [&](size_t i, glm::vec3* residual, glm::vec3* illumination) {
     if (kept_ok.empty()) return observation(i, residual, illumination);
@@ -230,13 +234,7 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
         accumulator.Add(element, d, g);
       }
     };
-    if (parts == 1) {
-      work(0);
-    } else {
-      std::vector<std::thread> pool;
-      for (uint32_t t = 0; t < parts; ++t) pool.emplace_back(work, t);
-      for (std::thread& t : pool) t.join();
-    }
+    in_parts(work);
     return accumulator;
   };
   const DiffuseAccumulator plain = accumulate(nullptr);

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/base/status_macros.h"
 #include "core/synth/synthesizer.h"
 
 namespace mvbrdf::pipeline {
@@ -27,6 +28,25 @@ uint32_t BitsSeen(const cv::Mat& shadows) {
   return bits;
 }
 
+// A generated sequence (so.out_dir; 3 frames of an 8-segment actor) and its
+// 128^2 atlas.
+struct Generated {
+  scene::Sequence sequence;
+  atlas::Atlas atlas;
+};
+absl::StatusOr<Generated> Generate(gl::EglContext& context, synth::SynthOptions so) {
+  so.num_frames = 3;
+  so.actor_segments = 8;
+  so.shadow_map_size = 128;
+  MVBRDF_ASSIGN_OR_RETURN(const auto synthesized, synth::Synthesize(so, context));
+  Generated g;
+  MVBRDF_ASSIGN_OR_RETURN(g.sequence, scene::LoadSequence(synthesized.scene_file));
+  atlas::AtlasOptions ao;
+  ao.size = 128;
+  MVBRDF_ASSIGN_OR_RETURN(g.atlas, atlas::BuildAtlas(g.sequence.topology, g.sequence.rest_positions, ao));
+  return g;
+}
+
 TEST(FrameStreamTest, ShadowBitsHoldOnlyEachFramesOwnLights) {
   auto context = gl::EglContext::Create(gl::EglPlatform::kSurfaceless);
   ASSERT_TRUE(context.ok()) << context.status();
@@ -36,21 +56,14 @@ TEST(FrameStreamTest, ShadowBitsHoldOnlyEachFramesOwnLights) {
   for (const synth::Lighting lighting : {synth::Lighting::kStudio, synth::Lighting::kOlat}) {
     synth::SynthOptions so;
     so.num_cameras = 1;
-    so.num_frames = 3;
     so.width = 64;
     so.height = 48;
-    so.actor_segments = 8;
-    so.shadow_map_size = 128;
     so.lighting = lighting;
     so.out_dir = dir / (lighting == synth::Lighting::kOlat ? "olat" : "studio");
-    auto synthesized = synth::Synthesize(so, **context);
-    ASSERT_TRUE(synthesized.ok()) << synthesized.status();
-    auto sequence = scene::LoadSequence(synthesized->scene_file);
-    ASSERT_TRUE(sequence.ok()) << sequence.status();
-    atlas::AtlasOptions ao;
-    ao.size = 128;
-    auto atlas = atlas::BuildAtlas(sequence->topology, sequence->rest_positions, ao);
-    ASSERT_TRUE(atlas.ok()) << atlas.status();
+    auto generated = Generate(**context, so);
+    ASSERT_TRUE(generated.ok()) << generated.status();
+    const scene::Sequence* sequence = &generated->sequence;
+    const atlas::Atlas* atlas = &generated->atlas;
     // The first stream keeps its shadow atlases in `kept`; the second takes
     // them from it: the same atlases as computed.
     ShadowAtlasCache kept;
@@ -93,20 +106,13 @@ TEST(FrameStreamTest, ALaterPassReadsTheFirstPassesAtlasesBitForBitWithoutTheVid
   std::filesystem::remove_all(dir);
   synth::SynthOptions so;
   so.num_cameras = 2;
-  so.num_frames = 3;
   so.width = 96;
   so.height = 72;
-  so.actor_segments = 8;
-  so.shadow_map_size = 128;
   so.out_dir = dir;
-  auto synthesized = synth::Synthesize(so, **context);
-  ASSERT_TRUE(synthesized.ok()) << synthesized.status();
-  auto sequence = scene::LoadSequence(synthesized->scene_file);
-  ASSERT_TRUE(sequence.ok()) << sequence.status();
-  atlas::AtlasOptions ao;
-  ao.size = 128;
-  auto atlas = atlas::BuildAtlas(sequence->topology, sequence->rest_positions, ao);
-  ASSERT_TRUE(atlas.ok()) << atlas.status();
+  auto generated = Generate(**context, so);
+  ASSERT_TRUE(generated.ok()) << generated.status();
+  const scene::Sequence* sequence = &generated->sequence;
+  const atlas::Atlas* atlas = &generated->atlas;
   // Edges and gradients refused, so that the counts are not all zero.
   resample::ResamplerOptions options;
   options.edge_margin_pixels = 1.5;
@@ -150,7 +156,8 @@ TEST(FrameStreamTest, ALaterPassReadsTheFirstPassesAtlasesBitForBitWithoutTheVid
   moved.cameras[0].fx *= 1.001;
   resample::ResamplerOptions other = options;
   other.edge_margin_pixels = 0.0;
-  for (const auto& [seq, opts] : {std::pair{&moved, options}, std::pair{&*sequence, other}}) {
+  for (const auto& [seq, opts] :
+       {std::pair{static_cast<const scene::Sequence*>(&moved), options}, std::pair{sequence, other}}) {
     auto third = FrameStream::Open(*seq, **context, *atlas, opts, nullptr, cache->get());
     ASSERT_TRUE(third.ok()) << third.status();
     ASSERT_TRUE((*third)->SetFrame(1).ok());

@@ -17,11 +17,12 @@
 namespace mvbrdf::pipeline {
 namespace {
 
-// pwrite / pread of the whole range, through short transfers and EINTR.
-bool WriteAt(int fd, const void* data, size_t bytes, uint64_t offset) {
-  const char* p = static_cast<const char*>(data);
+// pwrite / pread (`transfer`) of the whole range, through short transfers
+// and EINTR.
+template <typename Byte, typename Transfer>
+bool WholeRange(Transfer transfer, int fd, Byte* p, size_t bytes, uint64_t offset) {
   while (bytes > 0) {
-    const ssize_t n = ::pwrite(fd, p, bytes, static_cast<off_t>(offset));
+    const ssize_t n = transfer(fd, p, bytes, static_cast<off_t>(offset));
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) return false;
     p += n;
@@ -31,17 +32,12 @@ bool WriteAt(int fd, const void* data, size_t bytes, uint64_t offset) {
   return true;
 }
 
+bool WriteAt(int fd, const void* data, size_t bytes, uint64_t offset) {
+  return WholeRange(::pwrite, fd, static_cast<const char*>(data), bytes, offset);
+}
+
 bool ReadAt(int fd, void* data, size_t bytes, uint64_t offset) {
-  char* p = static_cast<char*>(data);
-  while (bytes > 0) {
-    const ssize_t n = ::pread(fd, p, bytes, static_cast<off_t>(offset));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n;
-    bytes -= static_cast<size_t>(n);
-    offset += static_cast<uint64_t>(n);
-  }
-  return true;
+  return WholeRange(::pread, fd, static_cast<char*>(data), bytes, offset);
 }
 
 bool AllZero(const cv::Vec4f& v) {

@@ -20,16 +20,7 @@ constexpr GLint kClipFromWorldLocation = 0;
 constexpr GLint kLightPositionLocation = 1;
 constexpr GLint kInverseRangeLocation = 2;
 
-// Cube-map faces in GL layer order (+X, -X, +Y, -Y, +Z, -Z): view direction
-// and the up vector that makes glm::lookAt match the cube-map (s, t) axes.
-constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
-    {glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)},
-    {glm::vec3(-1, 0, 0), glm::vec3(0, -1, 0)},
-    {glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)},
-    {glm::vec3(0, -1, 0), glm::vec3(0, 0, -1)},
-    {glm::vec3(0, 0, 1), glm::vec3(0, -1, 0)},
-    {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
-}};
+using internal::kCubeFaces;
 
 // Whether a sphere (centre relative to the light) reaches into the 90-degree
 // frustum of the cube face looking along `axis`: outside any of its four side

@@ -21,6 +21,7 @@
 #ifndef MVBRDF_CORE_RENDER_SHADOW_MAPS_H_
 #define MVBRDF_CORE_RENDER_SHADOW_MAPS_H_
 
+#include <array>
 #include <glm/glm.hpp>
 #include <memory>
 #include <vector>
@@ -44,6 +45,17 @@ struct BoundingSphere {
 BoundingSphere ComputeBoundingSphere(const std::vector<glm::vec3>& points);
 
 namespace internal {
+
+// Cube-map faces in GL layer order (+X, -X, +Y, -Y, +Z, -Z): view direction
+// and the up vector that makes glm::lookAt match the cube-map (s, t) axes.
+inline constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
+    {glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)},
+    {glm::vec3(-1, 0, 0), glm::vec3(0, -1, 0)},
+    {glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)},
+    {glm::vec3(0, -1, 0), glm::vec3(0, 0, -1)},
+    {glm::vec3(0, 0, 1), glm::vec3(0, -1, 0)},
+    {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
+}};
 
 // The window rectangle (pixels, GL's origin at the bottom left) of a size^2
 // cube face looking along `axis` (`up` as for glm::lookAt, a 90-degree

@@ -15,16 +15,9 @@
 namespace mvbrdf::render {
 namespace {
 
-// GL's cube-map faces (+X, -X, +Y, -Y, +Z, -Z): axis and lookAt up vector, as
-// shadow_maps.cc draws them.
-constexpr std::array<std::array<glm::vec3, 2>, 6> kFaces = {{
-    {glm::vec3(1, 0, 0), glm::vec3(0, -1, 0)},
-    {glm::vec3(-1, 0, 0), glm::vec3(0, -1, 0)},
-    {glm::vec3(0, 1, 0), glm::vec3(0, 0, 1)},
-    {glm::vec3(0, -1, 0), glm::vec3(0, 0, -1)},
-    {glm::vec3(0, 0, 1), glm::vec3(0, -1, 0)},
-    {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
-}};
+// GL's cube-map faces (+X, -X, +Y, -Y, +Z, -Z) as the maps are drawn: axis
+// and lookAt up vector.
+constexpr const auto& kFaces = internal::kCubeFaces;
 
 constexpr int kSize = 1024;
 
