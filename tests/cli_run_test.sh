@@ -65,6 +65,13 @@ done
 for f in atlases/kd.exr atlases/ks.exr atlases/ke.exr atlases/correction/0000.exr atlases/correction/0002.exr; do
   expect "$f: the same with the kept atlases as resampled" cmp "$work/direct_tmp/$f" "$work/direct_no_such_dir/$f"
 done
+expect "result.json's per-camera errors, reliability counts and fits the same with the kept atlases as resampled" \
+  python3 -c '
+import json, sys
+a, b = (json.load(open(p + "/result.json")) for p in sys.argv[1:])
+keys = ["cameras", "reliability", "clusters", "texelsSeen", "robustScales"]
+sys.exit(0 if all(a.get(k) == b.get(k) for k in keys) and a.get("cameras") else 1)' \
+  "$work/direct_tmp" "$work/direct_no_such_dir"
 for f in result.json atlases/kd.exr atlases/ks.exr atlases/ke.exr atlases/cluster.exr atlases/confidence.exr \
          atlases/correction/0002.exr atlas/mesh.obj; do
   [ -f "$work/run/$f" ] && { echo "ok   wrote $f"; passes=$((passes + 1)); } || { echo "FAIL missing $f"; failures=$((failures + 1)); }

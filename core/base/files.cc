@@ -213,7 +213,7 @@ absl::StatusOr<std::filesystem::path> TemporaryDirectory() {
   const char* tmpdir = std::getenv("TMPDIR");
   return absl::UnavailableError(absl::StrCat(
       "the directory for temporary files (TMPDIR=", tmpdir != nullptr ? ElideForMessage(tmpdir, kMaxShownPathChars) : "",
-      ", else /tmp): ", error.message(), "; set TMPDIR to an existing, writable directory"));
+      ", else TMP, TEMP, TEMPDIR or /tmp): ", error.message(), "; set TMPDIR to an existing, writable directory"));
 }
 
 }  // namespace mvbrdf

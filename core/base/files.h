@@ -46,7 +46,7 @@ absl::Status ErrnoStatus(int error, absl::string_view what, absl::string_view pa
 absl::Status WriteAllToFd(int fd, absl::string_view bytes, absl::string_view path);
 
 // The directory for temporary files (std::filesystem::temp_directory_path:
-// TMPDIR, else /tmp), checked to be a directory. UNAVAILABLE naming TMPDIR
+// TMPDIR, else TMP, TEMP, TEMPDIR, else /tmp), checked to be a directory. UNAVAILABLE naming TMPDIR
 // when it is not (a TMPDIR that does not exist made std::filesystem throw).
 absl::StatusOr<std::filesystem::path> TemporaryDirectory();
 

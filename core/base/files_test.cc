@@ -164,8 +164,18 @@ TEST(FilesTest, SaysWhatAnInputThatIsNoRegularFileIs) {
 }
 
 TEST(FilesTest, TemporaryDirectoryNamesATmpdirThatIsNoDirectory) {
-  const char* before = std::getenv("TMPDIR");
-  const std::string saved = before != nullptr ? before : "";
+  // TMPDIR as it was, whatever fails below.
+  struct RestoreTmpdir {
+    const char* before = std::getenv("TMPDIR");
+    const std::string saved = before != nullptr ? before : "";
+    ~RestoreTmpdir() {
+      if (before != nullptr) {
+        ::setenv("TMPDIR", saved.c_str(), 1);
+      } else {
+        ::unsetenv("TMPDIR");
+      }
+    }
+  } restore;
   const auto dir = std::filesystem::temp_directory_path() / "mvbrdf_files_tmpdir_test";
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
@@ -178,11 +188,6 @@ TEST(FilesTest, TemporaryDirectoryNamesATmpdirThatIsNoDirectory) {
   EXPECT_EQ(missing.status().code(), absl::StatusCode::kUnavailable);
   EXPECT_NE(missing.status().message().find("TMPDIR=" + (dir / "missing").string()), std::string::npos)
       << missing.status();
-  if (before != nullptr) {
-    ::setenv("TMPDIR", saved.c_str(), 1);
-  } else {
-    ::unsetenv("TMPDIR");
-  }
   std::filesystem::remove_all(dir);
 }
 

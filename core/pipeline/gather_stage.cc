@@ -51,7 +51,8 @@ std::unique_ptr<TexelReservoir> MakeReservoir(const scene::Sequence& sequence, c
 // The cluster fits take per-pixel Samples: the video's own pixels at the
 // exact surface points they show, so highlights reach ks and ke without the
 // atlas's bilinear blur (measured: the blur alone made ke come out ~50 % low
-// on 320x240 video). Camera c's of frame t, after stream->Resample(c).
+// on 320x240 video). Camera c's of frame t, after stream->Resample(c) or
+// stream->ReadFrame(c).
 absl::Status OfferPixelSamples(FrameStream& stream, const scene::Sequence& sequence, int t, int c,
                                const samples::AssembleOptions& assemble, const ReconstructOptions& options,
                                TexelReservoir* reservoir) {

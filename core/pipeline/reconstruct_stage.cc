@@ -52,7 +52,6 @@
 namespace mvbrdf::pipeline {
 namespace {
 
-// The texel pass's sums over texels per atlas part (atlas_parts.h).
 // One texel observation of the frame as the camera-error pass needs it once
 // the frame's observed kd is known: its cluster's G and specular term as the
 // fold computed them (Phong: the sums before ks, SpecularSums; the other
@@ -63,6 +62,7 @@ struct ErrorObservation {
   glm::vec3 rgb, illumination, specular;
 };
 
+// The texel pass's sums over texels per atlas part (atlas_parts.h).
 struct FoldPart {
   std::vector<uint64_t> outliers, observations;  // per cluster
   std::vector<double> s_rr, corr_sq;             // per camera
@@ -75,15 +75,19 @@ struct FoldPart {
 constexpr char kObservedKey[] = "observed kd";
 
 // Frame t's correction atlas c = kd_o - kd (half-float RGB) from its observed
-// kd_o (the texel pass's): kept in `kept` (may be null), else in observed_dir;
-// named by the frame's number.
-absl::Status WriteCorrectionAtlas(const ResampledAtlasCache* kept, const std::filesystem::path& observed_dir, int t,
-                                  const scene::Sequence& sequence, const std::vector<glm::vec3>& kd, int size,
-                                  const std::filesystem::path& dir) {
+// kd_o (the texel pass's): kept in `kept` when it says so, else in
+// observed_dir; named by the frame's number.
+absl::Status WriteCorrectionAtlas(const ResampledAtlasCache* kept, bool in_kept,
+                                  const std::filesystem::path& observed_dir, int t, const scene::Sequence& sequence,
+                                  const std::vector<glm::vec3>& kd, int size, const std::filesystem::path& dir) {
   image::ExrImage observed;
-  std::optional<ResampledAtlasCache::Kept> found;
-  if (kept != nullptr) found = kept->Find(t, 0, kObservedKey);
-  if (found.has_value()) {
+  if (in_kept) {
+    std::optional<ResampledAtlasCache::Kept> found = kept->Find(t, 0, kObservedKey);
+    if (!found.has_value()) {
+      return absl::UnavailableError(absl::StrCat("frame ", t,
+                                                 ": its observed kd could not be read back from the temporary file "
+                                                 "(an I/O error in TMPDIR)"));
+    }
     observed.image = std::move(found->atlas);
   } else {
     MVBRDF_ASSIGN_OR_RETURN(observed, image::ReadExr(observed_dir / absl::StrCat(t, ".exr")));
@@ -955,7 +959,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   // Pass 1's shadow atlases, for pass 2; its kept Samples for the normals
   // stage's choice between the fits (issue #18).
   const std::shared_ptr<ShadowAtlasCache> shadow_atlases = g.texels != nullptr ? g.texels->shadow_atlases : nullptr;
-  const std::shared_ptr<ResampledAtlasCache> resampled_atlases =
+  std::shared_ptr<ResampledAtlasCache> resampled_atlases =
       g.texels != nullptr ? g.texels->resampled_atlases : nullptr;
   std::unique_ptr<TexelReservoir> mesh_reservoir =
       plan.Has(Stage::kNormals) && g.texels != nullptr ? std::move(g.texels->reservoir) : nullptr;
@@ -1093,10 +1097,15 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   // Each frame's observed kd until the correction atlases are written: in a
   // temporary file where one can be made (ResampledAtlasCache), else as EXRs
   // in observed_dir.
+  // Within what pass 1's cache left of its budget: both together take at
+  // most about half the free space.
   std::unique_ptr<ResampledAtlasCache> observed_atlases;
+  std::vector<uint8_t> observed_kept;  // per frame: 1 in observed_atlases
   if (correction) {
-    absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> made = ResampledAtlasCache::Create();
+    absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> made = ResampledAtlasCache::Create(
+        resampled_atlases != nullptr ? resampled_atlases->budget_left() : ResampledAtlasCache::kDefaultBudgetBytes);
     if (made.ok()) observed_atlases = *std::move(made);
+    observed_kept.assign(static_cast<size_t>(sequence.num_frames), 0);
   }
   std::vector<int> observed_frames;
   // Per camera: texel observations of the texel pass refused as masked or
@@ -1240,7 +1249,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         // Kept bit for bit in the temporary file (no compression: ~2 ms),
         // else written as an EXR on a thread while the next frame is
         // resampled (~60 ms per 512^2 float EXR); one write in flight at a time.
-        if (observed_atlases == nullptr || !observed_atlases->Keep(t, 0, kObservedKey, observed)) {
+        if (observed_atlases != nullptr && observed_atlases->Keep(t, 0, kObservedKey, observed)) {
+          observed_kept[static_cast<size_t>(t)] = 1;
+        } else {
           if (writing.valid()) MVBRDF_RETURN_IF_ERROR(writing.get());
           writing = std::async(std::launch::async, [file = observed_dir / absl::StrCat(t, ".exr"), observed] {
             return image::WriteExr(file, observed);
@@ -1252,6 +1263,9 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
     if (writing.valid()) MVBRDF_RETURN_IF_ERROR(writing.get());
     for (int c = 0; c < num_cameras; ++c) refused[static_cast<size_t>(c)] = stream->Refused(c);
   }
+  // No pass reads the atlases after this one (a worker's TexelStatistics,
+  // options.texel_statistics, may still hold the file until its task ends).
+  resampled_atlases.reset();
   for (const FoldPart& part : fold_parts) {
     for (size_t k = 0; k < num_clusters; ++k) {
       texel_outliers[k] += part.outliers[k];
@@ -1407,12 +1421,13 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   InAtlasParts([&](int part) {
     for (size_t i = static_cast<size_t>(part); i < observed_frames.size(); i += kAtlasParts) {
       part_status[static_cast<size_t>(part)] =
-          WriteCorrectionAtlas(observed_atlases.get(), observed_dir, observed_frames[i], sequence, kd.kd, atlas.size,
-                               atlases / "correction");
+          WriteCorrectionAtlas(observed_atlases.get(), observed_kept[static_cast<size_t>(observed_frames[i])] != 0,
+                               observed_dir, observed_frames[i], sequence, kd.kd, atlas.size, atlases / "correction");
       if (!part_status[static_cast<size_t>(part)].ok()) return;
     }
   });
   for (const absl::Status& status : part_status) MVBRDF_RETURN_IF_ERROR(status);
+  observed_atlases.reset();  // its file's space back now
   std::error_code ec;
   std::filesystem::remove_all(observed_dir, ec);
   AddStage(&report, "write_atlases", Since(t0), options);

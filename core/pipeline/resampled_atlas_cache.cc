@@ -55,11 +55,16 @@ absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> ResampledAtlasCache::Create
     MVBRDF_ASSIGN_OR_RETURN(where, TemporaryDirectory());
   }
   std::string name = (where / "mvbrdf-atlases-XXXXXX").string();
-  const int fd = ::mkstemp(name.data());
+  const int fd = ::mkostemp(name.data(), O_CLOEXEC);
   if (fd < 0) {
     return absl::UnavailableError(absl::StrCat(name, ": cannot create a temporary file: ", std::strerror(errno)));
   }
-  ::unlink(name.c_str());
+  if (::unlink(name.c_str()) != 0) {
+    const int unlink_error = errno;
+    ::close(fd);
+    return absl::UnavailableError(
+        absl::StrCat(name, ": cannot unlink the temporary file: ", std::strerror(unlink_error)));
+  }
   std::error_code error;
   const std::filesystem::space_info space = std::filesystem::space(where, error);
   if (!error) budget_bytes = std::min<size_t>(budget_bytes, static_cast<size_t>(space.available / 2));
@@ -67,6 +72,11 @@ absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> ResampledAtlasCache::Create
 }
 
 ResampledAtlasCache::~ResampledAtlasCache() { ::close(fd_); }
+
+size_t ResampledAtlasCache::budget_left() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return failed_ ? 0 : budget_bytes_ - bytes_;
+}
 
 size_t ResampledAtlasCache::bytes() const {
   std::lock_guard<std::mutex> lock(mutex_);
@@ -90,7 +100,7 @@ std::optional<ResampledAtlasCache::Kept> ResampledAtlasCache::Find(int t, int ca
   const size_t run_bytes = runs.size() * sizeof(uint32_t);
   if (!ReadAt(fd_, runs.data(), run_bytes, e.offset) ||
       !ReadAt(fd_, texels.data(), texels.size() * sizeof(cv::Vec4f), e.offset + run_bytes)) {
-    return std::nullopt;  // the file cannot have shrunk; resampled again then
+    return std::nullopt;  // an I/O error: the caller's fallback (ResampledAtlas resamples again)
   }
   Kept kept;
   kept.atlas = cv::Mat(e.rows, e.cols, CV_32FC4, cv::Scalar::all(0));

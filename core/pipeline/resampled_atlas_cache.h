@@ -34,9 +34,10 @@ class ResampledAtlasCache {
  public:
   static constexpr size_t kDefaultBudgetBytes = size_t{16} << 30;
 
-  // The file in `dir` (empty: std::filesystem::temp_directory_path(), which
-  // reads TMPDIR), created and unlinked at once: nothing is left behind, even
-  // by a process that is killed.
+  // The file in `dir` (empty: base::TemporaryDirectory(), TMPDIR's), created
+  // and unlinked at once: nothing is left behind, even by a process that is
+  // killed. The budget: at most `budget_bytes` and half the file system's free
+  // space now; a job's second cache takes the first's budget_left().
   static absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> Create(size_t budget_bytes = kDefaultBudgetBytes,
                                                                      const std::string& dir = "");
   ~ResampledAtlasCache();
@@ -50,7 +51,8 @@ class ResampledAtlasCache {
     resample::Resampler::RefusedObservations refused;
   };
   // The atlas kept for (t, camera) under `key` (what it was computed from
-  // besides the frame: the camera's model, the resampler's options), if any.
+  // besides the frame: the camera's model, the resampler's options), if any;
+  // none also where the file cannot be read back (an I/O error).
   std::optional<Kept> Find(int t, int camera, const std::string& key) const;
   // Keeps it (a continuous CV_32FC4 atlas) once, while the budget allows;
   // whether it is kept now.
@@ -58,6 +60,7 @@ class ResampledAtlasCache {
             const resample::Resampler::RefusedObservations& refused = {});
 
   size_t bytes() const;
+  size_t budget_left() const;  // 0 once a write failed
   size_t size() const;
 
  private:

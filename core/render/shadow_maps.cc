@@ -21,6 +21,11 @@ constexpr GLint kLightPositionLocation = 1;
 constexpr GLint kInverseRangeLocation = 2;
 
 using internal::kCubeFaces;
+using internal::SphereReachesFace;
+
+}  // namespace
+
+namespace internal {
 
 // Whether a sphere (centre relative to the light) reaches into the 90-degree
 // frustum of the cube face looking along `axis`: outside any of its four side
@@ -35,10 +40,6 @@ bool SphereReachesFace(const glm::vec3& centre, float radius, const glm::vec3& a
   }
   return true;
 }
-
-}  // namespace
-
-namespace internal {
 
 // Per axis: the tangents from the light to the sphere's circle in that
 // axis's plane bound x / z (z along `axis`).

@@ -57,6 +57,12 @@ inline constexpr std::array<std::array<glm::vec3, 2>, 6> kCubeFaces = {{
     {glm::vec3(0, 0, -1), glm::vec3(0, -1, 0)},
 }};
 
+// Whether a sphere (centre relative to the light, world units) reaches into
+// the 90-degree frustum of the cube face looking along `axis`: a face it does
+// not reach is neither cleared nor drawn. Conservative (a sphere near a
+// frustum's edge may count as reaching it).
+bool SphereReachesFace(const glm::vec3& centre, float radius, const glm::vec3& axis, const glm::vec3& up);
+
 // The window rectangle (pixels, GL's origin at the bottom left) of a size^2
 // cube face looking along `axis` (`up` as for glm::lookAt, a 90-degree
 // perspective) that holds the projection of a sphere (centre relative to the
@@ -107,7 +113,9 @@ class ShadowMaps {
   // at attribute 0 to be drawn (the callback binds its vertex array and
   // draws). Reallocates the arrays when they have fewer layers than the
   // point or directional lights need (they never shrink). Changes the framebuffer, viewport, depth and cull state;
-  // leaves the default framebuffer, program 0 and vertex array 0 bound.
+  // leaves the default framebuffer, program 0 and vertex array 0 bound, and the scissor test off.
+  // A point light's map holds this mesh only where `bounds` projects (internal::SphereRectOnFace); its other
+  // texels keep what an earlier Render left: look up only directions towards points inside `bounds`.
   absl::Status Render(const std::vector<scene::Light>& lights, const BoundingSphere& bounds,
                       absl::FunctionRef<void()> draw_mesh);
 

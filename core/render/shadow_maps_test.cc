@@ -64,6 +64,10 @@ TEST(ShadowMapsTest, EveryPointOfTheSphereProjectsIntoItsFacesRectangle) {
       const glm::dvec2 w = Window(p, f);
       const internal::FaceRect& r = rects[f];
       ASSERT_GT(r.w, 0) << "sphere " << sphere << " face " << f;
+      // The face is drawn at all (a face the sphere does not reach keeps what
+      // an earlier frame left).
+      ASSERT_TRUE(internal::SphereReachesFace(centre, radius, kFaces[f][0], kFaces[f][1]))
+          << "sphere " << sphere << " face " << f;
       // The texel a nearest lookup reads (clamped to the face).
       const int x = std::clamp(static_cast<int>(std::floor(w.x)), 0, kSize - 1);
       const int y = std::clamp(static_cast<int>(std::floor(w.y)), 0, kSize - 1);
