@@ -1068,6 +1068,52 @@ double TimeMs(F&& f) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// The shadow maps are cleared and drawn only where the frame's bounding
+// sphere projects (render::ShadowMaps::Render): a frame's shadow atlas is
+// the same after frames elsewhere, larger and smaller, left other texels of
+// the maps as it is from a resampler that never drew before. A sphere mesh
+// reaches its bounding sphere's outline in every light's view, so its
+// terminator is looked up at the rectangle's edges.
+TEST_F(ResamplerTest, ShadowAtlasDoesNotDependOnTheFramesBefore) {
+  scene::FramePositions positions;
+  const atlas::Atlas atlas = SphereAtlas(24, 32, 128, &positions);
+  const scene::CameraModel camera = LookAtCamera({0.0, -3.0, 0.5}, {0.0, 0.0, 0.0}, 160, 120, 100.0);
+  const std::vector<scene::Light> lights = {PointLight({0.0f, 0.0f, 2.0f}), PointLight({1.6f, 0.4f, -0.5f}),
+                                            PointLight({-1.2f, -1.1f, 0.3f})};
+  ResamplerOptions options;
+  options.shadow_map_size = 256;
+  auto warm = Resampler::Create(*context_, atlas, {camera}, lights, options);
+  auto fresh = Resampler::Create(*context_, atlas, {camera}, lights, options);
+  ASSERT_TRUE(warm.ok() && fresh.ok());
+  const auto posed = [&](float scale, const glm::vec3& offset) {
+    scene::FramePositions p = positions;
+    for (glm::vec3& v : p) v = v * scale + offset;
+    return p;
+  };
+  for (const auto& [scale, offset] : {std::pair{1.4f, glm::vec3(-0.3f, 0.2f, -0.2f)},
+                                      std::pair{0.4f, glm::vec3(0.4f, 0.1f, 0.5f)},
+                                      std::pair{0.9f, glm::vec3(0.0f, 0.0f, 0.6f)}}) {
+    ASSERT_TRUE((*warm)->SetFrame(posed(scale, offset)).ok());
+    ASSERT_TRUE((*warm)->ShadowAtlas().ok());
+  }
+  const scene::FramePositions last = posed(0.8f, glm::vec3(0.1f, -0.05f, 0.0f));
+  ASSERT_TRUE((*warm)->SetFrame(last).ok());
+  ASSERT_TRUE((*fresh)->SetFrame(last).ok());
+  auto a = (*warm)->ShadowAtlas();
+  auto b = (*fresh)->ShadowAtlas();
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(cv::countNonZero(*a != *b), 0);
+  // Each light lights some texels and not others: the comparison sees the maps.
+  for (int k = 0; k < 3; ++k) {
+    int on = 0;
+    for (int y = 0; y < a->rows; ++y) {
+      for (int x = 0; x < a->cols; ++x) on += (a->at<uint16_t>(y, x) >> k) & 1;
+    }
+    EXPECT_GT(on, 100) << "light " << k;
+    EXPECT_LT(on, atlas.size * atlas.size) << "light " << k;
+  }
+}
+
 TEST_F(ResamplerTest, DISABLED_Benchmark) {
   constexpr int kRepeats = 15;
   scene::FramePositions positions;
