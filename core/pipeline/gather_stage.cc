@@ -68,6 +68,28 @@ absl::Status OfferPixelSamples(FrameStream& stream, const scene::Sequence& seque
   return absl::OkStatus();
 }
 
+// The meshes of the frames the pass reads (every `stride`th) into the
+// sequence's FrameCache, while they fit, before
+// the pass allocates its sums and reservoir: the importer runs in a child
+// forked per file (scene/mesh_loader.cc), and a fork costs in proportion to
+// the process's memory (measured on bench-e2e's 40-frame actor: 78 ms per
+// frame forked during the pass, 45 ms here, 25 ms in-process). A frame that
+// cannot be read fails here, as the pass would have.
+absl::Status PrefetchFrames(const scene::Sequence& sequence, int stride, const ReconstructOptions& options) {
+  if (sequence.is_static_mesh() || sequence.frame_cache == nullptr) return absl::OkStatus();
+  const size_t frame_bytes = sequence.rest_positions.size() * sizeof(glm::vec3);
+  const size_t frames = (static_cast<size_t>(sequence.num_frames) + static_cast<size_t>(stride) - 1) / stride;
+  if (frame_bytes * frames > scene::FrameCache::kDefaultBudgetBytes) {
+    return absl::OkStatus();  // the pass reads the frames as it goes
+  }
+  for (int t = 0; t < sequence.num_frames; t += stride) {
+    if (options.progress) options.progress("gather_samples", 0, sequence.num_frames);
+    MVBRDF_RETURN_IF_ERROR(CheckCancelled(options));
+    MVBRDF_RETURN_IF_ERROR(sequence.LoadFrame(t).status());
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<TexelReservoir>> GatherPixelSamples(const scene::Sequence& sequence,
@@ -97,6 +119,8 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                                     const atlas::Atlas& atlas, const ReconstructOptions& options, bool triangles,
                                     bool texels) {
   if (texels) MVBRDF_RETURN_IF_ERROR(CheckPixelFootprint(options.pixel_footprint, sequence.lights.size()));
+  const int stride = SweepFrameStride(options, sequence.num_frames);
+  MVBRDF_RETURN_IF_ERROR(PrefetchFrames(sequence, texels ? 1 : std::max(stride, 1), options));
   const samples::AssembleOptions assemble = GatherAssembleOptions(sequence, options);
   const size_t num_texels = static_cast<size_t>(atlas.size) * static_cast<size_t>(atlas.size);
   const size_t num_lights = sequence.lights.size();
@@ -129,7 +153,6 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
                           FrameStream::Open(sequence, context, atlas, options.resampler,
                                             st != nullptr ? st->shadow_atlases.get() : nullptr,
                                             st != nullptr ? st->resampled_atlases.get() : nullptr));
-  const int stride = SweepFrameStride(options, sequence.num_frames);
   const std::vector<uint8_t> own_frames = samples::OwnLightingFrames(sequence);
   for (int t = 0; t < sequence.num_frames; ++t) {
     if (options.progress) options.progress("gather_samples", t, sequence.num_frames);
