@@ -75,13 +75,13 @@ struct FoldPart {
 constexpr char kObservedKey[] = "observed kd";
 
 // Frame t's correction atlas c = kd_o - kd (half-float RGB) from its observed
-// kd_o (the texel pass's): kept in `kept` when it says so, else in
-// observed_dir; named by the frame's number.
-absl::Status WriteCorrectionAtlas(const ResampledAtlasCache* kept, bool in_kept,
-                                  const std::filesystem::path& observed_dir, int t, const scene::Sequence& sequence,
-                                  const std::vector<glm::vec3>& kd, int size, const std::filesystem::path& dir) {
+// kd_o (the texel pass's): kept in `kept` (may be null) when it has it, else
+// in observed_dir; named by the frame's number.
+absl::Status WriteCorrectionAtlas(const ResampledAtlasCache* kept, const std::filesystem::path& observed_dir, int t,
+                                  const scene::Sequence& sequence, const std::vector<glm::vec3>& kd, int size,
+                                  const std::filesystem::path& dir) {
   image::ExrImage observed;
-  if (in_kept) {
+  if (kept != nullptr && kept->Contains(t, 0, kObservedKey)) {
     std::optional<ResampledAtlasCache::Kept> found = kept->Find(t, 0, kObservedKey);
     if (!found.has_value()) {
       return absl::UnavailableError(absl::StrCat("frame ", t,
@@ -1100,12 +1100,10 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   // Within what pass 1's cache left of its budget: both together take at
   // most about half the free space.
   std::unique_ptr<ResampledAtlasCache> observed_atlases;
-  std::vector<uint8_t> observed_kept;  // per frame: 1 in observed_atlases
   if (correction) {
     absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> made = ResampledAtlasCache::Create(
         resampled_atlases != nullptr ? resampled_atlases->budget_left() : ResampledAtlasCache::kDefaultBudgetBytes);
     if (made.ok()) observed_atlases = *std::move(made);
-    observed_kept.assign(static_cast<size_t>(sequence.num_frames), 0);
   }
   std::vector<int> observed_frames;
   // Per camera: texel observations of the texel pass refused as masked or
@@ -1249,9 +1247,7 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
         // Kept bit for bit in the temporary file (no compression: ~2 ms),
         // else written as an EXR on a thread while the next frame is
         // resampled (~60 ms per 512^2 float EXR); one write in flight at a time.
-        if (observed_atlases != nullptr && observed_atlases->Keep(t, 0, kObservedKey, observed)) {
-          observed_kept[static_cast<size_t>(t)] = 1;
-        } else {
+        if (observed_atlases == nullptr || !observed_atlases->Keep(t, 0, kObservedKey, observed)) {
           if (writing.valid()) MVBRDF_RETURN_IF_ERROR(writing.get());
           writing = std::async(std::launch::async, [file = observed_dir / absl::StrCat(t, ".exr"), observed] {
             return image::WriteExr(file, observed);
@@ -1421,8 +1417,8 @@ absl::StatusOr<v1::RunReport> RunReconstruction(const scene::Sequence& scene_seq
   InAtlasParts([&](int part) {
     for (size_t i = static_cast<size_t>(part); i < observed_frames.size(); i += kAtlasParts) {
       part_status[static_cast<size_t>(part)] =
-          WriteCorrectionAtlas(observed_atlases.get(), observed_kept[static_cast<size_t>(observed_frames[i])] != 0,
-                               observed_dir, observed_frames[i], sequence, kd.kd, atlas.size, atlases / "correction");
+          WriteCorrectionAtlas(observed_atlases.get(), observed_dir, observed_frames[i], sequence, kd.kd, atlas.size,
+                               atlases / "correction");
       if (!part_status[static_cast<size_t>(part)].ok()) return;
     }
   });

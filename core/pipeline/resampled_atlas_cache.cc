@@ -88,6 +88,12 @@ size_t ResampledAtlasCache::size() const {
   return entries_.size();
 }
 
+bool ResampledAtlasCache::Contains(int t, int camera, const std::string& key) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = entries_.find({t, camera});
+  return it != entries_.end() && it->second.key == key;
+}
+
 std::optional<ResampledAtlasCache::Kept> ResampledAtlasCache::Find(int t, int camera, const std::string& key) const {
   std::lock_guard<std::mutex> lock(mutex_);
   const auto it = entries_.find({t, camera});

@@ -54,6 +54,9 @@ class ResampledAtlasCache {
   // besides the frame: the camera's model, the resampler's options), if any;
   // none also where the file cannot be read back (an I/O error).
   std::optional<Kept> Find(int t, int camera, const std::string& key) const;
+  // Whether an atlas is kept for (t, camera) under `key` (Find then fails
+  // only on an I/O error).
+  bool Contains(int t, int camera, const std::string& key) const;
   // Keeps it (a continuous CV_32FC4 atlas) once, while the budget allows;
   // whether it is kept now.
   bool Keep(int t, int camera, const std::string& key, const cv::Mat& atlas,

@@ -18,22 +18,10 @@
 
 namespace mvbrdf::pipeline {
 
-// Sum of I_k a_k h_k^ke over the lights in `mask`, channel c (a: the
-// fall-off, 1 without fall-off).
-inline float SpecularSum(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
-                         const samples::LightMask& mask, int c, double ke) {
-  double s = 0.0;
-  for (size_t j = 0; j < terms.count; ++j) {
-    const size_t k = terms.light[j];
-    if (!mask.Test(k) || !(terms.h[j] > 0.0f)) continue;
-    s += intensity[k][c] * terms.falloff[j] * std::exp(ke * std::log(static_cast<double>(terms.h[j])));
-  }
-  return static_cast<float>(s);
-}
-
-// SpecularSum of the three channels at their exponents, ln h_k taken once
-// per light for the three (bit for bit SpecularSum's per channel: the same
-// operations in the same order).
+// Per channel c: sum of I_k[c] a_k h_k^ke_c over the lights in `mask` (a:
+// the fall-off, 1 without fall-off), ln h_k taken once per light for the
+// three channels (bit for bit the per-channel sum the texel passes took
+// before: texel_shading_test.cc).
 inline glm::vec3 SpecularSums(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
                               const samples::LightMask& mask, const fit::PhongRgb& phong) {
   double s[3] = {0.0, 0.0, 0.0};

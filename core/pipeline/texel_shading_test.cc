@@ -11,6 +11,19 @@
 namespace mvbrdf::pipeline {
 namespace {
 
+// The reference: the sum the texel passes took per channel before
+// SpecularSums, I_k a_k h_k^ke over the lights in `mask`, channel c.
+float SpecularSum(const samples::LightTerms& terms, const std::vector<glm::vec3>& intensity,
+                  const samples::LightMask& mask, int c, double ke) {
+  double s = 0.0;
+  for (size_t j = 0; j < terms.count; ++j) {
+    const size_t k = terms.light[j];
+    if (!mask.Test(k) || !(terms.h[j] > 0.0f)) continue;
+    s += intensity[k][c] * terms.falloff[j] * std::exp(ke * std::log(static_cast<double>(terms.h[j])));
+  }
+  return static_cast<float>(s);
+}
+
 TEST(TexelShadingTest, SpecularSumsIsSpecularSumPerChannelBitForBit) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
