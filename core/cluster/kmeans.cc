@@ -294,9 +294,10 @@ Allowed MakeAllowed(const KMeansInput& input, size_t k) {
   return allowed;
 }
 
-}  // namespace
-
-absl::StatusOr<KMeansResult> KMeans(const KMeansInput& input, const KMeansOptions& options) {
+// KMeans, and with automatic k the run at the largest k tried into `largest`
+// (when not null; its Lloyd on every point, no names).
+absl::StatusOr<KMeansResult> KMeansAndLargest(const KMeansInput& input, const KMeansOptions& options,
+                                              KMeansResult* largest) {
   const size_t num_seeds = options.seeds.size();
   if (absl::Status status = Validate(input, options, num_seeds); !status.ok()) return status;
 
@@ -343,13 +344,25 @@ absl::StatusOr<KMeansResult> KMeans(const KMeansInput& input, const KMeansOption
     if (k == 1 || (run.inertia <= (1.0 - kAutomaticMinGain) * previous.inertia && SeparatedByValleys(choose_on, run))) {
       chosen = run;
     }
-    if (run.inertia <= 0.0) break;  // every point on a centre
+    if (run.inertia <= 0.0 || k == max_k) {  // every point on a centre, or the last k
+      if (largest != nullptr) {
+        *largest =
+            &choose_on != &input ? Lloyd(input, MakeAllowed(input, run.centres.size()), run.centres, options) : run;
+      }
+      break;
+    }
     previous = std::move(run);
   }
   if (&choose_on != &input) chosen = Lloyd(input, MakeAllowed(input, chosen.centres.size()), chosen.centres, options);
   chosen.automatic_k = true;
   for (size_t c = 0; c < chosen.centres.size(); ++c) chosen.names.push_back(absl::StrCat("cluster ", c));
   return chosen;
+}
+
+}  // namespace
+
+absl::StatusOr<KMeansResult> KMeans(const KMeansInput& input, const KMeansOptions& options) {
+  return KMeansAndLargest(input, options, nullptr);
 }
 
 std::vector<bool> MergeTinyClusters(const KMeansInput& input, KMeansResult* result) {
@@ -400,23 +413,36 @@ std::vector<bool> MergeTinyClusters(const KMeansInput& input, KMeansResult* resu
 
 absl::StatusOr<KMeansResult> KMeansOfMaterials(const KMeansInput& input, const KMeansOptions& options,
                                                std::vector<bool>* tiny) {
-  absl::StatusOr<KMeansResult> first = KMeans(input, options);
+  KMeansResult largest;
+  absl::StatusOr<KMeansResult> first = KMeansAndLargest(input, options, &largest);
   if (!first.ok()) return first.status();
   tiny->assign(first->centres.size(), false);
   if (!first->automatic_k) return first;
   KMeansResult merged = *first;
-  const std::vector<bool> first_tiny = MergeTinyClusters(input, &merged);
-  if (std::find(first_tiny.begin(), first_tiny.end(), true) == first_tiny.end()) return first;
+  std::vector<bool> first_tiny = MergeTinyClusters(input, &merged);
+  const auto none = [](const std::vector<bool>& v) { return std::find(v.begin(), v.end(), true) == v.end(); };
+  // The outliers: the first run's tiny clusters or, where it has none, the
+  // largest k's: outliers that are not far enough off for a chosen k to
+  // isolate them still add to every k's inertia (the 6-frame actor at 128^2:
+  // 35 texels with albedo estimates of 3-30 hid two of its three materials).
+  const KMeansResult* outliers_from = &*first;
+  if (none(first_tiny) && !largest.centres.empty()) {
+    KMeansResult merged_largest = largest;
+    first_tiny = MergeTinyClusters(input, &merged_largest);
+    outliers_from = &largest;
+  }
+  if (none(first_tiny)) return first;
   KMeansInput rest;
   std::vector<size_t> rest_index;
   for (size_t i = 0; i < input.points.size(); ++i) {
-    if (first_tiny[first->assignment[i]]) continue;
+    if (first_tiny[outliers_from->assignment[i]]) continue;
     rest.points.push_back(input.points[i]);
     if (!input.weights.empty()) rest.weights.push_back(input.weights[i]);
     rest_index.push_back(i);
   }
   absl::StatusOr<KMeansResult> second = KMeans(rest, options);
   if (!second.ok()) {  // e.g. the rest weighs nothing: the merged first run
+    if (outliers_from != &*first) return first;
     *tiny = first_tiny;
     return merged;
   }
@@ -426,7 +452,7 @@ absl::StatusOr<KMeansResult> KMeansOfMaterials(const KMeansInput& input, const K
   result.centres = second->centres;
   const size_t k = second->centres.size();
   for (size_t c = 0; c < first_tiny.size(); ++c) {
-    if (first_tiny[c]) result.centres.push_back(first->centres[c]);
+    if (first_tiny[c]) result.centres.push_back(outliers_from->centres[c]);
   }
   std::vector<uint32_t> materials(k);
   for (size_t c = 0; c < k; ++c) materials[c] = static_cast<uint32_t>(c);
