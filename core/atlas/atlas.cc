@@ -2,6 +2,7 @@
 #include "core/atlas/atlas.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <utility>
 
@@ -179,20 +180,27 @@ absl::StatusOr<Atlas> BuildCharts(const scene::MeshTopology& input, const scene:
     chart_points[render_chart[r]].push_back(plane[r]);
   }
   std::vector<internal::OrientedRect> rects(charts.size());
-  std::vector<glm::dvec2> extents(charts.size());
+  std::vector<internal::ChartShape> shapes(charts.size());
   for (size_t c = 0; c < charts.size(); ++c) {
     rects[c] = internal::MinAreaRectangle(std::move(chart_points[c]));
-    extents[c] = rects[c].extent;
+    shapes[c].extent = rects[c].extent;
+    shapes[c].triangles.reserve(charts[c].triangles.size());
+    for (uint32_t t : charts[c].triangles) {
+      std::array<glm::dvec2, 3> q;
+      for (int k = 0; k < 3; ++k) q[k] = rects[c].RectFromPlane(plane[topo.triangles[t][k]]);
+      shapes[c].triangles.push_back(q);
+      shapes[c].area += 0.5 * std::abs((q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[1].y - q[0].y) * (q[2].x - q[0].x));
+    }
   }
   MVBRDF_ASSIGN_OR_RETURN(const internal::PackedLayout layout,
-                          internal::PackRectangles(extents, options.size, options.gutter));
+                          internal::PackCharts(shapes, options.size, options.gutter));
 
   // Texel frame (x right, y up, texels) to UV: divide by the size.
   topo.uvs.resize(num_render);
   const double inv_size = 1.0 / options.size;
   for (size_t r = 0; r < num_render; ++r) {
     const uint32_t c = render_chart[r];
-    const glm::dvec2 texel = glm::dvec2(layout.offsets[c]) + layout.texels_per_unit * rects[c].RectFromPlane(plane[r]);
+    const glm::dvec2 texel = layout.Place(c, rects[c].extent, rects[c].RectFromPlane(plane[r]));
     topo.uvs[r] = glm::vec2(texel * inv_size);
   }
   atlas.stats.built = true;

@@ -87,7 +87,8 @@ struct Atlas {
 // keep_existing_uvs false) get charts grown from seed triangles by normal
 // deviation, each projected orthogonally onto the plane of its average normal,
 // split where the projection would overlap itself, turned to its minimal
-// bounding rectangle and packed with a gutter at the largest scale that fits.
+// bounding rectangle, and the charts' outlines are packed (turned by quarter
+// turns where that fits lower) with a gutter at the largest scale that fits.
 // Built atlases keep triangle order and file_triangles; a file vertex used by k
 // charts becomes k render vertices. Errors: options.Check(), inconsistent
 // topology or positions (INVALID_ARGUMENT naming the field), too many charts

@@ -307,10 +307,10 @@ TEST(BuildAtlasTest, Cube) {
   EXPECT_EQ(atlas->topology.num_render_vertices(), 24u);
   EXPECT_NEAR(atlas->stats.min_area_ratio, 1.0, 1e-5);
   EXPECT_NEAR(atlas->stats.max_area_ratio, 1.0, 1e-5);
-  // Six unit squares of s texels with a gutter of 2 in 64 texels: two
-  // shelves of three need 2 + 3 (s + 2) <= 64, so s = 18 (to the search's
-  // 1e-4 relative tolerance).
-  EXPECT_GT(atlas->stats.texels_per_world_unit, 18.0 * (1.0 - 1e-4));
+  // Six unit squares of s texels with a gutter of 2 in 64 texels: two rows
+  // of three need 2 + 3 (ceil(s) + 2) <= 64, so s = 18 (to the search's
+  // 1e-3 relative tolerance).
+  EXPECT_GT(atlas->stats.texels_per_world_unit, 18.0 * (1.0 - 1e-3));
   EXPECT_LE(atlas->stats.texels_per_world_unit, 18.0);
   for (size_t t = 0; t < atlas->topology.triangles.size(); ++t) EXPECT_GT(SignedUvArea(atlas->topology, t), 0.0);
 }
@@ -389,7 +389,25 @@ void ExpectSameAtlasWhateverTheUnits(const scene::MeshTopology& topology, const 
     EXPECT_EQ(atlas->stats.num_charts, base->stats.num_charts);
     EXPECT_EQ(atlas->triangle_chart, base->triangle_chart);
     const int differing = cv::countNonZero(atlas->triangle_id != base->triangle_id);
-    EXPECT_EQ(differing, 0) << "texels of triangle_id that differ";
+    // The scaled positions are floats too, so the UVs differ by float
+    // rounding; a texel centre on the edge two triangles share (a square's
+    // diagonal through texel centres, as a chart turned by a quarter turn can
+    // put it) may then go to either. Nothing else may differ.
+    for (int y = 0; y < size; ++y) {
+      for (int x = 0; x < size; ++x) {
+        const int32_t a = atlas->triangle_id.at<int32_t>(y, x), b = base->triangle_id.at<int32_t>(y, x);
+        if (a == b) continue;
+        ASSERT_TRUE(a >= 0 && b >= 0) << "texel (" << x << ", " << y << ") covered in one atlas only";
+        int shared = 0;
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) shared += topology.file_triangles[a][i] == topology.file_triangles[b][j];
+        }
+        EXPECT_GE(shared, 2) << "texel (" << x << ", " << y << "): triangles " << a << " and " << b << " share no edge";
+        EXPECT_EQ(atlas->triangle_chart[a], atlas->triangle_chart[b]);
+      }
+    }
+    // Measured: one diagonal of 11 texels on the 12 x 6 sphere at 128^2.
+    EXPECT_LE(differing, cv::countNonZero(base->triangle_id >= 0) / 100) << "texels of triangle_id that differ";
     EXPECT_NEAR(atlas->stats.texels_per_world_unit * scale / base->stats.texels_per_world_unit, 1.0, 1e-5);
     ASSERT_EQ(atlas->topology.uvs.size(), base->topology.uvs.size());
     float worst = 0.0f;
@@ -451,9 +469,10 @@ TEST(BuildAtlasTest, SambaAt512And1024) {
     constexpr double kFloatSlack = 1e-3;
     EXPECT_GE(s.min_area_ratio, cos_d * (1.0 - kFloatSlack));
     EXPECT_LE(s.max_area_ratio / s.min_area_ratio, 1.0 / cos_d * (1.0 + kFloatSlack));
-    // Measured coverage 0.331 (512) and 0.349 (1024): the shelf packer fills
-    // ~0.8 of the atlas with chart rectangles, the charts ~0.43 of those.
-    EXPECT_GT(s.coverage, 0.3);
+    // Measured coverage 0.583 (512) and 0.614 (1024); packing the charts'
+    // rectangles on shelves gave 0.331 and 0.349 (the charts fill ~0.43 of
+    // their rectangles). At 512 the gutters of 178 charts take more.
+    EXPECT_GT(s.coverage, size == 512 ? 0.57 : 0.6);
     EXPECT_LT(s.num_charts, 400);  // measured 178
   }
 }

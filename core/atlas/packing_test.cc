@@ -41,41 +41,123 @@ TEST(MinAreaRectangleTest, PortraitIsTurnedToLandscape) {
   EXPECT_NEAR(rect.axis_x.x * rect.axis_y.y - rect.axis_x.y * rect.axis_y.x, 1.0, kTolerance);
 }
 
-TEST(PackRectanglesTest, BoxesKeepTheGutterAndFit) {
-  std::vector<glm::dvec2> extents;
-  for (int i = 0; i < 40; ++i) extents.emplace_back(1.0 + 0.1 * (i % 7), 0.5 + 0.05 * (i % 5));
-  const int size = 128, gutter = 3;
-  auto layout = PackRectangles(extents, size, gutter);
-  ASSERT_TRUE(layout.ok()) << layout.status();
-  const double s = layout->texels_per_unit;
-  EXPECT_GT(s, 0.0);
-  // Boxes [offset, offset + ceil(s extent)) grown by the gutter on every side
-  // stay disjoint from each other's boxes and inside the atlas.
-  for (size_t i = 0; i < extents.size(); ++i) {
-    const glm::ivec2 lo = layout->offsets[i];
-    const glm::ivec2 hi = lo + glm::ivec2(std::ceil(s * extents[i].x), std::ceil(s * extents[i].y));
-    EXPECT_GE(lo.x, gutter);
-    EXPECT_GE(lo.y, gutter);
-    EXPECT_LE(hi.x, size - gutter);
-    EXPECT_LE(hi.y, size - gutter);
-    for (size_t j = 0; j < i; ++j) {
-      const glm::ivec2 lo2 = layout->offsets[j];
-      const glm::ivec2 hi2 = lo2 + glm::ivec2(std::ceil(s * extents[j].x), std::ceil(s * extents[j].y));
-      const bool apart =
-          hi.x + gutter <= lo2.x || hi2.x + gutter <= lo.x || hi.y + gutter <= lo2.y || hi2.y + gutter <= lo.y;
-      EXPECT_TRUE(apart) << i << " and " << j;
-    }
-  }
-  // Sanity on efficiency: the content uses a fair share of the atlas.
-  double content = 0.0;
-  for (const glm::dvec2& e : extents) content += s * s * e.x * e.y;
-  EXPECT_GT(content / (size * size), 0.4);
+// A right triangle with legs a (x) and b (y), in its rectangle's frame.
+ChartShape RightTriangle(double a, double b) {
+  ChartShape c;
+  c.extent = glm::dvec2(a, b);
+  c.triangles.push_back({glm::dvec2(0, 0), glm::dvec2(a, 0), glm::dvec2(0, b)});
+  c.area = 0.5 * a * b;
+  return c;
 }
 
-TEST(PackRectanglesTest, TooManyBoxesIsResourceExhausted) {
-  const std::vector<glm::dvec2> extents(100, glm::dvec2(1.0, 1.0));
-  // 100 boxes of at least 1 + 2 texels need 30 x 30 > 16 x 16.
-  EXPECT_EQ(PackRectangles(extents, 16, 2).status().code(), absl::StatusCode::kResourceExhausted);
+// An L of three unit squares (two triangles each) in a 2 x 2 box, scaled.
+ChartShape Ell(double side) {
+  ChartShape c;
+  c.extent = glm::dvec2(2.0 * side);
+  for (const glm::dvec2 o : {glm::dvec2(0, 0), glm::dvec2(1, 0), glm::dvec2(0, 1)}) {
+    const glm::dvec2 a = side * o, b = side * (o + glm::dvec2(1, 0)), d = side * (o + glm::dvec2(0, 1)),
+                     e = side * (o + glm::dvec2(1, 1));
+    c.triangles.push_back({a, b, e});
+    c.triangles.push_back({a, e, d});
+    c.area += side * side;
+  }
+  return c;
+}
+
+// Every placed chart's texels, found independently of the packer: points on
+// a fine barycentric grid of each triangle, mapped by Place, marked in the
+// texel under them. Checks boxes inside the border, orientation kept and no
+// two charts' texels within the gutter (Chebyshev); returns the fraction of
+// the atlas marked.
+double ExpectLayoutKeepsTheGutter(const std::vector<ChartShape>& charts, const PackedLayout& layout, int size,
+                                  int gutter) {
+  std::vector<int> owner(static_cast<size_t>(size) * size, -1);
+  int64_t marked = 0;
+  for (size_t c = 0; c < charts.size(); ++c) {
+    for (const auto& tri : charts[c].triangles) {
+      const glm::dvec2 p0 = layout.Place(c, charts[c].extent, tri[0]), p1 = layout.Place(c, charts[c].extent, tri[1]),
+                       p2 = layout.Place(c, charts[c].extent, tri[2]);
+      const double before =
+          (tri[1].x - tri[0].x) * (tri[2].y - tri[0].y) - (tri[1].y - tri[0].y) * (tri[2].x - tri[0].x);
+      const double after = (p1.x - p0.x) * (p2.y - p0.y) - (p1.y - p0.y) * (p2.x - p0.x);
+      EXPECT_NEAR(after, before * layout.texels_per_unit * layout.texels_per_unit, 1e-6 * (1.0 + std::abs(after)));
+      constexpr int kSteps = 64;
+      for (int a = 0; a <= kSteps; ++a) {
+        for (int b = 0; a + b <= kSteps; ++b) {
+          // Nudged towards the centroid: a vertex exactly on a texel
+          // boundary belongs to the texel inside the box.
+          const glm::dvec2 centroid = (p0 + p1 + p2) / 3.0;
+          glm::dvec2 p = p0 + (p1 - p0) * (a / double(kSteps)) + (p2 - p0) * (b / double(kSteps));
+          p += 1e-9 * (centroid - p);
+          const int i = static_cast<int>(std::floor(p.x)), j = static_cast<int>(std::floor(p.y));
+          EXPECT_GE(i, gutter);
+          EXPECT_GE(j, gutter);
+          EXPECT_LT(i, size - gutter);
+          EXPECT_LT(j, size - gutter);
+          if (i < 0 || j < 0 || i >= size || j >= size) continue;
+          int& o = owner[static_cast<size_t>(j) * size + i];
+          if (o < 0) ++marked;
+          o = static_cast<int>(c);
+        }
+      }
+    }
+  }
+  int64_t violations = 0;
+  for (int j = 0; j < size; ++j) {
+    for (int i = 0; i < size; ++i) {
+      const int c = owner[static_cast<size_t>(j) * size + i];
+      if (c < 0) continue;
+      for (int dj = -gutter; dj <= gutter; ++dj) {
+        for (int di = -gutter; di <= gutter; ++di) {
+          const int ii = i + di, jj = j + dj;
+          if (ii < 0 || jj < 0 || ii >= size || jj >= size) continue;
+          const int other = owner[static_cast<size_t>(jj) * size + ii];
+          if (other >= 0 && other != c) ++violations;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(violations, 0) << "texels of different charts within the gutter";
+  return static_cast<double>(marked) / (static_cast<double>(size) * size);
+}
+
+TEST(PackChartsTest, OutlinesKeepTheGutterAndFit) {
+  std::vector<ChartShape> charts;
+  for (int i = 0; i < 30; ++i) {
+    charts.push_back(i % 3 == 0 ? Ell(0.3 + 0.05 * (i % 4)) : RightTriangle(1.0 + 0.1 * (i % 7), 0.5 + 0.05 * (i % 5)));
+  }
+  const int size = 128, gutter = 2;
+  auto layout = PackCharts(charts, size, gutter);
+  ASSERT_TRUE(layout.ok()) << layout.status();
+  EXPECT_GT(layout->texels_per_unit, 0.0);
+  const double covered = ExpectLayoutKeepsTheGutter(charts, *layout, size, gutter);
+  // Rectangles around these outlines are half empty; outlines fill more than
+  // half the atlas (measured 0.55).
+  EXPECT_GT(covered, 0.5);
+  for (int turn : layout->turns) {
+    EXPECT_GE(turn, 0);
+    EXPECT_LT(turn, 4);
+  }
+}
+
+TEST(PackChartsTest, TwoTrianglesNestInOneSquare) {
+  // Two right triangles with unit legs: as rectangles, two unit boxes side by
+  // side (scale <= (64 - 3 gutters) / 2 = 30.5); as outlines, the second turns
+  // by a half turn into the first's empty half.
+  const std::vector<ChartShape> charts = {RightTriangle(1.0, 1.0), RightTriangle(1.0, 1.0)};
+  const int size = 64, gutter = 1;
+  auto layout = PackCharts(charts, size, gutter);
+  ASSERT_TRUE(layout.ok()) << layout.status();
+  ExpectLayoutKeepsTheGutter(charts, *layout, size, gutter);
+  EXPECT_GT(layout->texels_per_unit, 45.0);
+  EXPECT_EQ(layout->turns[0], 0);
+  EXPECT_EQ(layout->turns[1], 2);
+}
+
+TEST(PackChartsTest, TooManyChartsIsResourceExhausted) {
+  // 100 charts of at least 1 + 2 texels need 30 x 30 > 16 x 16.
+  const std::vector<ChartShape> charts(100, RightTriangle(1.0, 1.0));
+  EXPECT_EQ(PackCharts(charts, 16, 2).status().code(), absl::StatusCode::kResourceExhausted);
 }
 
 }  // namespace
