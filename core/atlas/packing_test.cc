@@ -131,8 +131,8 @@ TEST(PackChartsTest, OutlinesKeepTheGutterAndFit) {
   ASSERT_TRUE(layout.ok()) << layout.status();
   EXPECT_GT(layout->texels_per_unit, 0.0);
   const double covered = ExpectLayoutKeepsTheGutter(charts, *layout, size, gutter);
-  // Rectangles around these outlines are half empty; outlines fill more than
-  // half the atlas (measured 0.55).
+  // The charts fill 0.56 of their rectangles; their outlines fill more than
+  // half the atlas with a gutter of 2 (measured 0.523 of the texels marked).
   EXPECT_GT(covered, 0.5);
   for (int turn : layout->turns) {
     EXPECT_GE(turn, 0);
