@@ -312,7 +312,9 @@ TEST(KMeans, AutomaticKLeavesModerateOutliersOut) {
   size_t materials = 0;
   for (size_t c = 0; c < result->centres.size(); ++c) {
     materials += tiny[c] ? 0 : 1;
-    if (tiny[c]) EXPECT_EQ(result->sizes[c], 0u);
+    if (tiny[c]) {
+      EXPECT_EQ(result->sizes[c], 0u);
+    }
   }
   EXPECT_EQ(materials, 3u);
   const std::vector<uint32_t> labels(blobs.labels.begin(), blobs.labels.begin() + 6000);
