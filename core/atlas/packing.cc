@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <utility>
 #include <vector>
 
@@ -53,12 +55,9 @@ OrientedRect BoundsAlong(const std::vector<glm::dvec2>& points, const glm::dvec2
   return rect;
 }
 
-// A chart's footprint on the texel grid at one scale: a bitmap of its box
-// (row-major, row 0 at y = 0), and the same grown by the gutter.
-struct Footprint {
-  int width = 0, height = 0;  // the box, texels
-  std::vector<uint8_t> texels;
-};
+// A chart's footprint on the texel grid at one scale is a CV_8UC1 bitmap of
+// its box, row j holding the texels of y in [j, j + 1] (row 0 at y = 0, so
+// the rows run upwards), 1 where a triangle touches the texel.
 
 // True when the closed triangle and the closed texel square [i, i + 1] x
 // [j, j + 1] meet: no separating axis among the square's (the caller's
@@ -87,11 +86,9 @@ bool TriangleMeetsTexel(const std::array<glm::dvec2, 3>& t, int i, int j) {
 
 // The texels of the box the chart's triangles touch at `texels_per_unit`
 // (clamped to the box: a vertex on its far edge touches no texel beyond).
-Footprint RasterizeFootprint(const ChartShape& chart, double texels_per_unit) {
-  Footprint f;
-  f.width = BoxTexels(chart.extent.x, texels_per_unit);
-  f.height = BoxTexels(chart.extent.y, texels_per_unit);
-  f.texels.assign(static_cast<size_t>(f.width) * f.height, 0);
+cv::Mat RasterizeFootprint(const ChartShape& chart, double texels_per_unit) {
+  cv::Mat f(BoxTexels(chart.extent.y, texels_per_unit), BoxTexels(chart.extent.x, texels_per_unit), CV_8UC1,
+            cv::Scalar(0));
   for (const std::array<glm::dvec2, 3>& tri : chart.triangles) {
     std::array<glm::dvec2, 3> t;
     glm::dvec2 lo(HUGE_VAL), hi(-HUGE_VAL);
@@ -100,13 +97,13 @@ Footprint RasterizeFootprint(const ChartShape& chart, double texels_per_unit) {
       lo = glm::min(lo, t[k]);
       hi = glm::max(hi, t[k]);
     }
-    const int i0 = std::clamp(static_cast<int>(std::floor(lo.x)) - 1, 0, f.width - 1);
-    const int i1 = std::clamp(static_cast<int>(std::floor(hi.x)), 0, f.width - 1);
-    const int j0 = std::clamp(static_cast<int>(std::floor(lo.y)) - 1, 0, f.height - 1);
-    const int j1 = std::clamp(static_cast<int>(std::floor(hi.y)), 0, f.height - 1);
+    const int i0 = std::clamp(static_cast<int>(std::floor(lo.x)) - 1, 0, f.cols - 1);
+    const int i1 = std::clamp(static_cast<int>(std::floor(hi.x)), 0, f.cols - 1);
+    const int j0 = std::clamp(static_cast<int>(std::floor(lo.y)) - 1, 0, f.rows - 1);
+    const int j1 = std::clamp(static_cast<int>(std::floor(hi.y)), 0, f.rows - 1);
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
-        uint8_t& texel = f.texels[static_cast<size_t>(j) * f.width + i];
+        uint8_t& texel = f.at<uint8_t>(j, i);
         if (texel == 0 && i + 1 >= lo.x && i <= hi.x && j + 1 >= lo.y && j <= hi.y && TriangleMeetsTexel(t, i, j)) {
           texel = 1;
         }
@@ -118,57 +115,23 @@ Footprint RasterizeFootprint(const ChartShape& chart, double texels_per_unit) {
 
 // The footprint grown by g texels in x and y (Chebyshev), its box g larger on
 // every side.
-Footprint Grow(const Footprint& f, int g) {
-  Footprint rows;
-  rows.width = f.width + 2 * g;
-  rows.height = f.height;
-  rows.texels.assign(static_cast<size_t>(rows.width) * rows.height, 0);
-  for (int j = 0; j < f.height; ++j) {
-    for (int i = 0; i < f.width; ++i) {
-      if (f.texels[static_cast<size_t>(j) * f.width + i] == 0) continue;
-      uint8_t* row = &rows.texels[static_cast<size_t>(j) * rows.width];
-      std::fill(row + i, row + i + 2 * g + 1, 1);
-    }
-  }
-  Footprint grown;
-  grown.width = rows.width;
-  grown.height = f.height + 2 * g;
-  grown.texels.assign(static_cast<size_t>(grown.width) * grown.height, 0);
-  for (int j = 0; j < rows.height; ++j) {
-    for (int i = 0; i < rows.width; ++i) {
-      if (rows.texels[static_cast<size_t>(j) * rows.width + i] == 0) continue;
-      for (int k = 0; k <= 2 * g; ++k) grown.texels[static_cast<size_t>(j + k) * grown.width + i] = 1;
-    }
-  }
+cv::Mat Grow(const cv::Mat& f, int g) {
+  cv::Mat bordered, grown;
+  cv::copyMakeBorder(f, bordered, g, g, g, g, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::dilate(bordered, grown, cv::Mat::ones(2 * g + 1, 2 * g + 1, CV_8UC1), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT,
+             cv::Scalar(0));
   return grown;
 }
 
 // The footprint turned by `turns` quarter turns counter-clockwise inside its
 // box, as PackedLayout::Place turns points: texel (i, j) of a w x h box goes
-// to (h - 1 - j, i), (w - 1 - i, h - 1 - j) or (j, w - 1 - i).
-Footprint Turn(const Footprint& f, int turns) {
+// to (h - 1 - j, i), (w - 1 - i, h - 1 - j) or (j, w - 1 - i). (The rows run
+// upwards, so a counter-clockwise turn is OpenCV's clockwise one.)
+cv::Mat Turn(const cv::Mat& f, int turns) {
   if (turns == 0) return f;
-  Footprint t;
-  t.width = turns == 2 ? f.width : f.height;
-  t.height = turns == 2 ? f.height : f.width;
-  t.texels.assign(f.texels.size(), 0);
-  for (int j = 0; j < f.height; ++j) {
-    for (int i = 0; i < f.width; ++i) {
-      if (f.texels[static_cast<size_t>(j) * f.width + i] == 0) continue;
-      int ti = i, tj = j;
-      if (turns == 1) {
-        ti = f.height - 1 - j;
-        tj = i;
-      } else if (turns == 2) {
-        ti = f.width - 1 - i;
-        tj = f.height - 1 - j;
-      } else {
-        ti = j;
-        tj = f.width - 1 - i;
-      }
-      t.texels[static_cast<size_t>(tj) * t.width + ti] = 1;
-    }
-  }
+  constexpr cv::RotateFlags kCodes[] = {cv::ROTATE_90_CLOCKWISE, cv::ROTATE_180, cv::ROTATE_90_COUNTERCLOCKWISE};
+  cv::Mat t;
+  cv::rotate(f, t, kCodes[turns - 1]);
   return t;
 }
 
@@ -178,20 +141,20 @@ struct Spans {
   std::vector<std::vector<std::pair<int, int>>> rows;
 };
 
-Spans ToSpans(const Footprint& f) {
+Spans ToSpans(const cv::Mat& f) {
   Spans s;
-  s.width = f.width;
-  s.height = f.height;
-  s.rows.resize(static_cast<size_t>(f.height));
-  for (int j = 0; j < f.height; ++j) {
-    const uint8_t* row = &f.texels[static_cast<size_t>(j) * f.width];
-    for (int i = 0; i < f.width;) {
+  s.width = f.cols;
+  s.height = f.rows;
+  s.rows.resize(static_cast<size_t>(f.rows));
+  for (int j = 0; j < f.rows; ++j) {
+    const uint8_t* row = f.ptr<uint8_t>(j);
+    for (int i = 0; i < f.cols;) {
       if (row[i] == 0) {
         ++i;
         continue;
       }
       int k = i;
-      while (k + 1 < f.width && row[k + 1] != 0) ++k;
+      while (k + 1 < f.cols && row[k + 1] != 0) ++k;
       s.rows[static_cast<size_t>(j)].emplace_back(i, k);
       i = k + 1;
     }
@@ -301,16 +264,16 @@ bool PackAt(const std::vector<ChartShape>& charts, const std::vector<size_t>& or
   layout->turns.assign(charts.size(), 0);
   Occupancy occupied(size);
   for (size_t c : order) {
-    const Footprint footprint = RasterizeFootprint(charts[c], texels_per_unit);
-    const Footprint grown = Grow(footprint, gutter);
+    const cv::Mat footprint = RasterizeFootprint(charts[c], texels_per_unit);
+    const cv::Mat grown = Grow(footprint, gutter);
     // A 1-texel footprint looks the same in every turn.
-    const int turns = footprint.width == 1 && footprint.height == 1 ? 1 : 4;
+    const int turns = footprint.total() == 1 ? 1 : 4;
     // The turn and place whose top (box row + box height) is lowest, then
     // the lowest row, then column: lying a strip down beats standing it up.
     int best_turn = -1, best_top = 2 * size;
     glm::ivec2 best(0, size);
     for (int turn = 0; turn < turns; ++turn) {
-      const int h = turn % 2 == 0 ? footprint.height : footprint.width;
+      const int h = turn % 2 == 0 ? footprint.rows : footprint.cols;
       glm::ivec2 at;
       if (!LowestFit(occupied, ToSpans(Turn(grown, turn)), size, gutter, best_top - h, &at)) continue;
       const int top = at.y + h;
@@ -323,10 +286,10 @@ bool PackAt(const std::vector<ChartShape>& charts, const std::vector<size_t>& or
     if (best_turn < 0) return false;
     layout->offsets[c] = best;
     layout->turns[c] = best_turn;
-    const Footprint placed = Turn(footprint, best_turn);
-    for (int j = 0; j < placed.height; ++j) {
-      for (int i = 0; i < placed.width; ++i) {
-        if (placed.texels[static_cast<size_t>(j) * placed.width + i] != 0) occupied.Set(best.y + j, best.x + i);
+    const cv::Mat placed = Turn(footprint, best_turn);
+    for (int j = 0; j < placed.rows; ++j) {
+      for (int i = 0; i < placed.cols; ++i) {
+        if (placed.at<uint8_t>(j, i) != 0) occupied.Set(best.y + j, best.x + i);
       }
       occupied.Update(best.y + j);
     }
