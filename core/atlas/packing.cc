@@ -59,55 +59,49 @@ OrientedRect BoundsAlong(const std::vector<glm::dvec2>& points, const glm::dvec2
 // its box, row j holding the texels of y in [j, j + 1] (row 0 at y = 0, so
 // the rows run upwards), 1 where a triangle touches the texel.
 
-// True when the closed triangle and the closed texel square [i, i + 1] x
-// [j, j + 1] meet: no separating axis among the square's (the caller's
-// bounding-box loop) and the triangle's edge normals. Projections are
-// intervals, so a degenerate triangle (a segment, a point) is handled alike.
-bool TriangleMeetsTexel(const std::array<glm::dvec2, 3>& t, int i, int j) {
-  constexpr double kSlack = 1e-9;  // texels: conservative against rounding
-  for (int e = 0; e < 3; ++e) {
-    const glm::dvec2 edge = t[(e + 1) % 3] - t[e];
-    const glm::dvec2 n(-edge.y, edge.x);
-    if (n.x == 0.0 && n.y == 0.0) continue;
-    double tlo = HUGE_VAL, thi = -HUGE_VAL;
-    for (const glm::dvec2& p : t) {
-      const double v = glm::dot(n, p);
-      tlo = std::min(tlo, v);
-      thi = std::max(thi, v);
-    }
-    const double base = n.x * i + n.y * j;
-    const double slo = base + std::min(0.0, n.x) + std::min(0.0, n.y);
-    const double shi = base + std::max(0.0, n.x) + std::max(0.0, n.y);
-    const double slack = kSlack * (std::abs(n.x) + std::abs(n.y));
-    if (slo > thi + slack || shi < tlo - slack) return false;
-  }
-  return true;
-}
-
 // The texels of the box the chart's triangles touch at `texels_per_unit`
-// (clamped to the box: a vertex on its far edge touches no texel beyond).
+// (clamped to the box: a vertex on its far edge touches no texel beyond):
+// texel (i, j), the closed square [i, i + 1] x [j, j + 1], is touched when the
+// closed triangle meets it, i.e. when [i, i + 1] meets the x extent of the
+// triangle's part in the slab j <= y <= j + 1 (a convex polygon whose
+// vertices are the triangle's in the slab and its edges' crossings of the
+// slab's lines). Degenerate triangles (segments, points) are handled alike.
 cv::Mat RasterizeFootprint(const ChartShape& chart, double texels_per_unit) {
+  constexpr double kSlack = 1e-9;  // texels: conservative against rounding
   cv::Mat f(BoxTexels(chart.extent.y, texels_per_unit), BoxTexels(chart.extent.x, texels_per_unit), CV_8UC1,
             cv::Scalar(0));
   for (const std::array<glm::dvec2, 3>& tri : chart.triangles) {
     std::array<glm::dvec2, 3> t;
-    glm::dvec2 lo(HUGE_VAL), hi(-HUGE_VAL);
+    double y_lo = HUGE_VAL, y_hi = -HUGE_VAL;
     for (int k = 0; k < 3; ++k) {
       t[k] = texels_per_unit * tri[k];
-      lo = glm::min(lo, t[k]);
-      hi = glm::max(hi, t[k]);
+      y_lo = std::min(y_lo, t[k].y);
+      y_hi = std::max(y_hi, t[k].y);
     }
-    const int i0 = std::clamp(static_cast<int>(std::floor(lo.x)) - 1, 0, f.cols - 1);
-    const int i1 = std::clamp(static_cast<int>(std::floor(hi.x)), 0, f.cols - 1);
-    const int j0 = std::clamp(static_cast<int>(std::floor(lo.y)) - 1, 0, f.rows - 1);
-    const int j1 = std::clamp(static_cast<int>(std::floor(hi.y)), 0, f.rows - 1);
+    const int j0 = std::clamp(static_cast<int>(std::ceil(y_lo - 1.0 - kSlack)), 0, f.rows - 1);
+    const int j1 = std::clamp(static_cast<int>(std::floor(y_hi + kSlack)), 0, f.rows - 1);
     for (int j = j0; j <= j1; ++j) {
-      for (int i = i0; i <= i1; ++i) {
-        uint8_t& texel = f.at<uint8_t>(j, i);
-        if (texel == 0 && i + 1 >= lo.x && i <= hi.x && j + 1 >= lo.y && j <= hi.y && TriangleMeetsTexel(t, i, j)) {
-          texel = 1;
+      const double s0 = j - kSlack, s1 = j + 1.0 + kSlack;
+      double x_lo = HUGE_VAL, x_hi = -HUGE_VAL;
+      for (int k = 0; k < 3; ++k) {
+        const glm::dvec2& p = t[k];
+        const glm::dvec2& q = t[(k + 1) % 3];
+        if (p.y >= s0 && p.y <= s1) {
+          x_lo = std::min(x_lo, p.x);
+          x_hi = std::max(x_hi, p.x);
+        }
+        for (const double line : {s0, s1}) {
+          if ((p.y < line && q.y > line) || (p.y > line && q.y < line)) {
+            const double x = p.x + (q.x - p.x) * ((line - p.y) / (q.y - p.y));
+            x_lo = std::min(x_lo, x);
+            x_hi = std::max(x_hi, x);
+          }
         }
       }
+      if (!(x_lo <= x_hi)) continue;
+      const int i0 = std::clamp(static_cast<int>(std::ceil(x_lo - 1.0 - kSlack)), 0, f.cols - 1);
+      const int i1 = std::clamp(static_cast<int>(std::floor(x_hi + kSlack)), 0, f.cols - 1);
+      if (i0 <= i1) std::fill_n(f.ptr<uint8_t>(j) + i0, i1 - i0 + 1, uint8_t{1});
     }
   }
   return f;
@@ -187,6 +181,18 @@ class Occupancy {
     }
   }
 
+  // The first free column at or after `from` in `row`, or size.
+  int FirstClear(int row, int from) const {
+    const uint64_t* words = &bits_[static_cast<size_t>(row) * words_];
+    int w = from >> 6;
+    uint64_t word = ~words[w] & (~uint64_t{0} << (from & 63));
+    while (true) {
+      if (word != 0) return std::min(size_, (w << 6) + __builtin_ctzll(word));
+      if (++w >= words_) return size_;
+      word = ~words[w];
+    }
+  }
+
   int LongestFree(int row) const { return longest_free_[static_cast<size_t>(row)]; }
 
   void Set(int row, int column) {
@@ -195,11 +201,11 @@ class Occupancy {
 
   // Recomputes LongestFree of `row` after Set.
   void Update(int row) {
-    int longest = 0, from = 0;
+    int longest = 0, from = FirstClear(row, 0);
     while (from < size_) {
       const int hit = FirstSet(row, from, size_ - 1);
       longest = std::max(longest, hit - from);
-      from = hit + 1;
+      from = hit < size_ ? FirstClear(row, hit) : size_;
     }
     longest_free_[static_cast<size_t>(row)] = longest;
   }
@@ -240,7 +246,8 @@ bool LowestFit(const Occupancy& occupied, const Spans& grown, int size, int g, i
           const int from = x - g + first, to = x - g + last;
           const int hit = occupied.FirstSet(y - g + j, from, to);
           if (hit <= to) {
-            x = hit - (first - g) + 1;  // every x up to here puts this run on the hit
+            // Every x up to here puts this run on the occupied run from the hit on.
+            x = occupied.FirstClear(y - g + j, hit) - (first - g);
             start = j;
             fits = false;
             break;
