@@ -15,8 +15,7 @@ namespace mvbrdf::base {
 // (tens of thousands of calls per job); on this machine (a VM: each page
 // fault is a trap to the hypervisor) the faults took 2/3 of a 1e5-sample
 // Phong fit (scripts/bench-peer). Call once, first thing in main(); false
-// when glibc refused a setting, or when the environment has
-// MVBRDF_DEFAULT_MALLOC=1 (glibc's defaults kept: benchmarks compare both).
+// when glibc refused a setting.
 constexpr size_t kHeapBlockBytes = size_t{32} << 20;
 constexpr size_t kKeptFreeBytes = size_t{64} << 20;
 bool KeepFreedMemoryForReuse();

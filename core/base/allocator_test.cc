@@ -2,7 +2,6 @@
 
 #include <malloc.h>
 
-#include <cstdlib>
 #include <cstring>
 #include <memory>
 
@@ -27,7 +26,6 @@ constexpr bool kSanitized = false;
 // size and unmaps it on free), and the next one reuses it.
 TEST(AllocatorTest, KeepsAFreedBlockOfSomeMegabytes) {
   if (kSanitized) GTEST_SKIP() << "AddressSanitizer's allocator ignores mallopt (CMakeLists: a release case)";
-  ASSERT_EQ(unsetenv("MVBRDF_DEFAULT_MALLOC"), 0);
   ASSERT_TRUE(KeepFreedMemoryForReuse());
   constexpr size_t kBytes = size_t{8} << 20;
   static_assert(kBytes < kHeapBlockBytes && kBytes < kKeptFreeBytes);
@@ -40,13 +38,6 @@ TEST(AllocatorTest, KeepsAFreedBlockOfSomeMegabytes) {
   }
   const struct mallinfo2 after = mallinfo2();
   EXPECT_GE(after.fordblks, before.fordblks + kBytes) << "the freed block went back to the system";
-}
-
-// MVBRDF_DEFAULT_MALLOC=1 leaves glibc's defaults (benchmarks run both).
-TEST(AllocatorTest, TheEnvironmentCanKeepGlibcsDefaults) {
-  ASSERT_EQ(setenv("MVBRDF_DEFAULT_MALLOC", "1", 1), 0);
-  EXPECT_FALSE(KeepFreedMemoryForReuse());
-  ASSERT_EQ(unsetenv("MVBRDF_DEFAULT_MALLOC"), 0);
 }
 
 }  // namespace

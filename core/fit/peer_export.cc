@@ -305,9 +305,9 @@ std::string SolverJson(const Timed& t) {
 int Main(int argc, char** argv) {
   // As mvbrdf's main() does: the fits' arrays come from the heap, not fresh
   // pages at every call (allocator.h). scripts/bench-peer gives SciPy's
-  // process the same settings through glibc's environment variables
-  // (MVBRDF_DEFAULT_MALLOC=1: glibc's defaults on both sides).
-  base::KeepFreedMemoryForReuse();
+  // process the same settings through glibc's environment variables.
+  const char* default_malloc = std::getenv("MVBRDF_DEFAULT_MALLOC");
+  if (default_malloc == nullptr || std::strcmp(default_malloc, "1") != 0) base::KeepFreedMemoryForReuse();
   std::string out_dir;
   int repeats = 3;
   for (int i = 1; i < argc; ++i) {
