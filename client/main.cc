@@ -9,7 +9,6 @@
 
 #include "client/commands.h"
 #include "client/connection.h"
-#include "core/base/allocator.h"
 #include "core/scene/names.h"
 
 namespace {
@@ -57,7 +56,6 @@ int Dispatch(int argc, char** argv);
 // The commands turn what they can foresee into a Status; an allocation that
 // fails anywhere else still ends with a message and exit 4, not an abort.
 int main(int argc, char** argv) {
-  mvbrdf::base::KeepFreedMemoryForReuse();  // allocator.h: the fits' arrays, faulted in once
   try {
     return Dispatch(argc, argv);
   } catch (const std::bad_alloc& e) {

@@ -297,9 +297,7 @@ def main():
         print(f"peer_scipy: {problem['name']} done", file=sys.stderr)
     report = {"format": "mvbrdf.bench_peer.v1", "numpy": np.__version__, "scipy": scipy.__version__,
               "repeats": args.repeats, "tolerances": {"ftol": 1e-10, "xtol": 1e-10, "gtol": 1e-10},
-              "check_relative_tolerance": CHECK_RELATIVE_TOLERANCE,
-              "malloc_env": {k: os.environ.get(k) for k in ("MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_")},
-              "problems": rows, "warnings": warnings}
+              "check_relative_tolerance": CHECK_RELATIVE_TOLERANCE, "problems": rows, "warnings": warnings}
     os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
     with open(args.out, "w") as f:
         json.dump(report, f, indent=1)

@@ -32,7 +32,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -44,7 +43,6 @@
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_join.h"
 #include "ceres/ceres.h"
-#include "core/base/allocator.h"
 #include "core/fit/fit_test_util.h"
 #include "core/fit/phong_cost.h"
 #include "core/fit/phong_fit.h"
@@ -303,11 +301,6 @@ std::string SolverJson(const Timed& t) {
 }
 
 int Main(int argc, char** argv) {
-  // As mvbrdf's main() does: the fits' arrays come from the heap, not fresh
-  // pages at every call (allocator.h). scripts/bench-peer gives SciPy's
-  // process the same settings through glibc's environment variables.
-  const char* default_malloc = std::getenv("MVBRDF_DEFAULT_MALLOC");
-  if (default_malloc == nullptr || std::strcmp(default_malloc, "1") != 0) base::KeepFreedMemoryForReuse();
   std::string out_dir;
   int repeats = 3;
   for (int i = 1; i < argc; ++i) {
