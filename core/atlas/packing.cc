@@ -167,31 +167,10 @@ class Occupancy {
         longest_free_(static_cast<size_t>(size), size) {}
 
   // The first occupied column in [from, to] of `row`, or to + 1.
-  int FirstSet(int row, int from, int to) const {
-    const uint64_t* words = &bits_[static_cast<size_t>(row) * words_];
-    int w = from >> 6;
-    uint64_t word = words[w] & (~uint64_t{0} << (from & 63));
-    while (true) {
-      if (word != 0) {
-        const int at = (w << 6) + __builtin_ctzll(word);
-        return at <= to ? at : to + 1;
-      }
-      if (++w > (to >> 6)) return to + 1;
-      word = words[w];
-    }
-  }
+  int FirstSet(int row, int from, int to) const { return Scan(row, from, to, 0); }
 
   // The first free column at or after `from` in `row`, or size.
-  int FirstClear(int row, int from) const {
-    const uint64_t* words = &bits_[static_cast<size_t>(row) * words_];
-    int w = from >> 6;
-    uint64_t word = ~words[w] & (~uint64_t{0} << (from & 63));
-    while (true) {
-      if (word != 0) return std::min(size_, (w << 6) + __builtin_ctzll(word));
-      if (++w >= words_) return size_;
-      word = ~words[w];
-    }
-  }
+  int FirstClear(int row, int from) const { return Scan(row, from, size_ - 1, ~uint64_t{0}); }
 
   int LongestFree(int row) const { return longest_free_[static_cast<size_t>(row)]; }
 
@@ -211,6 +190,23 @@ class Occupancy {
   }
 
  private:
+  // The first column in [from, to] of `row` whose bit, xor-ed with `flip`'s,
+  // is set, or to + 1 (the words' bits past `size` are 0, so they count as
+  // free: the bound to keeps them out).
+  int Scan(int row, int from, int to, uint64_t flip) const {
+    const uint64_t* words = &bits_[static_cast<size_t>(row) * words_];
+    int w = from >> 6;
+    uint64_t word = (words[w] ^ flip) & (~uint64_t{0} << (from & 63));
+    while (true) {
+      if (word != 0) {
+        const int at = (w << 6) + __builtin_ctzll(word);
+        return at <= to ? at : to + 1;
+      }
+      if (++w > (to >> 6)) return to + 1;
+      word = words[w] ^ flip;
+    }
+  }
+
   int size_;
   int words_;
   std::vector<uint64_t> bits_;
