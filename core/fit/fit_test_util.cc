@@ -5,6 +5,8 @@
 #include <random>
 #include <sstream>
 
+#include "core/base/draw_order.h"
+
 namespace mvbrdf::fit::testing {
 namespace {
 
@@ -13,7 +15,7 @@ using Rng = std::mt19937_64;
 glm::dvec3 RandomUnit(Rng &rng) {
   std::normal_distribution<double> normal;
   for (;;) {
-    const glm::dvec3 v(normal(rng), normal(rng), normal(rng));
+    const glm::dvec3 v = base::DrawVec3<glm::dvec3>([&] { return normal(rng); });
     const double length = glm::length(v);
     if (length > 1e-6) return v / length;
   }
@@ -246,7 +248,8 @@ samples::SampleSet RenderLobeSamples(const LobeTruth& truth, int num_samples, do
   std::normal_distribution<double> gauss(0.0, 1.0);
   const glm::dvec3 n(0, 0, 1);
   for (int i = 0; i < num_samples; ++i) {
-    const glm::dvec3 v = Direction(std::acos(1.0 - 0.7 * unit(rng)), 2 * kPi * unit(rng));
+    const double azimuth = 2 * kPi * unit(rng);  // drawn first (core/base/draw_order.h)
+    const glm::dvec3 v = Direction(std::acos(1.0 - 0.7 * unit(rng)), azimuth);
     const glm::dvec3 mirror = 2.0 * v.z * n - v;
     std::vector<uint16_t> light;
     std::vector<float> g, h, nh, vh;
@@ -255,9 +258,10 @@ samples::SampleSet RenderLobeSamples(const LobeTruth& truth, int num_samples, do
       if (unit(rng) < 0.33) continue;
       glm::dvec3 l;
       if (k % 2 == 0) {  // near the mirror direction: within ~25 degrees
-        l = glm::normalize(mirror + 0.45 * glm::dvec3(gauss(rng), gauss(rng), gauss(rng)));
+        l = glm::normalize(mirror + 0.45 * base::DrawVec3<glm::dvec3>([&] { return gauss(rng); }));
       } else {
-        l = Direction(std::acos(1.0 - 0.9 * unit(rng)), 2 * kPi * unit(rng));
+        const double azimuth_l = 2 * kPi * unit(rng);  // drawn first, as above
+        l = Direction(std::acos(1.0 - 0.9 * unit(rng)), azimuth_l);
       }
       const brdf::Geometry geometry = brdf::GeometryOf(n, l, v);
       if (!(geometry.n_dot_l > 0.01)) continue;

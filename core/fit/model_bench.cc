@@ -35,6 +35,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "core/base/draw_order.h"
 #include "core/brdf/model.h"
 #include "core/brdf/nbrdf.h"
 #include "core/fit/lobe_fit.h"
@@ -72,9 +73,10 @@ std::vector<Observation> Geometry(int views, int points, uint32_t seed) {
         glm::dvec3 n;
         if (attempt % 2 == 0) {
           const glm::dvec3 h = glm::normalize(l + v);
-          n = glm::normalize(h + 0.35 * glm::dvec3(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5));
+          n = glm::normalize(h + 0.35 * mvbrdf::base::DrawVec3<glm::dvec3>([&] { return unit(rng) - 0.5; }));
         } else {
-          n = Direction(std::asin(unit(rng)), 2.0 * kPi * unit(rng));
+          const double azimuth = 2.0 * kPi * unit(rng);  // drawn first (core/base/draw_order.h)
+          n = Direction(std::asin(unit(rng)), azimuth);
         }
         if (glm::dot(n, l) < 0.05 || glm::dot(n, v) < 0.05) continue;
         out.push_back({n, l, v, k, w});

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/draw_order.h"
 #include "core/base/process_stats.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -35,7 +36,7 @@ cv::Mat ChartPreview(const atlas::Atlas& atlas) {
       const int32_t t = atlas.triangle_id.at<int32_t>(y, x);
       if (t < 0) continue;
       const uint32_t chart = atlas.triangle_chart.empty() ? 0 : atlas.triangle_chart[static_cast<size_t>(t)];
-      while (colours.size() <= chart) colours.emplace_back(u(rng), u(rng), u(rng));
+      while (colours.size() <= chart) colours.push_back(base::DrawVec3<cv::Vec3f>([&] { return u(rng); }));
       const cv::Vec3f c = colours[chart];
       out.at<cv::Vec4f>(y, x) = {c[0], c[1], c[2], 1.0f};
     }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "benchmark/benchmark.h"
+#include "core/base/draw_order.h"
 #include "core/samples/sample_set.h"
 
 namespace mvbrdf::samples {
@@ -38,7 +39,7 @@ SampleSet MakeRandomSet(size_t count, bool falloff) {
       h[k] = g[k] > 0.0f ? unit(rng) : 0.0f;
       a[k] = 0.1f + unit(rng);
     }
-    const glm::vec3 rgb(2.0f * unit(rng), 2.0f * unit(rng), 2.0f * unit(rng));
+    const glm::vec3 rgb = base::DrawVec3<glm::vec3>([&] { return 2.0f * unit(rng); });
     set.Add(static_cast<uint32_t>(i % (512 * 512)), static_cast<int>(i % 60), static_cast<int>(i % 8), rgb, g, h,
             falloff ? a : nullptr);
   }

@@ -15,6 +15,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "core/atlas/atlas.h"
+#include "core/base/draw_order.h"
 #include "core/base/files.h"
 #include "core/base/proto_json.h"
 #include "core/base/status_macros.h"
@@ -58,8 +59,7 @@ scene::CameraModel PerturbCamera(const scene::CameraModel& camera, double deg, d
   if (deg == 0.0 && distance == 0.0) return camera;
   std::normal_distribution<double> n(0.0, 1.0);
   const auto random_unit = [&] {
-    glm::dvec3 v(n(rng), n(rng), n(rng));
-    return glm::normalize(v);
+    return glm::normalize(base::DrawVec3<glm::dvec3>([&] { return n(rng); }));
   };
   scene::CameraModel out = camera;
   const glm::dmat3 delta(glm::rotate(glm::dmat4(1.0), deg * 3.14159265358979 / 180.0, random_unit()));
@@ -75,7 +75,7 @@ scene::CameraModel PerturbCamera(const scene::CameraModel& camera, double deg, d
 // its intensity scaled by 1 + or - `fraction`.
 scene::Light PerturbLight(const scene::Light& light, double distance, double deg, double fraction, std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  const glm::dvec3 random_unit = glm::normalize(glm::dvec3(n(rng), n(rng), n(rng)));
+  const glm::dvec3 random_unit = glm::normalize(base::DrawVec3<glm::dvec3>([&] { return n(rng); }));
   const bool brighter = std::uniform_int_distribution<int>(0, 1)(rng) == 1;
   scene::Light out = light;
   if (light.directional) {
