@@ -36,6 +36,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/base/files.h"
+#include "core/base/sanitizers.h"
 
 namespace mvbrdf::scene {
 namespace {
@@ -379,19 +380,7 @@ std::string ProcStatField(const std::string& who, int index) {
 // the sanitizer build: a 2-frame mesh "did not finish within 5 s" in a
 // multi-threaded worker). Under ASan a multi-threaded process therefore
 // imports in-process; the single-threaded fuzzers and unit tests still fork.
-bool ForkedImportIsSafe() {
-#if defined(__SANITIZE_ADDRESS__)
-  return ThreadCount() == 1;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-  return ThreadCount() == 1;
-#else
-  return true;
-#endif
-#else
-  return true;
-#endif
-}
+bool ForkedImportIsSafe() { return !base::kAddressSanitizer || ThreadCount() == 1; }
 
 // The state letter of a process (field 3: R running, S or D blocked; '?'
 // when unreadable).

@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "core/base/sanitizers.h"
 #include "core/scene/scene_test_util.h"
 
 namespace mvbrdf::scene {
@@ -426,10 +427,10 @@ void BlockFirstAttempt(int attempt) {
 void BlockEveryAttempt(int) { ::pause(); }
 
 TEST(MeshLoaderTest, ABlockedImporterIsForkedOnceMore) {
-#if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "under ASan a multi-threaded process imports in-process (mesh_loader.cc, ForkedImportIsSafe); "
-                  "this case runs in Release (ctest mesh_loader_blocked_importer)";
-#endif
+  if (base::kAddressSanitizer) {
+    GTEST_SKIP() << "under ASan a multi-threaded process imports in-process (mesh_loader.cc, ForkedImportIsSafe); "
+                    "this case runs in Release (ctest mesh_loader_blocked_importer)";
+  }
   TempDir dir;
   const std::filesystem::path obj = dir / "cube.obj";
   WriteText(obj, CubeObj());
