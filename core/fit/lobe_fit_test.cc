@@ -17,8 +17,6 @@
 namespace mvbrdf::fit {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 using testing::LobeTruth;
 using Truth = LobeTruth;
 
