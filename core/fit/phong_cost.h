@@ -95,6 +95,21 @@ struct PhongTerms {
   int dense_slots = 0;
   std::vector<double> dense_log_h, dense_offset;
 
+  // Empties the terms, keeping the arrays' memory for the next fit.
+  void Clear() {
+    begin.assign(1, 0);
+    slot.clear();
+    log_h.clear();
+    log_a.clear();
+    dense_slots = 0;
+    dense_log_h.clear();
+    dense_offset.clear();
+  }
+  size_t CapacityBytes() const {
+    return begin.capacity() * sizeof(uint64_t) + slot.capacity() * sizeof(uint16_t) +
+           (log_h.capacity() + log_a.capacity() + dense_log_h.capacity() + dense_offset.capacity()) * sizeof(double);
+  }
+
   // Lays the terms out densely as well when that costs at most twice the
   // exponentials (num_slots x samples <= 2 x terms: few lights, most of them
   // with a highlight term, as in the sweep's and clusters' fits; not OLAT's

@@ -63,10 +63,29 @@ struct PreparedSamples {
   std::vector<double> g;          // clamped cosines
   internal::PhongTerms specular;  // ln h (and ln a) of the terms with h > 0
   bool non_finite = false;        // some sample was skipped
+  std::vector<int> slot_of;       // scratch: mask slot per light, -1 if none
+
+  void Clear() {
+    lights.clear();
+    used.clear();
+    g_begin.assign(1, 0);
+    g_slot.clear();
+    g.clear();
+    specular.Clear();
+    non_finite = false;
+  }
+  size_t CapacityBytes() const {
+    return (lights.capacity() + slot_of.capacity()) * sizeof(int) + used.capacity() * sizeof(uint32_t) +
+           g_begin.capacity() * sizeof(uint64_t) + g_slot.capacity() * sizeof(uint16_t) +
+           g.capacity() * sizeof(double) + specular.CapacityBytes();
+  }
 };
 
-PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indices, const LightSelection& selection) {
-  PreparedSamples prep;
+// Fills `prep` (emptied first; its arrays' memory is reused).
+void Prepare(const SampleSet& set, const std::vector<uint32_t>& indices, const LightSelection& selection,
+             PreparedSamples* out) {
+  PreparedSamples& prep = *out;
+  prep.Clear();
   const int num_lights = set.num_lights();
   const size_t count = indices.empty() ? set.size() : indices.size();
   // Slots for the configuration's lights and every light of a frame with its
@@ -77,7 +96,8 @@ PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indic
     if (!selection.Own(set.frame[i])) continue;
     for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) mask.Set(set.light[j]);
   }
-  std::vector<int> slot_of(static_cast<size_t>(num_lights), -1);
+  std::vector<int>& slot_of = prep.slot_of;
+  slot_of.assign(static_cast<size_t>(num_lights), -1);
   mask.ForEach([&](size_t k) {
     if (k >= static_cast<size_t>(num_lights)) return;
     slot_of[k] = static_cast<int>(prep.lights.size());
@@ -129,7 +149,6 @@ PreparedSamples Prepare(const SampleSet& set, const std::vector<uint32_t>& indic
     prep.specular.begin.push_back(prep.specular.slot.size());
   }
   prep.specular.Densify(static_cast<int>(prep.lights.size()));
-  return prep;
 }
 
 struct ChannelOutcome {
@@ -249,24 +268,92 @@ struct ChannelFit {
   double lower[3] = {0, 0, 0}, upper[3] = {0, 0, 0};
   double x[3] = {0, 0, 0};
   bool grid() const { return free[1] && data.size() > 0; }  // ks and ke to start from the grid
+
+  // A fresh fit that keeps the data arrays' memory.
+  void Reset() {
+    PhongChannelData kept;
+    kept.weight.swap(data.weight);
+    kept.r.swap(data.r);
+    kept.diffuse.swap(data.diffuse);
+    kept.sqrt_weight.swap(data.sqrt_weight);
+    *this = ChannelFit();
+    data.weight.swap(kept.weight);
+    data.r.swap(kept.r);
+    data.diffuse.swap(kept.diffuse);
+    data.sqrt_weight.swap(kept.sqrt_weight);
+    data.weight.clear();
+    data.r.clear();
+    data.diffuse.clear();
+    data.sqrt_weight.clear();
+  }
+  size_t CapacityBytes() const {
+    return (data.weight.capacity() + data.r.capacity() + data.diffuse.capacity() + data.sqrt_weight.capacity()) *
+           sizeof(double);
+  }
+};
+
+// InitialSpecular's arrays (kept between fits like the rest of FitWorkspace).
+struct GridScratch {
+  std::vector<uint32_t> chosen;
+  std::vector<double> weight, nearest, sorted, exps;
+  internal::PhongTerms terms;
+  std::vector<double> specular[3], wr[3], wg[3];
+
+  size_t CapacityBytes() const {
+    size_t bytes = chosen.capacity() * sizeof(uint32_t) + terms.CapacityBytes() +
+                   (weight.capacity() + nearest.capacity() + sorted.capacity() + exps.capacity()) * sizeof(double);
+    for (int c = 0; c < 3; ++c) {
+      bytes += (specular[c].capacity() + wr[c].capacity() + wg[c].capacity()) * sizeof(double);
+    }
+    return bytes;
+  }
+};
+
+// The arrays of one FitPhong call, kept by the calling thread for its next
+// call. Fresh arrays cost more than the solve: in `perf` of a 1e5-sample fit
+// (fit_peer) ~85 % of the time went to mmap, page faults and munmap of the
+// prepared terms and channel data, every call. Kept up to kKeepBytes, so that a
+// thread that once fitted a huge cluster does not hold its arrays for the rest
+// of the job.
+struct FitWorkspace {
+  static constexpr size_t kKeepBytes = size_t{48} << 20;
+  PreparedSamples prep;
+  ChannelFit fits[3];
+  GridScratch grid;
+
+  // After a fit: the arrays are kept when they are small enough.
+  void Release() {
+    size_t bytes = prep.CapacityBytes() + grid.CapacityBytes();
+    for (const ChannelFit& fit : fits) bytes += fit.CapacityBytes();
+    if (bytes <= kKeepBytes) return;
+    prep = PreparedSamples();
+    for (ChannelFit& fit : fits) fit = ChannelFit();
+    grid = GridScratch();
+  }
 };
 
 // The samples the grid's sums are estimated from, with their weights: all of
 // them up to kGridSamples; beyond, the kGridSamples / 2 nearest a mirror
 // highlight (largest ln h) with weight 1 and a stride through the rest with
 // weight stride (unbiased sums). The same for every channel (ln h is).
-void GridSamples(const PhongChannelData& data, std::vector<uint32_t>* chosen, std::vector<double>* weight) {
+void GridSamples(const PhongChannelData& data, GridScratch* scratch) {
+  std::vector<uint32_t>* chosen = &scratch->chosen;
+  std::vector<double>* weight = &scratch->weight;
+  chosen->clear();
+  weight->clear();
   const size_t n = data.size();
   if (n <= kGridSamples) {
     for (size_t i = 0; i < n; ++i) chosen->push_back(static_cast<uint32_t>(i));
     weight->assign(n, 1.0);
     return;
   }
-  std::vector<double> nearest(n, internal::kNoHighlight);  // per sample its largest ln h
+  std::vector<double>& nearest = scratch->nearest;  // per sample its largest ln h
+  nearest.assign(n, internal::kNoHighlight);
   for (size_t i = 0; i < n; ++i) {
     for (uint64_t j = data.begin[i]; j < data.begin[i + 1]; ++j) nearest[i] = std::max(nearest[i], data.log_h[j]);
   }
-  std::vector<double> sorted = nearest;
+  std::vector<double>& sorted = scratch->sorted;
+  sorted.assign(nearest.begin(), nearest.end());
   const size_t top = kGridSamples / 2;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(n - top), sorted.end());
   const double threshold = sorted[n - top];
@@ -292,15 +379,16 @@ void GridSamples(const PhongChannelData& data, std::vector<uint32_t>* chosen, st
 // exponent with the lowest cost wins. The exponentials exp(ke ln h + ln a)
 // of the grid's samples do not depend on the channel and are taken once per
 // grid point for all of them.
-void InitialSpecular(const PhongFitOptions& options, const std::vector<ChannelFit*>& fits) {
+void InitialSpecular(const PhongFitOptions& options, const std::vector<ChannelFit*>& fits, GridScratch* scratch) {
   if (fits.empty()) return;
   const PhongChannelData& shared = fits[0]->data;
-  std::vector<uint32_t> chosen;
-  std::vector<double> weight;
-  GridSamples(shared, &chosen, &weight);
+  GridSamples(shared, scratch);
+  const std::vector<uint32_t>& chosen = scratch->chosen;
+  const std::vector<double>& weight = scratch->weight;
   // The chosen samples' terms, with a weight of 1 per slot (the channels'
   // weights are applied in the sums below).
-  internal::PhongTerms terms;
+  internal::PhongTerms& terms = scratch->terms;
+  terms.Clear();
   size_t num_slots = 0;
   for (uint32_t i : chosen) {
     for (uint64_t j = shared.begin[i]; j < shared.begin[i + 1]; ++j) {
@@ -316,16 +404,21 @@ void InitialSpecular(const PhongFitOptions& options, const std::vector<ChannelFi
   const bool dense = terms.dense_slots > 0;
   // Per grid point the terms' exponentials (dense: slot-major, m per slot),
   // summed per channel with the channel's weights: E_c,i = sum_k w_c,k exp(...).
-  std::vector<double> exps(dense ? terms.dense_log_h.size() : terms.log_h.size());
-  std::vector<std::vector<double>> specular(fits.size(), std::vector<double>(m));
+  std::vector<double>& exps = scratch->exps;
+  exps.resize(dense ? terms.dense_log_h.size() : terms.log_h.size());
+  std::vector<double>* specular = scratch->specular;
   struct Sums {
     double rr = 0, rg = 0, gg = 0;
     double best = std::numeric_limits<double>::infinity();
   };
-  std::vector<Sums> sums(fits.size());
+  Sums sums[3];
   // Per channel the chosen samples' weight * r and weight * G, contiguous.
-  std::vector<std::vector<double>> wr(fits.size(), std::vector<double>(m)), wg = wr;
+  std::vector<double>* wr = scratch->wr;
+  std::vector<double>* wg = scratch->wg;
   for (size_t f = 0; f < fits.size(); ++f) {
+    specular[f].resize(m);
+    wr[f].resize(m);
+    wg[f].resize(m);
     const PhongChannelData& data = fits[f]->data;
     for (size_t q = 0; q < m; ++q) {
       const size_t i = chosen[q];
@@ -728,20 +821,24 @@ absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<
     }
   }
 
-  const PreparedSamples prep = Prepare(set, indices, selection);
+  // The calling thread's arrays from its last fit (FitWorkspace).
+  thread_local FitWorkspace workspace;
+  const PreparedSamples& prep = workspace.prep;
+  Prepare(set, indices, selection, &workspace.prep);
   PhongFitResult result;
   result.solver = options.solver;
   result.samples_used = prep.used.size();
   double sum_squares = 0.0;
   // The channels are independent fits: on their own threads when each is
   // large enough to pay for one (the same results either way).
-  ChannelFit fits[3];
+  ChannelFit* fits = workspace.fits;
   std::vector<ChannelFit*> grid;
   for (int c = 0; c < 3; ++c) {
+    fits[c].Reset();
     SetUpChannel(prep, set, c, options, &fits[c]);
     if (fits[c].grid()) grid.push_back(&fits[c]);
   }
-  InitialSpecular(options, grid);
+  InitialSpecular(options, grid, &workspace.grid);
   ChannelOutcome channels[3];
   if (options.parallel_channels && prep.used.size() >= kParallelChannelSamples &&
       std::thread::hardware_concurrency() > 1) {
@@ -761,6 +858,7 @@ absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<
     sum_squares += channel.sum_squares;
   }
   result.mse = prep.used.empty() ? 0.0 : sum_squares / (3.0 * static_cast<double>(prep.used.size()));
+  workspace.Release();
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
