@@ -401,7 +401,12 @@ absl::Status EvaluateConfiguration(const samples::SampleSet& set, size_t num_tri
       if ((x & 0xffffffffULL) < keep) subsample.push_back(static_cast<uint32_t>(i));
     }
   }
-  absl::StatusOr<PhongFitResult> fit = FitPhong(set, subsample, selection, fit_options);
+  // The fit's channels on threads of their own only when this configuration
+  // has threads to spare: a one-thread sweep (each of the service's sweep
+  // tasks) stays on its one core, as its worker's --threads promises.
+  PhongFitOptions options = fit_options;
+  if (threads <= 1) options.parallel_channels = false;
+  absl::StatusOr<PhongFitResult> fit = FitPhong(set, subsample, selection, options);
   if (!fit.ok()) return fit.status();
   row->fit = *std::move(fit);
   row->e_a = subsample.empty() ? row->fit.mse : MeanSquaredError(set, selection, row->fit.params, threads);
