@@ -60,6 +60,7 @@ int RunServer(const std::vector<std::string>& args) {
   int max_samples_mib = static_cast<int>(o.workers.max_samples_bytes >> 20);
   int sample_cache_mib = static_cast<int>(o.sample_cache.max_stored_bytes >> 20);
   int compression_level = o.sample_cache.compression_level;
+  int sample_cache_memory_mib = static_cast<int>(o.sample_cache.memory_bytes >> 20);
   int max_bundle_mib = static_cast<int>(o.limits.max_bundle_bytes >> 20);
   int max_jobs = o.limits.max_jobs_per_client;
   int max_message_mib = static_cast<int>(o.limits.max_message_bytes >> 20);
@@ -73,7 +74,7 @@ int RunServer(const std::vector<std::string>& args) {
   const std::vector<int> ints0 = {lease_seconds,  max_wait_seconds,  poll_interval_ms, max_artifact_mib,
                                   max_samples_mib, sample_cache_mib, compression_level, max_bundle_mib,
                                   max_jobs,        max_message_mib,  watch_poll_ms,     max_atlas_size,
-                                  max_frames};
+                                  max_frames,      sample_cache_memory_mib};
 
   FlagParser flags("server",
                    "Runs the mvbrdf job server: clients upload sequence bundles and submit jobs, workers lease\n"
@@ -90,6 +91,9 @@ int RunServer(const std::vector<std::string>& args) {
   flags.AddInt("--max-samples-mib MIB", &max_samples_mib, "largest encoded Samples a gather task may send, MiB");
   flags.AddInt("--sample-cache-mib MIB", &sample_cache_mib, "Sample cache size (compressed), MiB (0: unlimited)");
   flags.AddInt("--sample-cache-compression LEVEL", &compression_level, "Sample cache zlib level, 1 (fast) .. 9 (small)");
+  flags.AddInt("--sample-cache-memory-mib MIB", &sample_cache_memory_mib,
+               "keep the Sample set last stored or read uncompressed in memory up to this size, MiB, so that the "
+               "sweep tasks fetch it without reading the database (0: never)");
   flags.AddInt("--max-bundle-mib MIB", &max_bundle_mib, "largest accepted bundle, MiB");
   flags.AddInt("--max-jobs-per-client N", &max_jobs, "unfinished jobs per client, at most (0: no limit)");
   flags.AddInt("--max-message-mib MIB", &max_message_mib, "largest gRPC message, MiB");
@@ -152,6 +156,8 @@ int RunServer(const std::vector<std::string>& args) {
       {"--watch-poll-ms", watch_poll_ms, [](v1::ServerConfig& c, uint64_t v) { c.set_watch_poll_ms(v); }},
       {"--max-atlas-size", max_atlas_size, [](v1::ServerConfig& c, uint64_t v) { c.set_max_atlas_size(v); }},
       {"--max-frames", max_frames, [](v1::ServerConfig& c, uint64_t v) { c.set_max_frames(v); }},
+      {"--sample-cache-memory-mib", sample_cache_memory_mib,
+       [](v1::ServerConfig& c, uint64_t v) { c.set_sample_cache_memory_bytes(v << 20); }},
   };
   for (size_t i = 0; i < ints.size(); ++i) {
     if (ints[i].value == ints0[i]) continue;

@@ -19,8 +19,13 @@ check "an undisturbed direct run" 0 "wrote" -- "$bin" run "$work/b/scene.json" -
 
 port=$(/usr/bin/python3 -c "import socket; s = socket.socket(); s.bind(('127.0.0.1', 0)); print(s.getsockname()[1])")
 address="127.0.0.1:$port"
+# --sample-cache-memory-mib 0: part 3's corrupted entry must be read from the
+# database; by default the server answers a sweep's fetch from the copy in
+# memory of the Samples it has just stored, and the flipped byte on disk would
+# go unread (server/workers_api's SampleFetchTest covers that path).
 server() {
-  "$bin" server --listen "$address" --data "$work/data" --lease-seconds 2 > "$work/server_$1.log" 2>&1 &
+  "$bin" server --listen "$address" --data "$work/data" --lease-seconds 2 --sample-cache-memory-mib 0 \
+    > "$work/server_$1.log" 2>&1 &
   pid=$!
   for _ in $(seq 1 100); do grep -q "listening on" "$work/server_$1.log" && return 0; sleep 0.1; done
   return 1

@@ -87,6 +87,10 @@ absl::Status ApplyServerConfig(const v1::ServerConfig& config, absl::string_view
     MVBRDF_RETURN_IF_ERROR(
         SetInt64(origin, "sample_cache_max_bytes", config.sample_cache_max_bytes(), 0, &cache.max_stored_bytes));
   }
+  if (config.has_sample_cache_memory_bytes()) {
+    MVBRDF_RETURN_IF_ERROR(
+        SetInt64(origin, "sample_cache_memory_bytes", config.sample_cache_memory_bytes(), 0, &cache.memory_bytes));
+  }
   if (config.has_sample_cache_compression_level()) {
     if (config.sample_cache_compression_level() < 1 || config.sample_cache_compression_level() > 9) {
       return FieldError(origin, "sample_cache_compression_level",

@@ -28,6 +28,7 @@ TEST(ServerConfigTest, ValidFileSetsEveryField) {
     "poll_interval_ms": 100,
     "sample_cache_max_bytes": 0,
     "sample_cache_compression_level": 9,
+    "sample_cache_memory_bytes": 0,
     "max_bundle_bytes": 1073741824,
     "max_jobs_per_client": 0,
     "max_message_bytes": 8388608,
@@ -52,6 +53,7 @@ TEST(ServerConfigTest, ValidFileSetsEveryField) {
   EXPECT_EQ(options.workers.poll_interval_ms, 100);
   EXPECT_EQ(options.sample_cache.max_stored_bytes, 0);
   EXPECT_EQ(options.sample_cache.compression_level, 9);
+  EXPECT_EQ(options.sample_cache.memory_bytes, 0);  // present: never kept (the default keeps up to 256 MiB)
   EXPECT_EQ(options.limits.max_bundle_bytes, int64_t{1} << 30);
   EXPECT_EQ(options.limits.max_jobs_per_client, 0);  // present: no limit
   EXPECT_EQ(options.limits.max_message_bytes, 8 << 20);
@@ -137,6 +139,7 @@ TEST(ServerConfigTest, BadValuesNameTheFileAndTheField) {
            {R"json({"listen_address": "nonsense"})json", "listen_address"},
            {R"json({"max_samples_bytes": "18446744073709551615"})json", "max_samples_bytes"},
            {R"json({"sample_cache_compression_level": 10})json", "sample_cache_compression_level"},
+           {R"json({"sample_cache_memory_bytes": "18446744073709551615"})json", "sample_cache_memory_bytes"},
            {R"json({"max_message_bytes": 100})json", "max_message_bytes"},
        }) {
     const auto path = WriteConfig(dir, json);

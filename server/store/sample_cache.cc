@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -62,6 +63,10 @@ absl::Status SampleCacheOptions::Check() const {
     return absl::InvalidArgumentError(
         absl::StrCat("SampleCacheOptions.compression_level: must be in [1, 9], got ", compression_level));
   }
+  if (memory_bytes < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("SampleCacheOptions.memory_bytes: must be >= 0, got ", memory_bytes));
+  }
   return absl::OkStatus();
 }
 
@@ -83,6 +88,12 @@ absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int
                                                      stored_size, " bytes compressed, the cache holds at most ",
                                                      options_.max_stored_bytes, " (raise sample_cache_max_bytes)"));
   }
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    ForgetLocked(key);  // never two copies of one entry in memory
+  }
+  std::string copy;
+  if (Keeps(bytes.size())) copy.assign(bytes.data(), bytes.size());
   std::lock_guard<std::mutex> lock(mu_);
   MVBRDF_ASSIGN_OR_RETURN(Transaction transaction, Transaction::Begin(*db_));
   MVBRDF_ASSIGN_OR_RETURN(
@@ -100,7 +111,9 @@ absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int
   MVBRDF_RETURN_IF_ERROR(insert.Run());
   if (!pin_for_job.empty()) MVBRDF_RETURN_IF_ERROR(PinLocked(key, pin_for_job));
   MVBRDF_RETURN_IF_ERROR(EvictLocked(key));
-  return transaction.Commit();
+  MVBRDF_RETURN_IF_ERROR(transaction.Commit());
+  if (Keeps(bytes.size())) KeepLocked(key, sha256, std::move(copy));
+  return absl::OkStatus();
 }
 
 absl::Status SampleCache::Pin(const SampleKey& key, absl::string_view job_id) {
@@ -124,9 +137,54 @@ absl::Status SampleCache::PinLocked(const SampleKey& key, absl::string_view job_
   return absl::OkStatus();
 }
 
+bool SampleCache::Keeps(size_t bytes) const { return static_cast<int64_t>(bytes) <= options_.memory_bytes; }
+
+std::list<SampleCache::Recent>::iterator SampleCache::FindRecentLocked(const SampleKey& key) {
+  return std::find_if(recent_.begin(), recent_.end(), [&key](const Recent& r) {
+    return r.key.sequence_hash == key.sequence_hash && r.key.configuration == key.configuration &&
+           r.key.sample_level == key.sample_level && r.key.options_hash == key.options_hash;
+  });
+}
+
+void SampleCache::ForgetLocked(const SampleKey& key) {
+  const auto it = FindRecentLocked(key);
+  if (it == recent_.end()) return;
+  recent_bytes_ -= static_cast<int64_t>(it->bytes.size());
+  recent_.erase(it);
+}
+
+void SampleCache::KeepLocked(const SampleKey& key, absl::string_view sha256, std::string bytes) {
+  ForgetLocked(key);
+  if (!Keeps(bytes.size())) return;
+  recent_bytes_ += static_cast<int64_t>(bytes.size());
+  recent_.push_front(Recent{key, std::string(sha256), std::move(bytes)});
+  while (recent_bytes_ > options_.memory_bytes) {
+    recent_bytes_ -= static_cast<int64_t>(recent_.back().bytes.size());
+    recent_.pop_back();
+  }
+}
+
 absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key, int64_t now_ms,
                                                             std::string* sha256) {
   std::lock_guard<std::mutex> lock(mu_);
+  if (const auto recent = FindRecentLocked(key); recent != recent_.end()) {
+    // The bytes were verified when kept; the row must still be there (another
+    // connection may have erased it), and its use is stamped as any hit's.
+    MVBRDF_ASSIGN_OR_RETURN(
+        Statement touch,
+        Statement::Prepare(*db_, absl::StrCat("UPDATE sample_cache SET last_used_ms = ?5 WHERE ", kKeyWhere)));
+    MVBRDF_RETURN_IF_ERROR(BindKey(touch, key));
+    MVBRDF_RETURN_IF_ERROR(touch.BindInt64(5, now_ms));
+    MVBRDF_RETURN_IF_ERROR(touch.Run());
+    if (db_->Changes() == 1) {
+      ++counters_.hits;
+      ++counters_.memory_hits;
+      recent_.splice(recent_.begin(), recent_, recent);
+      if (sha256 != nullptr) *sha256 = recent->sha256;
+      return std::optional<std::string>(recent->bytes);
+    }
+    ForgetLocked(key);
+  }
   MVBRDF_ASSIGN_OR_RETURN(
       Statement select,
       Statement::Prepare(*db_, absl::StrCat("SELECT data, raw_size, sha256 FROM sample_cache WHERE ", kKeyWhere)));
@@ -169,6 +227,7 @@ absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key
   MVBRDF_RETURN_IF_ERROR(touch.Run());
   ++counters_.hits;
   if (sha256 != nullptr) *sha256 = expected_sha256;
+  if (Keeps(bytes.size())) KeepLocked(key, expected_sha256, bytes);
   return std::optional<std::string>(std::move(bytes));
 }
 
@@ -194,6 +253,7 @@ absl::StatusOr<SampleCacheStats> SampleCache::Stats() {
 }
 
 absl::Status SampleCache::EraseLocked(const SampleKey& key) {
+  ForgetLocked(key);
   MVBRDF_ASSIGN_OR_RETURN(Statement erase,
                           Statement::Prepare(*db_, absl::StrCat("DELETE FROM sample_cache WHERE ", kKeyWhere)));
   MVBRDF_RETURN_IF_ERROR(BindKey(erase, key));

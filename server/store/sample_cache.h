@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -46,6 +47,12 @@ struct SampleCacheOptions {
   int64_t max_stored_bytes = int64_t{2} << 30;
   // zlib level, 1 (fast) .. 9 (small).
   int compression_level = 1;  // float Samples gain little from more (measured on samba: see the #5 note)
+  // The entries last Put or read are also kept uncompressed in memory, up
+  // to this many bytes in all (least recently used dropped first; 0: none).
+  // A job's sweep tasks fetch the Samples its gather has just stored, once
+  // per worker, and each Get from the database reads, inflates and hashes
+  // them again (35 MB: ~0.45 s).
+  int64_t memory_bytes = int64_t{256} << 20;
 
   absl::Status Check() const;
 };
@@ -56,6 +63,7 @@ struct SampleCacheStats {
   int64_t misses = 0;
   int64_t corrupt = 0;    // entries found corrupt and removed
   int64_t evictions = 0;  // entries evicted for space
+  int64_t memory_hits = 0;  // hits answered from the entries kept in memory (also counted in hits)
   // The table as it is now (all connections).
   int64_t entries = 0;
   int64_t stored_bytes = 0;  // compressed
@@ -76,7 +84,8 @@ class SampleCache {
   // so no other Put evicts it in between).
   absl::Status Put(const SampleKey& key, absl::string_view bytes, int64_t now_ms,
                    absl::string_view known_sha256 = {}, absl::string_view pin_for_job = {});
-  // The bytes given to Put, or nullopt on a miss. DATA_LOSS naming the key
+  // The bytes given to Put, or nullopt on a miss (from memory when the entry
+  // is kept there and its row is still in the table). DATA_LOSS naming the key
   // when the stored entry is corrupt; the entry is then gone. On a hit,
   // `sha256` (when given) receives the bytes' SHA-256, hex, which Get has
   // just verified (a caller need not hash them again).
@@ -94,6 +103,18 @@ class SampleCache {
  private:
   SampleCache(std::unique_ptr<SqliteDb> db, SampleCacheOptions options) : db_(std::move(db)), options_(options) {}
 
+  // An entry kept in memory (SampleCacheOptions::memory_bytes).
+  struct Recent {
+    SampleKey key;
+    std::string sha256;
+    std::string bytes;
+  };
+  bool Keeps(size_t bytes) const;  // whether an entry of `bytes` is kept in memory
+  // Keeps the entry first in recent_, dropping the least recently used ones
+  // beyond memory_bytes.
+  void KeepLocked(const SampleKey& key, absl::string_view sha256, std::string bytes);
+  std::list<Recent>::iterator FindRecentLocked(const SampleKey& key);
+  void ForgetLocked(const SampleKey& key);
   absl::Status EraseLocked(const SampleKey& key);
   absl::Status EvictLocked(const SampleKey& keep);
   absl::Status PinLocked(const SampleKey& key, absl::string_view job_id);
@@ -102,6 +123,8 @@ class SampleCache {
   std::unique_ptr<SqliteDb> db_;  // guarded by mu_
   const SampleCacheOptions options_;
   SampleCacheStats counters_;  // guarded by mu_; only the counted fields
+  std::list<Recent> recent_;  // guarded by mu_; most recently used first
+  int64_t recent_bytes_ = 0;  // guarded by mu_; the bytes of recent_
 };
 
 }  // namespace mvbrdf::store

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
+#include <utility>
 #include <random>
 #include <string>
 
@@ -85,9 +87,17 @@ TEST(SampleCacheTest, RoundTripsAnEncodedSampleSet) {
   EXPECT_EQ(**again, bytes);
 }
 
+// The database's own checks: no copy in memory (SampleCacheOptions::
+// memory_bytes 0), which would answer from the bytes Put kept instead.
+SampleCacheOptions DatabaseOnly() {
+  SampleCacheOptions options;
+  options.memory_bytes = 0;
+  return options;
+}
+
 TEST(SampleCacheTest, CorruptEntryIsDataLossAndRemoved) {
   TestDir dir;
-  auto cache = OpenOrDie(dir.db());
+  auto cache = OpenOrDie(dir.db(), DatabaseOnly());
   const std::string bytes = samples::EncodeSampleSet(MakeSampleSet(500));
   ASSERT_TRUE(cache->Put(Key("key"), bytes, kT0).ok());
   {
@@ -126,7 +136,7 @@ TEST(SampleCacheTest, CorruptEntryIsDataLossAndRemoved) {
 
 TEST(SampleCacheTest, ChecksumMismatchAloneIsDetected) {
   TestDir dir;
-  auto cache = OpenOrDie(dir.db());
+  auto cache = OpenOrDie(dir.db(), DatabaseOnly());
   ASSERT_TRUE(cache->Put(Key("key"), "some sample bytes", kT0).ok());
   {
     auto db = SqliteDb::Open(dir.db());
@@ -137,6 +147,85 @@ TEST(SampleCacheTest, ChecksumMismatchAloneIsDetected) {
   auto corrupt = cache->Get(Key("key"), kT0 + 1);
   EXPECT_EQ(corrupt.status().code(), absl::StatusCode::kDataLoss) << corrupt.status();
   EXPECT_NE(corrupt.status().message().find("SHA-256"), absl::string_view::npos) << corrupt.status();
+}
+
+TEST(SampleCacheTest, KeepsTheLastEntryPutOrReadInMemory) {
+  TestDir dir;
+  const std::string a = samples::EncodeSampleSet(MakeSampleSet(300));
+  const std::string b = samples::EncodeSampleSet(MakeSampleSet(400));
+  SampleCacheOptions options;
+  options.memory_bytes = static_cast<int64_t>(std::max(a.size(), b.size()));
+  auto cache = OpenOrDie(dir.db(), options);
+  const auto stats = [&cache]() {
+    auto s = cache->Stats();
+    EXPECT_TRUE(s.ok()) << s.status();
+    return s.ok() ? *s : SampleCacheStats();
+  };
+  const auto get = [&cache](const std::string& configuration, int64_t now_ms) {
+    std::string sha256;
+    auto got = cache->Get(Key(configuration), now_ms, &sha256);
+    EXPECT_TRUE(got.ok()) << got.status();
+    return got.ok() && got->has_value() ? std::make_pair(**got, sha256) : std::make_pair(std::string(), sha256);
+  };
+
+  // Put keeps its entry: the next Get of it is answered from memory, with the
+  // digest, and stamps its use like any hit.
+  ASSERT_TRUE(cache->Put(Key("a"), a, kT0).ok());
+  EXPECT_EQ(get("a", kT0 + 1), std::make_pair(a, Sha256Hex(a)));
+  EXPECT_EQ(stats().hits, 1);
+  EXPECT_EQ(stats().memory_hits, 1);
+  {
+    auto db = SqliteDb::Open(dir.db());
+    ASSERT_TRUE(db.ok());
+    auto used = Statement::Prepare(**db, "SELECT last_used_ms FROM sample_cache");
+    ASSERT_TRUE(used.ok());
+    ASSERT_TRUE(used->Step().ok());
+    EXPECT_EQ(used->ColumnInt64(0), kT0 + 1);
+  }
+
+  // Another Put replaces the copy; a Get from the database keeps what it read.
+  ASSERT_TRUE(cache->Put(Key("b"), b, kT0 + 2).ok());
+  EXPECT_EQ(get("a", kT0 + 3).first, a);
+  EXPECT_EQ(stats().memory_hits, 1);
+  EXPECT_EQ(get("a", kT0 + 4).first, a);
+  EXPECT_EQ(stats().memory_hits, 2);
+  EXPECT_EQ(get("b", kT0 + 5).first, b);
+  EXPECT_EQ(stats().memory_hits, 2);
+
+  // An entry erased, here or by another connection, is a miss, not the copy.
+  ASSERT_TRUE(cache->Erase(Key("b")).ok());
+  EXPECT_EQ(get("b", kT0 + 6).first, "");
+  EXPECT_EQ(get("a", kT0 + 7).first, a);  // from the database: now the copy
+  {
+    auto db = SqliteDb::Open(dir.db());
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE((*db)->Exec("DELETE FROM sample_cache").ok());
+  }
+  EXPECT_EQ(get("a", kT0 + 8).first, "");
+  EXPECT_EQ(stats().memory_hits, 2);
+  EXPECT_EQ(stats().misses, 2);
+
+  // Several entries fit together: a small one Put after a large one (a
+  // gather's cameras after its Samples) does not push the large one out.
+  options.memory_bytes = static_cast<int64_t>(a.size()) + 100;
+  cache = OpenOrDie(dir.db(), options);
+  ASSERT_TRUE(cache->Put(Key("a"), a, kT0 + 9).ok());
+  ASSERT_TRUE(cache->Put(Key("cameras"), "calibration", kT0 + 9).ok());
+  EXPECT_EQ(get("a", kT0 + 10).first, a);
+  EXPECT_EQ(get("cameras", kT0 + 10).first, "calibration");
+  EXPECT_EQ(stats().memory_hits, 2);
+
+  // Larger than memory_bytes: never kept.
+  options.memory_bytes = static_cast<int64_t>(a.size()) - 1;
+  cache = OpenOrDie(dir.db(), options);
+  ASSERT_TRUE(cache->Put(Key("a"), a, kT0 + 9).ok());
+  EXPECT_EQ(get("a", kT0 + 10).first, a);
+  EXPECT_EQ(get("a", kT0 + 11).first, a);
+  EXPECT_EQ(stats().hits, 2);
+  EXPECT_EQ(stats().memory_hits, 0);
+
+  options.memory_bytes = -1;
+  EXPECT_EQ(SampleCache::Open(dir.db(), options).status().code(), absl::StatusCode::kInvalidArgument);
 }
 
 TEST(SampleCacheTest, EvictsLeastRecentlyUsed) {

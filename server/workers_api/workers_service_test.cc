@@ -45,7 +45,7 @@ class WorkersServiceTest : public ::testing::Test {
     auto artifacts = store::ArtifactStore::Open(dir_.db(), dir_.path() / "artifacts");
     ASSERT_TRUE(artifacts.ok()) << artifacts.status();
     artifacts_ = std::move(*artifacts);
-    auto samples = store::SampleCache::Open(dir_.db());
+    auto samples = store::SampleCache::Open(dir_.db(), cache_options_);
     ASSERT_TRUE(samples.ok()) << samples.status();
     samples_ = std::move(*samples);
     service_ = std::make_unique<WorkersService>(
@@ -257,6 +257,7 @@ class WorkersServiceTest : public ::testing::Test {
   }
 
   store::TestDir dir_;
+  store::SampleCacheOptions cache_options_;  // set before Start()
   std::atomic<int64_t> now_ms_{kT0};
   std::unique_ptr<store::JobStore> jobs_;
   std::unique_ptr<store::ArtifactStore> artifacts_;
@@ -753,6 +754,7 @@ TEST_F(WorkersServiceTest, GatheredSamplesAreCachedAndAnswerTheNextJobOnTheSameB
 }
 
 TEST_F(WorkersServiceTest, CorruptCacheEntryIsAMissAndTheWorkerResamples) {
+  cache_options_.memory_bytes = 0;  // the bytes on disk are read, not the copy Put kept
   Start();
   const std::string worker = Register("w");
   const store::SampleKey key = TriangleSampleKey(std::string(64, 'a'), SampleRequest());
@@ -917,6 +919,7 @@ TEST_F(WorkersServiceTest, FetchSamplesServesTheLeaseHolderOnly) {
 // dropped): the gather runs again, the sweep waits behind it, and the job
 // goes on; no attempt of the sweep is spent.
 TEST_F(WorkersServiceTest, LostSamplesAreGatheredAgain) {
+  cache_options_.memory_bytes = 0;  // the bytes on disk are read, not the copy Put kept
   Start();
   const std::string worker = Register("w");
   const auto [job, gather, sweep] = AddGatherJob();
@@ -974,6 +977,49 @@ TEST_F(WorkersServiceTest, LostSamplesAreGatheredAgain) {
   EXPECT_EQ(jobs_->GetTask(sweep)->attempts, 1);
   EXPECT_EQ(jobs_->GetJob(job)->state, store::JobState::kRunning);
 }
+
+// Issue #17: the sweeps fetch the Samples the gather has just stored from the
+// copy the cache keeps in memory, not by reading, inflating and hashing them
+// again; without that copy (memory 0) every fetch reads the database.
+class SampleFetchTest : public WorkersServiceTest, public ::testing::WithParamInterface<int64_t> {};
+
+TEST_P(SampleFetchTest, TwoWorkersFetchTheGatheredSamples) {
+  cache_options_.memory_bytes = GetParam();
+  Start();
+  const std::string first = Register("first"), second = Register("second");
+  v1::SubmitJobRequest request = SampleRequest();
+  request.set_bundle_sha256(std::string(64, 'a'));
+  auto job = jobs_->CreateJob(store::NewJob{"alice", std::string(64, 'a'), request.SerializeAsString()}, now_ms_);
+  ASSERT_TRUE(job.ok()) << job.status();
+  auto gather = jobs_->AddTask(store::NewTask{*job, "gather", "", std::nullopt, 0}, now_ms_);
+  ASSERT_TRUE(gather.ok()) << gather.status();
+  for (const char* key : {"key", "key+fill"}) {
+    ASSERT_TRUE(jobs_->AddTask(store::NewTask{*job, "sweep", key, *gather, 0}, now_ms_).ok());
+  }
+  ASSERT_TRUE(jobs_->SealJob(*job, now_ms_).ok());
+  const std::string encoded = EncodedSamples(200);
+  const std::string sha256 = store::Sha256Hex(encoded);
+  v1::LeaseTaskResponse leased;
+  ASSERT_TRUE(Lease(first, 0, &leased).ok());
+  ASSERT_EQ(leased.task().id(), *gather);
+  v1::TaskUpdateAck ack;
+  ASSERT_TRUE(Report(GatherUpdates(first, *gather, encoded, 700, sha256), &ack).ok());
+  for (const std::string& worker : {first, second}) {
+    ASSERT_TRUE(Lease(worker, 0, &leased).ok());
+    ASSERT_TRUE(leased.has_task());
+    ASSERT_EQ(leased.task().kind(), "sweep");
+    const Fetched fetched = FetchSamples(worker, leased.task().id());
+    ASSERT_TRUE(fetched.status.ok()) << fetched.status.error_message();
+    EXPECT_EQ(fetched.bytes, encoded);
+    EXPECT_EQ(fetched.sha256, sha256);
+  }
+  auto stats = samples_->Stats();
+  ASSERT_TRUE(stats.ok()) << stats.status();
+  EXPECT_EQ(stats->hits, 2);
+  EXPECT_EQ(stats->memory_hits, GetParam() > 0 ? 2 : 0);
+}
+
+INSTANTIATE_TEST_SUITE_P(MemoryBytes, SampleFetchTest, ::testing::Values(int64_t{256} << 20, int64_t{0}));
 
 }  // namespace
 }  // namespace mvbrdf::server
