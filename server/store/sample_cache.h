@@ -11,6 +11,11 @@
 // it has used them, even when that holds the cache over its limit for a while
 // (bounded by the jobs in flight; the next Put after they end evicts).
 //
+// The entries last Put or read are kept uncompressed in memory as well, up to
+// `memory_bytes` (issue #17): a Get of one of them answers from that copy,
+// verified when it was kept, while its row is still in the table; a row
+// corrupted meanwhile is found at the next read from the database.
+//
 // Threading: every method may be called from any thread (a mutex serialises
 // them). Other stores may use the same database file through their own
 // connections.
