@@ -256,7 +256,8 @@ PowellSummary MinimizePowellOnce(const std::function<double(const double*)>& cos
 PowellSummary MinimizePowell(const std::function<double(const double*)>& cost, int n, double* x,
                              const PowellOptions& options, const std::function<void(double*)>& project) {
   PowellSummary summary = MinimizePowellOnce(cost, n, x, options, project);
-  for (int restart = 0; restart < options.restarts && summary.converged; ++restart) {
+  for (int restart = 0; restart < options.restarts && summary.converged && summary.iterations < options.max_iterations;
+       ++restart) {
     const PowellSummary again = MinimizePowellOnce(cost, n, x, options, project);
     const double before = summary.final_cost;
     summary.iterations += again.iterations;

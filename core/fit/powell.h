@@ -29,8 +29,9 @@ struct PowellOptions {
   int max_bracket_steps = 200;
   // After convergence, start again from the result with fresh unit
   // directions, up to this many times, while a restart still lowers the cost
-  // by more than function_tolerance (relative): Numerical Recipes' advice, as
-  // the direction set degenerates and an iteration whose line searches barely
+  // by more than function_tolerance (relative) and the runs so far took fewer
+  // than max_iterations iterations in all: Numerical Recipes' advice, as the
+  // direction set degenerates and an iteration whose line searches barely
   // move stops the method early.
   int restarts = 0;
 };
