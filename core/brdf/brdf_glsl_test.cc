@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/brdf/blinn_phong.h"
+#include "core/base/draw_order.h"
 #include "core/brdf/geometry.h"
 #include "core/brdf/ggx.h"
 #include "core/brdf/phong.h"
@@ -58,7 +59,8 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
   std::mt19937 rng(5);
   std::normal_distribution<double> normal;
   const auto upper = [&] {
-    glm::dvec3 d(normal(rng), normal(rng), std::abs(normal(rng)) + 0.05);
+    glm::dvec3 d = base::DrawVec3<glm::dvec3>([&] { return normal(rng); });
+    d.z = std::abs(d.z) + 0.05;
     return glm::normalize(d);
   };
   const glm::dvec3 n(0, 0, 1);
@@ -74,8 +76,8 @@ TEST(BrdfGlslTest, EveryModelMatchesTheCpu) {
     const glm::dvec3 mirror = 2.0 * glm::dot(l, n) * n - l;
     // Half of them within ~0.2 rad of the mirror direction, half anywhere
     // (some below the horizon: n.v < 0).
-    const glm::dvec3 v = i % 2 == 0 ? glm::normalize(mirror + 0.2 * glm::dvec3(normal(rng), normal(rng), normal(rng)))
-                                    : glm::normalize(glm::dvec3(normal(rng), normal(rng), normal(rng)));
+    const glm::dvec3 v = i % 2 == 0 ? glm::normalize(mirror + 0.2 * base::DrawVec3<glm::dvec3>([&] { return normal(rng); }))
+                                    : glm::normalize(base::DrawVec3<glm::dvec3>([&] { return normal(rng); }));
     const Geometry g = GeometryOf(n, l, v);
     for (int model = 0; model < 4; ++model) {
       for (const auto& p : parameters[model]) {

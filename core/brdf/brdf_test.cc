@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/brdf/blinn_phong.h"
+#include "core/base/draw_order.h"
 #include "core/brdf/model.h"
 #include "core/brdf/geometry.h"
 #include "core/brdf/ggx.h"
@@ -33,7 +34,8 @@ constexpr double kQuadratureError = 1e-4;
 glm::dvec3 RandomUpperDirection(std::mt19937& rng) {
   std::normal_distribution<double> normal;
   while (true) {
-    glm::dvec3 d(normal(rng), normal(rng), std::abs(normal(rng)));
+    glm::dvec3 d = base::DrawVec3<glm::dvec3>([&] { return normal(rng); });
+    d.z = std::abs(d.z);
     if (glm::length(d) > 1e-3 && d.z > 0.05 * glm::length(d)) return glm::normalize(d);
   }
 }
@@ -80,7 +82,7 @@ void CheckJacobians(const std::vector<JacobianProbe>& probes) {
     for (int i = 0; i < 40; ++i) {
       const glm::dvec3 l = RandomUpperDirection(rng);
       const glm::dvec3 mirror = 2.0 * glm::dot(l, n) * n - l;
-      const glm::dvec3 v = glm::normalize(mirror + probe.spread * glm::dvec3(normal(rng), normal(rng), normal(rng)));
+      const glm::dvec3 v = glm::normalize(mirror + probe.spread * base::DrawVec3<glm::dvec3>([&] { return normal(rng); }));
       if (v.z < 0.05) continue;
       const Geometry geometry = GeometryOf(n, l, v);
       double p[3] = {probe.p0, probe.p1, probe.p2};

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/brdf/nbrdf.h"
+#include "core/base/draw_order.h"
 #include "core/gl/egl_context.h"
 #include "core/gl/gl_api.h"
 #include "core/gl/gl_objects.h"
@@ -76,7 +77,8 @@ TEST(NbrdfGlslTest, MatchesTheCpu) {
   std::normal_distribution<double> normal;
   const auto upper = [&] {
     while (true) {
-      const glm::dvec3 d(normal(rng), normal(rng), std::abs(normal(rng)));
+      glm::dvec3 d = base::DrawVec3<glm::dvec3>([&] { return normal(rng); });
+      d.z = std::abs(d.z);
       if (glm::length(d) > 1e-3 && d.z > 0.02 * glm::length(d)) return glm::normalize(d);
     }
   };
@@ -87,7 +89,7 @@ TEST(NbrdfGlslTest, MatchesTheCpu) {
       // Half within ~0.1 rad of the mirror direction, half anywhere above.
       glm::dvec3 wo =
           i % 2 == 0
-              ? glm::normalize(glm::dvec3(-wi.x, -wi.y, wi.z) + 0.1 * glm::dvec3(normal(rng), normal(rng), normal(rng)))
+              ? glm::normalize(glm::dvec3(-wi.x, -wi.y, wi.z) + 0.1 * base::DrawVec3<glm::dvec3>([&] { return normal(rng); }))
               : upper();
       if (wo.z < 0.02) wo = upper();
       cases.push_back({glm::vec4(glm::vec3(wi), static_cast<float>(m)), glm::vec4(glm::vec3(wo), 0.0f)});

@@ -17,6 +17,7 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "core/base/draw_order.h"
 #include "core/base/files.h"
 
 namespace mvbrdf::brdf {
@@ -100,7 +101,8 @@ constexpr Probe kProbes[] = {
 glm::dvec3 RandomUpperDirection(std::mt19937& rng) {
   std::normal_distribution<double> normal;
   while (true) {
-    glm::dvec3 d(normal(rng), normal(rng), std::abs(normal(rng)));
+    glm::dvec3 d = base::DrawVec3<glm::dvec3>([&] { return normal(rng); });
+    d.z = std::abs(d.z);
     if (glm::length(d) > 1e-3 && d.z > 0.05 * glm::length(d)) return glm::normalize(d);
   }
 }
@@ -156,7 +158,7 @@ TEST(NeuralBrdfTest, DoesNotDependOnTheTangentFrame) {
       // Through EvaluateWorld: n, l and v rotated together by a random
       // rotation, so EvaluateWorld's tangent frame around the rotated n is
       // not the rotated frame of (0, 0, 1).
-      const glm::dvec3 axis = glm::normalize(glm::dvec3(angle(rng) - kPi, angle(rng) - kPi, angle(rng) - kPi));
+      const glm::dvec3 axis = glm::normalize(base::DrawVec3<glm::dvec3>([&] { return angle(rng); }) - kPi);
       const double beta = angle(rng);
       const auto rotate = [&](const glm::dvec3& w) {  // Rodrigues
         return w * std::cos(beta) + glm::cross(axis, w) * std::sin(beta) +

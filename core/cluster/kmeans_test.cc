@@ -9,6 +9,7 @@
 #include <random>
 
 #include "absl/status/status.h"
+#include "core/base/draw_order.h"
 #include "core/scene/video_source.h"
 
 namespace mvbrdf::cluster {
@@ -39,7 +40,7 @@ Blobs MakeBlobs(const std::vector<glm::vec3>& centres, int per_blob, float sigma
   std::normal_distribution<float> noise(0.0f, sigma);
   for (size_t c = 0; c < centres.size(); ++c) {
     for (int i = 0; i < per_blob; ++i) {
-      blobs.input.points.push_back(centres[c] + glm::vec3(noise(rng), noise(rng), noise(rng)));
+      blobs.input.points.push_back(centres[c] + base::DrawVec3<glm::vec3>([&] { return noise(rng); }));
       blobs.labels.push_back(static_cast<uint32_t>(c));
     }
   }
@@ -196,7 +197,7 @@ TEST(KMeans, AutomaticKOnOneMaterialWithShadingIsOne) {
     for (int i = 0; i < 5000; ++i) {
       float s = std::exp(shading(rng));
       if (uniform(rng) < 0.05f) s *= 1.5f + 1.5f * uniform(rng);
-      input.points.push_back(scale * (s * albedo + glm::vec3(noise(rng), noise(rng), noise(rng))));
+      input.points.push_back(scale * (s * albedo + base::DrawVec3<glm::vec3>([&] { return noise(rng); })));
       input.weights.push_back(0.2f + uniform(rng));
     }
     auto result = KMeans(input, KMeansOptions{});
@@ -209,7 +210,8 @@ TEST(KMeans, AutomaticKOnOneMaterialWithShadingIsOne) {
   KMeansInput input;
   for (const glm::vec3& albedo : {glm::vec3(0.45f, 0.3f, 0.2f), glm::vec3(0.1f, 0.2f, 0.5f)}) {
     for (int i = 0; i < 2500; ++i) {
-      input.points.push_back(std::exp(shading(rng)) * albedo + glm::vec3(noise(rng), noise(rng), noise(rng)));
+      const glm::vec3 offset = base::DrawVec3<glm::vec3>([&] { return noise(rng); });  // drawn before the shading
+      input.points.push_back(std::exp(shading(rng)) * albedo + offset);
     }
   }
   auto two = KMeans(input, KMeansOptions{});

@@ -4,6 +4,8 @@
 
 #include <random>
 
+#include "core/base/draw_order.h"
+
 namespace mvbrdf::cluster {
 namespace {
 
@@ -31,7 +33,7 @@ Grid MakeGrid(float sigma, uint32_t seed) {
       const float dx = x - 40.0f, dy = y - 32.0f;
       const uint32_t label = x < kSide / 3 ? 0u : (dx * dx + dy * dy < 15.0f * 15.0f ? 1u : 2u);
       g.truth.push_back(label);
-      g.input.points.push_back(g.centres[label] + glm::vec3(noise(rng), noise(rng), noise(rng)));
+      g.input.points.push_back(g.centres[label] + base::DrawVec3<glm::vec3>([&] { return noise(rng); }));
       g.input.weights.push_back(weight(rng));
       const uint32_t i = static_cast<uint32_t>(y * kSide + x);
       if (x + 1 < kSide) g.edges.emplace_back(i, i + 1);

@@ -6,6 +6,7 @@
 #include <random>
 #include <vector>
 
+#include "core/base/draw_order.h"
 #include "core/fit/fit_test_util.h"
 #include "gtest/gtest.h"
 
@@ -29,7 +30,7 @@ TEST(DiffuseAccumulatorTest, OneToThreeSamplesPerElementAreExact) {
   for (uint32_t e = 0; e < 3; ++e) {
     const glm::vec3 kd = glm::vec3(0.1f, 0.2f, 0.3f) * static_cast<float>(e + 1);
     for (uint32_t s = 0; s <= e; ++s) {
-      const glm::vec3 g(uniform(rng), uniform(rng), uniform(rng));
+      const glm::vec3 g = base::DrawVec3<glm::vec3>([&] { return uniform(rng); });
       accumulator.Add(e, kd * g, g);
     }
   }
@@ -98,8 +99,8 @@ TEST(DiffuseAccumulatorTest, ErrorFromSumsMatchesDirectSumAndNeverGoesNegative) 
   DiffuseAccumulator accumulator(2);
   std::vector<glm::vec3> r, g;
   for (int i = 0; i < 1000; ++i) {
-    g.push_back(glm::vec3(uniform(rng), uniform(rng), uniform(rng)));
-    r.push_back(0.4f * g.back() + 0.05f * glm::vec3(normal(rng), normal(rng), normal(rng)));
+    g.push_back(base::DrawVec3<glm::vec3>([&] { return uniform(rng); }));
+    r.push_back(0.4f * g.back() + 0.05f * base::DrawVec3<glm::vec3>([&] { return normal(rng); }));
     accumulator.Add(0, r.back(), g.back());
     // Element 1: large values fitted exactly, where S_rr - 2 kd S_rg + kd^2 S_gg cancels.
     accumulator.Add(1, 1e4f * g.back(), g.back());
@@ -124,7 +125,8 @@ TEST(DiffuseAccumulatorTest, MergeEqualsOneAccumulator) {
   std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
   for (int i = 0; i < 300; ++i) {
     const uint32_t e = i % 3;
-    const glm::vec3 g(uniform(rng), uniform(rng), uniform(rng)), r(uniform(rng), uniform(rng), uniform(rng));
+    const glm::vec3 g = base::DrawVec3<glm::vec3>([&] { return uniform(rng); });
+    const glm::vec3 r = base::DrawVec3<glm::vec3>([&] { return uniform(rng); });
     all.Add(e, r, g);
     (i < 150 ? first : second).Add(e, r, g);
   }

@@ -4,6 +4,7 @@
 #include <random>
 #include <vector>
 
+#include "core/base/draw_order.h"
 #include "core/fit/fit_test_util.h"
 #include "core/fit/phong_fit.h"
 #include "gtest/gtest.h"
@@ -29,7 +30,7 @@ Textured MakeTextured(uint32_t texels, size_t samples, double highlight_fraction
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> u(0.6f, 1.4f);
   for (uint32_t e = 0; e < texels; ++e) {
-    t.kd.push_back(glm::vec3(0.3f * u(rng), 0.2f * u(rng), 0.1f * u(rng)));
+    t.kd.push_back(glm::vec3(0.3f, 0.2f, 0.1f) * base::DrawVec3<glm::vec3>([&] { return u(rng); }));
   }
   GeneratorOptions g;
   g.num_samples = samples;

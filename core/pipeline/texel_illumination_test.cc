@@ -5,6 +5,8 @@
 #include <random>
 #include <vector>
 
+#include "core/base/draw_order.h"
+
 namespace mvbrdf::pipeline {
 namespace {
 
@@ -19,7 +21,7 @@ TEST(TexelIlluminationTest, BothLayoutsGiveTheIlluminationOfEachConfiguration) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   std::vector<glm::vec3> intensity;
-  for (size_t k = 0; k < kLights; ++k) intensity.push_back(glm::vec3(unit(rng), unit(rng), unit(rng)) * 3.0f + 0.1f);
+  for (size_t k = 0; k < kLights; ++k) intensity.push_back(base::DrawVec3<glm::vec3>([&] { return unit(rng); }) * 3.0f + 0.1f);
   samples::LightMask odd, high;
   for (size_t k = 1; k < kLights; k += 2) odd.Set(k);
   for (size_t k = 200; k < kLights; ++k) high.Set(k);

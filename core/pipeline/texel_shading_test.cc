@@ -8,6 +8,8 @@
 #include <cstring>
 #include <random>
 
+#include "core/base/draw_order.h"
+
 namespace mvbrdf::pipeline {
 namespace {
 
@@ -29,7 +31,7 @@ TEST(TexelShadingTest, SpecularSumsIsSpecularSumPerChannelBitForBit) {
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   constexpr size_t kLights = 12;
   std::vector<glm::vec3> intensity(kLights);
-  for (glm::vec3& i : intensity) i = glm::vec3(unit(rng), unit(rng), unit(rng)) * 5.0f;
+  for (glm::vec3& i : intensity) i = base::DrawVec3<glm::vec3>([&] { return unit(rng); }) * 5.0f;
   for (int trial = 0; trial < 2000; ++trial) {
     std::vector<uint16_t> light;
     std::vector<float> g, h, falloff;

@@ -4,6 +4,7 @@
 // the maps are drawn with), and it is not the whole face where the sphere is
 // small and far.
 #include "core/render/shadow_maps.h"
+#include "core/base/draw_order.h"
 
 #include <gtest/gtest.h>
 
@@ -47,7 +48,7 @@ TEST(ShadowMapsTest, EveryPointOfTheSphereProjectsIntoItsFacesRectangle) {
     // near it (the projection's widest) or far.
     const float scale = std::pow(10.0f, log_scale(rng));
     const float radius = scale * (0.05f + 0.5f * (unit(rng) + 1.0f));
-    glm::vec3 direction(unit(rng), unit(rng), unit(rng));
+    glm::vec3 direction = base::DrawVec3<glm::vec3>([&] { return unit(rng); });
     if (glm::length(direction) < 1e-3f) direction = glm::vec3(1, 0, 0);
     const float distance = radius * (1.02f + 20.0f * (unit(rng) + 1.0f) * (unit(rng) + 1.0f));
     const glm::vec3 centre = glm::normalize(direction) * distance;
@@ -55,7 +56,7 @@ TEST(ShadowMapsTest, EveryPointOfTheSphereProjectsIntoItsFacesRectangle) {
     for (int f = 0; f < 6; ++f)
       rects[f] = internal::SphereRectOnFace(centre, radius, kFaces[f][0], kFaces[f][1], kSize);
     for (int i = 0; i < 400; ++i) {
-      glm::vec3 offset(unit(rng), unit(rng), unit(rng));
+      glm::vec3 offset = base::DrawVec3<glm::vec3>([&] { return unit(rng); });
       if (glm::length(offset) > 1.0f) continue;
       // The surface of the sphere too (the extremes).
       if (i % 2 == 0 && glm::length(offset) > 0.0f) offset = glm::normalize(offset);

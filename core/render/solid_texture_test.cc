@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "core/base/draw_order.h"
 #include "core/gl/egl_context.h"
 #include "core/gl/gl_objects.h"
 #include "core/gl/shader_program.h"
@@ -78,7 +79,7 @@ TEST(SolidTextureTest, GpuMatchesCpu) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> coordinate(-60.0f, 60.0f);
   for (size_t i = 0; i < points.size(); ++i) {
-    points[i] = glm::vec4(coordinate(rng), coordinate(rng), coordinate(rng), 0.0f);
+    points[i] = glm::vec4(base::DrawVec3<glm::vec3>([&] { return coordinate(rng); }), 0.0f);
     if (i % 8 == 0) points[i] = glm::floor(points[i]);  // lattice points: exact hash comparison
   }
   SolidTextureParams params;

@@ -15,6 +15,7 @@
 #endif
 
 #include "absl/status/status.h"
+#include "core/base/draw_order.h"
 #include "core/samples/half_float.h"
 
 namespace mvbrdf::samples {
@@ -47,8 +48,8 @@ SampleSet MakeSet(int num_lights, int num_samples, uint32_t seed) {
       g[k] = unit(rng) < 0.25f ? 0.0f : unit(rng);
       h[k] = (k % 3 == 0 || g[k] == 0.0f) ? 0.0f : unit(rng);
     }
-    set.Add(static_cast<uint32_t>(rng()), i % 70000 % 65536, i % 7, glm::vec3(unit(rng), unit(rng), unit(rng)),
-            g.data(), h.data());
+    const glm::vec3 reflectance = base::DrawVec3<glm::vec3>([&] { return unit(rng); });  // drawn before the element
+    set.Add(static_cast<uint32_t>(rng()), i % 70000 % 65536, i % 7, reflectance, g.data(), h.data());
   }
   return set;
 }

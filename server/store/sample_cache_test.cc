@@ -8,6 +8,7 @@
 #include <random>
 #include <string>
 
+#include "core/base/draw_order.h"
 #include "core/samples/sample_set.h"
 #include "server/store/digest.h"
 #include "server/store/job_store.h"
@@ -28,7 +29,7 @@ samples::SampleSet MakeSampleSet(int count) {
   for (int i = 0; i < count; ++i) {
     const float g[3] = {unit(rng), unit(rng), 0.0f};
     const float h[3] = {unit(rng), 0.0f, unit(rng)};
-    set.Add(static_cast<uint32_t>(i * 3), i % 40, i % 4, glm::vec3(unit(rng), unit(rng), unit(rng)), g, h);
+    set.Add(static_cast<uint32_t>(i * 3), i % 40, i % 4, base::DrawVec3<glm::vec3>([&] { return unit(rng); }), g, h);
   }
   return set;
 }
