@@ -164,19 +164,24 @@ void SampleCache::KeepLocked(const SampleKey& key, absl::string_view sha256, std
   }
 }
 
+absl::StatusOr<bool> SampleCache::TouchLocked(const SampleKey& key, int64_t now_ms) {
+  MVBRDF_ASSIGN_OR_RETURN(
+      Statement touch,
+      Statement::Prepare(*db_, absl::StrCat("UPDATE sample_cache SET last_used_ms = ?5 WHERE ", kKeyWhere)));
+  MVBRDF_RETURN_IF_ERROR(BindKey(touch, key));
+  MVBRDF_RETURN_IF_ERROR(touch.BindInt64(5, now_ms));
+  MVBRDF_RETURN_IF_ERROR(touch.Run());
+  return db_->Changes() == 1;
+}
+
 absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key, int64_t now_ms,
                                                             std::string* sha256) {
   std::lock_guard<std::mutex> lock(mu_);
   if (const auto recent = FindRecentLocked(key); recent != recent_.end()) {
     // The bytes were verified when kept; the row must still be there (another
     // connection may have erased it), and its use is stamped as any hit's.
-    MVBRDF_ASSIGN_OR_RETURN(
-        Statement touch,
-        Statement::Prepare(*db_, absl::StrCat("UPDATE sample_cache SET last_used_ms = ?5 WHERE ", kKeyWhere)));
-    MVBRDF_RETURN_IF_ERROR(BindKey(touch, key));
-    MVBRDF_RETURN_IF_ERROR(touch.BindInt64(5, now_ms));
-    MVBRDF_RETURN_IF_ERROR(touch.Run());
-    if (db_->Changes() == 1) {
+    MVBRDF_ASSIGN_OR_RETURN(const bool present, TouchLocked(key, now_ms));
+    if (present) {
       ++counters_.hits;
       ++counters_.memory_hits;
       recent_.splice(recent_.begin(), recent_, recent);
@@ -219,12 +224,7 @@ absl::StatusOr<std::optional<std::string>> SampleCache::Get(const SampleKey& key
         absl::StrCat("sample cache entry ", key.ToString(), " is corrupt (", problem, "); removed it"));
   }
 
-  MVBRDF_ASSIGN_OR_RETURN(
-      Statement touch,
-      Statement::Prepare(*db_, absl::StrCat("UPDATE sample_cache SET last_used_ms = ?5 WHERE ", kKeyWhere)));
-  MVBRDF_RETURN_IF_ERROR(BindKey(touch, key));
-  MVBRDF_RETURN_IF_ERROR(touch.BindInt64(5, now_ms));
-  MVBRDF_RETURN_IF_ERROR(touch.Run());
+  MVBRDF_RETURN_IF_ERROR(TouchLocked(key, now_ms).status());
   ++counters_.hits;
   if (sha256 != nullptr) *sha256 = expected_sha256;
   if (Keeps(bytes.size())) KeepLocked(key, expected_sha256, bytes);

@@ -120,6 +120,8 @@ class SampleCache {
   void KeepLocked(const SampleKey& key, absl::string_view sha256, std::string bytes);
   std::list<Recent>::iterator FindRecentLocked(const SampleKey& key);
   void ForgetLocked(const SampleKey& key);
+  // Stamps the entry's last use; whether its row is in the table.
+  absl::StatusOr<bool> TouchLocked(const SampleKey& key, int64_t now_ms);
   absl::Status EraseLocked(const SampleKey& key);
   absl::Status EvictLocked(const SampleKey& keep);
   absl::Status PinLocked(const SampleKey& key, absl::string_view job_id);
