@@ -1,5 +1,7 @@
 #include "server/clients_api/job_graph.h"
 
+#include <algorithm>
+#include <numeric>
 #include <set>
 
 #include "absl/strings/str_cat.h"
@@ -61,6 +63,13 @@ absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene
   JobPlan job_plan;
   job_plan.plan = *std::move(plan);
   if (job_plan.plan.Has(pipeline::Stage::kLightSweep)) job_plan.candidates = job_plan.plan.candidates;
+  for (const std::string& name : job_plan.candidates) {
+    size_t lights = 0;
+    for (const auto& c : scene.light_configurations()) {
+      if (c.name() == name) lights = static_cast<size_t>(c.lights_size());
+    }
+    job_plan.candidate_lights.push_back(lights);
+  }
   return job_plan;
 }
 
@@ -76,11 +85,18 @@ absl::StatusOr<std::vector<std::string>> AddJobTasks(store::JobStore& jobs, cons
   if (!gather.ok()) return gather.status();
   std::string before_reflectance = *gather;
   if (!job_plan.candidates.empty()) {
-    std::vector<std::string> sweeps;
-    for (const std::string& configuration : job_plan.candidates) {
-      absl::StatusOr<std::string> sweep = add("sweep", configuration, *gather);
+    std::vector<size_t> order(job_plan.candidates.size());
+    std::iota(order.begin(), order.end(), size_t{0});
+    if (job_plan.candidate_lights.size() == order.size()) {
+      std::stable_sort(order.begin(), order.end(), [&job_plan](size_t a, size_t b) {
+        return job_plan.candidate_lights[a] > job_plan.candidate_lights[b];
+      });
+    }
+    std::vector<std::string> sweeps(job_plan.candidates.size());
+    for (size_t i : order) {
+      absl::StatusOr<std::string> sweep = add("sweep", job_plan.candidates[i], *gather);
       if (!sweep.ok()) return sweep.status();
-      sweeps.push_back(*sweep);
+      sweeps[i] = *sweep;
     }
     // choose also reads gather's result: the report's gather stage.
     std::vector<std::string> choose_deps = {*gather};

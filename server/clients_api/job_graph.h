@@ -28,6 +28,8 @@ struct JobPlan {
   pipeline::Plan plan;
   // The configurations swept (empty when the plan has no sweep).
   std::vector<std::string> candidates;
+  // Per candidate its number of lights: its sweep's cost grows with it.
+  std::vector<size_t> candidate_lights;
 };
 
 // The plan of `request` on `sequence`. INVALID_ARGUMENT naming the request
@@ -37,7 +39,9 @@ struct JobPlan {
 absl::StatusOr<JobPlan> PlanJob(const v1::SubmitJobRequest& request, const scene::Sequence& sequence);
 
 // Adds the graph of `job_plan` to the (unsealed) job; returns the task ids in
-// creation order.
+// creation order. Workers lease in creation order, so the sweep tasks are
+// created most lights first (longest first: the short ones fill the last
+// gaps when several workers sweep); choose reads them in candidate order.
 absl::StatusOr<std::vector<std::string>> AddJobTasks(store::JobStore& jobs, const std::string& job_id,
                                                      const JobPlan& job_plan, int64_t now_ms);
 

@@ -23,6 +23,7 @@
 #include "core/base/files.h"
 #include "core/bundle/bundle.h"
 #include "core/gl/egl_context.h"
+#include "core/scene/sequence.h"
 #include "core/synth/synthesizer.h"
 #include "server/store/digest.h"
 #include "server/store/test_dir.h"
@@ -290,18 +291,29 @@ TEST_F(MvbrdfServiceTest, SubmitCreatesTheTaskGraph) {
   const store::Task& gather = tasks->front();
   EXPECT_EQ(gather.kind, "gather");
   EXPECT_TRUE(gather.depends_on.empty());
-  std::vector<std::string> sweeps;
+  // The sweeps are created (and so leased) most lights first; choose reads
+  // them in the scene's order.
+  auto scene = scene::ReadScene(*scene_dir_ / "good" / "scene.json");
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  ASSERT_EQ(scene->light_configurations_size(), kConfigurations);
+  std::map<std::string, int> lights_of;
+  for (const auto& c : scene->light_configurations()) lights_of[c.name()] = c.lights_size();
+  std::map<std::string, std::string> sweep_of;
+  int previous_lights = 1 << 30;
   for (int i = 1; i <= kConfigurations; ++i) {
     const store::Task& sweep = (*tasks)[i];
     EXPECT_EQ(sweep.kind, "sweep");
-    EXPECT_FALSE(sweep.key.empty());
+    ASSERT_EQ(lights_of.count(sweep.key), 1u) << sweep.key;
+    EXPECT_LE(lights_of[sweep.key], previous_lights) << sweep.key;
+    previous_lights = lights_of[sweep.key];
     EXPECT_EQ(sweep.depends_on, std::vector<std::string>{gather.id});
-    sweeps.push_back(sweep.id);
+    sweep_of[sweep.key] = sweep.id;
   }
+  EXPECT_GT(lights_of[(*tasks)[1].key], lights_of[(*tasks)[kConfigurations].key]);
   const store::Task& choose = (*tasks)[kConfigurations + 1];
   EXPECT_EQ(choose.kind, "choose");
   std::vector<std::string> choose_deps = {gather.id};
-  choose_deps.insert(choose_deps.end(), sweeps.begin(), sweeps.end());
+  for (const auto& c : scene->light_configurations()) choose_deps.push_back(sweep_of[c.name()]);
   EXPECT_EQ(choose.depends_on, choose_deps);
   const store::Task& reflectance = tasks->back();
   EXPECT_EQ(reflectance.kind, "reflectance");
