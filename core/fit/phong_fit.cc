@@ -202,7 +202,6 @@ internal::PhongLmSummary SolveLevenbergMarquardt(const PhongChannelData& data, c
   return result;
 }
 
-
 void SolvePowell(const PhongChannelData& data, const bool* free, const double* lower, const double* upper,
                  const PhongFitOptions& options, double* x, ChannelFitSummary* summary) {
   int free_index[3];

@@ -5,7 +5,6 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
-#include "server/store/digest.h"
 
 namespace mvbrdf::server {
 namespace {
@@ -40,9 +39,9 @@ ChunkStream* ChunkStream::FromFile(const std::filesystem::path& path, const std:
   return stream;
 }
 
-ChunkStream* ChunkStream::FromBytes(std::string bytes, int64_t chunk_bytes) {
+ChunkStream* ChunkStream::FromBytes(std::string bytes, std::string sha256, int64_t chunk_bytes) {
   auto* stream = new ChunkStream(chunk_bytes);
-  stream->sha256_ = store::Sha256Hex(bytes);
+  stream->sha256_ = std::move(sha256);
   stream->total_ = static_cast<int64_t>(bytes.size());
   stream->bytes_ = std::move(bytes);
   stream->Begin();

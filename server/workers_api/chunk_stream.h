@@ -24,8 +24,8 @@ class ChunkStream final : public grpc::ServerWriteReactor<v1::ArtifactChunk> {
   // The file at `path` (`sha256`: its known digest, sent as is). NOT_FOUND
   // when the file is missing.
   static ChunkStream* FromFile(const std::filesystem::path& path, const std::string& sha256, int64_t chunk_bytes);
-  // `bytes` (their SHA-256 is computed here).
-  static ChunkStream* FromBytes(std::string bytes, int64_t chunk_bytes);
+  // `bytes` (`sha256`: their known digest, sent as is).
+  static ChunkStream* FromBytes(std::string bytes, std::string sha256, int64_t chunk_bytes);
   // A stream that only finishes with `status` (not OK).
   static ChunkStream* Failed(const absl::Status& status);
 

@@ -663,8 +663,12 @@ grpc::ServerWriteReactor<v1::ArtifactChunk>* WorkersService::FetchSamples(grpc::
   absl::StatusOr<v1::SubmitJobRequest> parsed = RequestOf(*job);
   if (!parsed.ok()) return ChunkStream::Failed(parsed.status());
   const store::SampleKey key = TriangleSampleKey(job->scene_hash, *parsed);
-  absl::StatusOr<std::optional<std::string>> bytes = samples_.Get(key, clock_());
-  if (bytes.ok() && bytes->has_value()) return ChunkStream::FromBytes(std::move(**bytes), kFetchChunkBytes);
+  // The digest Get verified (or kept with its copy in memory): not hashed again.
+  std::string sha256;
+  absl::StatusOr<std::optional<std::string>> bytes = samples_.Get(key, clock_(), &sha256);
+  if (bytes.ok() && bytes->has_value()) {
+    return ChunkStream::FromBytes(std::move(**bytes), std::move(sha256), kFetchChunkBytes);
+  }
   // DATA_LOSS: the entry failed its checksum and the cache dropped it; empty:
   // evicted (or dropped) since the gather. Either way the gather runs again.
   if (!bytes.ok() && !absl::IsDataLoss(bytes.status())) return ChunkStream::Failed(bytes.status());
