@@ -41,6 +41,10 @@ struct MeshTopology {
   // kept in `triangles` (indices stay stable) but excluded from resampling
   // and fitting.
   std::vector<uint32_t> zero_area_triangles;
+  // The rest pose is an OBJ file that ReadPlainObjCorners (obj_reader.h)
+  // reads as assimp does: later frames' OBJ files are read by it in-process
+  // where it can, the others by assimp (mesh_loader.h).
+  bool plain_obj = false;
 
   size_t num_render_vertices() const { return render_to_file_vertex.size(); }
   bool has_uvs() const { return !uvs.empty(); }

@@ -24,6 +24,7 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <string_view>
@@ -37,6 +38,7 @@
 #include "absl/strings/str_format.h"
 #include "core/base/files.h"
 #include "core/base/sanitizers.h"
+#include "core/scene/obj_reader.h"
 
 namespace mvbrdf::scene {
 namespace {
@@ -564,6 +566,30 @@ absl::StatusOr<FramePositions> PositionsFromCorners(const std::vector<Corner>& c
   return positions;
 }
 
+bool IsObj(const std::filesystem::path& file) { return absl::AsciiStrToLower(file.extension().string()) == ".obj"; }
+
+// The corners of a plain OBJ file (obj_reader.h), read in this process;
+// nullopt when it is not plain, too large, or unreadable (assimp then reads
+// it and reports what is wrong).
+std::optional<std::vector<glm::vec3>> ReadPlainObjFile(const std::filesystem::path& file) {
+  if (!WhyNotRegularFile(file).empty()) return std::nullopt;
+  std::error_code ec;
+  const uintmax_t size = std::filesystem::file_size(file, ec);
+  if (ec || size > kMaxPlainObjBytes) return std::nullopt;
+  absl::StatusOr<std::string> text = ReadFileToString(file);
+  if (!text.ok()) return std::nullopt;
+  return ReadPlainObjCorners(*text);
+}
+
+bool SamePositions(const std::vector<glm::vec3>& plain, const std::vector<Corner>& corners) {
+  if (plain.size() != corners.size()) return false;
+  for (size_t c = 0; c < corners.size(); ++c) {
+    const aiVector3D& p = corners[c].position;
+    if (Bits(p.x) != Bits(plain[c].x) || Bits(p.y) != Bits(plain[c].y) || Bits(p.z) != Bits(plain[c].z)) return false;
+  }
+  return true;
+}
+
 // Corners (a, b, c) of each triangle become (a, c, b).
 void FlipWinding(std::vector<Corner>& corners) {
   for (size_t c = 0; c + 2 < corners.size(); c += 3) std::swap(corners[c + 1], corners[c + 2]);
@@ -610,6 +636,15 @@ MeshOrientation ComputeMeshOrientation(const MeshTopology& topology, const Frame
 
 void SetImportChildHookForTesting(void (*hook)(int attempt)) { import_child_hook = hook; }
 
+absl::StatusOr<std::vector<glm::vec3>> ImportCornerPositionsHereForTesting(const std::filesystem::path& file) {
+  absl::StatusOr<ImportedCorners> imported = ImportCornersHere(file, "file");
+  if (!imported.ok()) return imported.status();
+  std::vector<glm::vec3> out;
+  out.reserve(imported->corners.size());
+  for (const Corner& c : imported->corners) out.emplace_back(c.position.x, c.position.y, c.position.z);
+  return out;
+}
+
 void SetImportTimeLimitForTesting(double seconds, double seconds_per_mib) {
   import_seconds = seconds;
   import_seconds_per_mib = seconds_per_mib;
@@ -618,6 +653,12 @@ void SetImportTimeLimitForTesting(double seconds, double seconds_per_mib) {
 absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::string_view field, bool flip_winding) {
   auto imported = ImportCorners(file, field);
   if (!imported.ok()) return imported.status();
+  // Later frames are read in-process only when this file reads the same both ways.
+  bool plain_obj = false;
+  if (IsObj(file)) {
+    const std::optional<std::vector<glm::vec3>> plain = ReadPlainObjFile(file);
+    plain_obj = plain.has_value() && SamePositions(*plain, imported->corners);
+  }
   if (flip_winding) FlipWinding(imported->corners);
   const std::vector<Corner>& corners = imported->corners;
   const bool has_uvs = imported->has_uvs;
@@ -669,6 +710,7 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::str
     topo.triangles[c / 3][static_cast<int>(c % 3)] = rv;
   }
   topo.num_file_vertices = static_cast<uint32_t>(out.positions.size());
+  topo.plain_obj = plain_obj;
   if (!has_uvs) {
     topo.render_to_file_vertex.resize(topo.num_file_vertices);
     for (uint32_t i = 0; i < topo.num_file_vertices; ++i) topo.render_to_file_vertex[i] = i;
@@ -694,8 +736,18 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::str
 
 absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& file, const MeshTopology& topology,
                                                   absl::string_view field, bool flip_winding) {
-  // Through assimp like the rest pose, so that the same text gives the same
-  // floats bit for bit (samba: about 6 ms per 10k-vertex frame).
+  // In-process when the rest pose read the same that way and this file is
+  // plain too (~4 ms for bench-e2e's 12 k-vertex frame against 45-120 ms for
+  // assimp in its child); otherwise through assimp like the rest pose. Either
+  // way the same text gives the same floats bit for bit.
+  if (topology.plain_obj && IsObj(file)) {
+    if (std::optional<std::vector<glm::vec3>> plain = ReadPlainObjFile(file)) {
+      std::vector<Corner> corners(plain->size());
+      for (size_t c = 0; c < corners.size(); ++c) corners[c].position = aiVector3D((*plain)[c].x, (*plain)[c].y, (*plain)[c].z);
+      if (flip_winding) FlipWinding(corners);
+      return PositionsFromCorners(corners, topology, file, field);
+    }
+  }
   auto imported = ImportCorners(file, field);
   if (!imported.ok()) return imported.status();
   if (flip_winding) FlipWinding(imported->corners);

@@ -7,7 +7,8 @@
 // scene order, faces in order). A later frame's file must have the same face
 // count and its welded corners must agree, else the topology differs.
 //
-// Assimp runs in a forked child process (about 10 ms per file): it crashes on
+// Assimp runs in a forked child process (10-120 ms per file, the fork in
+// proportion to the caller's memory): it crashes on
 // some malformed files, and a crash there fails the load with
 // INVALID_ARGUMENT instead of ending the calling server or worker; so does an
 // importer running longer than 5 s + 1 s per MiB of file or growing the
@@ -50,9 +51,11 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::str
 
 // Loads the file-vertex positions of another frame of the same mesh; fails
 // with INVALID_ARGUMENT when its topology differs from `topology` or a vertex
-// is not finite, NOT_FOUND when the file is missing. Positions are parsed by
-// the same importer as LoadMesh, so the rest pose's file gives the same floats.
-// `flip_winding` as the rest pose was loaded.
+// is not finite, NOT_FOUND when the file is missing. Positions are read as
+// LoadMesh reads them, so the rest pose's file gives the same floats: in this
+// process by ReadPlainObjCorners (obj_reader.h) when topology.plain_obj and
+// the file is a plain OBJ, else by assimp. `flip_winding` as the rest pose
+// was loaded.
 absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& file, const MeshTopology& topology,
                                                   absl::string_view field, bool flip_winding = false);
 
@@ -73,6 +76,11 @@ void SetImportTimeLimitForTesting(double seconds, double seconds_per_mib);
 // Called in the importer child before the import, with the attempt (0, then 1
 // when the first child was found blocked); nullptr: none. Tests only.
 void SetImportChildHookForTesting(void (*hook)(int attempt));
+
+// The triangles' corner positions assimp reads from `file`, in this process
+// (no child): for tests and the fuzzer that hold the plain-OBJ reader
+// (obj_reader.h) to assimp on inputs that reader calls plain.
+absl::StatusOr<std::vector<glm::vec3>> ImportCornerPositionsHereForTesting(const std::filesystem::path& file);
 
 // Writes a mesh as Wavefront OBJ (v, optional vt, f lines), file vertices as
 // `v` lines in order, so that LoadMesh reads back the same topology.

@@ -10,14 +10,19 @@
 // against its own topology must give the same positions; the file read as a
 // later frame of a fixed pyramid must fail or give 5 finite positions; and a
 // loaded mesh written back with WriteObj must load again with the same
-// triangles and positions.
+// triangles and positions. An OBJ file the in-process reader (obj_reader.h)
+// calls plain must read the same through assimp: LoadMesh then marks it
+// plain, or fails on a check of ours (a non-finite position, a UV far outside
+// [0,1]), never in assimp.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 
 #include "core/scene/mesh_loader.h"
+#include "core/scene/obj_reader.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {
@@ -97,6 +102,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
 
   absl::StatusOr<LoadedMesh> mesh = mvbrdf::scene::LoadMesh(file, "mesh");
   mvbrdf::fuzz::Trace("LoadMesh", mesh.status());
+  if (kExtensions[data[0] % 4] == std::string_view(".obj") &&
+      mvbrdf::scene::ReadPlainObjCorners(std::string_view(reinterpret_cast<const char*>(data + 1), size - 1))) {
+    const std::string why = mesh.ok() ? std::string() : std::string(mesh.status().message());
+    Require(mesh.ok() ? mesh->topology.plain_obj
+                      : why.find("non-finite") != std::string::npos || why.find("texture coordinate") != std::string::npos,
+            "mesh_loader_fuzz: the plain-OBJ reader and assimp disagree");
+  }
   // A file the importer crashed or hung on (seconds each) is not read again.
   if (!mesh.ok() && mesh.status().message().find("importer (assimp)") != std::string::npos) return 0;
 
