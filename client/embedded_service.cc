@@ -6,6 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/base/files.h"
 #include "core/base/status_macros.h"
+#include "server/clients_api/bundle_area.h"
 
 namespace mvbrdf::client {
 
@@ -38,6 +39,8 @@ void EmbeddedService::AddWorker() {
   wo.channel = channel_;
   wo.name = absl::StrCat("in-process-", i);
   wo.cache_dir = options_.data_dir / absl::StrCat("worker-", i);
+  // The server's unpacked copies (it validates every job's bundle that way).
+  wo.server_unpacked_bundles = options_.data_dir / "scenes";
   wo.egl = options_.egl;
   wo.threads = options_.threads_per_worker;
   wo.wait_seconds = 2;
@@ -54,6 +57,20 @@ void EmbeddedService::AddWorker() {
     const absl::Status ran = w->Run();
     if (!ran.ok() && log) log(absl::StrCat("worker ", name, " stopped: ", ran.message()));
   });
+}
+
+absl::Status EmbeddedService::AdoptBundle(const fs::path& archive, const std::string& sha256) {
+  MVBRDF_RETURN_IF_ERROR(clients_api::BundleArea::CheckDigest("sha256", sha256));
+  const fs::path target = clients_api::BundleArea(options_.data_dir).BundlePath(sha256);
+  std::error_code ec;
+  if (fs::is_regular_file(target, ec)) {  // uploaded before: the same bytes
+    fs::remove(archive, ec);
+    return absl::OkStatus();
+  }
+  fs::create_directories(target.parent_path(), ec);
+  if (!ec) fs::rename(archive, target, ec);
+  if (ec) return absl::UnavailableError(absl::StrCat(archive.string(), " -> ", target.string(), ": ", ec.message()));
+  return absl::OkStatus();
 }
 
 EmbeddedService::~EmbeddedService() {

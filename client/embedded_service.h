@@ -47,6 +47,13 @@ class EmbeddedService {
   // Adds one more worker thread (e.g. to make a sweep parallel midway).
   void AddWorker();
 
+  // Hands the bundle file `archive` (PackBundle's, hashing to `sha256`) to
+  // the server by renaming it into its bundle area, as a complete upload
+  // would have left it, without copying or hashing it again (issue #17:
+  // bench-e2e's bundle is 518 MB). The file is gone afterwards. An error
+  // (e.g. `archive` on another file system) leaves it in place: upload it.
+  absl::Status AdoptBundle(const std::filesystem::path& archive, const std::string& sha256);
+
   // Copies the artifacts of job `job_id` from the artifact store to
   // out_dir/<name>, each verified against its SHA-256; returns their names.
   absl::StatusOr<std::vector<std::string>> CopyArtifacts(const std::string& job_id,

@@ -217,9 +217,14 @@ int RunEmbedded(const std::string& scene_file, const v1::SubmitJobRequest& base,
   {
     absl::StatusOr<bundle::BundleInfo> info = bundle::PackBundle(scene_file, archive);
     if (!info.ok()) return ReportFailure(info.status(), "mvbrdf run");
-    UploadOutcome outcome;
-    absl::Status uploaded = UploadBundleFile(*stub, "run", archive, info->sha256, static_cast<uint64_t>(info->size),
-                                             nullptr, &outcome);
+    // The server is in this process: the packed file becomes its bundle as
+    // it is (no upload copying and hashing it again), else it is uploaded.
+    absl::Status uploaded = (*service)->AdoptBundle(archive, info->sha256);
+    if (!uploaded.ok()) {
+      UploadOutcome outcome;
+      uploaded = UploadBundleFile(*stub, "run", archive, info->sha256, static_cast<uint64_t>(info->size), nullptr,
+                                  &outcome);
+    }
     std::error_code ec;
     fs::remove(archive, ec);
     if (!uploaded.ok()) return ReportFailure(uploaded, "mvbrdf run");

@@ -312,6 +312,51 @@ TEST_F(ServiceIntegrationTest, JobSubmittedTwiceRunsTwiceWithTheSameResults) {
   for (const auto& w : service_->workers()) EXPECT_LE(w->bundle_downloads(), 1);
 }
 
+// Embedded workers read the bundle the server unpacked when it validated
+// the job: none downloads or unpacks it again (issue #17).
+TEST_F(ServiceIntegrationTest, EmbeddedWorkersReadTheServersUnpackedBundle) {
+  v1::SubmitJobRequest request = Request();
+  request.set_configuration("NE,NW,SE,SW");
+  EXPECT_EQ(FinalState(Watch(Submit(request).id())), v1::SUCCEEDED);
+  ASSERT_TRUE(fs::is_directory(dir_ / "server" / "scenes" / bundle_->sha256));
+  for (size_t i = 0; i < service_->workers().size(); ++i) {
+    EXPECT_EQ(service_->workers()[i]->bundle_downloads(), 0) << i;
+    EXPECT_FALSE(fs::exists(dir_ / "server" / ("worker-" + std::to_string(i)) / "bundles" / bundle_->sha256)) << i;
+  }
+}
+
+// AdoptBundle makes a packed file the server's bundle without an upload: the
+// file moves, an upload of the same bytes finds it there, a job runs on it.
+TEST_F(ServiceIntegrationTest, AnAdoptedBundleIsAsIfUploaded) {
+  const fs::path other = dir_ / "adopted";
+  fs::copy(dir_ / "bundle", other, fs::copy_options::recursive);
+  {
+    std::ofstream scene(other / "scene.json", std::ios::app);
+    scene << "\n";  // other bytes, another digest
+  }
+  const fs::path archive = dir_ / "server" / "adopt.tar";  // the server's file system
+  auto info = bundle::PackBundle(other / "scene.json", archive);
+  ASSERT_TRUE(info.ok()) << info.status();
+  ASSERT_NE(info->sha256, bundle_->sha256);
+  ASSERT_TRUE(service_->AdoptBundle(archive, info->sha256).ok());
+  EXPECT_FALSE(fs::exists(archive));
+  auto again = bundle::PackBundle(other / "scene.json", dir_ / "adopted.tar");
+  ASSERT_TRUE(again.ok()) << again.status();
+  client::UploadOutcome outcome;
+  ASSERT_TRUE(client::UploadBundleFile(*stub_, "tests", dir_ / "adopted.tar", again->sha256,
+                                       static_cast<uint64_t>(again->size), nullptr, &outcome)
+                  .ok());
+  EXPECT_TRUE(outcome.already_there);
+  v1::SubmitJobRequest request = Request();
+  request.set_bundle_sha256(info->sha256);
+  request.set_configuration("NE,NW,SE,SW");
+  EXPECT_EQ(FinalState(Watch(Submit(request).id())), v1::SUCCEEDED);
+  // A digest that is not one is refused, the file left where it was.
+  ASSERT_TRUE(fs::copy_file(dir_ / "adopted.tar", archive));
+  EXPECT_EQ(service_->AdoptBundle(archive, "not-a-digest").code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(fs::exists(archive));
+}
+
 // Bytes of `mib` MiB in a file under dir_ (the server checks the hash, not
 // the contents, until a job names the bundle), with their SHA-256.
 struct UploadBytes {

@@ -26,6 +26,13 @@ absl::StatusOr<fs::path> BundleCache::Unpacked(const std::string& sha256) {
   if (!IsDigest(sha256)) {
     return absl::InvalidArgumentError(absl::StrCat("bundle_sha256: expected 64 lowercase hex digits, got \"", sha256, "\""));
   }
+  if (!unpacked_elsewhere_.empty()) {
+    // The server renames a bundle's directory into place only once it is
+    // unpacked whole (BundleArea::UnpackedScene): one that exists is complete.
+    std::error_code ec;
+    const fs::path there = unpacked_elsewhere_ / sha256;
+    if (fs::is_directory(there, ec)) return there;
+  }
   const fs::path dir = dir_ / sha256;
   const fs::path done = dir_ / (sha256 + ".ok");
   if (fs::exists(done) && fs::is_directory(dir)) return dir;

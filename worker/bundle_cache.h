@@ -24,7 +24,12 @@ class BundleCache {
   // Writes bundle `sha256` to the file `dest` (the cache verifies it).
   using Fetch = std::function<absl::Status(const std::string& sha256, const std::filesystem::path& dest)>;
 
-  BundleCache(std::filesystem::path dir, Fetch fetch) : dir_(std::move(dir)), fetch_(std::move(fetch)) {}
+  // `unpacked_elsewhere` (may be empty): a directory whose <sha256>/
+  // subdirectories are bundles a server on this machine verified and
+  // unpacked (WorkerOptions::server_unpacked_bundles); such a bundle is read
+  // where it is, neither fetched nor unpacked here.
+  BundleCache(std::filesystem::path dir, Fetch fetch, std::filesystem::path unpacked_elsewhere = {})
+      : dir_(std::move(dir)), fetch_(std::move(fetch)), unpacked_elsewhere_(std::move(unpacked_elsewhere)) {}
 
   // The sequence of bundle `sha256` with its scene file at `scene_path`
   // inside the bundle (empty: the bundle's default, see bundle::UnpackBundle).
@@ -40,6 +45,7 @@ class BundleCache {
 
   const std::filesystem::path dir_;
   const Fetch fetch_;
+  const std::filesystem::path unpacked_elsewhere_;
   int downloads_ = 0;
   std::string loaded_key_;
   std::shared_ptr<const scene::Sequence> loaded_;

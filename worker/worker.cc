@@ -322,7 +322,7 @@ absl::Status Worker::Run() {
         });
     ++bundle_downloads_;
     return read;
-  });
+  }, options_.server_unpacked_bundles);
 
   // GL tasks (gather, reflectance) run here, on the context's thread, one at
   // a time; CPU-only tasks (sweep, choose) run on their own threads, up to

@@ -42,6 +42,12 @@ struct WorkerOptions {
   std::shared_ptr<grpc::Channel> channel;
   std::string name;                   // for people: who ran a task
   std::filesystem::path cache_dir;    // bundles and scratch space
+  // Bundles already verified and unpacked as <dir>/<sha256>/ by a server on
+  // this machine (the embedded service's scenes/ directory, which it fills
+  // when it validates a job): used where they are instead of downloading the
+  // bundle and unpacking it again (issue #17: for bench-e2e's 518 MB bundle
+  // a gRPC copy, a file and a second unpack). Empty: always download.
+  std::filesystem::path server_unpacked_bundles;
   gl::EglPlatform egl = gl::EglPlatform::kAuto;
   int threads = 2;                    // CPU-only tasks at once
   int wait_seconds = 5;               // long poll per LeaseTask call
