@@ -569,16 +569,17 @@ absl::StatusOr<FramePositions> PositionsFromCorners(const std::vector<Corner>& c
 bool IsObj(const std::filesystem::path& file) { return absl::AsciiStrToLower(file.extension().string()) == ".obj"; }
 
 // The corners of a plain OBJ file (obj_reader.h), read in this process;
-// nullopt when it is not plain, too large, or unreadable (assimp then reads
-// it and reports what is wrong).
-std::optional<std::vector<glm::vec3>> ReadPlainObjFile(const std::filesystem::path& file) {
+// nullopt when it is not plain, too large (more than `max_corners` corners or
+// vertices: a later frame has as many as the rest pose), or unreadable
+// (assimp then reads it and reports what is wrong).
+std::optional<std::vector<glm::vec3>> ReadPlainObjFile(const std::filesystem::path& file, size_t max_corners) {
   if (!WhyNotRegularFile(file).empty()) return std::nullopt;
   std::error_code ec;
   const uintmax_t size = std::filesystem::file_size(file, ec);
   if (ec || size > kMaxPlainObjBytes) return std::nullopt;
   absl::StatusOr<std::string> text = ReadFileToString(file);
   if (!text.ok()) return std::nullopt;
-  return ReadPlainObjCorners(*text);
+  return ReadPlainObjCorners(*text, max_corners);
 }
 
 bool SamePositions(const std::vector<glm::vec3>& plain, const std::vector<Corner>& corners) {
@@ -656,7 +657,8 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::filesystem::path& file, absl::str
   // Later frames are read in-process only when this file reads the same both ways.
   bool plain_obj = false;
   if (IsObj(file)) {
-    const std::optional<std::vector<glm::vec3>> plain = ReadPlainObjFile(file);
+    // No bound: assimp's child has just read this file within its memory limit.
+    const std::optional<std::vector<glm::vec3>> plain = ReadPlainObjFile(file, static_cast<size_t>(-1));
     plain_obj = plain.has_value() && SamePositions(*plain, imported->corners);
   }
   if (flip_winding) FlipWinding(imported->corners);
@@ -741,7 +743,7 @@ absl::StatusOr<FramePositions> LoadFramePositions(const std::filesystem::path& f
   // assimp in its child); otherwise through assimp like the rest pose. Either
   // way the same text gives the same floats bit for bit.
   if (topology.plain_obj && IsObj(file)) {
-    if (std::optional<std::vector<glm::vec3>> plain = ReadPlainObjFile(file)) {
+    if (std::optional<std::vector<glm::vec3>> plain = ReadPlainObjFile(file, 3 * topology.file_triangles.size())) {
       std::vector<Corner> corners(plain->size());
       for (size_t c = 0; c < corners.size(); ++c) corners[c].position = aiVector3D((*plain)[c].x, (*plain)[c].y, (*plain)[c].z);
       if (flip_winding) FlipWinding(corners);

@@ -128,7 +128,7 @@ std::string_view Keyword(std::string_view line, std::string_view* rest) {
   return line.substr(0, i);
 }
 
-std::optional<std::vector<glm::vec3>> Read(std::string_view text) {
+std::optional<std::vector<glm::vec3>> Read(std::string_view text, size_t max_corners) {
   if (text.size() > kMaxPlainObjBytes || text.find('\0') != std::string_view::npos ||
       text.find('\\') != std::string_view::npos) {
     return std::nullopt;
@@ -156,7 +156,7 @@ std::optional<std::vector<glm::vec3>> Read(std::string_view text) {
     if (rest.find('#') != std::string_view::npos) return std::nullopt;
     if (key == "v") {
       std::array<float, 3> p{};
-      if (!ReadNumbers(rest, 3, 3, &p)) return std::nullopt;
+      if (!ReadNumbers(rest, 3, 3, &p) || positions.size() == max_corners) return std::nullopt;
       positions.emplace_back(p[0], p[1], p[2]);
     } else if (key == "vt") {
       if (!ReadNumbers(rest, 2, 3, nullptr)) return std::nullopt;
@@ -167,7 +167,7 @@ std::optional<std::vector<glm::vec3>> Read(std::string_view text) {
     } else if (key == "f") {
       std::array<std::string_view, 3> words;
       size_t count = 0;
-      if (!SplitWords(rest, &words, &count) || count != 3) return std::nullopt;
+      if (!SplitWords(rest, &words, &count) || count != 3 || corners.size() + 3 > max_corners) return std::nullopt;
       for (const std::string_view word : words) {
         FaceCorner corner;
         if (!ParseCorner(word, &corner)) return std::nullopt;
@@ -193,9 +193,9 @@ std::optional<std::vector<glm::vec3>> Read(std::string_view text) {
 
 }  // namespace
 
-std::optional<std::vector<glm::vec3>> ReadPlainObjCorners(std::string_view text) {
+std::optional<std::vector<glm::vec3>> ReadPlainObjCorners(std::string_view text, size_t max_corners) {
   try {
-    return Read(text);
+    return Read(text, max_corners);
   } catch (const RefusedNumber&) {
     // Assimp's number parser refused a number: so would its importer.
     return std::nullopt;

@@ -39,8 +39,11 @@ inline constexpr size_t kMaxPlainObjBytes = size_t{256} << 20;
 // after a face, line continuations, a byte 0, a line that starts with a blank,
 // numbers written otherwise (".5", "nan"), a token of more than 64 bytes, no
 // triangles, a text longer than kMaxPlainObjBytes, or a number assimp's
-// parser refuses.
-std::optional<std::vector<glm::vec3>> ReadPlainObjCorners(std::string_view text);
+// parser refuses. `max_corners`: more than that many corners, or `v` lines,
+// give nullopt as soon as they are read (a caller that knows how many to
+// expect bounds the memory a hostile file takes to ~the text's size).
+std::optional<std::vector<glm::vec3>> ReadPlainObjCorners(std::string_view text,
+                                                          size_t max_corners = static_cast<size_t>(-1));
 
 }  // namespace mvbrdf::scene
 

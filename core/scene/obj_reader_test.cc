@@ -160,6 +160,14 @@ TEST(ObjReaderTest, AnythingElseIsLeftToAssimp) {
   }
 }
 
+TEST(ObjReaderTest, MoreCornersOrVerticesThanExpectedAreLeftToAssimp) {
+  const std::string tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  EXPECT_TRUE(ReadPlainObjCorners(tri, 3).has_value());
+  EXPECT_FALSE(ReadPlainObjCorners(tri + "f 1 3 2\n", 3).has_value());     // a second triangle
+  EXPECT_FALSE(ReadPlainObjCorners("v 0 0 1\n" + tri, 3).has_value());    // a fourth vertex
+  EXPECT_TRUE(ReadPlainObjCorners("v 0 0 1\n" + tri, 4).has_value());
+}
+
 TEST(ObjReaderTest, LaterFramesReadInProcessGiveWhatAssimpGives) {
   TempDir dir;
   std::mt19937 rng(5);
