@@ -571,16 +571,26 @@ TEST(RobustOptionsTest, WeightsAndMadScale) {
   EXPECT_FALSE(bad.Check().ok());
 }
 
+// The LM's and Powell's fits of the Samples of `truth` (5 % noise, the
+// generator's other defaults), all four lights, default options otherwise.
+struct BothSolvers {
+  PhongFitResult lm, powell;
+};
+BothSolvers FitWithBothSolvers(const PhongRgb& truth) {
+  GeneratorOptions generator;
+  generator.noise = 0.05;
+  const SampleSet set = MakeSamples(truth, generator);
+  PhongFitOptions options;
+  BothSolvers out;
+  out.lm = Fit(set, kAllFour, options);
+  options.solver = Solver::kPowell;
+  out.powell = Fit(set, kAllFour, options);
+  return out;
+}
+
 TEST(FitPhongTest, LevenbergMarquardtAndPowellAgree) {
   for (double ke : {3.0, 40.0, 1000.0}) {
-    const PhongRgb truth = MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {ke, ke, ke});
-    GeneratorOptions generator;
-    generator.noise = 0.05;
-    const SampleSet set = MakeSamples(truth, generator);
-    PhongFitOptions options;
-    const PhongFitResult lm = Fit(set, kAllFour, options);
-    options.solver = Solver::kPowell;
-    const PhongFitResult powell = Fit(set, kAllFour, options);
+    const auto [lm, powell] = FitWithBothSolvers(MakePhong({0.5, 0.3, 0.2}, {0.3, 0.6, 0.15}, {ke, ke, ke}));
     const Errors e = WorstErrors(powell.params, lm.params);
     for (int c = 0; c < 3; ++c) {
       std::printf("MEASURED ke=%-6g channel %d  LM cost %.10g (%d it, %.1f ms)  Powell cost %.10g (%d it, %.1f ms)\n",
