@@ -40,7 +40,7 @@ void EmbeddedService::AddWorker() {
   wo.name = absl::StrCat("in-process-", i);
   wo.cache_dir = options_.data_dir / absl::StrCat("worker-", i);
   // The server's unpacked copies (it validates every job's bundle that way).
-  wo.server_unpacked_bundles = options_.data_dir / "scenes";
+  wo.server_unpacked_bundles = clients_api::BundleArea(options_.data_dir).ScenesDir();
   wo.egl = options_.egl;
   wo.threads = options_.threads_per_worker;
   wo.wait_seconds = 2;

@@ -29,7 +29,8 @@ fs::path BundleArea::BundlePath(absl::string_view sha256) const {
 fs::path BundleArea::PartPath(absl::string_view sha256) const {
   return data_dir_ / "uploads" / absl::StrCat(sha256, ".part");
 }
-fs::path BundleArea::SceneDir(absl::string_view sha256) const { return data_dir_ / "scenes" / std::string(sha256); }
+fs::path BundleArea::ScenesDir() const { return data_dir_ / "scenes"; }
+fs::path BundleArea::SceneDir(absl::string_view sha256) const { return ScenesDir() / std::string(sha256); }
 
 absl::Status BundleArea::EnsureDirs() const {
   for (const char* sub : {"bundles", "uploads", "scenes"}) {

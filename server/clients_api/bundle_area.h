@@ -37,6 +37,9 @@ class BundleArea {
   std::filesystem::path BundlePath(absl::string_view sha256) const;
   std::filesystem::path PartPath(absl::string_view sha256) const;
   std::filesystem::path SceneDir(absl::string_view sha256) const;
+  // Where SceneDir's directories lie (scenes/): a worker on this machine can
+  // read a bundle there (WorkerOptions::server_unpacked_bundles).
+  std::filesystem::path ScenesDir() const;
 
   // How far the upload of `sha256` (a validated digest) got.
   absl::StatusOr<UploadProgress> Progress(absl::string_view sha256) const;
