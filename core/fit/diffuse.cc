@@ -169,7 +169,9 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
         if (same_exponent) {
           spec += a * intensity * internal::SpecularPower(h, specular[0].ke);
         } else {
-          for (int c = 0; c < 3; ++c) spec[c] += a * intensity[c] * internal::SpecularPower(h, specular[c].ke);
+          // internal::SpecularPower(h, ke) with its ln h shared by the channels.
+          const double log_h = h < 1.0 ? std::log(h) : 0.0;
+          for (int c = 0; c < 3; ++c) spec[c] += a * intensity[c] * (h >= 1.0 ? 1.0 : std::exp(specular[c].ke * log_h));
         }
       }
     }
@@ -188,8 +190,9 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
     for (uint32_t t = 0; t < parts; ++t) pool.emplace_back(work, t);
     for (std::thread& t : pool) t.join();
   };
-  // A robust solve visits every Sample in 2 + 2 x iterations passes, and
-  // its r - s and G do not change between them (ln and exp of every
+  // A robust solve visits every Sample in 5 + iterations passes (the
+  // least-squares sums, sigma's three channels, each reweighting, the
+  // outliers), and its r - s and G do not change between them (ln and exp of every
   // highlight term): taken once here, in contiguous blocks of Samples on the
   // threads, and read back (the same values bit for bit).
   std::vector<glm::vec3> kept_residual, kept_illumination;
@@ -212,12 +215,25 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
     *illumination = kept_illumination[i];
     return true;
   };
+  // Element e's Sample i: r - s and G (false where it is not finite or e is
+  // not an element of this solve).
+  const auto element_observation = [&](size_t i, glm::vec3* d, glm::vec3* g) {
+    return set.element[i] < num_elements && observed(i, d, g);
+  };
+  // The IRLS weights (robust passes) at the residuals of `at`, per channel.
+  glm::dvec3 sigma(0.0);
+  const auto weight_of = [&](const glm::vec3& residual) {
+    glm::vec3 w;
+    for (int c = 0; c < 3; ++c) w[c] = static_cast<float>(options.robust.Weight(residual[c] / sigma[c]));
+    return w;
+  };
   // Thread t takes a contiguous block of elements (no shared cache lines in
   // the accumulator), each element's Samples in their order: the sums, and so
-  // the solution, are those of one thread bit for bit. `weight` (robust
-  // passes): per sample and channel the IRLS weight, folded in as sqrt(w).
+  // the solution, are those of one thread bit for bit. `at` (robust passes):
+  // the previous solve, whose residuals give the IRLS weights, folded in as
+  // sqrt(w) (taken here rather than stored: one pass per reweighting).
   const size_t block = (num_elements + parts - 1) / parts;
-  const auto accumulate = [&](const std::vector<glm::vec3>* weight) {
+  const auto accumulate = [&](const DiffuseSolution* at) {
     DiffuseAccumulator accumulator(num_elements);
     const auto work = [&](uint32_t part) {
       const size_t first = static_cast<size_t>(part) * block, last = std::min(num_elements, first + block);
@@ -226,8 +242,8 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
         if (element < first || element >= last) continue;  // not part of this solve / thread
         glm::vec3 d, g;
         if (!observed(i, &d, &g)) continue;
-        if (weight != nullptr) {
-          const glm::vec3 root = glm::sqrt((*weight)[i]);
+        if (at != nullptr) {
+          const glm::vec3 root = glm::sqrt(weight_of(d - at->kd[element] * g));
           d *= root;
           g *= root;
         }
@@ -242,50 +258,42 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
   if (!options.robust.enabled()) return solution;
 
   // Residuals of the least-squares kd; sigma per channel over all of them.
-  std::vector<glm::vec3> residual(set.size(), glm::vec3(0.0f));
-  std::vector<uint8_t> valid(set.size(), 0);
-  const auto residuals = [&](const DiffuseSolution& at) {
-    for (size_t i = 0; i < set.size(); ++i) {
-      glm::vec3 d, g;
-      const uint32_t element = set.element[i];
-      valid[i] = element < num_elements && observed(i, &d, &g) ? 1 : 0;
-      if (valid[i]) residual[i] = d - at.kd[element] * g;
-    }
-  };
-  residuals(solution);
-  glm::dvec3 sigma(0.0);
+  std::vector<double> values;
+  values.reserve(set.size());
   for (int c = 0; c < 3; ++c) {
-    std::vector<double> values;
-    values.reserve(set.size());
+    values.clear();
     for (size_t i = 0; i < set.size(); ++i) {
       // Elements with n >= 3 observations; a least-squares residual is
       // sqrt((n - 1) / n) of the noise's on average (one parameter fitted).
-      const double n = valid[i] ? solution.samples[set.element[i]] : 0.0;
-      if (n >= kMinScaleObservations) values.push_back(residual[i][c] * std::sqrt(n / (n - 1.0)));
+      glm::vec3 d, g;
+      if (!element_observation(i, &d, &g)) continue;
+      const uint32_t element = set.element[i];
+      const double n = solution.samples[element];
+      if (n >= kMinScaleObservations) {
+        const glm::vec3 residual = d - solution.kd[element] * g;
+        values.push_back(residual[c] * std::sqrt(n / (n - 1.0)));
+      }
     }
     sigma[c] = MadScale(&values);
   }
+  values = std::vector<double>();
   solution.robust_scale = sigma;
   if (!(sigma.x > 0.0 && sigma.y > 0.0 && sigma.z > 0.0)) return solution;  // an exact fit
-  std::vector<glm::vec3> weight(set.size(), glm::vec3(1.0f));
   for (int it = 0; it < options.robust.iterations; ++it) {
-    for (size_t i = 0; i < set.size(); ++i) {
-      if (!valid[i]) continue;
-      for (int c = 0; c < 3; ++c) weight[i][c] = static_cast<float>(options.robust.Weight(residual[i][c] / sigma[c]));
-    }
-    DiffuseSolution next = accumulate(&weight).Solve(options);
+    DiffuseSolution next = accumulate(&solution).Solve(options);
     next.robust_scale = solution.robust_scale;
     next.outlier_fraction = solution.outlier_fraction;
     solution = std::move(next);
-    residuals(solution);
   }
   // Outliers: observations beyond 3 sigma of the final kd (any channel counts once per channel).
   size_t outliers = 0, observations = 0;
   for (size_t i = 0; i < set.size(); ++i) {
-    if (!valid[i]) continue;
+    glm::vec3 d, g;
+    if (!element_observation(i, &d, &g)) continue;
+    const glm::vec3 residual = d - solution.kd[set.element[i]] * g;
     for (int c = 0; c < 3; ++c) {
       ++observations;
-      outliers += std::fabs(residual[i][c]) > 3.0 * sigma[c] ? 1 : 0;
+      outliers += std::fabs(residual[c]) > 3.0 * sigma[c] ? 1 : 0;
     }
   }
   solution.outlier_fraction =

@@ -25,6 +25,7 @@
 #include "benchmark/benchmark.h"
 #include "core/fit/diffuse.h"
 #include "core/fit/fit_test_util.h"
+#include "core/fit/light_sweep.h"
 #include "core/fit/phong_cost.h"
 #include "core/fit/phong_fit.h"
 #include "core/fit/phong_terms.h"
@@ -418,6 +419,39 @@ BENCHMARK(BM_AssembleAndFitManyLights)
     ->Args({256, 16})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
+
+// One light configuration of the sweep (SweepConfigurations on one thread, as
+// a service sweep task runs it): FitPhong on a 1e5 subsample, E_a over every
+// Sample, the robust per-triangle kd (E_d) and the held-out error, on 2e6
+// Samples of 9 lights (4 on each), 20 000 triangles, 40 frames, robust
+// (Cauchy) like `mvbrdf run`. Argument: the configuration's light count.
+void BM_SweepConfiguration(benchmark::State& state) {
+  constexpr uint32_t kTriangles = 20000;
+  static const samples::SampleSet set = [] {
+    samples::SampleSet s = testing::MakeManyLightSamples(
+        testing::MakePhong({0.4, 0.3, 0.2}, {0.3, 0.25, 0.2}, {30, 35, 40}), 9, 4, 2000000, kTriangles);
+    for (size_t i = 0; i < s.size(); ++i) s.frame[i] = static_cast<uint16_t>(i * 40 / s.size());
+    return s;
+  }();
+  LightConfiguration configuration{"config", {}};
+  for (int k = 0; k < state.range(0); ++k) configuration.lights.push_back(set.light_names[static_cast<size_t>(k)]);
+  PhongFitOptions fit_options;
+  DiffuseOptions diffuse_options;
+  fit_options.robust.loss = diffuse_options.robust.loss = RobustLoss::kCauchy;
+  for (auto _ : state) {
+    absl::StatusOr<SweepResult> result =
+        SweepConfigurations(set, kTriangles, {configuration}, fit_options, diffuse_options, 1, 100000);
+    if (!result.ok()) state.SkipWithError(std::string(result.status().message()).c_str());
+    benchmark::DoNotOptimize(result);
+  }
+}
+BENCHMARK(BM_SweepConfiguration)
+    ->Arg(4)
+    ->Arg(9)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
 
 }  // namespace
 }  // namespace mvbrdf::fit

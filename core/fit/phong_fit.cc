@@ -877,4 +877,23 @@ double EvaluateSample(const SampleSet& set, size_t i, const LightSelection& mask
   return f;
 }
 
+glm::dvec3 EvaluateSampleRgb(const SampleSet& set, size_t i, const LightSelection& mask, const PhongRgb& p) {
+  glm::dvec3 f(0.0);
+  const bool own = mask.Own(set.frame[i]);
+  for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
+    const int k = set.light[j];
+    if (!own && !mask.config.Test(static_cast<size_t>(k))) continue;
+    const double g = internal::ClampedCosine(set.g[j]);
+    const double h = internal::ClampedHighlight(g, set.h[j]);
+    const double a = set.TermFalloff(j);
+    // internal::SpecularPower(h, ke) with its ln h shared by the channels.
+    const double log_h = h > 0.0 && h < 1.0 ? std::log(h) : 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const double power = !(h > 0.0) ? 0.0 : h >= 1.0 ? 1.0 : std::exp(p[c].ke * log_h);
+      f[c] += set.light_intensity[k][c] * (p[c].kd * g + p[c].ks * a * power);
+    }
+  }
+  return f;
+}
+
 }  // namespace mvbrdf::fit
