@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "core/base/status_macros.h"
@@ -51,21 +53,20 @@ std::unique_ptr<TexelReservoir> MakeReservoir(const scene::Sequence& sequence, c
 // The cluster fits take per-pixel Samples: the video's own pixels at the
 // exact surface points they show, so highlights reach ks and ke without the
 // atlas's bilinear blur (measured: the blur alone made ke come out ~50 % low
-// on 320x240 video). Camera c's of frame t, after stream->Resample(c) or
-// stream->ReadFrame(c).
-absl::Status OfferPixelSamples(FrameStream& stream, const scene::Sequence& sequence, int t, int c,
-                               const samples::AssembleOptions& assemble, const ReconstructOptions& options,
-                               TexelReservoir* reservoir) {
+// on 320x240 video). Camera c's of frame t: its surface (stream.Surface(c))
+// and its video frame (stream.last_frame() after stream->Resample(c) or
+// stream->ReadFrame(c)).
+void OfferPixelSamples(const FrameStream& stream, const resample::CameraSurface& surface, const cv::Mat& frame,
+                       const scene::Sequence& sequence, int t, int c, const samples::AssembleOptions& assemble,
+                       const ReconstructOptions& options, TexelReservoir* reservoir) {
   const double min_cos_view = std::sin(options.resampler.grazing_margin_deg * 3.14159265358979 / 180.0);
-  MVBRDF_ASSIGN_OR_RETURN(const resample::CameraSurface surface, stream.Surface(c));
   samples::ForEachPixelSample(
-      stream.last_frame(), surface, stream.shadows(), sequence.cameras[static_cast<size_t>(c)], sequence.lights,
-      assemble, min_cos_view,
+      frame, surface, stream.shadows(), sequence.cameras[static_cast<size_t>(c)], sequence.lights, assemble,
+      min_cos_view,
       [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
         reservoir->Offer(texel, t, c, rgb, terms);
       },
       options.pixel_footprint);
-  return absl::OkStatus();
 }
 
 // The meshes of the frames the pass reads (every `stride`th) into the
@@ -109,7 +110,8 @@ absl::StatusOr<std::unique_ptr<TexelReservoir>> GatherPixelSamples(const scene::
     MVBRDF_RETURN_IF_ERROR(stream->SetFrame(t));
     for (int c = 0; c < static_cast<int>(sequence.cameras.size()); ++c) {
       MVBRDF_RETURN_IF_ERROR(stream->ReadFrame(c));
-      MVBRDF_RETURN_IF_ERROR(OfferPixelSamples(*stream, sequence, t, c, assemble, options, reservoir.get()));
+      MVBRDF_ASSIGN_OR_RETURN(const resample::CameraSurface surface, stream->Surface(c));
+      OfferPixelSamples(*stream, surface, stream->last_frame(), sequence, t, c, assemble, options, reservoir.get());
     }
   }
   return reservoir;
@@ -165,28 +167,48 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
       g.rest_position = stream->geometry().position.clone();
       if (st != nullptr) st->rest_position = g.rest_position;
     }
+    // The GL work of camera c + 1 (video, depth map, resampling, read-back)
+    // overlaps the CPU work of camera c (its triangle Samples, texel sums and
+    // pixel Samples) on a thread of its own: measured on the 40-frame actor,
+    // the pass kept one of two cores idle while the resampling thread ran the
+    // CPU part between draws. The CPU parts run one camera at a time in camera
+    // order, so every sum and Sample is as a single thread makes it; they read
+    // the frame's geometry, shadows and positions, which stay until the next
+    // SetFrame (after `pending` is done).
+    std::future<void> pending;
     for (int c = 0; c < num_cameras; ++c) {
-      MVBRDF_ASSIGN_OR_RETURN(const cv::Mat resampled, stream->Resample(c));
-      if (sweep_frame) {
-        const auto means = resample::AverageTriangles(resampled, atlas, options.min_valid_fraction);
-        samples::AppendTriangleSamples(means, atlas, stream->positions(), stream->shadows(), sequence.cameras[c], c, t,
-                                       sequence.lights, assemble, &g.triangle_samples);
+      MVBRDF_ASSIGN_OR_RETURN(cv::Mat resampled, stream->Resample(c));
+      resample::CameraSurface surface;
+      cv::Mat frame;
+      if (st != nullptr) {
+        MVBRDF_ASSIGN_OR_RETURN(surface, stream->Surface(c));
+        frame = stream->last_frame();  // a fresh image per read (VideoSource::ReadFrame)
       }
-      if (st == nullptr) continue;
-      // Per-texel sums only: in parts on threads (atlas_parts.h).
-      if (own_lit) st->illumination.ReserveOwn();
-      InAtlasParts([&](int part) {
-        samples::ForEachTexelSample(
-            resampled, stream->geometry(), stream->shadows(), sequence.cameras[c], sequence.lights, assemble,
-            [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
-              st->texel_sum[texel] += glm::dvec3(rgb);
-              ++st->texel_count[texel];
-              st->illumination.Add(texel, terms, own_lit);
-            },
-            AtlasPartRows(part, atlas.size));
+      if (pending.valid()) pending.get();
+      pending = std::async(std::launch::async, [&, c, resampled = std::move(resampled), surface = std::move(surface),
+                                                frame = std::move(frame)] {
+        if (sweep_frame) {
+          const auto means = resample::AverageTriangles(resampled, atlas, options.min_valid_fraction);
+          samples::AppendTriangleSamples(means, atlas, stream->positions(), stream->shadows(), sequence.cameras[c], c,
+                                         t, sequence.lights, assemble, &g.triangle_samples);
+        }
+        if (st == nullptr) return;
+        // Per-texel sums only: in parts on threads (atlas_parts.h).
+        if (own_lit) st->illumination.ReserveOwn();
+        InAtlasParts([&](int part) {
+          samples::ForEachTexelSample(
+              resampled, stream->geometry(), stream->shadows(), sequence.cameras[c], sequence.lights, assemble,
+              [&](uint32_t texel, const glm::vec3& rgb, const samples::LightTerms& terms) {
+                st->texel_sum[texel] += glm::dvec3(rgb);
+                ++st->texel_count[texel];
+                st->illumination.Add(texel, terms, own_lit);
+              },
+              AtlasPartRows(part, atlas.size));
+        });
+        OfferPixelSamples(*stream, surface, frame, sequence, t, c, assemble, options, st->reservoir.get());
       });
-      MVBRDF_RETURN_IF_ERROR(OfferPixelSamples(*stream, sequence, t, c, assemble, options, st->reservoir.get()));
     }
+    if (pending.valid()) pending.get();
   }
   if (options.progress) options.progress("gather_samples", sequence.num_frames, sequence.num_frames);
   return g;
