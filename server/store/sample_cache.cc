@@ -10,6 +10,7 @@
 #include "core/base/status_macros.h"
 #include "server/store/digest.h"
 #include "server/store/schema.h"
+#include "server/store/zlib_compress.h"
 
 namespace mvbrdf::store {
 namespace {
@@ -22,16 +23,6 @@ absl::Status BindKey(Statement& statement, const SampleKey& key) {
   MVBRDF_RETURN_IF_ERROR(statement.BindText(2, key.configuration));
   MVBRDF_RETURN_IF_ERROR(statement.BindInt64(3, key.sample_level));
   return statement.BindText(4, key.options_hash);
-}
-
-absl::StatusOr<std::string> Compress(absl::string_view bytes, int level) {
-  uLongf size = compressBound(static_cast<uLong>(bytes.size()));
-  std::string out(size, '\0');
-  const int code = compress2(reinterpret_cast<Bytef*>(out.data()), &size,
-                             reinterpret_cast<const Bytef*>(bytes.data()), static_cast<uLong>(bytes.size()), level);
-  if (code != Z_OK) return absl::InternalError(absl::StrCat("zlib compress2 failed with code ", code));
-  out.resize(size);
-  return out;
 }
 
 // Empty error string on success.
@@ -81,7 +72,7 @@ absl::Status SampleCache::Put(const SampleKey& key, absl::string_view bytes, int
                               absl::string_view known_sha256, absl::string_view pin_for_job) {
   // Hashing and compressing outside the lock: they are the slow part.
   const std::string sha256 = known_sha256.empty() ? Sha256Hex(bytes) : std::string(known_sha256);
-  MVBRDF_ASSIGN_OR_RETURN(std::string stored, Compress(bytes, options_.compression_level));
+  MVBRDF_ASSIGN_OR_RETURN(std::string stored, ZlibCompress(bytes, {options_.compression_level}));
   const auto stored_size = static_cast<int64_t>(stored.size());
   if (options_.max_stored_bytes > 0 && stored_size > options_.max_stored_bytes) {
     return absl::ResourceExhaustedError(absl::StrCat("sample cache: entry ", key.ToString(), " needs ",
