@@ -864,19 +864,6 @@ absl::StatusOr<PhongFitResult> FitPhong(const SampleSet& set, const std::vector<
   return result;
 }
 
-double EvaluateSample(const SampleSet& set, size_t i, const LightSelection& mask, const PhongChannel& p, int c) {
-  double f = 0.0;
-  const bool own = mask.Own(set.frame[i]);
-  for (size_t j = set.TermsBegin(i); j < set.TermsEnd(i); ++j) {
-    const int k = set.light[j];
-    if (!own && !mask.config.Test(static_cast<size_t>(k))) continue;
-    const double g = internal::ClampedCosine(set.g[j]);
-    const double h = internal::ClampedHighlight(g, set.h[j]);
-    f += set.light_intensity[k][c] * (p.kd * g + p.ks * set.TermFalloff(j) * internal::SpecularPower(h, p.ke));
-  }
-  return f;
-}
-
 glm::dvec3 EvaluateSampleRgb(const SampleSet& set, size_t i, const LightSelection& mask, const PhongRgb& p) {
   glm::dvec3 f(0.0);
   const bool own = mask.Own(set.frame[i]);
@@ -894,6 +881,11 @@ glm::dvec3 EvaluateSampleRgb(const SampleSet& set, size_t i, const LightSelectio
     }
   }
   return f;
+}
+
+double EvaluateSample(const SampleSet& set, size_t i, const LightSelection& mask, const PhongChannel& p, int c) {
+  // Channel c of the three computed alike (each channel's sum is its own).
+  return EvaluateSampleRgb(set, i, mask, PhongRgb{p, p, p})[c];
 }
 
 }  // namespace mvbrdf::fit

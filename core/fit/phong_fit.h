@@ -142,9 +142,9 @@ absl::StatusOr<PhongFitResult> FitPhong(const samples::SampleSet& set, const std
 double EvaluateSample(const samples::SampleSet& set, size_t i, const samples::LightSelection& mask,
                       const PhongChannel& p, int c);
 
-// The three channels' model values of one sample, each equal bit for bit to
-// EvaluateSample's; ln h is taken once per term for the three exponents
-// (E_a over millions of Samples in the light sweep).
+// The three channels' model values of one sample; ln h is taken once per
+// term for the three exponents (E_a over millions of Samples in the light
+// sweep), each channel's sum as EvaluateSample's alone.
 glm::dvec3 EvaluateSampleRgb(const samples::SampleSet& set, size_t i, const samples::LightSelection& mask,
                              const PhongRgb& p);
 
