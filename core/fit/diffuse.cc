@@ -169,9 +169,10 @@ DiffuseSolution SolveDiffuse(const samples::SampleSet& set, const samples::Light
         if (same_exponent) {
           spec += a * intensity * internal::SpecularPower(h, specular[0].ke);
         } else {
-          // internal::SpecularPower(h, ke) with its ln h shared by the channels.
-          const double log_h = h < 1.0 ? std::log(h) : 0.0;
-          for (int c = 0; c < 3; ++c) spec[c] += a * intensity[c] * (h >= 1.0 ? 1.0 : std::exp(specular[c].ke * log_h));
+          const double log_h = internal::LogHighlight(h);
+          for (int c = 0; c < 3; ++c) {
+            spec[c] += a * intensity[c] * internal::SpecularPowerOfLog(h, log_h, specular[c].ke);
+          }
         }
       }
     }

@@ -873,11 +873,10 @@ glm::dvec3 EvaluateSampleRgb(const SampleSet& set, size_t i, const LightSelectio
     const double g = internal::ClampedCosine(set.g[j]);
     const double h = internal::ClampedHighlight(g, set.h[j]);
     const double a = set.TermFalloff(j);
-    // internal::SpecularPower(h, ke) with its ln h shared by the channels.
-    const double log_h = h > 0.0 && h < 1.0 ? std::log(h) : 0.0;
+    const double log_h = internal::LogHighlight(h);
     for (int c = 0; c < 3; ++c) {
-      const double power = !(h > 0.0) ? 0.0 : h >= 1.0 ? 1.0 : std::exp(p[c].ke * log_h);
-      f[c] += set.light_intensity[k][c] * (p[c].kd * g + p[c].ks * a * power);
+      f[c] += set.light_intensity[k][c] *
+              (p[c].kd * g + p[c].ks * a * internal::SpecularPowerOfLog(h, log_h, p[c].ke));
     }
   }
   return f;

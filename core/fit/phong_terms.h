@@ -23,12 +23,18 @@ inline double ClampedHighlight(double g, float h) {
   return h >= 1.0f ? 1.0 : static_cast<double>(h);
 }
 
-// h^ke for a clamped highlight cosine h in [0, 1] and ke > 0.
-inline double SpecularPower(double h, double ke) {
+// Several exponents of one h (the three channels' ke): ln h once
+// (LogHighlight), then SpecularPowerOfLog per exponent, equal bit for bit
+// to SpecularPower(h, ke).
+inline double LogHighlight(double h) { return h > 0.0 && h < 1.0 ? std::log(h) : 0.0; }
+inline double SpecularPowerOfLog(double h, double log_h, double ke) {
   if (!(h > 0.0)) return 0.0;
   if (h >= 1.0) return 1.0;
-  return std::exp(ke * std::log(h));
+  return std::exp(ke * log_h);
 }
+
+// h^ke for a clamped highlight cosine h in [0, 1] and ke > 0.
+inline double SpecularPower(double h, double ke) { return SpecularPowerOfLog(h, LogHighlight(h), ke); }
 
 }  // namespace mvbrdf::fit::internal
 

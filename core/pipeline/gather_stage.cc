@@ -169,9 +169,10 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
     }
     // The GL work of camera c + 1 (video, depth map, resampling, read-back)
     // overlaps the CPU work of camera c (its triangle Samples, texel sums and
-    // pixel Samples) on a thread of its own: measured on the 40-frame actor,
-    // the pass kept one of two cores idle while the resampling thread ran the
-    // CPU part between draws. The CPU parts run one camera at a time in camera
+    // pixel Samples) on a thread of its own: serially, llvmpipe's threads
+    // waited while the GL thread ran the CPU part and the other way round
+    // (~1.5 of 2 cores busy; 40-frame actor: gather 17.1-20.0 s serial,
+    // 13.9-15.0 s overlapped). The CPU parts run one camera at a time in camera
     // order, so every sum and Sample is as a single thread makes it; they read
     // the frame's geometry, shadows and positions, which stay until the next
     // SetFrame (after `pending` is done).
