@@ -127,15 +127,17 @@ ShadowMaps::~ShadowMaps() = default;
 absl::Status ShadowMaps::Allocate(const std::vector<scene::Light>& lights) {
   int num_point = 0, num_directional = 0;
   for (const scene::Light& light : lights) (light.directional ? num_directional : num_point)++;
-  const int cubes = std::max(num_point, 1);
-  const int maps = std::max(num_directional, 1);
-  if (!point_maps_ || num_cubes_ < cubes) {
-    point_maps_ = CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, size_, 6 * cubes);
-    num_cubes_ = cubes;
+  // Until a light of a kind is drawn its array is a one-texel placeholder
+  // (never looked up): the driver fills a new array with zeros, ~24 MiB per
+  // 1024^2 cube, which on llvmpipe was half of a small run's time.
+  if (!point_maps_ || num_cubes_ < num_point) {
+    point_maps_ = CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, num_point > 0 ? size_ : 1, 6 * std::max(num_point, 1));
+    num_cubes_ = num_point;
   }
-  if (!directional_maps_ || num_directional_ < maps) {
-    directional_maps_ = CreateShadowArray(GL_TEXTURE_2D_ARRAY, size_, maps);
-    num_directional_ = maps;
+  if (!directional_maps_ || num_directional_ < num_directional) {
+    directional_maps_ = CreateShadowArray(GL_TEXTURE_2D_ARRAY, num_directional > 0 ? size_ : 1,
+                                          std::max(num_directional, 1));
+    num_directional_ = num_directional;
   }
   return gl::CheckGlError("allocating shadow maps");
 }

@@ -98,9 +98,9 @@ struct LightShadow {
 class ShadowMaps {
  public:
   // `size`: texels per cube face and per directional map side, in [1, 8192]
-  // (checked by the callers' options). Allocates arrays for `lights`
-  // (at least one cube and one 2D layer, so that a sampler always has a
-  // texture).
+  // (checked by the callers' options). Allocates arrays for `lights`; an
+  // array with no light of its kind is a one-texel placeholder, so that a
+  // sampler always has a texture (Render grows both as its lights need).
   static absl::StatusOr<std::unique_ptr<ShadowMaps>> Create(int size, const std::vector<scene::Light>& lights);
   ShadowMaps(const ShadowMaps&) = delete;
   ShadowMaps& operator=(const ShadowMaps&) = delete;
@@ -134,8 +134,8 @@ class ShadowMaps {
   int size_ = 0;
   gl::Program point_program_;
   gl::Program directional_program_;
-  int num_cubes_ = 0;        // allocated in point_maps_
-  int num_directional_ = 0;  // allocated in directional_maps_
+  int num_cubes_ = 0;        // allocated in point_maps_ (0: a one-texel placeholder)
+  int num_directional_ = 0;  // allocated in directional_maps_ (0: a one-texel placeholder)
   gl::Texture point_maps_;
   gl::Texture directional_maps_;
   gl::Framebuffer framebuffer_;  // depth attachment only, re-attached per face / map

@@ -441,12 +441,11 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
   glNamedFramebufferDrawBuffer(r.shadow_atlas_framebuffer.id(), GL_COLOR_ATTACHMENT0);
   MVBRDF_RETURN_IF_ERROR(gl::CheckFramebufferComplete(r.shadow_atlas_framebuffer, "shadow atlas target"));
 
-  // Shadow maps: allocated here (their size is fixed), rendered lazily.
+  // Shadow maps: allocated and rendered lazily, the arrays growing to the
+  // largest pass drawn (a frame of a one-light-at-a-time capture draws one
+  // light, not the first pass's sixteen).
   if (!lights.empty()) {
-    // Sized for the first pass; the arrays grow to the largest pass drawn.
-    const std::vector<scene::Light> first_pass(lights.begin(),
-                                               lights.begin() + std::min<size_t>(lights.size(), kLightsPerPass));
-    MVBRDF_ASSIGN_OR_RETURN(r.shadow_maps, render::ShadowMaps::Create(options.shadow_map_size, first_pass));
+    MVBRDF_ASSIGN_OR_RETURN(r.shadow_maps, render::ShadowMaps::Create(options.shadow_map_size, {}));
     r.light_buffer = gl::CreateBuffer();
     glNamedBufferStorage(r.light_buffer.id(), sizeof(GpuShadowLightBlock), nullptr, GL_DYNAMIC_STORAGE_BIT);
     MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Create: shadow maps"));
