@@ -335,7 +335,7 @@ absl::StatusOr<std::unique_ptr<PhongRenderer>> PhongRenderer::Create(gl::EglCont
   const cv::Mat zero(1, 1, CV_32FC3, cv::Scalar(0, 0, 0));
   MVBRDF_ASSIGN_OR_RETURN(impl->placeholder_texture, UploadUvImage(zero, "placeholder texture"));
   // Allocated as the passes draw (at most kLightsPerPass lights each), not for every light at once.
-  MVBRDF_ASSIGN_OR_RETURN(impl->shadow_maps, ShadowMaps::Create(options.shadow_map_size, {}));
+  MVBRDF_ASSIGN_OR_RETURN(impl->shadow_maps, ShadowMaps::Create(options.shadow_map_size));
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("PhongRenderer::Create"));
   return std::unique_ptr<PhongRenderer>(new PhongRenderer(std::move(impl)));
 }

@@ -107,7 +107,7 @@ BoundingSphere ComputeBoundingSphere(const std::vector<glm::vec3>& points) {
   return sphere;
 }
 
-absl::StatusOr<std::unique_ptr<ShadowMaps>> ShadowMaps::Create(int size, const std::vector<scene::Light>& lights) {
+absl::StatusOr<std::unique_ptr<ShadowMaps>> ShadowMaps::Create(int size) {
   std::unique_ptr<ShadowMaps> maps(new ShadowMaps());
   maps->size_ = size;
   MVBRDF_ASSIGN_OR_RETURN(maps->point_program_, gl::BuildProgram({{GL_VERTEX_SHADER, "shadow.vert", {}},
@@ -118,7 +118,7 @@ absl::StatusOr<std::unique_ptr<ShadowMaps>> ShadowMaps::Create(int size, const s
   maps->framebuffer_ = gl::CreateFramebuffer();
   glNamedFramebufferDrawBuffer(maps->framebuffer_.id(), GL_NONE);
   glNamedFramebufferReadBuffer(maps->framebuffer_.id(), GL_NONE);
-  MVBRDF_RETURN_IF_ERROR(maps->Allocate(lights));
+  MVBRDF_RETURN_IF_ERROR(maps->Allocate({}));
   return maps;
 }
 
@@ -127,9 +127,7 @@ ShadowMaps::~ShadowMaps() = default;
 absl::Status ShadowMaps::Allocate(const std::vector<scene::Light>& lights) {
   int num_point = 0, num_directional = 0;
   for (const scene::Light& light : lights) (light.directional ? num_directional : num_point)++;
-  // Until a light of a kind is drawn its array is a one-texel placeholder
-  // (never looked up): the driver fills a new array with zeros, ~24 MiB per
-  // 1024^2 cube, which on llvmpipe was half of a small run's time.
+  // Until a light of a kind is drawn its array is a one-texel placeholder (never looked up).
   if (!point_maps_ || num_cubes_ < num_point) {
     point_maps_ = CreateShadowArray(GL_TEXTURE_CUBE_MAP_ARRAY, num_point > 0 ? size_ : 1, 6 * std::max(num_point, 1));
     num_cubes_ = num_point;

@@ -98,10 +98,11 @@ struct LightShadow {
 class ShadowMaps {
  public:
   // `size`: texels per cube face and per directional map side, in [1, 8192]
-  // (checked by the callers' options). Allocates arrays for `lights`; an
-  // array with no light of its kind is a one-texel placeholder, so that a
-  // sampler always has a texture (Render grows both as its lights need).
-  static absl::StatusOr<std::unique_ptr<ShadowMaps>> Create(int size, const std::vector<scene::Light>& lights);
+  // (checked by the callers' options). Both arrays start as one-texel
+  // placeholders, so that a sampler always has a texture; Render allocates
+  // them as its lights need (the driver fills a new array with zeros, ~24 MiB
+  // per 1024^2 cube: on llvmpipe that was half of a small run's time).
+  static absl::StatusOr<std::unique_ptr<ShadowMaps>> Create(int size);
   ShadowMaps(const ShadowMaps&) = delete;
   ShadowMaps& operator=(const ShadowMaps&) = delete;
   ~ShadowMaps();
@@ -112,7 +113,8 @@ class ShadowMaps {
   // directional map with the shadow program bound and the mesh's positions
   // at attribute 0 to be drawn (the callback binds its vertex array and
   // draws). Reallocates the arrays when they have fewer layers than the
-  // point or directional lights need (they never shrink). Changes the framebuffer, viewport, depth and cull state;
+  // point or directional lights need (they never shrink; an array with no light of its kind drawn yet stays a
+  // one-texel placeholder). Changes the framebuffer, viewport, depth and cull state;
   // leaves the default framebuffer, program 0 and vertex array 0 bound, and the scissor test off.
   // A point light's map holds this mesh only where `bounds` projects (internal::SphereRectOnFace); its other
   // texels keep what an earlier Render left: look up only directions towards points inside `bounds`.

@@ -5,6 +5,8 @@
 // small and far.
 #include "core/render/shadow_maps.h"
 #include "core/base/draw_order.h"
+#include "core/gl/egl_context.h"
+#include "core/gl/gl_api.h"
 
 #include <gtest/gtest.h>
 
@@ -98,6 +100,41 @@ TEST(ShadowMapsTest, ASmallFarSphereClearsAFractionOfItsFaceAndTheOthersNothing)
     EXPECT_EQ(whole.w, kSize);
     EXPECT_EQ(whole.h, kSize);
   }
+}
+
+
+// Width and layers (six per cube) of a shadow array's level 0.
+std::array<int, 2> WidthAndLayers(const gl::Texture& texture) {
+  int width = 0, layers = 0;
+  glGetTextureLevelParameteriv(texture.id(), 0, GL_TEXTURE_WIDTH, &width);
+  glGetTextureLevelParameteriv(texture.id(), 0, GL_TEXTURE_DEPTH, &layers);
+  return {width, layers};
+}
+
+TEST(ShadowMapsTest, ArraysAreAllocatedAsTheDrawnLightsNeedAndNeverShrink) {
+  auto context = gl::EglContext::Create(gl::EglPlatform::kSurfaceless);
+  ASSERT_TRUE(context.ok()) << context.status();
+  auto maps = ShadowMaps::Create(64);
+  ASSERT_TRUE(maps.ok()) << maps.status();
+  using Size = std::array<int, 2>;
+  EXPECT_EQ(WidthAndLayers((*maps)->point_maps()), (Size{1, 6}));  // placeholders until a light is drawn
+  EXPECT_EQ(WidthAndLayers((*maps)->directional_maps()), (Size{1, 1}));
+  scene::Light point;
+  point.position = glm::vec3(0.0f, 0.0f, 5.0f);
+  scene::Light sun;
+  sun.directional = true;
+  const BoundingSphere bounds{glm::vec3(0.0f), 1.0f};
+  int draws = 0;
+  ASSERT_TRUE((*maps)->Render({point}, bounds, [&draws] { ++draws; }).ok());  // an OLAT frame: one cube
+  EXPECT_EQ(WidthAndLayers((*maps)->point_maps()), (Size{64, 6}));
+  EXPECT_EQ(WidthAndLayers((*maps)->directional_maps()), (Size{1, 1}));
+  ASSERT_TRUE((*maps)->Render({point, point, sun}, bounds, [&draws] { ++draws; }).ok());
+  EXPECT_EQ(WidthAndLayers((*maps)->point_maps()), (Size{64, 12}));
+  EXPECT_EQ(WidthAndLayers((*maps)->directional_maps()), (Size{64, 1}));
+  ASSERT_TRUE((*maps)->Render({point}, bounds, [&draws] { ++draws; }).ok());
+  EXPECT_EQ(WidthAndLayers((*maps)->point_maps()), (Size{64, 12}));
+  EXPECT_GT(draws, 0);
+  EXPECT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR));
 }
 
 }  // namespace

@@ -445,7 +445,7 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
   // largest pass drawn (a frame of a one-light-at-a-time capture draws one
   // light, not the first pass's sixteen).
   if (!lights.empty()) {
-    MVBRDF_ASSIGN_OR_RETURN(r.shadow_maps, render::ShadowMaps::Create(options.shadow_map_size, {}));
+    MVBRDF_ASSIGN_OR_RETURN(r.shadow_maps, render::ShadowMaps::Create(options.shadow_map_size));
     r.light_buffer = gl::CreateBuffer();
     glNamedBufferStorage(r.light_buffer.id(), sizeof(GpuShadowLightBlock), nullptr, GL_DYNAMIC_STORAGE_BIT);
     MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Create: shadow maps"));
