@@ -161,13 +161,12 @@ for model in ggx phong; do
     "$bin" run --direct "$work/s/scene.json" --brdf $model --no-powell --atlas 256 --out "$work/s-$model"
   check "export it" 0 "wrote" -- "$bin" export "$work/s-$model" --out "$work/s-$model.glb"
   # One Chromium start for both views (gltf_three_compare.py): a line of figures each.
-  all=$(python3 "$here/gltf_three_compare.py" "$bin" "$work/s-$model.glb" "$node_modules/three" "$work/s/scene.json" \
-    "$work" --view cam0 D001 "$work/s-$model" 0 --view cam3 D006 "$work/s-$model" 0 2>&1)
+  mapfile -t lines < <(python3 "$here/gltf_three_compare.py" "$bin" "$work/s-$model.glb" "$node_modules/three" \
+    "$work/s/scene.json" "$work" --view cam0 D001 "$work/s-$model" 0 --view cam3 D006 "$work/s-$model" 0 2>&1)
   i=0
   for view in "cam0 D001" "cam3 D006"; do
     set -- $view
-    i=$((i + 1))
-    figures=$(sed -n "${i}p" <<<"$all")
+    figures=${lines[i++]:-}
     echo "     $model $1 $2: mean abs, p95 abs, mean radiance: $figures"
     expect "three.js draws the $model export as mvbrdf render does ($1, $2): mean <= 5 %, p95 <= 15 % of the mean" \
       python3 -c "import sys; m, p, r = map(float, sys.argv[1].split()); sys.exit(not (r > 0.01 and m <= 0.05 * r and p <= 0.15 * r))" "$figures"
@@ -194,21 +193,19 @@ PY
 check "export it with the falloff scene" 0 "wrote" -- \
   "$bin" export "$work/p-ggx" --scene "$work/p/scene_falloff.json" --out "$work/p-ggx.glb"
 # One Chromium start for the four views (a line of figures each, in this order).
-all=$(python3 "$here/gltf_three_compare.py" "$bin" "$work/p-ggx.glb" "$node_modules/three" \
+mapfile -t lines < <(python3 "$here/gltf_three_compare.py" "$bin" "$work/p-ggx.glb" "$node_modules/three" \
   "$work/p/scene_falloff.json" "$work" --view cam0 S "$work/p-ggx" 0 --view cam0 S "$work/p-ggx" 1 \
   --view cam1 E "$work/p-ggx" 0 --view cam1 E "$work/p-ggx" 1 2>&1)
 i=0
 for view in "cam0 S" "cam1 E"; do
   set -- $view
-  i=$((i + 1))
-  figures=$(sed -n "${i}p" <<<"$all")
-  i=$((i + 1))
+  figures=${lines[i++]:-}
   echo "     ggx point light $1 $2: mean abs, p95 abs, mean radiance: $figures"
   expect "three.js draws the export under point light $2 as mvbrdf render does ($1): mean <= 5 %, p95 <= 15 %" \
     python3 -c "import sys; m, p, r = map(float, sys.argv[1].split()); sys.exit(not (r > 0.01 and m <= 0.05 * r and p <= 0.15 * r))" "$figures"
   # With glTF's own diffuse weight 1 - F (three.js leaves it out): the GGX
   # path is exact up to 8-bit output (measured 0.11 % / 1.2 %).
-  figures=$(sed -n "${i}p" <<<"$all")
+  figures=${lines[i++]:-}
   echo "     ggx point light $1 $2, glTF's diffuse weight: $figures"
   expect "with glTF's diffuse weight the GGX export draws as mvbrdf render does ($1, $2): mean <= 0.5 %, p95 <= 3 %" \
     python3 -c "import sys; m, p, r = map(float, sys.argv[1].split()); sys.exit(not (r > 0.01 and m <= 0.005 * r and p <= 0.03 * r))" "$figures"
@@ -238,16 +235,14 @@ doc = read_gltf(sys.argv[2])[0]
 sys.exit(not ("normalTexture" in doc["materials"][0] and "TANGENT" in doc["meshes"][0]["primitives"][0]["attributes"]))' \
   "$here" "$work/n-normals.glb"
 # One Chromium start: each view's three.js image against both runs' renders (a line of figures each).
-all=$(python3 "$here/gltf_three_compare.py" "$bin" "$work/n-normals.glb" "$node_modules/three" "$work/n/scene.json" \
-  "$work" --view cam0 D003 "$work/n-normals" 0 --view cam0 D003 "$work/n-mesh" 0 \
+mapfile -t lines < <(python3 "$here/gltf_three_compare.py" "$bin" "$work/n-normals.glb" "$node_modules/three" \
+  "$work/n/scene.json" "$work" --view cam0 D003 "$work/n-normals" 0 --view cam0 D003 "$work/n-mesh" 0 \
   --view cam1 D005 "$work/n-normals" 0 --view cam1 D005 "$work/n-mesh" 0 2>&1)
 i=0
 for view in "cam0 D003" "cam1 D005"; do
   set -- $view
-  i=$((i + 1))
-  with=$(sed -n "${i}p" <<<"$all")
-  i=$((i + 1))
-  against_mesh=$(sed -n "${i}p" <<<"$all")
+  with=${lines[i++]:-}
+  against_mesh=${lines[i++]:-}
   echo "     normals $1 $2: mean abs, p95 abs, mean radiance: $with (against the mesh-normal render: $against_mesh)"
   expect "three.js draws the normals export as mvbrdf render does ($1, $2): mean <= 5 %, p95 <= 15 % of the mean" \
     python3 -c "import sys; m, p, r = map(float, sys.argv[1].split()); sys.exit(not (r > 0.01 and m <= 0.05 * r and p <= 0.15 * r))" "$with"

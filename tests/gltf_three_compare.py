@@ -30,7 +30,7 @@ for attempt in range(5):  # a page whose loads outlast the virtual time budget s
          "--allow-file-access-from-files", "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
          "--virtual-time-budget=60000", "--dump-dom", url],
         capture_output=True, text=True, timeout=300).stdout
-    m = re.search(r'<pre id="out">(data:image/png;base64,[A-Za-z0-9+/=\n:;,a-z]+)</pre>', dom)
+    m = re.search(r'<pre id="out">(data:image/png;base64,[^<]+)</pre>', dom)
     if m or '<pre id="out">pending' not in dom:
         break
 if not m:
