@@ -25,8 +25,16 @@ cv::Mat ApplyDistortion(const cv::Mat& undistorted, const scene::CameraModel& ca
       map_y.at<float>(y, x) = static_cast<float>(pinhole.fy * u.y + pinhole.cy);
     }
   }
+  // An oversampled pinhole image is read bicubically (sharper than bilinear
+  // between its samples; its undershoot below zero at silhouettes clipped),
+  // a camera-resolution one bilinearly (no ringing at a pixel's scale).
   cv::Mat out;
-  cv::remap(undistorted, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+  if (oversampling > 1) {
+    cv::remap(undistorted, out, map_x, map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+    out = cv::max(out, 0.0);
+  } else {
+    cv::remap(undistorted, out, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar::all(0));
+  }
   return out;
 }
 
