@@ -129,6 +129,11 @@ absl::StatusOr<resample::CameraSurface> FrameStream::Surface(int camera) {
   MVBRDF_ASSIGN_OR_RETURN(resample::CameraSurface surface, resampler_->Surface(camera));
   // Until SetFrame has computed this frame's tangents, the mesh's normals.
   if (tangent_normals_ == nullptr || frame_tangents_.size() != refined_->size()) return surface;
+  // The refined normals live in the maps: a distorted pixel's surface is
+  // interpolated between them (SurfaceBetween), not read off its triangle's
+  // vertex normals.
+  surface.triangle.release();
+  surface.triangles.reset();
   cv::Mat normal = surface.normal.clone();
   const size_t texels = refined_->size();
   for (int y = 0; y < normal.rows; ++y) {

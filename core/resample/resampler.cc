@@ -224,6 +224,10 @@ struct Resampler::Impl {
   gl::Buffer corner_buffer;
   gl::Buffer corner_id_buffer;
   std::vector<glm::uvec3> drawn;  // the drawn triangles, render vertices
+  // The current frame's drawn triangles for distorted cameras' surfaces
+  // (CameraSurface::triangles); null when no camera is distorted.
+  std::shared_ptr<const std::vector<SurfaceTriangle>> surface_triangles;
+  bool any_distorted = false;
   gl::Buffer light_buffer;  // GpuShadowLightBlock
 
   gl::Program geometry_program;
@@ -456,6 +460,7 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
     CameraState state;
     state.model = cameras[c];
     state.model.distortion.resize(8, 0.0);
+    if (state.model.has_distortion()) r.any_distorted = true;
     state.layout = ComputeDepthMapLayout(state.model, r.max_texture_size);
     if (state.model.width > r.max_texture_size || state.model.height > r.max_texture_size) {
       return absl::InvalidArgumentError(absl::StrCat("cameras[", c, "]: image ", state.model.width, "x",
@@ -535,6 +540,16 @@ absl::Status Resampler::SetFrame(const scene::FramePositions& file_positions) {
                          corners.data());
     glNamedBufferSubData(r.corner_id_buffer.id(), 0, static_cast<GLsizeiptr>(corner_ids.size() * sizeof(uint32_t)),
                          corner_ids.data());
+  }
+  if (r.any_distorted) {
+    auto triangles = std::make_shared<std::vector<SurfaceTriangle>>(r.drawn.size());
+    for (size_t t = 0; t < r.drawn.size(); ++t) {
+      for (int i = 0; i < 3; ++i) {
+        (*triangles)[t].position[i] = positions[r.drawn[t][i]];
+        (*triangles)[t].normal[i] = normals[r.drawn[t][i]];
+      }
+    }
+    r.surface_triangles = std::move(triangles);
   }
   r.bounds = render::ComputeBoundingSphere(positions);
   // A new frame number invalidates every camera's depth map and the shadow atlas.
@@ -853,6 +868,12 @@ absl::StatusOr<CameraSurface> Resampler::Surface(int camera) {
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
     glPixelStorei(GL_PACK_ROW_LENGTH, 0);
     glReadPixels(0, 0, state.layout.width, state.layout.height, GL_RGBA, GL_FLOAT, out->data);
+  }
+  if (state.model.has_distortion()) {
+    surface.triangle.create(state.layout.height, state.layout.width, CV_32SC1);
+    glNamedFramebufferReadBuffer(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT3);
+    glReadPixels(0, 0, state.layout.width, state.layout.height, GL_RED_INTEGER, GL_INT, surface.triangle.data);
+    surface.triangles = r.surface_triangles;
   }
   glBindFramebuffer(GL_READ_FRAMEBUFFER, 0);
   MVBRDF_RETURN_IF_ERROR(gl::CheckGlError("Resampler::Surface"));

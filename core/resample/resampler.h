@@ -106,10 +106,24 @@ struct GeometryAtlas {
 // at its undistorted position). Pixel (x, y) of these maps is the pinhole
 // pixel (x, y) of a camera with the same focal lengths and principal point
 // (cx, cy); without distortion that is the camera's own grid.
+//
+// A distorted pixel's ray meets the map between its centres. For distorted
+// cameras the maps carry the drawn triangle under each centre and the frame's
+// triangles, so that the surface on such a ray can be found exactly
+// (samples::assemble_internal::SurfaceOnRay) rather than interpolated
+// between centres.
+struct SurfaceTriangle {
+  glm::vec3 position[3];  // posed world corners
+  glm::vec3 normal[3];    // the vertex normals the depth pass interpolates
+};
 struct CameraSurface {
   cv::Mat position_texel;  // CV_32FC4: world xyz; w = atlas texel index + 1 (0: no surface)
   cv::Mat normal;          // CV_32FC4: unit interpolated normal
   double cx = 0.0, cy = 0.0;
+  // Distorted cameras only (else empty / null): CV_32SC1, the drawn triangle
+  // under the pixel centre (-1: none), indexing `triangles`.
+  cv::Mat triangle;
+  std::shared_ptr<const std::vector<SurfaceTriangle>> triangles;
 };
 
 class Resampler {

@@ -1,9 +1,12 @@
 #include "core/samples/assemble.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
+#include <utility>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
@@ -43,6 +46,81 @@ void SurfaceBetween(const resample::CameraSurface& surface, double px, double py
   if (!(glm::length(n) > 0.0f) || !std::isfinite(p.x + p.y + p.z)) return;
   *point = p;
   *normal = n;
+}
+
+namespace {
+
+// Map pixels around the nearest centre: itself, the ring of 8, the ring of 16.
+struct RingOffsets {
+  std::array<std::pair<int, int>, 25> offsets;
+  RingOffsets() {
+    size_t i = 0;
+    offsets[i++] = {0, 0};
+    for (int radius = 1; radius <= 2; ++radius) {
+      for (int dy = -radius; dy <= radius; ++dy) {
+        for (int dx = -radius; dx <= radius; ++dx) {
+          if (std::max(std::abs(dx), std::abs(dy)) == radius) offsets[i++] = {dx, dy};
+        }
+      }
+    }
+  }
+};
+
+}  // namespace
+
+bool SurfaceOnRay(const resample::CameraSurface& surface, const glm::dvec3& origin, const glm::dvec3& direction,
+                  int mx, int my, glm::vec3* point, glm::vec3* normal) {
+  if (surface.triangles == nullptr || surface.triangle.empty()) return false;
+  static const RingOffsets kRings;
+  const std::vector<resample::SurfaceTriangle>& triangles = *surface.triangles;
+  constexpr double kInside = -1e-5;
+  double best = std::numeric_limits<double>::infinity();
+  glm::dvec3 best_b(0.0);
+  int32_t best_t = -1;
+  std::array<int32_t, 25> seen{};
+  size_t num_seen = 0;
+  // The ray meets the map within half a pixel of (mx, my). The triangle
+  // visible at that centre, when the ray crosses it, is the ray's (a nearer
+  // surface would have to hide the ray and not the centre); else the nearest
+  // crossed of those at the 3 x 3 centres around it, or, for a sliver seen
+  // edge-on near a silhouette, at the 5 x 5.
+  for (size_t i = 0; i < kRings.offsets.size(); ++i) {
+    if (best_t >= 0 && (i == 1 || i == 9)) break;
+    const int x = mx + kRings.offsets[i].first, y = my + kRings.offsets[i].second;
+    if (x < 0 || y < 0 || x >= surface.triangle.cols || y >= surface.triangle.rows) continue;
+    const int32_t t = surface.triangle.at<int32_t>(y, x);
+    if (t < 0 || static_cast<size_t>(t) >= triangles.size()) continue;
+    const auto seen_end = seen.begin() + static_cast<std::ptrdiff_t>(num_seen);
+    if (std::find(seen.begin(), seen_end, t) != seen_end) continue;
+    seen[num_seen++] = t;
+    // Moller-Trumbore in double precision.
+    const resample::SurfaceTriangle& tri = triangles[static_cast<size_t>(t)];
+    const glm::dvec3 p0(tri.position[0]);
+    const glm::dvec3 e1 = glm::dvec3(tri.position[1]) - p0, e2 = glm::dvec3(tri.position[2]) - p0;
+    const glm::dvec3 q = glm::cross(direction, e2);
+    const double det = glm::dot(e1, q);
+    if (!(std::fabs(det) > 1e-300)) continue;
+    const glm::dvec3 r = origin - p0;
+    const double b1 = glm::dot(r, q) / det;
+    const glm::dvec3 k = glm::cross(r, e1);
+    const double b2 = glm::dot(direction, k) / det;
+    const double s = glm::dot(e2, k) / det;
+    const double b0 = 1.0 - b1 - b2;
+    if (b0 < kInside || b1 < kInside || b2 < kInside || !(s > 0.0) || !(s < best)) continue;
+    best = s;
+    best_b = {b0, b1, b2};
+    best_t = t;
+  }
+  if (best_t < 0) return false;
+  const resample::SurfaceTriangle& tri = triangles[static_cast<size_t>(best_t)];
+  glm::dvec3 p(0.0), n(0.0);
+  for (int i = 0; i < 3; ++i) {
+    p += best_b[i] * glm::dvec3(tri.position[i]);
+    n += best_b[i] * glm::dvec3(tri.normal[i]);
+  }
+  *point = glm::vec3(p);
+  *normal = glm::vec3(n);
+  return true;
 }
 
 }  // namespace assemble_internal

@@ -25,10 +25,24 @@ void Check(bool condition, const char* message);
 // within kSmoothSurfaceSlope, as |n . d| / |d|, of the tangent plane of
 // `*point`, `*normal`: the nearest pixel's); otherwise both are left as they
 // are. A distorted pixel's ray meets the pinhole map up to half a pixel
-// from the nearest centre: a sharp lobe read there looks broader.
+// from the nearest centre: a sharp lobe read there looks broader, so
+// ForEachPixelSample reads such rays' own triangles where the maps carry
+// them (SurfaceOnRay) and interpolates only where they do not.
 inline constexpr float kSmoothSurfaceSlope = 0.25f;
 void SurfaceBetween(const resample::CameraSurface& surface, double px, double py, glm::vec3* point,
                     glm::vec3* normal);
+
+// The surface where the ray origin + s direction (s > 0, world units) meets
+// the mesh, exactly, from the triangles the surface maps show around map
+// pixel (mx, my) (surface.triangle, surface.triangles): the one visible at
+// (mx, my) when the ray crosses it (barycentric coordinates >= -1e-5), else
+// the nearest crossed of those at the 3 x 3 centres around it, else of the
+// 5 x 5. Its point and the barycentric mean of its vertex normals
+// (unnormalised, as the depth pass interpolates them). False (nothing
+// written) without the triangle maps or when none is crossed: the caller
+// falls back to SurfaceBetween.
+bool SurfaceOnRay(const resample::CameraSurface& surface, const glm::dvec3& origin, const glm::dvec3& direction,
+                  int mx, int my, glm::vec3* point, glm::vec3* normal);
 
 // The terms of one surface point, as SampleSet stores them: for every light
 // k visible in the shadow atlas texel `bits` (ShadowChannels(lights.size())
@@ -243,6 +257,11 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
     const glm::dvec2 u = camera.Undistort({(x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy});
     return glm::dvec2(camera.fx * u.x + surface.cx, camera.fy * u.y + surface.cy);
   };
+  // A distorted camera's rays, exactly (SurfaceOnRay), where the maps carry
+  // their triangles: the ray through map (sub)pixel `at` of the pinhole.
+  const bool on_rays = distorted && surface.triangles != nullptr && !surface.triangle.empty();
+  const glm::dmat3 world_from_cam = glm::transpose(camera.cam_from_world_rotation);
+  const glm::dvec3 camera_centre = camera.CenterInWorld();
   for (int y = 0; y < frame.rows; ++y) {
     for (int x = 0; x < frame.cols; ++x) {
       const glm::dvec2 centre = map_at(x, y);
@@ -268,8 +287,17 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
         *point = nearest_point;
         *n = nearest_normal;
         // A distorted pixel's ray, or a subpixel's, meets the pinhole map
-        // between its pixel centres: the surface there, interpolated.
-        if (!exact) assemble_internal::SurfaceBetween(surface, at.x, at.y, point, n);
+        // between its pixel centres: the surface there, on the ray's own
+        // triangle where the maps say which, else interpolated.
+        if (!exact) {
+          const glm::dvec3 ray = world_from_cam * glm::dvec3((at.x - surface.cx) / camera.fx,
+                                                             (at.y - surface.cy) / camera.fy, 1.0);
+          if (!on_rays || !assemble_internal::SurfaceOnRay(surface, camera_centre, ray,
+                                                            static_cast<int>(std::lround(at.x)),
+                                                            static_cast<int>(std::lround(at.y)), point, n)) {
+            assemble_internal::SurfaceBetween(surface, at.x, at.y, point, n);
+          }
+        }
         const float length = glm::length(*n);
         if (!(length > 0.0f) || !std::isfinite(length)) return false;
         *n /= length;
