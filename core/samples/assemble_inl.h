@@ -289,15 +289,13 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
         // A distorted pixel's ray, or a subpixel's, meets the pinhole map
         // between its pixel centres: the surface there, on the ray's own
         // triangle where the maps say which, else interpolated.
-        if (!exact) {
-          const glm::dvec3 ray = world_from_cam * glm::dvec3((at.x - surface.cx) / camera.fx,
-                                                             (at.y - surface.cy) / camera.fy, 1.0);
-          if (!on_rays || !assemble_internal::SurfaceOnRay(surface, camera_centre, ray,
-                                                            static_cast<int>(std::lround(at.x)),
-                                                            static_cast<int>(std::lround(at.y)), point, n)) {
-            assemble_internal::SurfaceBetween(surface, at.x, at.y, point, n);
-          }
-        }
+        const auto on_ray = [&] {
+          const glm::dvec3 ray =
+              world_from_cam * glm::dvec3((at.x - surface.cx) / camera.fx, (at.y - surface.cy) / camera.fy, 1.0);
+          return assemble_internal::SurfaceOnRay(surface, camera_centre, ray, static_cast<int>(std::lround(at.x)),
+                                                 static_cast<int>(std::lround(at.y)), point, n);
+        };
+        if (!exact && !(on_rays && on_ray())) assemble_internal::SurfaceBetween(surface, at.x, at.y, point, n);
         const float length = glm::length(*n);
         if (!(length > 0.0f) || !std::isfinite(length)) return false;
         *n /= length;
