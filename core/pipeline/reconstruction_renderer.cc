@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
@@ -12,6 +13,7 @@
 #include "core/base/status_macros.h"
 #include "core/image/exr.h"
 #include "core/pipeline/run_atlases.h"
+#include "core/scene/ray_triangle.h"
 #include "core/synth/frame_encoder.h"
 #include "mvbrdf/v1/run_report.pb.h"
 
@@ -62,14 +64,9 @@ void ForEachPixelUv(const cv::Mat& triangle_ids, const scene::CameraModel& camer
       } else {
         direction = glm::dvec3((x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy, 1.0);
       }
-      // Moller-Trumbore: origin + t direction = p0 + b (p1 - p0) + c (p2 - p0).
-      const glm::dvec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
-      const glm::dvec3 h = glm::cross(direction, e2);
-      const double det = glm::dot(e1, h);
-      if (std::abs(det) < 1e-300) continue;
-      const glm::dvec3 s = origin - p[0];
-      const double b = glm::dot(s, h) / det;
-      const double c = glm::dot(direction, glm::cross(s, e1)) / det;
+      const std::optional<scene::RayTriangleHit> hit = scene::IntersectRayTriangle(origin, direction, p[0], p[1], p[2]);
+      if (!hit) continue;
+      const double b = hit->b1, c = hit->b2;
       const double bc = std::clamp(b, 0.0, 1.0), cc = std::clamp(c, 0.0, 1.0 - bc);
       const glm::dvec2 uv = glm::dvec2(mesh.uvs[tri[0]]) * (1.0 - bc - cc) + glm::dvec2(mesh.uvs[tri[1]]) * bc +
                             glm::dvec2(mesh.uvs[tri[2]]) * cc;

@@ -8,10 +8,12 @@
 #include <limits>
 #include <utility>
 #include <memory>
+#include <optional>
 #include <opencv2/core.hpp>
 #include <string>
 
 #include "core/render/phong_model.h"
+#include "core/scene/ray_triangle.h"
 
 namespace mvbrdf::samples {
 namespace assemble_internal {
@@ -93,22 +95,16 @@ bool SurfaceOnRay(const resample::CameraSurface& surface, const glm::dvec3& orig
     const auto seen_end = seen.begin() + static_cast<std::ptrdiff_t>(num_seen);
     if (std::find(seen.begin(), seen_end, t) != seen_end) continue;
     seen[num_seen++] = t;
-    // Moller-Trumbore in double precision.
     const resample::SurfaceTriangle& tri = triangles[static_cast<size_t>(t)];
-    const glm::dvec3 p0(tri.position[0]);
-    const glm::dvec3 e1 = glm::dvec3(tri.position[1]) - p0, e2 = glm::dvec3(tri.position[2]) - p0;
-    const glm::dvec3 q = glm::cross(direction, e2);
-    const double det = glm::dot(e1, q);
-    if (!(std::fabs(det) > 1e-300)) continue;
-    const glm::dvec3 r = origin - p0;
-    const double b1 = glm::dot(r, q) / det;
-    const glm::dvec3 k = glm::cross(r, e1);
-    const double b2 = glm::dot(direction, k) / det;
-    const double s = glm::dot(e2, k) / det;
-    const double b0 = 1.0 - b1 - b2;
-    if (b0 < kInside || b1 < kInside || b2 < kInside || !(s > 0.0) || !(s < best)) continue;
-    best = s;
-    best_b = {b0, b1, b2};
+    const std::optional<scene::RayTriangleHit> hit = scene::IntersectRayTriangle(
+        origin, direction, glm::dvec3(tri.position[0]), glm::dvec3(tri.position[1]), glm::dvec3(tri.position[2]));
+    if (!hit) continue;
+    const double b0 = 1.0 - hit->b1 - hit->b2;
+    if (b0 < kInside || hit->b1 < kInside || hit->b2 < kInside || !(hit->distance > 0.0) || !(hit->distance < best)) {
+      continue;
+    }
+    best = hit->distance;
+    best_b = {b0, hit->b1, hit->b2};
     best_t = t;
   }
   if (best_t < 0) return false;
