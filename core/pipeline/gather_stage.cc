@@ -151,8 +151,11 @@ absl::StatusOr<Gathered> GatherPass(const scene::Sequence& sequence, gl::EglCont
     absl::StatusOr<std::unique_ptr<ResampledAtlasCache>> atlases = ResampledAtlasCache::Create();
     if (atlases.ok()) st->resampled_atlases = *std::move(atlases);
   }
+  // A footprint's subpixels read their rays' own triangles (SurfaceOnRay).
+  resample::ResamplerOptions resampler = options.resampler;
+  resampler.surface_triangles = texels && options.pixel_footprint > 1;
   MVBRDF_ASSIGN_OR_RETURN(auto stream,
-                          FrameStream::Open(sequence, context, atlas, options.resampler,
+                          FrameStream::Open(sequence, context, atlas, resampler,
                                             st != nullptr ? st->shadow_atlases.get() : nullptr,
                                             st != nullptr ? st->resampled_atlases.get() : nullptr));
   const std::vector<uint8_t> own_frames = samples::OwnLightingFrames(sequence);

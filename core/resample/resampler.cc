@@ -185,6 +185,11 @@ absl::Status CheckCamera(const scene::CameraModel& camera, size_t index) {
   return absl::OkStatus();
 }
 
+// Whether Surface(camera) carries the triangle maps (CameraSurface).
+bool HasTriangleMaps(const scene::CameraModel& camera, const ResamplerOptions& options) {
+  return camera.has_distortion() || (options.surface_triangles && !camera.orthographic());
+}
+
 // Per camera: its depth map for the current frame (rendered lazily by the
 // first ResampleCamera of the frame) and the texture its frames are uploaded to.
 struct CameraState {
@@ -224,10 +229,10 @@ struct Resampler::Impl {
   gl::Buffer corner_buffer;
   gl::Buffer corner_id_buffer;
   std::vector<glm::uvec3> drawn;  // the drawn triangles, render vertices
-  // The current frame's drawn triangles for distorted cameras' surfaces
-  // (CameraSurface::triangles); null when no camera is distorted.
+  // The current frame's drawn triangles for the surfaces that carry them
+  // (CameraSurface::triangles); null when none does.
   std::shared_ptr<const std::vector<SurfaceTriangle>> surface_triangles;
-  bool any_distorted = false;
+  bool any_triangle_maps = false;
   gl::Buffer light_buffer;  // GpuShadowLightBlock
 
   gl::Program geometry_program;
@@ -460,7 +465,7 @@ absl::StatusOr<std::unique_ptr<Resampler>> Resampler::Create(gl::EglContext& con
     CameraState state;
     state.model = cameras[c];
     state.model.distortion.resize(8, 0.0);
-    if (state.model.has_distortion()) r.any_distorted = true;
+    if (HasTriangleMaps(state.model, options)) r.any_triangle_maps = true;
     state.layout = ComputeDepthMapLayout(state.model, r.max_texture_size);
     if (state.model.width > r.max_texture_size || state.model.height > r.max_texture_size) {
       return absl::InvalidArgumentError(absl::StrCat("cameras[", c, "]: image ", state.model.width, "x",
@@ -541,7 +546,7 @@ absl::Status Resampler::SetFrame(const scene::FramePositions& file_positions) {
     glNamedBufferSubData(r.corner_id_buffer.id(), 0, static_cast<GLsizeiptr>(corner_ids.size() * sizeof(uint32_t)),
                          corner_ids.data());
   }
-  if (r.any_distorted) {
+  if (r.any_triangle_maps) {
     auto triangles = std::make_shared<std::vector<SurfaceTriangle>>(r.drawn.size());
     for (size_t t = 0; t < r.drawn.size(); ++t) {
       for (int i = 0; i < 3; ++i) {
@@ -869,7 +874,7 @@ absl::StatusOr<CameraSurface> Resampler::Surface(int camera) {
     glPixelStorei(GL_PACK_ROW_LENGTH, 0);
     glReadPixels(0, 0, state.layout.width, state.layout.height, GL_RGBA, GL_FLOAT, out->data);
   }
-  if (state.model.has_distortion()) {
+  if (HasTriangleMaps(state.model, r.options)) {
     surface.triangle.create(state.layout.height, state.layout.width, CV_32SC1);
     glNamedFramebufferReadBuffer(state.depth_framebuffer.id(), GL_COLOR_ATTACHMENT3);
     glReadPixels(0, 0, state.layout.width, state.layout.height, GL_RED_INTEGER, GL_INT, surface.triangle.data);

@@ -84,6 +84,10 @@ struct ResamplerOptions {
   // mean of the channels, central differences, 3x3 mean; unit-free) exceeds
   // this are marked kGradientPixel; 0: none. >= 0.
   double gradient_rejection = 0.0;
+  // Surface(): the triangle maps (CameraSurface::triangle, triangles) for
+  // every pinhole camera, not only distorted ones: per-pixel Samples of a
+  // pixel's footprint read each subpixel's ray off its own triangle.
+  bool surface_triangles = false;
 };
 
 // Marks of unreliable pixels (negative, like scene::kMaskedPixel): a texel
@@ -120,8 +124,9 @@ struct CameraSurface {
   cv::Mat position_texel;  // CV_32FC4: world xyz; w = atlas texel index + 1 (0: no surface)
   cv::Mat normal;          // CV_32FC4: unit interpolated normal
   double cx = 0.0, cy = 0.0;
-  // Distorted cameras only (else empty / null): CV_32SC1, the drawn triangle
-  // under the pixel centre (-1: none), indexing `triangles`.
+  // Distorted cameras, and pinhole ones with ResamplerOptions::
+  // surface_triangles (else empty / null): CV_32SC1, the drawn triangle under
+  // the pixel centre (-1: none), indexing `triangles`.
   cv::Mat triangle;
   std::shared_ptr<const std::vector<SurfaceTriangle>> triangles;
 };

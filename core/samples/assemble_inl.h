@@ -257,9 +257,10 @@ void ForEachPixelSample(const cv::Mat& frame, const resample::CameraSurface& sur
     const glm::dvec2 u = camera.Undistort({(x - camera.cx) / camera.fx, (y - camera.cy) / camera.fy});
     return glm::dvec2(camera.fx * u.x + surface.cx, camera.fy * u.y + surface.cy);
   };
-  // A distorted camera's rays, exactly (SurfaceOnRay), where the maps carry
-  // their triangles: the ray through map (sub)pixel `at` of the pinhole.
-  const bool on_rays = distorted && surface.triangles != nullptr && !surface.triangle.empty();
+  // A pinhole camera's rays between map centres (a distorted camera's, or a
+  // footprint's subpixels), exactly (SurfaceOnRay), where the maps carry their
+  // triangles: the ray through map (sub)pixel `at` of the pinhole.
+  const bool on_rays = !camera.orthographic() && surface.triangles != nullptr && !surface.triangle.empty();
   const glm::dmat3 world_from_cam = glm::transpose(camera.cam_from_world_rotation);
   const glm::dvec3 camera_centre = camera.CenterInWorld();
   for (int y = 0; y < frame.rows; ++y) {
