@@ -6,11 +6,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
-#include <utility>
 #include <memory>
 #include <optional>
 #include <opencv2/core.hpp>
 #include <string>
+#include <utility>
 
 #include "core/render/phong_model.h"
 #include "core/scene/ray_triangle.h"
