@@ -111,11 +111,12 @@ struct GeometryAtlas {
 // pixel (x, y) of a camera with the same focal lengths and principal point
 // (cx, cy); without distortion that is the camera's own grid.
 //
-// A distorted pixel's ray meets the map between its centres. For distorted
-// cameras the maps carry the drawn triangle under each centre and the frame's
-// triangles, so that the surface on such a ray can be found exactly
-// (samples::assemble_internal::SurfaceOnRay) rather than interpolated
-// between centres.
+// A distorted pixel's ray, or a subpixel's, meets the map between its
+// centres. For distorted cameras (and every pinhole one with
+// ResamplerOptions::surface_triangles) the maps carry the drawn triangle
+// under each centre and the frame's triangles, so that the surface on such a
+// ray can be found exactly (samples::assemble_internal::SurfaceOnRay) rather
+// than interpolated between centres.
 struct SurfaceTriangle {
   glm::vec3 position[3];  // posed world corners
   glm::vec3 normal[3];    // the vertex normals the depth pass interpolates
